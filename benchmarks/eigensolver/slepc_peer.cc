@@ -1,0 +1,133 @@
+// The SLEPc peer of the eigensolver benchmark: Krylov-Schur, shift-invert at 0 with a MUMPS Cholesky,
+// relative convergence test, on K and M exported by modal-precompute (binary CSR, see README.md).
+// Runs on any number of MPI ranks: every rank reads the file and keeps its block of rows.
+//
+//   mpirun -np N bench-slepc-peer K.csr M.csr NEV [TOL]
+// prints one line: ranks, n, nev, converged, seconds, first and last eigenvalue.
+#include <slepceps.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace
+{
+  struct Csr
+  {
+    std::int64_t              n = 0, nnz = 0;
+    std::vector<std::int64_t> row_start;
+    std::vector<std::int32_t> columns;
+    std::vector<double>       values;
+  };
+
+  Csr read_csr(const std::string &name)
+  {
+    std::ifstream in(name, std::ios::binary);
+    if (!in)
+      throw std::runtime_error("cannot read " + name);
+    Csr m;
+    in.read(reinterpret_cast<char *>(&m.n), 8);
+    in.read(reinterpret_cast<char *>(&m.nnz), 8);
+    m.row_start.resize(m.n + 1);
+    m.columns.resize(m.nnz);
+    m.values.resize(m.nnz);
+    in.read(reinterpret_cast<char *>(m.row_start.data()), 8 * (m.n + 1));
+    in.read(reinterpret_cast<char *>(m.columns.data()), 4 * m.nnz);
+    in.read(reinterpret_cast<char *>(m.values.data()), 8 * m.nnz);
+    if (!in)
+      throw std::runtime_error(name + " is truncated");
+    return m;
+  }
+
+  Mat to_petsc(const Csr &m)
+  {
+    Mat A;
+    MatCreate(PETSC_COMM_WORLD, &A);
+    MatSetSizes(A, PETSC_DECIDE, PETSC_DECIDE, m.n, m.n);
+    MatSetType(A, MATAIJ);
+    PetscLayoutSetUp(A->rmap);
+    PetscInt first, last;
+    MatGetOwnershipRange(A, &first, &last);
+    std::vector<PetscInt> diagonal(last - first), off_diagonal(last - first);
+    for (PetscInt row = first; row < last; ++row)
+      for (auto k = m.row_start[row]; k < m.row_start[row + 1]; ++k)
+        (m.columns[k] >= first && m.columns[k] < last ? diagonal : off_diagonal)[row - first]++;
+    MatSeqAIJSetPreallocation(A, 0, diagonal.data());
+    MatMPIAIJSetPreallocation(A, 0, diagonal.data(), 0, off_diagonal.data());
+    std::vector<PetscInt> columns;
+    for (PetscInt row = first; row < last; ++row)
+      {
+        const auto begin = m.row_start[row], count = m.row_start[row + 1] - begin;
+        columns.assign(m.columns.begin() + begin, m.columns.begin() + begin + count);
+        MatSetValues(A, 1, &row, count, columns.data(), m.values.data() + begin, INSERT_VALUES);
+      }
+    MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY);
+    MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY);
+    return A;
+  }
+} // namespace
+
+int main(int argc, char **argv)
+{
+  SlepcInitialize(&argc, &argv, nullptr, nullptr);
+  if (argc < 4)
+    {
+      PetscPrintf(PETSC_COMM_WORLD, "usage: bench-slepc-peer K.csr M.csr NEV [TOL]\n");
+      SlepcFinalize();
+      return 2;
+    }
+  int ranks;
+  MPI_Comm_size(PETSC_COMM_WORLD, &ranks);
+  const PetscInt  nev = std::stoi(argv[3]);
+  const PetscReal tol = argc > 4 ? std::stod(argv[4]) : 1e-10;
+  Mat K, M;
+  {
+    const Csr k = read_csr(argv[1]), m = read_csr(argv[2]);
+    K = to_petsc(k);
+    M = to_petsc(m);
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+  const auto start = std::chrono::steady_clock::now();
+  EPS eps;
+  ST  st;
+  KSP ksp;
+  PC  pc;
+  EPSCreate(PETSC_COMM_WORLD, &eps);
+  EPSSetOperators(eps, K, M);
+  EPSSetProblemType(eps, EPS_GHEP);
+  EPSSetType(eps, EPSKRYLOVSCHUR);
+  EPSSetDimensions(eps, nev, PETSC_DEFAULT, PETSC_DEFAULT);
+  EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE);
+  EPSSetTarget(eps, 0.);
+  EPSSetTolerances(eps, tol, 1000);
+  EPSSetConvergenceTest(eps, EPS_CONV_REL);
+  EPSGetST(eps, &st);
+  STSetType(st, STSINVERT);
+  STGetKSP(st, &ksp);
+  KSPSetType(ksp, KSPPREONLY);
+  KSPGetPC(ksp, &pc);
+  PCSetType(pc, PCCHOLESKY);
+  PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  EPSSetFromOptions(eps);
+  EPSSolve(eps);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  PetscInt converged;
+  EPSGetConverged(eps, &converged);
+  PetscScalar first = 0., last = 0.;
+  if (converged > 0)
+    {
+      EPSGetEigenvalue(eps, 0, &first, nullptr);
+      EPSGetEigenvalue(eps, std::min(converged, nev) - 1, &last, nullptr);
+    }
+  PetscPrintf(PETSC_COMM_WORLD, "slepc ranks=%d n=%d nev=%d converged=%d seconds=%.3f lambda_first=%.12e lambda_last=%.12e\n",
+              ranks, int(K->rmap->N), int(nev), int(converged), seconds, double(first), double(last));
+  EPSDestroy(&eps);
+  MatDestroy(&K);
+  MatDestroy(&M);
+  SlepcFinalize();
+  return converged >= nev ? 0 : 1;
+}

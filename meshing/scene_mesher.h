@@ -1,0 +1,141 @@
+// The meshing stage: gmsh (C++ API, OCC kernel) turns a scene's geometry into one graded tet mesh
+// per scenario and one display/contact triangle surface per scene.
+//
+// This header is plain C++17 + the standard library so that the precompute (deal.II) and the tests
+// can use it without seeing gmsh. Every length here is in the geometry's own unit (the built-in
+// ribbed panel is in millimetres); the precompute converts to metres.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace modal_haptics::meshing
+{
+  using Point3 = std::array<double, 3>;
+
+  // A user error in meshing (missing file, empty group, VOI outside the part, bad mesh quality).
+  // The message names the file, the group or the value.
+  class MeshingError : public std::runtime_error
+  {
+  public:
+    using std::runtime_error::runtime_error;
+  };
+
+  // The built-in default part: an injection-moulded panel with ribs on its back, screw bosses
+  // at its mounting points and a clip tower. Units: mm.
+  struct RibbedPanelGeometry
+  {
+    double length          = 300.; // along x [mm]
+    double width           = 200.; // along y [mm]
+    double wall_thickness  = 3.;   // plate thickness, plate spans z in [0, wall_thickness] [mm]
+    // Ribs run along x on top of the plate (z > wall_thickness), centred at rib_positions_y.
+    std::vector<double> rib_positions_y = {-50., 0., 50.}; // rib centre lines, y [mm] (plate centred at 0)
+    std::vector<double> rib_heights     = {8., 14., 20.};  // above the plate top [mm]
+    std::vector<double> rib_thicknesses = {1.5, 2., 1.8};  // [mm]
+    double rib_length      = 260.; // ribs centred in x [mm]
+    // Screw bosses (hollow cylinders) at the four mounting points, standing on the plate top.
+    double boss_inset       = 20.;  // distance of boss axes from the plate edges [mm]
+    double boss_outer_radius = 5.;  // [mm]
+    double boss_inner_radius = 2.;  // screw hole radius [mm]
+    double boss_height      = 12.;  // above the plate top [mm]
+    // A clip tower: a hollow square tower between ribs, for a snap-fit clip.
+    Point3 clip_centre = {60., 25., 0.}; // x, y of the tower axis [mm] (z ignored)
+    double clip_size   = 10.;   // outer edge [mm]
+    double clip_wall   = 1.5;   // wall thickness [mm]
+    double clip_height = 15.;   // above the plate top [mm]
+  };
+  // The plate is centred on the origin in x and y: x in [-length/2, length/2], y in [-width/2, width/2].
+  // Named physical groups written by the built-in geometry:
+  //   volume  "part"
+  //   surface "clamp"  the top annular faces of the bosses (where the screw heads hold the part)
+  //   surface "free"   every other boundary face
+
+  // A Volume Of Interest: where contact is anticipated, meshed densely in its own scenario.
+  struct VolumeOfInterest
+  {
+    enum class Shape { box, ball };
+    std::string name;              // scenario name, e.g. "rib_a"
+    Shape  shape = Shape::box;
+    Point3 box_lower = {0., 0., 0.};  // box corner [unit]
+    Point3 box_upper = {0., 0., 0.};  // box corner [unit]
+    Point3 ball_centre = {0., 0., 0.}; // [unit]
+    double ball_radius = 0.;          // [unit]
+    double fine_size   = 1.;          // element size inside [unit]
+    double transition  = 10.;         // distance over which the size grows to the coarse size [unit]
+
+    bool contains(const Point3 &p, double tolerance = 0.) const;
+  };
+
+  struct MeshingSettings
+  {
+    // "builtin:ribbed_panel", or a path to a .step/.stp/.brep/.geo file (meshed here)
+    // or to a .msh file (used as it is, for the global scenario only: it cannot be re-graded).
+    std::string geometry;
+    RibbedPanelGeometry ribbed_panel; // used with "builtin:ribbed_panel"
+    double coarse_size = 6.;          // element size outside every VOI [unit]
+    // For STEP/BREP input, which has no names: boundary faces whose bounding box lies inside one of
+    // these boxes form the physical surface "clamp". Ignored when empty.
+    std::vector<std::array<Point3, 2>> clamp_boxes;
+    int    mesh_threads = 1;          // gmsh's threads
+    double min_quality  = 0.01;       // minimum acceptable element quality (gmsh minSICN); below: error
+  };
+
+  struct MeshStatistics
+  {
+    std::size_t n_nodes = 0;
+    std::size_t n_tets = 0;
+    double min_quality = 0.;  // gmsh minSICN over all tets (1 = regular, <= 0 = inverted/degenerate)
+    double max_quality = 0.;
+    double mean_quality = 0.;
+    double seconds = 0.;      // wall time spent meshing (0 when reused from the cache)
+    bool   reused = false;    // true when an up-to-date mesh was found and reused
+  };
+
+  struct ScenarioMesh
+  {
+    std::string name;                      // "global" or the VOI's name
+    std::string msh_file;                  // path of the written mesh (MSH 4.1 ASCII, linear tets)
+    std::map<std::string, int> physical_surfaces; // name -> physical tag (tags >= 1), as in the file
+    std::map<std::string, int> physical_volumes;  // name -> physical tag
+    MeshStatistics statistics;
+  };
+
+  // The display/contact surface: the part's whole boundary as one triangle mesh, fine wherever any
+  // VOI is fine (size field = min over every VOI's field and the coarse size).
+  struct DisplaySurface
+  {
+    std::vector<Point3> vertices;                   // [unit]
+    std::vector<std::array<unsigned int, 3>> triangles; // vertex indices, outward orientation
+    std::string msh_file;                            // where it was written
+    MeshStatistics statistics;                       // n_tets = 0, n_nodes = vertices.size()
+  };
+
+  struct SceneMeshes
+  {
+    std::vector<ScenarioMesh> scenarios; // scenarios[0] is "global", then one per VOI in order
+    DisplaySurface display_surface;
+  };
+
+  // Meshes the global scenario (coarse everywhere) and one scenario per VOI (coarse, graded down
+  // to the VOI's fine size), plus the display surface, into output_directory as
+  // mesh_<name>.msh and display_surface.msh. A mesh whose inputs (settings, VOI, geometry file
+  // content) did not change since it was written is reused: its key lies beside it in
+  // mesh_<name>.key. Writes each file to a temporary name first, then renames.
+  // Throws MeshingError on user errors: missing/unreadable geometry, a geometry gmsh cannot mesh,
+  // a VOI that does not intersect the part, tets below min_quality (inverted or degenerate).
+  SceneMeshes mesh_scene(const MeshingSettings &settings,
+                         const std::vector<VolumeOfInterest> &volumes_of_interest,
+                         const std::string &output_directory,
+                         bool verbose = true);
+
+  // Reads the $PhysicalNames of a MSH file: dimension -> (name -> tag).
+  std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file);
+
+  // Checks a MSH file's tets (for user-supplied .msh input): throws MeshingError naming the file
+  // and the first bad element when a tet is inverted or degenerate.
+  MeshStatistics check_mesh_quality(const std::string &msh_file, double min_quality);
+} // namespace modal_haptics::meshing

@@ -1,0 +1,564 @@
+// The exporters: the HDF5 research artifact, the kernel's .mrt basis file (docs/basis-format.md)
+// and report.json (docs/report-schema.md). Each is written to a temporary file and renamed.
+#include "atomic_file.h"
+#include "modal_precompute.h"
+
+#include <deal.II/base/hdf5.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+
+  // ---------------------------------------------------------------------------------------------
+  // HDF5
+  // ---------------------------------------------------------------------------------------------
+  namespace
+  {
+    template <typename T>
+    void write_array(const dealii::HDF5::Group &group, const std::string &name, const std::vector<T> &data,
+                     std::vector<hsize_t> dimensions)
+    {
+      std::size_t size = 1;
+      for (const auto d : dimensions)
+        size *= d;
+      AssertThrow(size == data.size(), dealii::ExcInternalError());
+      auto dataset = group.create_dataset<T>(name, dimensions);
+      if (!data.empty())
+        dataset.write(data);
+    }
+
+    std::vector<double> flatten(const std::vector<meshing::Point3> &points)
+    {
+      std::vector<double> flat;
+      for (const auto &p : points)
+        flat.insert(flat.end(), p.begin(), p.end());
+      return flat;
+    }
+
+    template <std::size_t N>
+    std::vector<unsigned int> flatten(const std::vector<std::array<unsigned int, N>> &rows)
+    {
+      std::vector<unsigned int> flat;
+      for (const auto &row : rows)
+        flat.insert(flat.end(), row.begin(), row.end());
+      return flat;
+    }
+
+    void write_space(dealii::HDF5::Group &spaces, const ModalSpaceResult &s, const unsigned int nv)
+    {
+      auto g = spaces.create_group(s.name);
+      const hsize_t r = s.eigenvalues.size(), nc = s.candidates.size(), nval = s.validation.size();
+      g.set_attribute("index", s.index);
+      g.set_attribute("degree", s.degree);
+      g.set_attribute("n_dofs", s.n_dofs);
+      g.set_attribute("mass_kg", s.mass);
+      write_array(g, "mesh_vertices", s.mesh_vertices, {s.n_vertices, 3});
+      write_array(g, "mesh_tets", s.mesh_tets, {s.n_cells, 4});
+      write_array(g, "clamped_dofs", s.clamped_dofs, {s.clamped_dofs.size()});
+      write_array(g, "eigenvalues", s.eigenvalues, {r});
+      write_array(g, "frequencies_hz", s.frequencies_hz, {r});
+      write_array(g, "damping_ratios", s.damping_ratios, {r});
+      write_array(g, "modes_at_vertices", s.modes_at_vertices, {r, s.n_vertices, 3});
+      write_array(g, "display_modes", s.display_modes, {nv, 3, r});
+      write_array(g, "candidate_vertices", s.candidates, {nc});
+      write_array(g, "candidate_modes", s.candidate_modes, {nc, 3, r});
+      write_array(g, "candidate_compliance", s.candidate_compliance, {nc, 3, 3});
+      const hsize_t n_cross = s.cross_compliance.empty() ? 0 : 3 * nc;
+      write_array(g, "cross_compliance", s.cross_compliance, {n_cross, n_cross});
+      write_array(g, "participation", s.participation, {r, 6});
+      write_array(g, "centre_of_mass", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()), {3});
+      write_array(g, "inertia", std::vector<double>(s.inertia.begin(), s.inertia.end()), {3, 3});
+      std::vector<unsigned int> cases;
+      std::vector<double>       response;
+      for (const auto &vc : s.validation)
+        {
+          cases.push_back(vc.vertex);
+          cases.push_back(vc.direction);
+          response.insert(response.end(), vc.full_response.begin(), vc.full_response.end());
+        }
+      write_array(g, "validation_cases", cases, {nval, 2});
+      write_array(g, "validation_response", response, {nval, 3});
+    }
+  } // namespace
+
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  {
+    const std::string temporary = temporary_name_for(filename);
+    {
+      dealii::HDF5::File file(temporary, dealii::HDF5::File::FileAccessMode::create);
+      file.set_attribute("scene", scene.scene_name);
+      file.set_attribute("format_version", std::string("1.0"));
+      file.set_attribute("units", std::string("SI: m, kg, s, N, Pa"));
+      auto material = file.create_group("material");
+      material.set_attribute("youngs_modulus_pa", scene.material.youngs_modulus);
+      material.set_attribute("poissons_ratio", scene.material.poissons_ratio);
+      material.set_attribute("density_kg_m3", scene.material.density);
+
+      const auto &d       = results.display;
+      auto        display = file.create_group("display_surface");
+      display.set_attribute("patch_radius_m", d.patch_radius);
+      write_array(display, "vertices", flatten(d.vertices), {d.n_vertices(), 3});
+      write_array(display, "triangles", flatten(d.triangles), {d.triangles.size(), 3});
+      write_array(display, "region", d.region, {d.n_vertices()});
+      write_array(display, "vertex_area", d.vertex_area, {d.n_vertices()});
+      write_array(display, "patch_offsets", d.patch_offsets, {d.patch_offsets.size()});
+      write_array(display, "patch_vertices", d.patch_vertices, {d.patch_vertices.size()});
+      write_array(display, "patch_weights", d.patch_weights, {d.patch_weights.size()});
+
+      auto spaces = file.create_group("spaces");
+      for (const auto &s : results.spaces)
+        write_space(spaces, s, d.n_vertices());
+      auto transfer = file.create_group("transfer");
+      for (const auto &t : results.transfers)
+        write_array(transfer, results.spaces[t.to].name + "__from__" + results.spaces[t.from].name, t.values,
+                    {t.rows, t.columns});
+    }
+    commit_temporary_file(temporary, filename);
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // The .mrt basis file
+  // ---------------------------------------------------------------------------------------------
+  namespace
+  {
+    // CRC-32 (zlib's): reflected polynomial 0xEDB88320, initial value and final xor 0xFFFFFFFF.
+    std::uint32_t crc32(const unsigned char *data, const std::size_t size)
+    {
+      static const auto table = [] {
+        std::array<std::uint32_t, 256> t{};
+        for (std::uint32_t i = 0; i < 256; ++i)
+          {
+            std::uint32_t c = i;
+            for (int k = 0; k < 8; ++k)
+              c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            t[i] = c;
+          }
+        return t;
+      }();
+      std::uint32_t crc = 0xFFFFFFFFu;
+      for (std::size_t i = 0; i < size; ++i)
+        crc = table[(crc ^ data[i]) & 0xFF] ^ (crc >> 8);
+      return crc ^ 0xFFFFFFFFu;
+    }
+
+    enum ScalarType : std::uint32_t { u32 = 1, f32 = 2, f64 = 3, u8 = 4 };
+    constexpr std::uint32_t scene_wide = 0xFFFFFFFFu;
+
+    struct Section
+    {
+      std::uint32_t              kind, space, source_space, scalar_type;
+      std::uint64_t              count;
+      std::vector<unsigned char> bytes;
+    };
+
+    template <typename T>
+    Section make_section(std::uint32_t kind, std::uint32_t space, ScalarType type, const std::vector<T> &values,
+                         std::uint32_t source_space = scene_wide)
+    {
+      Section s{kind, space, source_space, type, values.size(), {}};
+      s.bytes.resize(values.size() * sizeof(T));
+      if (!values.empty())
+        std::memcpy(s.bytes.data(), values.data(), s.bytes.size());
+      return s;
+    }
+
+    // The file is little-endian; so is every machine we build on (x86-64, aarch64).
+    static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE-754 binary32/64 expected");
+
+    template <typename T>
+    void put(std::vector<unsigned char> &buffer, const std::size_t offset, const T value)
+    {
+      std::memcpy(buffer.data() + offset, &value, sizeof(T));
+    }
+
+    std::uint64_t align64(const std::uint64_t offset) { return (offset + 63) / 64 * 64; }
+
+    std::vector<Section> basis_sections(const SceneParameters &scene, const PrecomputeResults &results)
+    {
+      const auto          &d = results.display;
+      std::vector<Section> sections;
+      sections.push_back(make_section(1, scene_wide, f64, flatten(d.vertices)));
+      sections.push_back(make_section(2, scene_wide, u32, flatten(d.triangles)));
+      sections.push_back(make_section(3, scene_wide, u32, d.region));
+      sections.push_back(make_section(4, scene_wide, u32, d.patch_offsets));
+      sections.push_back(make_section(5, scene_wide, u32, d.patch_vertices));
+      sections.push_back(make_section(6, scene_wide, f64, d.patch_weights));
+      const auto          &global = results.spaces.front();
+      std::vector<double>  scalars{d.patch_radius, global.mass};
+      scalars.insert(scalars.end(), global.centre_of_mass.begin(), global.centre_of_mass.end());
+      scalars.insert(scalars.end(), global.inertia.begin(), global.inertia.end());
+      sections.push_back(make_section(7, scene_wide, f64, scalars));
+
+      for (const auto &s : results.spaces)
+        {
+          const std::uint32_t      r = s.eigenvalues.size(), nc = s.candidates.size();
+          const std::uint32_t      n_cross = s.cross_compliance.empty() ? 0 : nc;
+          std::vector<std::uint32_t> info{r, nc, std::uint32_t(s.validation.size()), n_cross};
+          sections.push_back(make_section(16, s.index, u32, info));
+          sections.push_back(make_section(17, s.index, u8, std::vector<unsigned char>(s.name.begin(), s.name.end())));
+          sections.push_back(make_section(18, s.index, f64, s.eigenvalues));
+          sections.push_back(make_section(19, s.index, f64, s.damping_ratios));
+          if (scene.output.float64_modes)
+            sections.push_back(make_section(20, s.index, f64, s.display_modes));
+          else
+            sections.push_back(make_section(20, s.index, f32, std::vector<float>(s.display_modes.begin(), s.display_modes.end())));
+          if (nc > 0)
+            {
+              sections.push_back(make_section(21, s.index, u32, s.candidates));
+              sections.push_back(make_section(22, s.index, f64, s.candidate_modes));
+              sections.push_back(make_section(23, s.index, f64, s.candidate_compliance));
+              if (n_cross > 0)
+                sections.push_back(make_section(24, s.index, f64, s.cross_compliance));
+            }
+          sections.push_back(make_section(25, s.index, f64, s.participation));
+          if (!s.validation.empty())
+            {
+              std::vector<std::uint32_t> cases;
+              std::vector<double>        response;
+              for (const auto &vc : s.validation)
+                {
+                  cases.push_back(vc.vertex);
+                  cases.push_back(vc.direction);
+                  response.insert(response.end(), vc.full_response.begin(), vc.full_response.end());
+                }
+              sections.push_back(make_section(26, s.index, u32, cases));
+              sections.push_back(make_section(27, s.index, f64, response));
+            }
+        }
+      for (const auto &t : results.transfers)
+        sections.push_back(make_section(32, t.to, f64, t.values, t.from));
+      return sections;
+    }
+  } // namespace
+
+  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  {
+    const std::vector<Section> sections = basis_sections(scene, results);
+    constexpr std::size_t      header_bytes = 64, entry_bytes = 40;
+    std::vector<std::uint64_t> offsets;
+    std::uint64_t              end = header_bytes + entry_bytes * sections.size();
+    for (const auto &s : sections)
+      {
+        offsets.push_back(align64(end));
+        end = offsets.back() + s.bytes.size();
+      }
+    std::vector<unsigned char> file(end, 0);
+
+    for (std::size_t k = 0; k < sections.size(); ++k)
+      {
+        const auto       &s     = sections[k];
+        const std::size_t entry = header_bytes + entry_bytes * k;
+        put<std::uint32_t>(file, entry + 0, s.kind);
+        put<std::uint32_t>(file, entry + 4, s.space);
+        put<std::uint32_t>(file, entry + 8, s.source_space);
+        put<std::uint32_t>(file, entry + 12, s.scalar_type);
+        put<std::uint64_t>(file, entry + 16, offsets[k]);
+        put<std::uint64_t>(file, entry + 24, s.count);
+        put<std::uint32_t>(file, entry + 32, crc32(s.bytes.data(), s.bytes.size()));
+        if (!s.bytes.empty())
+          std::memcpy(file.data() + offsets[k], s.bytes.data(), s.bytes.size());
+      }
+
+    std::uint32_t max_modes = 0;
+    for (const auto &s : results.spaces)
+      max_modes = std::max<std::uint32_t>(max_modes, s.eigenvalues.size());
+    std::memcpy(file.data(), "MODALRT\0", 8);
+    put<std::uint32_t>(file, 8, 1);  // version major
+    put<std::uint32_t>(file, 12, 0); // version minor
+    put<std::uint32_t>(file, 16, header_bytes);
+    put<std::uint32_t>(file, 20, sections.size());
+    put<std::uint64_t>(file, 24, end);
+    put<std::uint32_t>(file, 32, results.spaces.size());
+    put<std::uint32_t>(file, 36, results.display.n_vertices());
+    put<std::uint32_t>(file, 40, results.display.triangles.size());
+    put<std::uint32_t>(file, 44, max_modes);
+    put<std::uint32_t>(file, 48, results.display.max_patch_size);
+    put<std::uint32_t>(file, 52, scene.output.float64_modes ? f64 : f32);
+    put<std::uint32_t>(file, 56, crc32(file.data() + header_bytes, entry_bytes * sections.size()));
+    put<std::uint32_t>(file, 60, crc32(file.data(), 60));
+
+    write_file_atomically(filename,
+                          [&](std::ostream &out) { out.write(reinterpret_cast<const char *>(file.data()), file.size()); },
+                          std::ios::binary);
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // report.json
+  // ---------------------------------------------------------------------------------------------
+  namespace
+  {
+    // A minimal JSON writer: objects and arrays are opened and closed explicitly, commas are ours.
+    class Json
+    {
+    public:
+      explicit Json(std::ostream &out) : out(out) { out << std::setprecision(17); }
+
+      Json &begin_object(const std::string &key = "") { return open(key, '{'); }
+      Json &end_object() { return close('}'); }
+      Json &begin_array(const std::string &key = "") { return open(key, '['); }
+      Json &end_array() { return close(']'); }
+
+      Json &value(const std::string &key, const std::string &text)
+      {
+        prefix(key);
+        out << quoted(text);
+        return *this;
+      }
+      Json &value(const std::string &key, const char *text) { return value(key, std::string(text)); }
+      Json &value(const std::string &key, const bool flag)
+      {
+        prefix(key);
+        out << (flag ? "true" : "false");
+        return *this;
+      }
+      template <typename Number, typename = std::enable_if_t<std::is_arithmetic_v<Number>>>
+      Json &value(const std::string &key, const Number number)
+      {
+        prefix(key);
+        if constexpr (std::is_floating_point_v<Number>)
+          {
+            if (std::isfinite(number))
+              out << number;
+            else
+              out << "null";
+          }
+        else
+          out << number;
+        return *this;
+      }
+      template <typename Number>
+      Json &array(const std::string &key, const std::vector<Number> &numbers)
+      {
+        begin_array(key);
+        for (const auto x : numbers)
+          value("", x);
+        return end_array();
+      }
+
+    private:
+      static std::string quoted(const std::string &text)
+      {
+        std::string q = "\"";
+        for (const char c : text)
+          {
+            if (c == '"' || c == '\\')
+              q += '\\', q += c;
+            else if (static_cast<unsigned char>(c) < 0x20)
+              {
+                char buffer[8];
+                std::snprintf(buffer, sizeof buffer, "\\u%04x", c);
+                q += buffer;
+              }
+            else
+              q += c;
+          }
+        return q + "\"";
+      }
+      void prefix(const std::string &key)
+      {
+        if (!first.empty())
+          {
+            if (!first.back())
+              out << ",";
+            first.back() = false;
+          }
+        out << "\n" << std::string(2 * first.size(), ' ');
+        if (!key.empty())
+          out << quoted(key) << ": ";
+      }
+      Json &open(const std::string &key, const char bracket)
+      {
+        prefix(key);
+        out << bracket;
+        first.push_back(true);
+        return *this;
+      }
+      Json &close(const char bracket)
+      {
+        first.pop_back();
+        out << "\n" << std::string(2 * first.size(), ' ') << bracket;
+        if (first.empty())
+          out << "\n";
+        return *this;
+      }
+
+      std::ostream     &out;
+      std::vector<bool> first;
+    };
+
+    std::uintmax_t file_size(const std::string &name)
+    {
+      std::error_code error;
+      const auto      size = std::filesystem::file_size(name, error);
+      return error ? 0 : size;
+    }
+
+    void write_validation(Json &json, const std::vector<ValidationCase> &cases)
+    {
+      json.begin_array("validation");
+      for (const auto &vc : cases)
+        {
+          json.begin_object()
+            .value("vertex", vc.vertex)
+            .value("direction", std::string(1, "xyz"[vc.direction]))
+            .array("full_contact_response_m_per_n", std::vector<double>(vc.full_response.begin(), vc.full_response.end()))
+            .value("contact_rel_error_modal", vc.contact_rel_error_modal)
+            .value("contact_rel_error_corrected", vc.contact_rel_error_corrected)
+            .value("field_rel_error_modal", vc.field_rel_error_modal)
+            .value("field_max_error_modal", vc.field_max_error_modal)
+            .value("field_rel_error_corrected", vc.field_rel_error_corrected)
+            .value("correction_field_vertices", vc.correction_field_vertices)
+            .value("energy_rel_error_modal", vc.energy_rel_error_modal)
+            .value("solve_relative_residual", vc.solve_relative_residual)
+            .end_object();
+        }
+      json.end_array();
+    }
+
+    void write_space(Json &json, const ModalSpaceResult &s, const meshing::ScenarioMesh &mesh)
+    {
+      const auto r = s.eigenvalues.size(), nc = s.candidates.size();
+      json.begin_object()
+        .value("name", s.name)
+        .value("index", s.index)
+        .value("n_vertices", s.n_vertices)
+        .value("n_cells", s.n_cells)
+        .value("n_dofs", s.n_dofs)
+        .value("degree", s.degree)
+        .value("n_clamped_dofs", s.n_clamped_dofs);
+      json.begin_object("mesh")
+        .value("file", std::filesystem::path(mesh.msh_file).filename().string())
+        .value("n_nodes", mesh.statistics.n_nodes)
+        .value("n_tets", mesh.statistics.n_tets)
+        .value("min_quality", mesh.statistics.min_quality)
+        .value("mean_quality", mesh.statistics.mean_quality)
+        .value("max_quality", mesh.statistics.max_quality)
+        .value("reused", mesh.statistics.reused)
+        .value("seconds", mesh.statistics.seconds)
+        .end_object();
+      json.value("n_modes", r)
+        .array("frequencies_hz", s.frequencies_hz)
+        .array("computed_frequencies_hz", s.computed_frequencies_hz)
+        .array("damping_ratios", s.damping_ratios)
+        .value("cut_off_hz", s.cut_off_hz);
+      json.begin_array("dropped_modes");
+      for (const auto &dm : s.dropped_modes)
+        json.begin_object().value("index", dm.index).value("frequency_hz", dm.frequency).value("reason", dm.reason).end_object();
+      json.end_array();
+      json.value("orthonormality_error", s.self_check.orthonormality_error)
+        .value("max_relative_residual", s.self_check.max_relative_residual)
+        .value("spurious_eigenvalues",
+               "none: the " + std::to_string(s.n_spurious_rows) +
+                 " constrained rows have M_ii = 0, which puts their eigenvalues at infinity");
+      json.begin_object("eigensolver")
+        .value("method", "ARPACK dsaupd mode 3 (shift-invert) + " + s.factorization.method)
+        .value("factor_nonzeros", s.factorization.factor_nonzeros)
+        .value("factor_flops", s.factorization.factor_flops)
+        .value("analyze_s", s.factorization.analyze_seconds)
+        .value("factorize_s", s.factorization.factorize_seconds)
+        .value("arpack_s", s.arpack_seconds)
+        .value("operator_applications", s.n_operator_applications)
+        .value("solved_vectors", s.factorization.n_solved_vectors)
+        .value("solve_s", s.factorization.solve_seconds)
+        .end_object();
+      const std::size_t bytes_per_candidate = 8 * (3 * r + 9) + 4 + (s.cross_compliance.empty() ? 0 : 8 * 9 * nc);
+      json.begin_object("static_correction")
+        .value("n_candidates", nc)
+        .value("cross_compliance", !s.cross_compliance.empty())
+        .value("seconds_per_candidate", s.correction_seconds_per_candidate)
+        .value("bytes_per_candidate", bytes_per_candidate)
+        .end_object();
+      json.value("mass_kg", s.mass)
+        .array("centre_of_mass_m", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()));
+      write_validation(json, s.validation);
+      if (s.two_contact_rel_error_corrected >= 0.)
+        json.value("two_contact_rel_error_corrected", s.two_contact_rel_error_corrected);
+      json.begin_object("timings_s");
+      for (const auto &[phase, seconds] : s.timings_s)
+        json.value(phase, seconds);
+      json.end_object().end_object();
+    }
+
+    // The same display vertex felt from each space: the accuracy a VOI buys over the global space.
+    void write_cross_space(Json &json, const PrecomputeResults &results)
+    {
+      json.begin_array("cross_space");
+      const auto &global = results.spaces.front();
+      for (const auto &[vertex, G_global] : global.full_compliance)
+        for (const auto &s : results.spaces)
+          {
+            if (s.index == 0 || s.full_compliance.count(vertex) == 0)
+              continue;
+            const auto &G = s.full_compliance.at(vertex);
+            double      diff = 0., norm = 0.;
+            for (unsigned int k = 0; k < 9; ++k)
+              diff += std::pow(G_global[k] - G[k], 2), norm += G[k] * G[k];
+            json.begin_object()
+              .value("vertex", vertex)
+              .value("region", results.spaces[results.display.region[vertex]].name)
+              .value("space", s.name)
+              .array("compliance_m_per_n", std::vector<double>(G.begin(), G.end()))
+              .array("global_compliance_m_per_n", std::vector<double>(G_global.begin(), G_global.end()))
+              .value("global_rel_difference", std::sqrt(diff / norm))
+              .end_object();
+          }
+      json.end_array();
+    }
+  } // namespace
+
+  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  {
+    const std::string base = scene.output_directory + "/" + scene.scene_name;
+    write_file_atomically(filename, [&](std::ostream &out) {
+      Json json(out);
+      json.begin_object()
+        .value("schema_version", "1.0")
+        .value("scene", scene.scene_name)
+        .value("parameter_file", scene.parameter_file)
+        .value("geometry", scene.meshing.geometry)
+        .value("element_degree", scene.element_degree);
+      json.begin_object("material")
+        .value("youngs_modulus_pa", scene.material.youngs_modulus)
+        .value("poissons_ratio", scene.material.poissons_ratio)
+        .value("density_kg_m3", scene.material.density)
+        .end_object();
+      const auto &d = results.display;
+      json.begin_object("display_surface")
+        .value("n_vertices", d.n_vertices())
+        .value("n_triangles", d.triangles.size())
+        .value("patch_radius_m", d.patch_radius)
+        .value("max_patch_size", d.max_patch_size)
+        .end_object();
+      json.begin_array("spaces");
+      for (std::size_t k = 0; k < results.spaces.size(); ++k)
+        write_space(json, results.spaces[k], results.meshes.scenarios[k]);
+      json.end_array();
+      write_cross_space(json, results);
+      json.begin_array("transfer");
+      for (const auto &t : results.transfers)
+        json.begin_object()
+          .value("to", results.spaces[t.to].name)
+          .value("from", results.spaces[t.from].name)
+          .value("relative_residual", t.relative_residual)
+          .end_object();
+      json.end_array();
+      json.begin_object("files")
+        .value("h5_bytes", file_size(base + ".h5"))
+        .value("mrt_bytes", file_size(base + ".mrt"))
+        .end_object();
+      json.begin_object("timings_s");
+      for (const auto &[phase, seconds] : results.timings_s)
+        json.value(phase, seconds);
+      json.end_object();
+      json.end_object();
+    });
+  }
+} // namespace modal_haptics

@@ -1,0 +1,185 @@
+#include "factorization.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/lac/sparse_direct.h>
+
+#include <cholmod.h>
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+
+  void Factorization::vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src)
+  {
+    dst = src;
+    solve_block(dst.data(), 1);
+  }
+
+  namespace
+  {
+    const char *not_positive_definite_message =
+      "The stiffness matrix K - shift*M is not positive definite. Either the part is not held (check the "
+      "clamp groups: a free-floating part needs a negative 'Modes/Shift'), or 'Modes/Shift' lies above the "
+      "first eigenfrequency.";
+
+    class CholmodFactorization : public Factorization
+    {
+    public:
+      CholmodFactorization(const dealii::SparseMatrix<double> &K,
+                           const dealii::SparseMatrix<double> *M,
+                           const double shift)
+      {
+        cholmod_l_start(&common);
+        // One ordering, METIS nested dissection: the fill-reducing ordering that pays on 3D meshes.
+        common.nmethods           = 1;
+        common.method[0].ordering = CHOLMOD_METIS;
+        common.postorder          = 1;
+        common.supernodal         = CHOLMOD_SUPERNODAL;
+        common.quick_return_if_not_posdef = 1;
+        stats.method              = "cholmod-supernodal-metis";
+
+        cholmod_sparse *A = copy_upper_triangle(K, M, shift);
+        dealii::Timer timer;
+        factor = cholmod_l_analyze(A, &common);
+        AssertThrow(factor != nullptr && common.status == CHOLMOD_OK,
+                    ExcMessage("CHOLMOD's analysis failed (status " + std::to_string(common.status) + ")."));
+        stats.analyze_seconds = timer.wall_time();
+        timer.restart();
+        cholmod_l_factorize(A, factor, &common);
+        stats.factorize_seconds = timer.wall_time();
+        const bool positive_definite = common.status == CHOLMOD_OK && factor->minor == factor->n;
+        stats.factor_nonzeros = common.lnz;
+        stats.factor_flops    = common.fl;
+        cholmod_l_free_sparse(&A, &common);
+        if (!positive_definite)
+          {
+            cholmod_l_free_factor(&factor, &common);
+            cholmod_l_finish(&common);
+          }
+        AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
+      }
+
+      ~CholmodFactorization() override
+      {
+        cholmod_l_free_factor(&factor, &common);
+        cholmod_l_finish(&common);
+      }
+
+      void solve_block(double *columns, const unsigned int n_rhs) override
+      {
+        dealii::Timer  timer;
+        const size_t   n = factor->n;
+        cholmod_dense *B = cholmod_l_allocate_dense(n, n_rhs, n, CHOLMOD_REAL, &common);
+        std::memcpy(B->x, columns, sizeof(double) * n * n_rhs);
+        cholmod_dense *X = cholmod_l_solve(CHOLMOD_A, factor, B, &common);
+        AssertThrow(X != nullptr, ExcMessage("CHOLMOD's solve failed (out of memory?)."));
+        std::memcpy(columns, X->x, sizeof(double) * n * n_rhs);
+        cholmod_l_free_dense(&X, &common);
+        cholmod_l_free_dense(&B, &common);
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += n_rhs;
+      }
+
+    private:
+      // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
+      // form holds the rows i <= j, which by symmetry are the entries of deal.II's CSR row j with
+      // column <= j. M has K's sparsity pattern, so its entries are walked in step.
+      cholmod_sparse *copy_upper_triangle(const dealii::SparseMatrix<double> &K,
+                                          const dealii::SparseMatrix<double> *M,
+                                          const double shift)
+      {
+        const auto n   = K.m();
+        std::size_t nnz = 0;
+        for (std::size_t row = 0; row < n; ++row)
+          for (auto it = K.begin(row); it != K.end(row); ++it)
+            nnz += (it->column() <= row);
+
+        cholmod_sparse *A = cholmod_l_allocate_sparse(n, n, nnz, /*sorted*/ 0, /*packed*/ 1, /*stype*/ 1,
+                                                      CHOLMOD_REAL, &common);
+        auto *column_start = static_cast<SuiteSparse_long *>(A->p);
+        auto *row_index    = static_cast<SuiteSparse_long *>(A->i);
+        auto *values       = static_cast<double *>(A->x);
+        const bool shifted = M != nullptr && shift != 0.;
+        std::size_t k      = 0;
+        for (std::size_t j = 0; j < n; ++j)
+          {
+            column_start[j] = k;
+            auto m_it       = shifted ? M->begin(j) : K.begin(j);
+            for (auto it = K.begin(j); it != K.end(j); ++it, ++m_it)
+              if (it->column() <= j)
+                {
+                  row_index[k] = it->column();
+                  values[k]    = shifted ? it->value() - shift * m_it->value() : it->value();
+                  ++k;
+                }
+          }
+        column_start[n] = k;
+        return A;
+      }
+
+      cholmod_common  common;
+      cholmod_factor *factor = nullptr;
+    };
+
+    class UmfpackFactorization : public Factorization
+    {
+    public:
+      UmfpackFactorization(const dealii::SparseMatrix<double> &K,
+                           const dealii::SparseMatrix<double> *M,
+                           const double shift)
+      {
+        stats.method = "umfpack-lu";
+        dealii::Timer timer;
+        if (M != nullptr && shift != 0.)
+          {
+            shifted.reinit(K.get_sparsity_pattern());
+            shifted.copy_from(K);
+            shifted.add(-shift, *M);
+            solver.initialize(shifted);
+          }
+        else
+          solver.initialize(K);
+        stats.factorize_seconds = timer.wall_time();
+        size = K.m();
+      }
+
+      void solve_block(double *columns, const unsigned int n_rhs) override
+      {
+        dealii::Timer          timer;
+        dealii::Vector<double> column(size);
+        for (unsigned int c = 0; c < n_rhs; ++c)
+          {
+            std::copy(columns + c * size, columns + (c + 1) * size, column.begin());
+            solver.solve(column);
+            std::copy(column.begin(), column.end(), columns + c * size);
+          }
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += n_rhs;
+      }
+
+    private:
+      dealii::SparseMatrix<double>  shifted;
+      dealii::SparseDirectUMFPACK   solver;
+      std::size_t                   size = 0;
+    };
+  } // namespace
+
+  std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            const double shift)
+  {
+    return std::make_unique<CholmodFactorization>(K, M, shift);
+  }
+
+  std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            const double shift)
+  {
+    return std::make_unique<UmfpackFactorization>(K, M, shift);
+  }
+} // namespace modal_haptics

@@ -1,0 +1,51 @@
+// Sparse direct factorizations of A = K - sigma M behind the shift-invert eigensolve, the static
+// correction and the validation solves: factor once, solve many (blocks of right-hand sides).
+#pragma once
+
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <memory>
+#include <string>
+
+namespace modal_haptics
+{
+  struct FactorizationStatistics
+  {
+    std::string method;             // "cholmod-supernodal-metis" or "umfpack-lu"
+    double analyze_seconds   = 0.;  // ordering and symbolic analysis
+    double factorize_seconds = 0.;
+    double factor_nonzeros   = 0.;  // entries of L (or L + U)
+    double factor_flops      = 0.;  // floating point operations of the numeric factorization (CHOLMOD)
+    double solve_seconds     = 0.;  // accumulated over every solve
+    unsigned long n_solved_vectors = 0;
+  };
+
+  class Factorization
+  {
+  public:
+    virtual ~Factorization() = default;
+
+    // Solves A X = B in place for n_rhs columns stored one after the other (column-major, each of
+    // length n). A block is much cheaper per column than single solves: the factor is read once.
+    virtual void solve_block(double *columns, unsigned int n_rhs) = 0;
+
+    // The shift-invert operator for ARPACK: dst = A^{-1} src.
+    void vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src);
+
+    const FactorizationStatistics &statistics() const { return stats; }
+
+  protected:
+    FactorizationStatistics stats;
+  };
+
+  // Factorizes K - shift M (shift in rad^2/s^2; M may be null when shift = 0). Throws ExcMessage
+  // when the matrix is not positive definite (a shift above the first eigenvalue, a part that is
+  // not clamped), naming what to change.
+  std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            double shift);
+  std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            double shift);
+} // namespace modal_haptics

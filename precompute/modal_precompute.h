@@ -1,0 +1,66 @@
+// The offline program's story: a scene's .prm becomes validated modal spaces and their exports.
+//
+//   make_meshes()                 gmsh: one graded mesh per scenario + the display surface
+//   plan_contacts()               which display vertices get a static correction and a validation
+//   compute_modal_spaces()        per space: assemble, eigensolve, select, correct, validate
+//   compute_transfer_matrices()   the state carried across a switch between spaces
+//   export_results()              .h5, .mrt, report.json, used_parameters.prm
+#pragma once
+
+#include "display_surface.h"
+#include "modal_space.h"
+#include "scene_parameters.h"
+
+#include <deal.II/base/parameter_handler.h>
+#include <deal.II/base/timer.h>
+
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  // T_(to <- from): q_to = T q_from, r_to x r_from row-major.
+  struct TransferMatrix
+  {
+    unsigned int        to = 0, from = 0;
+    unsigned int        rows = 0, columns = 0;
+    std::vector<double> values;
+    double              relative_residual = 0.; // area-weighted LS residual of carrying the modes of 'from'
+  };
+
+  // Everything the exporters write; filled by ModalPrecompute::run().
+  struct PrecomputeResults
+  {
+    meshing::SceneMeshes          meshes;
+    DisplaySurface                display;
+    std::vector<SpaceTask>        tasks;
+    std::vector<ModalSpaceResult> spaces;
+    std::vector<TransferMatrix>   transfers;
+    std::map<std::string, double> timings_s;
+  };
+
+  class ModalPrecompute
+  {
+  public:
+    ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true);
+    void run();
+
+  private:
+    void make_meshes();
+    void plan_contacts();
+    void compute_modal_spaces();
+    void compute_transfer_matrices();
+    void export_results();
+
+    const SceneParameters          &scene;
+    const dealii::ParameterHandler &prm;
+    const bool                      verbose;
+    dealii::TimerOutput             timer;
+    PrecomputeResults               results;
+  };
+
+  // The exporters (export_results.cc). Each writes atomically: temporary file, then rename.
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
+  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
+  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
+} // namespace modal_haptics

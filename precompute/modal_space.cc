@@ -1,0 +1,864 @@
+#include "modal_space.h"
+
+#include "atomic_file.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/grid_in.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <boost/geometry/index/rtree.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using namespace dealii;
+
+  namespace
+  {
+    constexpr double two_pi = 2. * M_PI;
+
+    // The interpolation of a space's FE field at the display vertices: row 3v + c gives component c
+    // of the field at vertex v as a combination of DoF values. Its transpose maps point forces at the
+    // display vertices to consistent nodal loads.
+    struct DisplayInterpolation
+    {
+      std::vector<unsigned int>            row_start; // 3 nv + 1
+      std::vector<types::global_dof_index> dofs;
+      std::vector<double>                  weights;
+
+      double row_dot(const unsigned int row, const double *field) const
+      {
+        double sum = 0.;
+        for (unsigned int k = row_start[row]; k < row_start[row + 1]; ++k)
+          sum += weights[k] * field[dofs[k]];
+        return sum;
+      }
+      void add_row_transpose(const unsigned int row, const double factor, double *load) const
+      {
+        for (unsigned int k = row_start[row]; k < row_start[row + 1]; ++k)
+          load[dofs[k]] += factor * weights[k];
+      }
+    };
+
+    class ModalSpace
+    {
+    public:
+      ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                 TimerOutput &timer, bool verbose);
+      ModalSpaceResult run();
+
+    private:
+      void read_mesh();
+      void setup_system();
+      void assemble_system();
+      void solve_eigenproblem();
+      void select_modes();
+      void interpolate_on_display_surface();
+      void compute_participation_factors();
+      void compute_static_correction();
+      void validate();
+      void validate_two_contacts();
+      void export_matrices() const;
+      void output_results() const;
+
+      // Patch load W_v e_c for c = 0, 1, 2 as three DoF vectors, stored one after the other.
+      void add_patch_load(unsigned int vertex, double *three_columns) const;
+      // u_c = W_v^T u for a DoF field u.
+      std::array<double, 3> patch_average(unsigned int vertex, const double *field) const;
+      std::array<double, 3> modal_patch_response(unsigned int candidate, unsigned int direction) const;
+      void log(const std::string &message) const;
+
+      const SceneParameters &scene;
+      const DisplaySurface  &display;
+      const SpaceTask       &task;
+      TimerOutput           &timer;
+      const bool             verbose;
+
+      Triangulation<3>          triangulation;
+      const FESystem<3>         fe;
+      const MappingFE<3>        mapping;
+      const QGaussSimplex<3>    quadrature;
+      DoFHandler<3>             dof_handler;
+      AffineConstraints<double> constraints;
+      SparsityPattern           sparsity_pattern;
+      SparseMatrix<double>      stiffness_matrix, mass_matrix;
+      std::unique_ptr<Factorization> factorization;
+      EigenSolution             eigen;
+      DisplayInterpolation      interpolation;
+      ModalSpaceResult          result;
+      std::vector<Vector<double>> validation_fields; // full - modal error fields for VTU
+      std::vector<std::string>    validation_field_names;
+    };
+
+    ModalSpace::ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                           TimerOutput &timer, const bool verbose)
+      : scene(scene)
+      , display(display)
+      , task(task)
+      , timer(timer)
+      , verbose(verbose)
+      , fe(FE_SimplexP<3>(scene.element_degree), 3)
+      , mapping(FE_SimplexP<3>(1))
+      , quadrature(scene.element_degree + 1)
+    {
+      result.name   = task.name;
+      result.index  = task.index;
+      result.degree = scene.element_degree;
+    }
+
+    void ModalSpace::log(const std::string &message) const
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+    }
+
+    ModalSpaceResult ModalSpace::run()
+    {
+      // Each phase is timed twice: in the program's TimerOutput table, and per space for the report.
+      const auto phase = [&](const std::string &name, const auto &work) {
+        TimerOutput::Scope scope(timer, name);
+        Timer              wall;
+        work();
+        result.timings_s[name] += wall.wall_time();
+      };
+      phase("assembly", [&] {
+        read_mesh();
+        setup_system();
+        assemble_system();
+      });
+      if (scene.output.export_matrices)
+        export_matrices();
+      phase("eigensolve", [&] {
+        solve_eigenproblem();
+        select_modes();
+      });
+      phase("interpolation", [&] {
+        interpolate_on_display_surface();
+        compute_participation_factors();
+      });
+      phase("static_correction", [&] { compute_static_correction(); });
+      phase("validation", [&] { validate(); });
+      phase("vtu_output", [&] { output_results(); });
+      result.factorization = factorization->statistics();
+      return std::move(result);
+    }
+
+    // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
+    // user error (a hand-made or foreign .msh): refuse them before they turn into negative Jacobians.
+    void ModalSpace::read_mesh()
+    {
+      GridIn<3> grid_in;
+      grid_in.attach_triangulation(triangulation);
+      std::ifstream input(task.msh_file);
+      AssertThrow(input, ExcMessage("Cannot read mesh file '" + task.msh_file + "'."));
+      grid_in.read_msh(input);
+      GridTools::scale(scene.length_unit, triangulation);
+
+      const double length_scale = std::pow(GridTools::volume(triangulation, mapping), 1. / 3.);
+      for (const auto &cell : triangulation.active_cell_iterators())
+        {
+          const Tensor<1, 3> a = cell->vertex(1) - cell->vertex(0), b = cell->vertex(2) - cell->vertex(0),
+                             c = cell->vertex(3) - cell->vertex(0);
+          const double signed_volume = (a * cross_product_3d(b, c)) / 6.;
+          AssertThrow(signed_volume > 1e-14 * std::pow(length_scale, 3),
+                      ExcMessage("Mesh '" + task.msh_file + "': tetrahedron " + std::to_string(cell->index()) +
+                                 " at " + [&] { std::ostringstream s; s << cell->center(); return s.str(); }() +
+                                 " is " + (signed_volume < 0 ? "inverted" : "degenerate") + " (signed volume " +
+                                 std::to_string(signed_volume) + " m^3)."));
+        }
+
+      result.n_vertices = triangulation.n_vertices();
+      result.n_cells    = triangulation.n_active_cells();
+      for (const auto &v : triangulation.get_vertices())
+        for (unsigned int d = 0; d < 3; ++d)
+          result.mesh_vertices.push_back(v[d]);
+      for (const auto &cell : triangulation.active_cell_iterators())
+        for (unsigned int i = 0; i < 4; ++i)
+          result.mesh_tets.push_back(cell->vertex_index(i));
+    }
+
+    // Homogeneous Dirichlet conditions on the named clamp groups. A group that is missing from the
+    // mesh, or present but with no face, is a user error: silently clamping nothing would give a
+    // free-floating part.
+    void ModalSpace::setup_system()
+    {
+      dof_handler.reinit(triangulation);
+      dof_handler.distribute_dofs(fe);
+      result.n_dofs = dof_handler.n_dofs();
+
+      std::set<types::boundary_id> present_ids;
+      for (const auto &face : triangulation.active_face_iterators())
+        if (face->at_boundary())
+          present_ids.insert(face->boundary_id());
+
+      constraints.clear();
+      for (const std::string &group : scene.clamp_groups)
+        {
+          const auto it = task.physical_surfaces.find(group);
+          std::string known;
+          for (const auto &[name, tag] : task.physical_surfaces)
+            known += " '" + name + "'";
+          AssertThrow(it != task.physical_surfaces.end(),
+                      ExcMessage("Clamp group '" + group + "' (parameter 'Geometry/Clamp groups') is not a physical "
+                                 "surface of mesh '" + task.msh_file + "'; it has:" + known + "."));
+          AssertThrow(present_ids.count(it->second) == 1,
+                      ExcMessage("Clamp group '" + group + "' of mesh '" + task.msh_file + "' has no boundary face."));
+          VectorTools::interpolate_boundary_values(mapping, dof_handler, it->second,
+                                                   Functions::ZeroFunction<3>(3), constraints);
+        }
+      AssertThrow(!scene.clamp_groups.empty() && constraints.n_constraints() > 0,
+                  ExcMessage("The part is not clamped ('Geometry/Clamp groups' is empty): a free-floating part "
+                             "needs the free-floating option, which is not available yet."));
+      constraints.close();
+      result.n_clamped_dofs = constraints.n_constraints();
+      for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+        if (constraints.is_constrained(i))
+          result.clamped_dofs.push_back(i);
+
+      DynamicSparsityPattern dsp(dof_handler.n_dofs());
+      DoFTools::make_sparsity_pattern(dof_handler, dsp, constraints, /*keep_constrained_dofs*/ false);
+      sparsity_pattern.copy_from(dsp);
+      stiffness_matrix.reinit(sparsity_pattern);
+      mass_matrix.reinit(sparsity_pattern);
+      log(std::to_string(result.n_cells) + " tets, " + std::to_string(result.n_vertices) + " vertices, " +
+          std::to_string(result.n_dofs) + " DoFs (P" + std::to_string(scene.element_degree) + "), " +
+          std::to_string(result.n_clamped_dofs) + " clamped");
+    }
+
+    // K from isotropic linear elasticity, M consistent; and the rigid-body mass properties from the
+    // same quadrature.
+    void ModalSpace::assemble_system()
+    {
+      const auto  &mat    = scene.material;
+      const double mu     = mat.youngs_modulus / (2. * (1. + mat.poissons_ratio));
+      const double lambda = mat.youngs_modulus * mat.poissons_ratio /
+                            ((1. + mat.poissons_ratio) * (1. - 2. * mat.poissons_ratio));
+
+      FEValues<3> fe_values(mapping, fe, quadrature,
+                            update_values | update_gradients | update_quadrature_points | update_JxW_values);
+      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
+      FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
+      std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
+      const FEValuesExtractors::Vector     displacement(0);
+      std::vector<SymmetricTensor<2, 3>>   strain(dofs_per_cell);
+      std::vector<double>                  divergence(dofs_per_cell);
+      std::vector<Tensor<1, 3>>            value(dofs_per_cell);
+
+      double mass = 0.;
+      Tensor<1, 3> first_moment;
+      Tensor<2, 3> second_moment; // integral of rho x x^T
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        {
+          fe_values.reinit(cell);
+          cell_K = 0.;
+          cell_M = 0.;
+          for (const unsigned int q : fe_values.quadrature_point_indices())
+            {
+              const double JxW = fe_values.JxW(q);
+              for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                {
+                  strain[i]     = fe_values[displacement].symmetric_gradient(i, q);
+                  divergence[i] = fe_values[displacement].divergence(i, q);
+                  value[i]      = fe_values[displacement].value(i, q);
+                }
+              for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                for (unsigned int j = 0; j <= i; ++j)
+                  {
+                    cell_K(i, j) += (lambda * divergence[i] * divergence[j] + 2. * mu * (strain[i] * strain[j])) * JxW;
+                    cell_M(i, j) += mat.density * (value[i] * value[j]) * JxW;
+                  }
+              const Point<3> &x = fe_values.quadrature_point(q);
+              mass += mat.density * JxW;
+              first_moment += mat.density * JxW * x;
+              second_moment += mat.density * JxW * outer_product(x, x);
+            }
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+              {
+                cell_K(i, j) = cell_K(j, i);
+                cell_M(i, j) = cell_M(j, i);
+              }
+          cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, stiffness_matrix);
+          constraints.distribute_local_to_global(cell_M, dof_indices, mass_matrix);
+        }
+
+      // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
+      // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
+      // shift-invert never finds them.
+      for (const auto i : result.clamped_dofs)
+        mass_matrix.set(i, i, 0.);
+      result.n_spurious_rows = result.clamped_dofs.size();
+
+      result.mass = mass;
+      const Tensor<1, 3> c = first_moment / mass;
+      for (unsigned int d = 0; d < 3; ++d)
+        result.centre_of_mass[d] = c[d];
+      // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
+      const Tensor<2, 3> S = second_moment - mass * outer_product(c, c);
+      for (unsigned int a = 0; a < 3; ++a)
+        for (unsigned int b = 0; b < 3; ++b)
+          result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
+    }
+
+    void ModalSpace::solve_eigenproblem()
+    {
+      const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      log("factorizing K (" + std::string(scene.modes.eigen_operator == EigenOperator::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
+      factorization = scene.modes.eigen_operator == EigenOperator::cholmod ?
+                        make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift) :
+                        make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
+      const auto &f = factorization->statistics();
+      std::ostringstream line;
+      line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
+           << f.factorize_seconds << " s";
+      log(line.str());
+
+      eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+                                 scene.modes.maximum_count, scene.modes.tolerance, verbose);
+      result.n_operator_applications = eigen.n_operator_applications;
+      result.arpack_seconds          = eigen.arpack_seconds;
+      result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen);
+      for (const double lambda : eigen.eigenvalues)
+        result.computed_frequencies_hz.push_back(std::sqrt(std::max(lambda, 0.)) / two_pi);
+      std::ostringstream check;
+      check << eigen.eigenvalues.size() << " modes in " << eigen.n_operator_applications << " solves, "
+            << eigen.arpack_seconds << " s; f1 = " << result.computed_frequencies_hz.front()
+            << " Hz; max |Phi^T M Phi - I| = " << result.self_check.orthonormality_error
+            << ", max ||K phi - lambda M phi|| / ||lambda M phi|| = " << result.self_check.max_relative_residual
+            << "; spurious eigenvalues: none below infinity (" << result.n_spurious_rows
+            << " constrained rows have M_ii = 0)";
+      log(check.str());
+    }
+
+    // The cut-off rule drops modes above its frequency, but never below the floor count; the report
+    // says which modes went and why.
+    void ModalSpace::select_modes()
+    {
+      result.cut_off_hz = scene.modes.cut_off_frequency();
+      std::vector<Vector<double>> kept;
+      for (unsigned int i = 0; i < eigen.eigenvalues.size(); ++i)
+        {
+          const double f = result.computed_frequencies_hz[i];
+          if (f > result.cut_off_hz && kept.size() >= scene.modes.minimum_count)
+            {
+              std::ostringstream reason;
+              reason << "above the cut-off " << result.cut_off_hz << " Hz ("
+                     << (scene.modes.cut_off_rule == CutOffRule::display ? "half the display rate" : "half the haptic rate")
+                     << ")";
+              result.dropped_modes.push_back({i, f, reason.str()});
+              continue;
+            }
+          result.eigenvalues.push_back(eigen.eigenvalues[i]);
+          result.frequencies_hz.push_back(f);
+          result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigen.eigenvalues[i], 0.))));
+          kept.push_back(std::move(eigen.eigenvectors[i]));
+        }
+      eigen.eigenvectors = std::move(kept);
+      log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
+          std::to_string(result.dropped_modes.size()));
+    }
+
+    // Each display vertex is located in the space's mesh (the closest cell when it lies slightly
+    // outside a coarse mesh's chordal facets) and the FE basis is evaluated there.
+    void ModalSpace::interpolate_on_display_surface()
+    {
+      GridTools::Cache<3> cache(triangulation, mapping);
+      const auto         &rtree = cache.get_cell_bounding_boxes_rtree();
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      interpolation.row_start.assign(1, 0);
+      double max_outside = 0.;
+
+      for (unsigned int v = 0; v < display.n_vertices(); ++v)
+        {
+          const Point<3> p(display.vertices[v][0], display.vertices[v][1], display.vertices[v][2]);
+          std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+          rtree.query(boost::geometry::index::nearest(p, 12), std::back_inserter(near));
+          // Barycentric coordinates in each candidate tet; the best has the largest smallest one.
+          double                                  best_min = -1e300;
+          Triangulation<3>::active_cell_iterator  best_cell;
+          std::array<double, 4>                   best_bary{};
+          for (const auto &[box, cell] : near)
+            {
+              Tensor<2, 3> J;
+              for (unsigned int d = 0; d < 3; ++d)
+                for (unsigned int e = 0; e < 3; ++e)
+                  J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+              const Tensor<1, 3> xi = invert(J) * (p - cell->vertex(0));
+              const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+              const double m = *std::min_element(bary.begin(), bary.end());
+              if (m > best_min)
+                best_min = m, best_cell = cell, best_bary = bary;
+            }
+          // Project a point outside onto the tet by clipping negative coordinates.
+          double sum = 0.;
+          for (double &b : best_bary)
+            sum += (b = std::max(b, 0.));
+          for (double &b : best_bary)
+            b /= sum;
+          max_outside = std::max(max_outside, -best_min);
+          const Point<3> unit(best_bary[1], best_bary[2], best_bary[3]);
+
+          const DoFHandler<3>::active_cell_iterator dof_cell(&triangulation, best_cell->level(),
+                                                             best_cell->index(), &dof_handler);
+          dof_cell->get_dof_indices(dof_indices);
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+                if (fe.system_to_component_index(i).first == c)
+                  {
+                    const double w = fe.shape_value(i, unit);
+                    if (w != 0.)
+                      {
+                        interpolation.dofs.push_back(dof_indices[i]);
+                        interpolation.weights.push_back(w);
+                      }
+                  }
+              interpolation.row_start.push_back(interpolation.dofs.size());
+            }
+        }
+
+      const unsigned int r  = eigen.eigenvectors.size();
+      const unsigned int nv = display.n_vertices();
+      result.display_modes.resize(std::size_t(3) * nv * r);
+      for (unsigned int row = 0; row < 3 * nv; ++row)
+        for (unsigned int i = 0; i < r; ++i)
+          result.display_modes[std::size_t(row) * r + i] = interpolation.row_dot(row, eigen.eigenvectors[i].data());
+
+      // Modes at the mesh vertices for the HDF5 file (P2 vertex DoFs are the vertex values).
+      result.modes_at_vertices.assign(std::size_t(r) * result.n_vertices * 3, 0.);
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        for (unsigned int vtx = 0; vtx < 4; ++vtx)
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              const auto dof = cell->vertex_dof_index(vtx, c);
+              for (unsigned int i = 0; i < r; ++i)
+                result.modes_at_vertices[(std::size_t(i) * result.n_vertices + cell->vertex_index(vtx)) * 3 + c] =
+                  eigen.eigenvectors[i][dof];
+            }
+      std::ostringstream line;
+      line << "display surface: " << nv << " vertices located, farthest outside the mesh by " << max_outside
+           << " (barycentric)";
+      log(line.str());
+    }
+
+    // Gamma = Phi^T M R with R the rigid translations and rotations about the centre of mass: how a
+    // frame acceleration drives each mode.
+    void ModalSpace::compute_participation_factors()
+    {
+      std::vector<Point<3>> support(dof_handler.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
+      const Point<3> c(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
+      const unsigned int r = eigen.eigenvectors.size();
+      result.participation.assign(std::size_t(r) * 6, 0.);
+      Vector<double> rigid(dof_handler.n_dofs()), M_rigid(dof_handler.n_dofs());
+      std::vector<unsigned int>            component(dof_handler.n_dofs());
+      std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        {
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            component[dofs[i]] = fe.system_to_component_index(i).first;
+        }
+      for (unsigned int k = 0; k < 6; ++k)
+        {
+          for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+            {
+              const Tensor<1, 3> x = support[i] - c;
+              Tensor<1, 3>       u;
+              if (k < 3)
+                u[k] = 1.;
+              else
+                {
+                  Tensor<1, 3> axis;
+                  axis[k - 3] = 1.;
+                  u = cross_product_3d(axis, x);
+                }
+              rigid[i] = u[component[i]];
+            }
+          mass_matrix.vmult(M_rigid, rigid);
+          for (unsigned int i = 0; i < r; ++i)
+            result.participation[std::size_t(i) * 6 + k] = eigen.eigenvectors[i] * M_rigid;
+        }
+    }
+
+    void ModalSpace::add_patch_load(const unsigned int vertex, double *three_columns) const
+    {
+      const std::size_t n = dof_handler.n_dofs();
+      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
+        for (unsigned int c = 0; c < 3; ++c)
+          interpolation.add_row_transpose(3 * display.patch_vertices[k] + c, display.patch_weights[k],
+                                          three_columns + c * n);
+    }
+
+    std::array<double, 3> ModalSpace::patch_average(const unsigned int vertex, const double *field) const
+    {
+      std::array<double, 3> u{};
+      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
+        for (unsigned int c = 0; c < 3; ++c)
+          u[c] += display.patch_weights[k] * interpolation.row_dot(3 * display.patch_vertices[k] + c, field);
+      return u;
+    }
+
+    // B_v = W_v^T Phi from the display modes (W_v^T u = sum_j w_j u(x_j)).
+    std::vector<double> contact_modes(const DisplaySurface &display, const std::vector<double> &display_modes,
+                                      const unsigned int r, const unsigned int vertex)
+    {
+      std::vector<double> B(3 * r, 0.);
+      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int i = 0; i < r; ++i)
+            B[c * r + i] += display.patch_weights[k] * display_modes[(3 * std::size_t(display.patch_vertices[k]) + c) * r + i];
+      return B;
+    }
+
+    std::array<double, 3> ModalSpace::modal_patch_response(const unsigned int candidate, const unsigned int direction) const
+    {
+      const unsigned int r = result.eigenvalues.size();
+      const double      *B = &result.candidate_modes[std::size_t(candidate) * 3 * r];
+      std::array<double, 3> u{};
+      for (unsigned int i = 0; i < r; ++i)
+        {
+          const double q = B[direction * r + i] / result.eigenvalues[i];
+          for (unsigned int c = 0; c < 3; ++c)
+            u[c] += B[c * r + i] * q;
+        }
+      return u;
+    }
+
+    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
+    // solves K^-1 W_v reuse the eigensolve's factorization, a block of candidates at a time; the
+    // cross terms W_a^T K^-1 W_b are read off the same block.
+    void ModalSpace::compute_static_correction()
+    {
+      const unsigned int r  = result.eigenvalues.size();
+      const std::size_t  n  = dof_handler.n_dofs();
+      result.candidates     = task.candidates;
+      const unsigned int nc = result.candidates.size();
+      for (unsigned int a = 0; a < nc; ++a)
+        {
+          const auto B = contact_modes(display, result.display_modes, r, result.candidates[a]);
+          result.candidate_modes.insert(result.candidate_modes.end(), B.begin(), B.end());
+        }
+      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
+      const bool store_cross = scene.contact.cross_compliance && nc > 0;
+      if (store_cross)
+        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
+
+      // The shared vertices (compared across spaces) are solved in the same blocks.
+      std::vector<unsigned int> loads = result.candidates;
+      for (const unsigned int v : task.shared_vertices)
+        if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
+          loads.push_back(v);
+
+      const unsigned int block = 16;
+      Timer              timer;
+      std::vector<double> X;
+      for (unsigned int first = 0; first < loads.size(); first += block)
+        {
+          const unsigned int count = std::min<unsigned int>(block, loads.size() - first);
+          X.assign(3 * count * n, 0.);
+          for (unsigned int b = 0; b < count; ++b)
+            add_patch_load(loads[first + b], &X[3 * b * n]);
+          factorization->solve_block(X.data(), 3 * count);
+
+          for (unsigned int b = 0; b < count; ++b)
+            {
+              const unsigned int load = first + b;
+              // Full compliance at the load itself.
+              std::array<double, 9> G{};
+              for (unsigned int d = 0; d < 3; ++d)
+                {
+                  const auto u = patch_average(loads[load], &X[(3 * b + d) * n]);
+                  for (unsigned int c = 0; c < 3; ++c)
+                    G[3 * c + d] = u[c];
+                }
+              if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), loads[load]))
+                result.full_compliance[loads[load]] = G;
+              if (load >= nc)
+                continue;
+              for (unsigned int d = 0; d < 3; ++d)
+                {
+                  const auto u_modal = modal_patch_response(load, d);
+                  for (unsigned int c = 0; c < 3; ++c)
+                    result.candidate_compliance[9 * std::size_t(load) + 3 * c + d] = G[3 * c + d] - u_modal[c];
+                }
+              if (!store_cross)
+                continue;
+              const unsigned int stride = 3 * nc;
+              const double *Bb = &result.candidate_modes[std::size_t(load) * 3 * r];
+              for (unsigned int a = 0; a < nc; ++a)
+                {
+                  const double *Ba = &result.candidate_modes[std::size_t(a) * 3 * r];
+                  for (unsigned int d = 0; d < 3; ++d)
+                    {
+                      const auto u = patch_average(result.candidates[a], &X[(3 * b + d) * n]);
+                      for (unsigned int c = 0; c < 3; ++c)
+                        {
+                          double modal = 0.;
+                          for (unsigned int i = 0; i < r; ++i)
+                            modal += Ba[c * r + i] * Bb[d * r + i] / result.eigenvalues[i];
+                          result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
+                        }
+                    }
+                }
+            }
+          if (verbose && (first / block) % 8 == 7)
+            log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
+                " loads, " + std::to_string(timer.wall_time()) + " s");
+        }
+      result.correction_seconds_per_candidate = loads.empty() ? 0. : timer.wall_time() / loads.size();
+      std::ostringstream line;
+      line << "static correction: " << nc << " candidates (" << loads.size() - nc << " shared vertices), "
+           << result.correction_seconds_per_candidate * 1e3 << " ms per load";
+      log(line.str());
+    }
+
+    // Full static FE for sampled candidates and the three directions, against the modal answer and
+    // the corrected one. The full solve is checked by its residual, so the comparison is with a true
+    // solution of K u = f, not with the correction's own numbers.
+    void ModalSpace::validate()
+    {
+      const unsigned int r  = result.eigenvalues.size();
+      const std::size_t  n  = dof_handler.n_dofs();
+      const unsigned int nv = display.n_vertices();
+      Vector<double>     f(n), u(n), u_modal(n), residual(n), difference(n);
+      std::vector<double> load(3 * n);
+
+      for (const unsigned int vertex : task.validation_vertices)
+        {
+          const auto candidate_it = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex);
+          Assert(candidate_it != result.candidates.end() && *candidate_it == vertex, ExcInternalError());
+          const unsigned int candidate = candidate_it - result.candidates.begin();
+          std::fill(load.begin(), load.end(), 0.);
+          add_patch_load(vertex, load.data());
+          for (unsigned int direction = 0; direction < 3; ++direction)
+            {
+              ValidationCase vc;
+              vc.vertex    = vertex;
+              vc.direction = direction;
+              std::copy(load.begin() + direction * n, load.begin() + (direction + 1) * n, f.begin());
+              u = f;
+              factorization->solve_block(u.data(), 1);
+              stiffness_matrix.vmult(residual, u);
+              residual -= f;
+              vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
+
+              u_modal = 0.;
+              for (unsigned int i = 0; i < r; ++i)
+                u_modal.add((eigen.eigenvectors[i] * f) / result.eigenvalues[i], eigen.eigenvectors[i]);
+
+              const auto uc_full  = patch_average(vertex, u.data());
+              const auto uc_modal = patch_average(vertex, u_modal.data());
+              vc.full_response    = uc_full;
+              double full_norm = 0., modal_err = 0., corrected_err = 0.;
+              for (unsigned int c = 0; c < 3; ++c)
+                {
+                  const double corrected = uc_modal[c] + result.candidate_compliance[9 * std::size_t(candidate) + 3 * c + direction];
+                  full_norm += uc_full[c] * uc_full[c];
+                  modal_err += std::pow(uc_modal[c] - uc_full[c], 2);
+                  corrected_err += std::pow(corrected - uc_full[c], 2);
+                }
+              vc.contact_rel_error_modal     = std::sqrt(modal_err / full_norm);
+              vc.contact_rel_error_corrected = std::sqrt(corrected_err / full_norm);
+
+              // Display field: modal vs full; the correction field K^-1 W e - Phi Lambda^-1 B^T e
+              // added back (untruncated) gives the full field up to round-off.
+              // Display field: modal vs full. The correction field d = full - modal is local; kept
+              // only where |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected
+              // field misses the dropped part.
+              std::vector<double> error2(nv, 0.), full2(nv, 0.);
+              for (unsigned int v = 0; v < nv; ++v)
+                for (unsigned int c = 0; c < 3; ++c)
+                  {
+                    const double full  = interpolation.row_dot(3 * v + c, u.data());
+                    const double modal = interpolation.row_dot(3 * v + c, u_modal.data());
+                    full2[v] += full * full;
+                    error2[v] += (modal - full) * (modal - full);
+                  }
+              const double max_error = std::sqrt(*std::max_element(error2.begin(), error2.end()));
+              const double max_full  = std::sqrt(*std::max_element(full2.begin(), full2.end()));
+              const double keep      = scene.contact.correction_field_tolerance * max_error;
+              double l2_full = 0., l2_err = 0., l2_corr = 0.;
+              vc.correction_field_vertices = 0;
+              for (unsigned int v = 0; v < nv; ++v)
+                {
+                  l2_full += full2[v] * display.vertex_area[v];
+                  l2_err += error2[v] * display.vertex_area[v];
+                  if (std::sqrt(error2[v]) >= keep)
+                    ++vc.correction_field_vertices;
+                  else
+                    l2_corr += error2[v] * display.vertex_area[v];
+                }
+              vc.field_rel_error_modal     = std::sqrt(l2_err / l2_full);
+              vc.field_max_error_modal     = max_error / max_full;
+              vc.field_rel_error_corrected = std::sqrt(l2_corr / l2_full);
+
+              difference = u;
+              difference -= u_modal;
+              vc.energy_rel_error_modal =
+                std::sqrt(stiffness_matrix.matrix_norm_square(difference) / stiffness_matrix.matrix_norm_square(u));
+
+              validation_fields.push_back(difference);
+              validation_field_names.push_back("validation_error_v" + std::to_string(vertex) + "_" + "xyz"[direction]);
+              result.validation.push_back(vc);
+            }
+        }
+      validate_two_contacts();
+      double worst_modal = 0., worst_corrected = 0.;
+      for (const auto &vc : result.validation)
+        {
+          worst_modal     = std::max(worst_modal, vc.contact_rel_error_modal);
+          worst_corrected = std::max(worst_corrected, vc.contact_rel_error_corrected);
+        }
+      std::ostringstream line;
+      line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
+           << worst_modal << ", corrected up to " << worst_corrected;
+      log(line.str());
+    }
+
+    // K and M for the benchmark's peers (scipy, SLEPc) in a plain binary CSR: int64 n, int64 nnz,
+    // int64 row_start[n + 1], int32 column[nnz], float64 value[nnz], little-endian, full symmetric
+    // storage, constrained rows as the eigensolve sees them.
+    void ModalSpace::export_matrices() const
+    {
+      for (const auto &[matrix, suffix] : {std::make_pair(&stiffness_matrix, "K"), std::make_pair(&mass_matrix, "M")})
+        write_file_atomically(scene.output_directory + "/" + task.name + "_" + suffix + ".csr",
+                              [&](std::ostream &out) {
+                                const std::int64_t n = matrix->m(), nnz = matrix->n_nonzero_elements();
+                                std::vector<std::int64_t> row_start{0};
+                                std::vector<std::int32_t> columns;
+                                std::vector<double>       values;
+                                for (std::int64_t row = 0; row < n; ++row)
+                                  {
+                                    for (auto it = matrix->begin(row); it != matrix->end(row); ++it)
+                                      columns.push_back(it->column()), values.push_back(it->value());
+                                    row_start.push_back(columns.size());
+                                  }
+                                Assert(std::int64_t(columns.size()) == nnz, ExcInternalError());
+                                const auto write = [&](const auto &v) {
+                                  out.write(reinterpret_cast<const char *>(v.data()), v.size() * sizeof(v[0]));
+                                };
+                                write(std::vector<std::int64_t>{n, nnz});
+                                write(row_start);
+                                write(columns);
+                                write(values);
+                              },
+                              std::ios::binary);
+      log("exported K and M to " + scene.output_directory + "/" + task.name + "_{K,M}.csr");
+    }
+
+    // Two hands on one space: the first and last validated candidates pushed at once (in z and y), a
+    // fresh full solve against the kernel's formula with the cross compliance,
+    // u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
+    void ModalSpace::validate_two_contacts()
+    {
+      if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
+        return;
+      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      const std::size_t  n = dof_handler.n_dofs();
+      const std::array<unsigned int, 2> vertices = {task.validation_vertices.front(), task.validation_vertices.back()};
+      const std::array<std::array<double, 3>, 2> forces = {{{0., 0., 1.}, {0., 1., 0.}}};
+      std::array<unsigned int, 2> index{};
+      std::vector<double>         load(3 * n, 0.), f(n, 0.);
+      for (unsigned int h = 0; h < 2; ++h)
+        {
+          index[h] = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertices[h]) -
+                     result.candidates.begin();
+          std::fill(load.begin(), load.end(), 0.);
+          add_patch_load(vertices[h], load.data());
+          for (unsigned int d = 0; d < 3; ++d)
+            for (std::size_t i = 0; i < n; ++i)
+              f[i] += forces[h][d] * load[d * n + i];
+        }
+      factorization->solve_block(f.data(), 1);
+
+      std::vector<double> modal_force(r, 0.); // sum_h B_h^T F_h
+      for (unsigned int h = 0; h < 2; ++h)
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int i = 0; i < r; ++i)
+            modal_force[i] += result.candidate_modes[(std::size_t(index[h]) * 3 + c) * r + i] * forces[h][c];
+      double worst = 0.;
+      for (unsigned int h = 0; h < 2; ++h)
+        {
+          const auto full = patch_average(vertices[h], f.data());
+          double     error = 0., norm = 0.;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              double predicted = 0.;
+              for (unsigned int i = 0; i < r; ++i)
+                predicted += result.candidate_modes[(std::size_t(index[h]) * 3 + c) * r + i] * modal_force[i] /
+                             result.eigenvalues[i];
+              for (unsigned int g = 0; g < 2; ++g)
+                for (unsigned int d = 0; d < 3; ++d)
+                  predicted += result.cross_compliance[std::size_t(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] *
+                               forces[g][d];
+              error += std::pow(predicted - full[c], 2);
+              norm += full[c] * full[c];
+            }
+          worst = std::max(worst, std::sqrt(error / norm));
+        }
+      result.two_contact_rel_error_corrected = worst;
+    }
+
+    // Mode shapes (frequency in the field name) and the validation error fields, for ParaView.
+    void ModalSpace::output_results() const
+    {
+      if (task.vtu_file.empty())
+        return;
+      DataOut<3> data_out;
+      data_out.attach_dof_handler(dof_handler);
+      const std::vector<DataComponentInterpretation::DataComponentInterpretation> vector_field(
+        3, DataComponentInterpretation::component_is_part_of_vector);
+      const unsigned int n_vtu = std::min<unsigned int>(scene.output.vtu_modes, eigen.eigenvectors.size());
+      for (unsigned int i = 0; i < n_vtu; ++i)
+        {
+          std::ostringstream name;
+          name << "mode_" << std::setw(2) << std::setfill('0') << i + 1 << "_" << std::fixed << std::setprecision(1)
+               << result.frequencies_hz[i] << "Hz";
+          data_out.add_data_vector(eigen.eigenvectors[i], std::vector<std::string>(3, name.str()),
+                                   DataOut<3>::type_dof_data, vector_field);
+        }
+      for (unsigned int k = 0; k < validation_fields.size(); ++k)
+        data_out.add_data_vector(validation_fields[k], std::vector<std::string>(3, validation_field_names[k]),
+                                 DataOut<3>::type_dof_data, vector_field);
+      data_out.build_patches(mapping, scene.element_degree);
+      write_file_atomically(task.vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
+    }
+  } // namespace
+
+  ModalSpaceResult compute_modal_space(const SceneParameters &scene,
+                                       const DisplaySurface  &display,
+                                       const SpaceTask       &task,
+                                       TimerOutput           &timer,
+                                       const bool             verbose)
+  {
+    ModalSpace space(scene, display, task, timer, verbose);
+    return space.run();
+  }
+} // namespace modal_haptics

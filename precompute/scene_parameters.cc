@@ -1,0 +1,475 @@
+#include "scene_parameters.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/utilities.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <set>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+  using dealii::ParameterHandler;
+  namespace Patterns = dealii::Patterns;
+
+  double ModeParameters::cut_off_frequency() const
+  {
+    switch (cut_off_rule)
+      {
+        case CutOffRule::display:
+          return display_rate / 2.;
+        case CutOffRule::haptic:
+          return haptic_rate / 2.;
+        case CutOffRule::none:
+        default:
+          return std::numeric_limits<double>::infinity();
+      }
+  }
+
+  double DampingParameters::ratio(const double omega) const
+  {
+    if (!rayleigh)
+      return modal_ratio;
+    // Rayleigh damping C = alpha M + beta K gives zeta = alpha / (2 omega) + beta omega / 2; a rigid
+    // mode (omega = 0) with alpha > 0 is infinitely over-damped, which we cap.
+    if (omega <= 0.)
+      return alpha > 0. ? 1e6 : 0.;
+    return alpha / (2. * omega) + beta * omega / 2.;
+  }
+
+  namespace
+  {
+    const std::string point_pattern_help = " Three comma-separated numbers x, y, z.";
+
+    meshing::Point3 parse_point(const std::string &text, const std::string &entry)
+    {
+      const auto values = dealii::Utilities::string_to_double(
+        dealii::Utilities::split_string_list(text, ','));
+      AssertThrow(values.size() == 3,
+                  ExcMessage("Parameter '" + entry + "' needs three numbers x, y, z, got '" + text + "'."));
+      return {values[0], values[1], values[2]};
+    }
+
+    std::vector<double> parse_doubles(const std::string &text)
+    {
+      return dealii::Utilities::string_to_double(dealii::Utilities::split_string_list(text, ','));
+    }
+
+    void declare_geometry(ParameterHandler &prm)
+    {
+      prm.enter_subsection("Geometry");
+      {
+        prm.declare_entry("Source", "builtin:ribbed_panel", Patterns::Anything(),
+                          "The part: 'builtin:ribbed_panel' (the panel described in the subsection "
+                          "'Ribbed panel'), or a path to a .step/.stp/.brep/.geo/.msh file, relative to the "
+                          ".prm file's folder. Units: the geometry's own length unit (see 'Length unit').");
+        prm.declare_entry("Length unit", "0.001", Patterns::Double(1e-9, 1e9),
+                          "Metres per length unit of the geometry and of every length in this file "
+                          "(0.001: the geometry is in mm). Units: m.");
+        prm.declare_entry("Clamp groups", "clamp", Patterns::List(Patterns::Anything()),
+                          "Names of the physical surfaces that are clamped (zero displacement). The "
+                          "built-in panel names the top faces of its screw bosses 'clamp'. Units: none.");
+        prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
+                          "For STEP/BREP input (which carries no names): boundary faces inside any of these "
+                          "boxes form the physical surface 'clamp'. Format 'x0,y0,z0,x1,y1,z1; ...'. "
+                          "Units: geometry units.");
+        prm.enter_subsection("Ribbed panel");
+        {
+          const meshing::RibbedPanelGeometry g;
+          prm.declare_entry("Length", std::to_string(g.length), Patterns::Double(1e-6),
+                            "Plate length along x. Units: geometry units (mm by default).");
+          prm.declare_entry("Width", std::to_string(g.width), Patterns::Double(1e-6),
+                            "Plate width along y. Units: geometry units.");
+          prm.declare_entry("Wall thickness", std::to_string(g.wall_thickness), Patterns::Double(1e-6),
+                            "Plate thickness along z. Units: geometry units.");
+          prm.declare_entry("Rib positions", "-50, 0, 50", Patterns::List(Patterns::Double(), 1),
+                            "y coordinates of the rib centre lines (ribs run along x). Units: geometry units.");
+          prm.declare_entry("Rib heights", "8, 14, 20", Patterns::List(Patterns::Double(1e-6), 1),
+                            "Height of each rib above the plate. Units: geometry units.");
+          prm.declare_entry("Rib thicknesses", "1.5, 2, 1.8", Patterns::List(Patterns::Double(1e-6), 1),
+                            "Thickness of each rib. Units: geometry units.");
+          prm.declare_entry("Rib length", std::to_string(g.rib_length), Patterns::Double(1e-6),
+                            "Length of the ribs, centred in x. Units: geometry units.");
+          prm.declare_entry("Boss inset", std::to_string(g.boss_inset), Patterns::Double(1e-6),
+                            "Distance of the screw-boss axes from the plate edges. Units: geometry units.");
+          prm.declare_entry("Boss outer radius", std::to_string(g.boss_outer_radius), Patterns::Double(1e-6),
+                            "Outer radius of the screw bosses. Units: geometry units.");
+          prm.declare_entry("Boss inner radius", std::to_string(g.boss_inner_radius), Patterns::Double(1e-6),
+                            "Radius of the screw holes. Units: geometry units.");
+          prm.declare_entry("Boss height", std::to_string(g.boss_height), Patterns::Double(1e-6),
+                            "Height of the bosses above the plate. Units: geometry units.");
+          prm.declare_entry("Clip tower centre", "60, 25, 0", Patterns::Anything(),
+                            "x, y of the clip tower's axis (z ignored)." + point_pattern_help +
+                              " Units: geometry units.");
+          prm.declare_entry("Clip tower size", std::to_string(g.clip_size), Patterns::Double(1e-6),
+                            "Outer edge of the square clip tower. Units: geometry units.");
+          prm.declare_entry("Clip tower wall", std::to_string(g.clip_wall), Patterns::Double(1e-6),
+                            "Wall thickness of the clip tower. Units: geometry units.");
+          prm.declare_entry("Clip tower height", std::to_string(g.clip_height), Patterns::Double(1e-6),
+                            "Height of the clip tower above the plate. Units: geometry units.");
+        }
+        prm.leave_subsection();
+      }
+      prm.leave_subsection();
+    }
+
+    void declare_meshing(ParameterHandler &prm)
+    {
+      prm.enter_subsection("Meshing");
+      {
+        prm.declare_entry("Coarse size", "6", Patterns::Double(1e-9),
+                          "Element size outside every VOI (the global scenario's size). Units: geometry units.");
+        prm.declare_entry("Element degree", "2", Patterns::Integer(1, 2),
+                          "Polynomial degree of the tetrahedral elements (FE_SimplexP). Linear tets lock on "
+                          "thin walls; 2 is the default. Units: none.");
+        prm.declare_entry("Minimum element quality", "0.01", Patterns::Double(0., 1.),
+                          "Meshes with a tet of lower quality (gmsh minSICN; <= 0 is inverted) are refused. "
+                          "Units: none.");
+        prm.declare_entry("Threads", "1", Patterns::Integer(1, 64), "gmsh's threads. Units: none.");
+      }
+      prm.leave_subsection();
+
+      for (unsigned int s = 1; s <= max_scenarios; ++s)
+        {
+          prm.enter_subsection("Scenario " + std::to_string(s));
+          {
+            prm.declare_entry("Name", "", Patterns::Anything(),
+                              "Name of this anticipated contact scenario (its VOI); empty: unused. Units: none.");
+            prm.declare_entry("Shape", "box", Patterns::Selection("box|ball"), "Shape of the VOI. Units: none.");
+            prm.declare_entry("Box lower corner", "0, 0, 0", Patterns::Anything(),
+                              "Lower corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+            prm.declare_entry("Box upper corner", "0, 0, 0", Patterns::Anything(),
+                              "Upper corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+            prm.declare_entry("Ball centre", "0, 0, 0", Patterns::Anything(),
+                              "Centre of a ball VOI." + point_pattern_help + " Units: geometry units.");
+            prm.declare_entry("Ball radius", "0", Patterns::Double(0.), "Radius of a ball VOI. Units: geometry units.");
+            prm.declare_entry("Fine size", "1.5", Patterns::Double(1e-9),
+                              "Element size inside the VOI. Units: geometry units.");
+            prm.declare_entry("Transition", "15", Patterns::Double(0.),
+                              "Distance over which the size grows from the fine to the coarse size. Units: "
+                              "geometry units.");
+          }
+          prm.leave_subsection();
+        }
+    }
+
+    void declare_physics(ParameterHandler &prm)
+    {
+      prm.enter_subsection("Material");
+      {
+        prm.declare_entry("Young's modulus", "2.3e9", Patterns::Double(),
+                          "Young's modulus E (> 0). ABS: 2.3e9. Units: Pa.");
+        prm.declare_entry("Poisson's ratio", "0.35", Patterns::Double(),
+                          "Poisson's ratio nu, in (-1, 0.5). Units: none.");
+        prm.declare_entry("Density", "1050", Patterns::Double(), "Mass density rho (> 0). Units: kg/m^3.");
+      }
+      prm.leave_subsection();
+
+      prm.enter_subsection("Modes");
+      {
+        prm.declare_entry("Maximum number of modes", "50", Patterns::Integer(),
+                          "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
+        prm.declare_entry("Minimum number of modes", "10", Patterns::Integer(0),
+                          "The cut-off never leaves fewer modes than this. Units: none.");
+        prm.declare_entry("Cut-off rule", "haptic", Patterns::Selection("none|display|haptic"),
+                          "Which modes are dropped: 'display' drops modes above half the display rate (the "
+                          "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
+                          "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
+        prm.declare_entry("Display rate", "60", Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
+        prm.declare_entry("Haptic rate", "1000", Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
+        prm.declare_entry("Shift", "0", Patterns::Double(),
+                          "Shift of the shift-invert transformation, as a frequency; must lie below the first "
+                          "frequency. Units: Hz.");
+        prm.declare_entry("Tolerance", "1e-10", Patterns::Double(1e-16, 1e-2),
+                          "ARPACK's relative tolerance on the Ritz values. Units: none.");
+        prm.declare_entry("Operator", "cholmod", Patterns::Selection("cholmod|umfpack"),
+                          "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
+                          "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
+      }
+      prm.leave_subsection();
+
+      prm.enter_subsection("Damping");
+      {
+        prm.declare_entry("Model", "rayleigh", Patterns::Selection("rayleigh|modal"),
+                          "'rayleigh': C = alpha M + beta K; 'modal': one damping ratio for every mode. Units: none.");
+        prm.declare_entry("Rayleigh alpha", "0", Patterns::Double(0.), "Mass-proportional coefficient. Units: 1/s.");
+        prm.declare_entry("Rayleigh beta", "2e-5", Patterns::Double(0.),
+                          "Stiffness-proportional coefficient. Units: s.");
+        prm.declare_entry("Modal damping ratio", "0.02", Patterns::Double(0.), "Damping ratio zeta. Units: none.");
+      }
+      prm.leave_subsection();
+    }
+
+    void declare_contact_and_output(ParameterHandler &prm)
+    {
+      prm.enter_subsection("Contact");
+      {
+        prm.declare_entry("Patch radius", "2", Patterns::Double(0.),
+                          "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
+                          "load). Units: geometry units.");
+        prm.declare_entry("Global candidate stride", "0", Patterns::Integer(0),
+                          "Static-correction candidates of the global space: every n-th display vertex outside "
+                          "every VOI; 0 = none. Units: none.");
+        prm.declare_entry("Maximum candidates", "400", Patterns::Integer(1),
+                          "At most this many candidates per space (thinned evenly). Units: none.");
+        prm.declare_entry("Cross compliance", "true", Patterns::Bool(),
+                          "Store the residual compliance between every pair of candidates of a space (two "
+                          "hands on one rib). Units: none.");
+        prm.declare_entry("Validation samples", "4", Patterns::Integer(0),
+                          "Candidates per space validated against full static FE, in x, y and z. Units: none.");
+        prm.declare_entry("Validation points", "", Patterns::Anything(),
+                          "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
+                          "of each becomes a static-correction candidate. Units: geometry units.");
+        prm.declare_entry("Correction field tolerance", "1e-3", Patterns::Double(0., 1.),
+                          "The display correction field of a contact is kept where it exceeds this fraction of "
+                          "its maximum (it is local); the validation reports the error this truncation leaves. "
+                          "Units: none.");
+      }
+      prm.leave_subsection();
+
+      prm.enter_subsection("Output");
+      {
+        prm.declare_entry("Mode precision", "float32", Patterns::Selection("float32|float64"),
+                          "Scalar type of the display modes in the .mrt file. Units: none.");
+        prm.declare_entry("VTU modes", "10", Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
+        prm.declare_entry("Export matrices", "false", Patterns::Bool(),
+                          "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
+                          "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");
+      }
+      prm.leave_subsection();
+    }
+  } // namespace
+
+  void declare_scene_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Scene");
+    {
+      prm.declare_entry("Name", "ribbed_panel", Patterns::Anything(),
+                        "Name of the scene: results go to results/<name>/ and files are named after it. "
+                        "Letters, digits, '_' and '-' only. Units: none.");
+    }
+    prm.leave_subsection();
+    declare_geometry(prm);
+    declare_meshing(prm);
+    declare_physics(prm);
+    declare_contact_and_output(prm);
+  }
+
+  namespace
+  {
+    void parse_geometry(ParameterHandler &prm, SceneParameters &scene)
+    {
+      prm.enter_subsection("Geometry");
+      std::string source = prm.get("Source");
+      if (source.rfind("builtin:", 0) != 0)
+        {
+          // Relative paths are relative to the .prm file's folder.
+          std::filesystem::path path(source);
+          if (path.is_relative())
+            path = std::filesystem::path(scene.parameter_file).parent_path() / path;
+          source = path.lexically_normal().string();
+          AssertThrow(std::filesystem::exists(source),
+                      ExcMessage("Geometry file '" + source + "' (parameter 'Geometry/Source' in " +
+                                 scene.parameter_file + ") does not exist."));
+        }
+      else
+        AssertThrow(source == "builtin:ribbed_panel",
+                    ExcMessage("Unknown built-in geometry '" + source + "' in 'Geometry/Source'; the only one is "
+                               "'builtin:ribbed_panel'."));
+      scene.meshing.geometry = source;
+      scene.length_unit      = prm.get_double("Length unit");
+      scene.clamp_groups     = dealii::Utilities::split_string_list(prm.get("Clamp groups"), ',');
+      AssertThrow(!scene.clamp_groups.empty(),
+                  ExcMessage("'Geometry/Clamp groups' is empty: the part is not clamped. A free-floating part "
+                             "needs the free-floating option (rigid-body modes), which is not available yet."));
+      for (const auto &box_text : dealii::Utilities::split_string_list(prm.get("Clamp boxes"), ';'))
+        {
+          const auto v = parse_doubles(box_text);
+          AssertThrow(v.size() == 6, ExcMessage("'Geometry/Clamp boxes': each box needs 6 numbers, got '" +
+                                                box_text + "'."));
+          scene.meshing.clamp_boxes.push_back({{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}});
+        }
+
+      prm.enter_subsection("Ribbed panel");
+      auto &g           = scene.meshing.ribbed_panel;
+      g.length          = prm.get_double("Length");
+      g.width           = prm.get_double("Width");
+      g.wall_thickness  = prm.get_double("Wall thickness");
+      g.rib_positions_y = parse_doubles(prm.get("Rib positions"));
+      g.rib_heights     = parse_doubles(prm.get("Rib heights"));
+      g.rib_thicknesses = parse_doubles(prm.get("Rib thicknesses"));
+      AssertThrow(g.rib_heights.size() == g.rib_positions_y.size() &&
+                    g.rib_thicknesses.size() == g.rib_positions_y.size(),
+                  ExcMessage("'Geometry/Ribbed panel': 'Rib positions', 'Rib heights' and 'Rib thicknesses' "
+                             "must have the same number of entries."));
+      g.rib_length        = prm.get_double("Rib length");
+      g.boss_inset        = prm.get_double("Boss inset");
+      g.boss_outer_radius = prm.get_double("Boss outer radius");
+      g.boss_inner_radius = prm.get_double("Boss inner radius");
+      AssertThrow(g.boss_inner_radius < g.boss_outer_radius,
+                  ExcMessage("'Boss inner radius' must be smaller than 'Boss outer radius'."));
+      g.boss_height = prm.get_double("Boss height");
+      g.clip_centre = parse_point(prm.get("Clip tower centre"), "Clip tower centre");
+      g.clip_size   = prm.get_double("Clip tower size");
+      g.clip_wall   = prm.get_double("Clip tower wall");
+      AssertThrow(2. * g.clip_wall < g.clip_size,
+                  ExcMessage("'Clip tower wall' must be less than half of 'Clip tower size'."));
+      g.clip_height = prm.get_double("Clip tower height");
+      prm.leave_subsection();
+      prm.leave_subsection();
+    }
+
+    void parse_meshing(ParameterHandler &prm, SceneParameters &scene)
+    {
+      prm.enter_subsection("Meshing");
+      scene.meshing.coarse_size  = prm.get_double("Coarse size");
+      scene.element_degree       = prm.get_integer("Element degree");
+      scene.meshing.min_quality  = prm.get_double("Minimum element quality");
+      scene.meshing.mesh_threads = prm.get_integer("Threads");
+      prm.leave_subsection();
+
+      std::set<std::string> names;
+      for (unsigned int s = 1; s <= max_scenarios; ++s)
+        {
+          const std::string section = "Scenario " + std::to_string(s);
+          prm.enter_subsection(section);
+          meshing::VolumeOfInterest voi;
+          voi.name = prm.get("Name");
+          if (!voi.name.empty())
+            {
+              AssertThrow(voi.name != "global" && names.insert(voi.name).second,
+                          ExcMessage("'" + section + "/Name' = '" + voi.name +
+                                     "' is used twice or is the reserved name 'global'."));
+              voi.shape       = prm.get("Shape") == "ball" ? meshing::VolumeOfInterest::Shape::ball :
+                                                             meshing::VolumeOfInterest::Shape::box;
+              voi.box_lower   = parse_point(prm.get("Box lower corner"), section + "/Box lower corner");
+              voi.box_upper   = parse_point(prm.get("Box upper corner"), section + "/Box upper corner");
+              voi.ball_centre = parse_point(prm.get("Ball centre"), section + "/Ball centre");
+              voi.ball_radius = prm.get_double("Ball radius");
+              voi.fine_size   = prm.get_double("Fine size");
+              voi.transition  = prm.get_double("Transition");
+              if (voi.shape == meshing::VolumeOfInterest::Shape::box)
+                {
+                  for (unsigned int d = 0; d < 3; ++d)
+                    AssertThrow(voi.box_lower[d] < voi.box_upper[d],
+                                ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner must "
+                                           "lie below its upper corner in x, y and z."));
+                }
+              else
+                {
+                  AssertThrow(voi.ball_radius > 0.,
+                              ExcMessage("'" + section + "/Ball radius' must be > 0 for VOI '" + voi.name + "'."));
+                }
+              AssertThrow(voi.fine_size <= scene.meshing.coarse_size,
+                          ExcMessage("'" + section + "/Fine size' (" + std::to_string(voi.fine_size) +
+                                     ") is larger than 'Meshing/Coarse size'."));
+              scene.volumes_of_interest.push_back(voi);
+            }
+          prm.leave_subsection();
+        }
+    }
+
+    void parse_physics(ParameterHandler &prm, SceneParameters &scene)
+    {
+      prm.enter_subsection("Material");
+      auto &m          = scene.material;
+      m.youngs_modulus = prm.get_double("Young's modulus");
+      m.poissons_ratio = prm.get_double("Poisson's ratio");
+      m.density        = prm.get_double("Density");
+      AssertThrow(m.youngs_modulus > 0. && std::isfinite(m.youngs_modulus),
+                  ExcMessage("'Material/Young's modulus' = " + std::to_string(m.youngs_modulus) + " Pa: must be > 0."));
+      AssertThrow(m.poissons_ratio > -1. && m.poissons_ratio < 0.5,
+                  ExcMessage("'Material/Poisson's ratio' = " + std::to_string(m.poissons_ratio) +
+                             ": must lie in (-1, 0.5)."));
+      AssertThrow(m.density > 0. && std::isfinite(m.density),
+                  ExcMessage("'Material/Density' = " + std::to_string(m.density) + " kg/m^3: must be > 0."));
+      prm.leave_subsection();
+
+      prm.enter_subsection("Modes");
+      auto &modes = scene.modes;
+      const long maximum = prm.get_integer("Maximum number of modes");
+      AssertThrow(maximum >= 1, ExcMessage("'Modes/Maximum number of modes' = " + std::to_string(maximum) +
+                                           ": at least one mode is needed."));
+      modes.maximum_count = maximum;
+      modes.minimum_count = prm.get_integer("Minimum number of modes");
+      AssertThrow(modes.minimum_count <= modes.maximum_count,
+                  ExcMessage("'Modes/Minimum number of modes' exceeds 'Maximum number of modes'."));
+      const std::string rule = prm.get("Cut-off rule");
+      modes.cut_off_rule = rule == "none" ? CutOffRule::none : rule == "display" ? CutOffRule::display : CutOffRule::haptic;
+      modes.display_rate   = prm.get_double("Display rate");
+      modes.haptic_rate    = prm.get_double("Haptic rate");
+      modes.shift          = prm.get_double("Shift");
+      modes.tolerance      = prm.get_double("Tolerance");
+      modes.eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
+      prm.leave_subsection();
+
+      prm.enter_subsection("Damping");
+      scene.damping.rayleigh    = prm.get("Model") == "rayleigh";
+      scene.damping.alpha       = prm.get_double("Rayleigh alpha");
+      scene.damping.beta        = prm.get_double("Rayleigh beta");
+      scene.damping.modal_ratio = prm.get_double("Modal damping ratio");
+      prm.leave_subsection();
+    }
+
+    void parse_contact_and_output(ParameterHandler &prm, SceneParameters &scene)
+    {
+      prm.enter_subsection("Contact");
+      scene.contact.patch_radius            = prm.get_double("Patch radius");
+      scene.contact.global_candidate_stride = prm.get_integer("Global candidate stride");
+      scene.contact.maximum_candidates      = prm.get_integer("Maximum candidates");
+      scene.contact.cross_compliance        = prm.get_bool("Cross compliance");
+      scene.contact.validation_samples      = prm.get_integer("Validation samples");
+      scene.contact.correction_field_tolerance = prm.get_double("Correction field tolerance");
+      for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
+        scene.contact.validation_points.push_back(parse_point(point, "Contact/Validation points"));
+      prm.leave_subsection();
+
+      prm.enter_subsection("Output");
+      scene.output.float64_modes = prm.get("Mode precision") == "float64";
+      scene.output.vtu_modes     = prm.get_integer("VTU modes");
+      scene.output.export_matrices = prm.get_bool("Export matrices");
+      prm.leave_subsection();
+    }
+  } // namespace
+
+  SceneParameters parse_scene_parameters(ParameterHandler &prm,
+                                         const std::string &parameter_file,
+                                         const std::string &output_directory_override)
+  {
+    SceneParameters scene;
+    scene.parameter_file = parameter_file;
+    prm.enter_subsection("Scene");
+    scene.scene_name = prm.get("Name");
+    prm.leave_subsection();
+    AssertThrow(!scene.scene_name.empty() &&
+                  scene.scene_name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") ==
+                    std::string::npos,
+                ExcMessage("'Scene/Name' = '" + scene.scene_name + "': use letters, digits, '_' and '-' only."));
+    scene.output_directory =
+      output_directory_override.empty() ? "results/" + scene.scene_name : output_directory_override;
+
+    parse_geometry(prm, scene);
+    parse_meshing(prm, scene);
+    parse_physics(prm, scene);
+    parse_contact_and_output(prm, scene);
+    AssertThrow(!(scene.meshing.geometry.size() > 4 &&
+                  scene.meshing.geometry.substr(scene.meshing.geometry.size() - 4) == ".msh" &&
+                  !scene.volumes_of_interest.empty()),
+                ExcMessage("Geometry '" + scene.meshing.geometry + "' is a .msh file, which cannot be re-graded "
+                           "around a VOI: give the geometry as STEP/.geo, or remove the 'Scenario' subsections."));
+    return scene;
+  }
+
+  SceneParameters read_scene_parameters(ParameterHandler &prm,
+                                        const std::string &parameter_file,
+                                        const std::string &output_directory_override)
+  {
+    AssertThrow(std::filesystem::exists(parameter_file),
+                ExcMessage("Parameter file '" + parameter_file + "' does not exist."));
+    declare_scene_parameters(prm);
+    prm.parse_input(parameter_file);
+    return parse_scene_parameters(prm, parameter_file, output_directory_override);
+  }
+} // namespace modal_haptics

@@ -1,0 +1,118 @@
+// The scene's .prm file: every parameter the precompute reads, with its default, range and unit.
+//
+// declare_parameters() documents each entry where it is declared (units in every description);
+// parse() reads them into plain structs and cross-checks them, throwing ExcMessage with the culprit
+// named for user errors.
+#pragma once
+
+#include <deal.II/base/parameter_handler.h>
+
+#include "scene_mesher.h"
+
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  struct MaterialParameters
+  {
+    double youngs_modulus = 2.3e9; // [Pa]
+    double poissons_ratio = 0.35;  // [-]
+    double density        = 1050.; // [kg/m^3]
+  };
+
+  enum class CutOffRule
+  {
+    none,    // keep the maximum count
+    display, // original method: drop modes above half the display frame rate
+    haptic   // drop modes above half the haptic rate (the Nyquist frequency of the haptic loop)
+  };
+
+  enum class EigenOperator
+  {
+    cholmod, // supernodal Cholesky with METIS ordering (SuiteSparse): the default
+    umfpack  // deal.II's SparseDirectUMFPACK LU: slow, kept as a peer
+  };
+
+  struct ModeParameters
+  {
+    unsigned int maximum_count = 50;
+    unsigned int minimum_count = 10;
+    CutOffRule   cut_off_rule  = CutOffRule::haptic;
+    double       display_rate  = 60.;   // [Hz]
+    double       haptic_rate   = 1000.; // [Hz]
+    double       shift         = 0.;    // shift-invert shift [Hz]
+    double       tolerance     = 1e-10; // ARPACK relative tolerance on Ritz values
+    EigenOperator eigen_operator = EigenOperator::cholmod;
+
+    // The cut-off frequency [Hz] the rule gives, +inf for CutOffRule::none.
+    double cut_off_frequency() const;
+  };
+
+  struct DampingParameters
+  {
+    bool   rayleigh      = true;
+    double alpha         = 0.;    // mass-proportional coefficient [1/s]
+    double beta          = 2e-5;  // stiffness-proportional coefficient [s]
+    double modal_ratio   = 0.02;  // constant modal damping ratio when rayleigh = false [-]
+
+    // Damping ratio of a mode of angular frequency omega [rad/s].
+    double ratio(double omega) const;
+  };
+
+  struct ContactParameters
+  {
+    double       patch_radius          = 2.;  // [geometry units]
+    unsigned int global_candidate_stride = 0; // every n-th display vertex of the global region; 0 = none
+    unsigned int maximum_candidates    = 400; // per space, thinned evenly above this
+    bool         cross_compliance      = true;
+    unsigned int validation_samples    = 4;   // sampled candidates per space
+    double       correction_field_tolerance = 1e-3; // relative truncation of the display correction field
+    // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of
+    // the space whose VOI holds it and is validated in every space.
+    std::vector<meshing::Point3> validation_points;
+  };
+
+  struct OutputParameters
+  {
+    bool         float64_modes  = false; // .mrt display modes in float64 instead of float32
+    unsigned int vtu_modes      = 10;    // number of mode shapes written to VTU
+    bool         export_matrices = false; // write K and M (binary CSR) for the benchmark's peers
+  };
+
+  struct SceneParameters
+  {
+    std::string scene_name = "ribbed_panel";
+    std::string parameter_file;   // the .prm that was read (for messages)
+    std::string output_directory; // resolved: given, or results/<scene>
+
+    meshing::MeshingSettings                meshing;
+    std::vector<meshing::VolumeOfInterest>  volumes_of_interest;
+    double       length_unit   = 1e-3; // metres per geometry unit
+    std::vector<std::string> clamp_groups = {"clamp"};
+    unsigned int element_degree = 2;
+
+    MaterialParameters material;
+    ModeParameters     modes;
+    DampingParameters  damping;
+    ContactParameters  contact;
+    OutputParameters   output;
+  };
+
+  // Up to this many VOI subsections ("Scenario 1" ... ) may be used.
+  constexpr unsigned int max_scenarios = 6;
+
+  void declare_scene_parameters(dealii::ParameterHandler &prm);
+
+  // Reads the entries (after prm.parse_input) and cross-checks them. The output directory is
+  // results/<scene> unless output_directory_override is non-empty.
+  SceneParameters parse_scene_parameters(dealii::ParameterHandler &prm,
+                                         const std::string &parameter_file,
+                                         const std::string &output_directory_override);
+
+  // Parses a .prm file into a SceneParameters: declare, parse_input (unknown entries and bad patterns
+  // throw with the file and line), then parse_scene_parameters.
+  SceneParameters read_scene_parameters(dealii::ParameterHandler &prm,
+                                        const std::string &parameter_file,
+                                        const std::string &output_directory_override);
+} // namespace modal_haptics

@@ -1,0 +1,30 @@
+#!/usr/bin/python3
+"""Prints the summary of a precompute's report.json (scripts/demo calls it)."""
+import json
+import sys
+
+
+def main(path):
+    with open(path) as f:
+        report = json.load(f)
+    print(f"\nscene '{report['scene']}'  (P{report['element_degree']}, display surface "
+          f"{report['display_surface']['n_vertices']} vertices)")
+    print(f"{'space':10} {'DoFs':>9} {'modes':>5} {'f1 [Hz]':>9} {'f_r [Hz]':>9} {'orth err':>9} "
+          f"{'residual':>9} {'cand':>5} {'modal err':>10} {'corr err':>9}")
+    for s in report["spaces"]:
+        v = s["validation"]
+        modal = max((c["contact_rel_error_modal"] for c in v), default=float("nan"))
+        corrected = max((c["contact_rel_error_corrected"] for c in v), default=float("nan"))
+        print(f"{s['name']:10} {s['n_dofs']:9d} {s['n_modes']:5d} {s['frequencies_hz'][0]:9.2f} "
+              f"{s['frequencies_hz'][-1]:9.1f} {s['orthonormality_error']:9.1e} {s['max_relative_residual']:9.1e} "
+              f"{s['static_correction']['n_candidates']:5d} {modal:10.2e} {corrected:9.1e}")
+    for c in report.get("cross_space", []):
+        print(f"felt compliance at vertex {c['vertex']} ({c['region']}): global space differs from "
+              f"'{c['space']}' by {100 * c['global_rel_difference']:.2f} %")
+    t = report["timings_s"]
+    print("timings [s]: " + ", ".join(f"{k} {v:.1f}" for k, v in t.items()))
+    print(f"files: {report['files']['mrt_bytes'] / 1e6:.1f} MB .mrt, {report['files']['h5_bytes'] / 1e6:.1f} MB .h5")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "results/ribbed_panel/report.json")

@@ -1,0 +1,110 @@
+#!/usr/bin/python3
+"""Bad input to modal-precompute: each case must exit non-zero with one message naming the culprit,
+and leave the results already in the output folder untouched."""
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# An inverted tet: two tets sharing a face, the second one's vertex order mirrored (MSH 2.2 ASCII).
+INVERTED_MSH = """$MeshFormat
+2.2 0 8
+$EndMeshFormat
+$PhysicalNames
+3
+2 2 "clamp"
+2 3 "free"
+3 1 "part"
+$EndPhysicalNames
+$Nodes
+5
+1 0 0 0
+2 1 0 0
+3 0 1 0
+4 0 0 1
+5 0 0 -1
+$EndNodes
+$Elements
+8
+1 2 2 2 1 1 2 4
+2 2 2 3 1 2 3 4
+3 2 2 3 1 1 3 4
+4 2 2 3 1 1 2 5
+5 2 2 3 1 2 3 5
+6 2 2 3 1 1 3 5
+7 4 2 1 1 1 2 3 4
+8 4 2 1 1 1 2 3 5
+$EndElements
+"""
+
+BASE = open(os.path.join(HERE, "cantilever.prm")).read()
+
+
+def scene_with(*changes):
+    """The cantilever scene with extra subsections appended (later 'set' lines win)."""
+    return BASE + "\n" + "\n".join(changes) + "\n"
+
+
+def section(name, *lines):
+    return f"subsection {name}\n" + "\n".join(f"  {l}" for l in lines) + "\nend"
+
+
+CASES = [
+    # (name, .prm text, words the message must contain)
+    ("unknown parameter", scene_with(section("Material", "set Colour = red")), ["Colour"]),
+    ("value out of range", scene_with(section("Meshing", "set Element degree = 3")), ["Element degree"]),
+    ("missing geometry file", scene_with(section("Geometry", "set Source = no_such_part.step")), ["no_such_part.step"]),
+    ("clamp group that does not exist", scene_with(section("Geometry", "set Clamp groups = bolts")), ["bolts"]),
+    ("E <= 0", scene_with(section("Material", "set Young's modulus = 0")), ["Young's modulus"]),
+    ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
+    ("part with no clamp", scene_with(section("Geometry", "set Clamp groups =")), ["free-floating"]),
+    ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
+    ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["Material"]),
+]
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--workdir", required=True)
+    args = parser.parse_args()
+    shutil.rmtree(args.workdir, ignore_errors=True)
+    os.makedirs(args.workdir)
+    shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
+    with open(os.path.join(args.workdir, "inverted.msh"), "w") as f:
+        f.write(INVERTED_MSH)
+    results = os.path.join(args.workdir, "results")
+    os.makedirs(results)
+    earlier = {"report.json": '{"earlier": true}\n', "cantilever.mrt": "earlier basis\n"}
+    for name, text in earlier.items():
+        with open(os.path.join(results, name), "w") as f:
+            f.write(text)
+
+    failures = 0
+    for name, prm_text, words in CASES:
+        prm = os.path.join(args.workdir, name.replace(" ", "_").replace("<", "le").replace(">", "ge") + ".prm")
+        with open(prm, "w") as f:
+            f.write(prm_text)
+        run = subprocess.run([args.binary, prm, "--output-dir", results, "--quiet"], capture_output=True, text=True)
+        message = run.stdout + run.stderr
+        problems = []
+        if run.returncode == 0:
+            problems.append("exit code 0")
+        problems += [f"message lacks '{w}'" for w in words if w not in message]
+        for file, text in earlier.items():
+            if open(os.path.join(results, file)).read() != text:
+                problems.append(f"earlier {file} was changed")
+        status = "ok" if not problems else "FAILED: " + "; ".join(problems)
+        print(f"{name:34s} exit {run.returncode}  {status}")
+        if problems:
+            print("   message was:", message.strip().replace("\n", "\n   "))
+            failures += 1
+    print(f"{len(CASES) - failures} passed, {failures} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,100 @@
+#!/usr/bin/python3
+"""The felt compliance under a contact patch converges as the VOI mesh is refined; under a single
+vertex (rho = 0) it does not (the displacement under a point load in 3D grows without bound).
+
+A 40 x 40 x 10 mm block clamped at its bottom is pressed in z at the centre of its top face; the VOI
+is a ball of radius 6 mm around that point, meshed with 2, 1 and 0.5 mm. For each patch radius the
+full static FE compliance u_c,z / F_z is read from report.json (validation at that point)."""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+FINE_SIZES = [2.0, 1.0, 0.5]
+
+
+def scene(fine_size, patch_radius):
+    return f"""
+subsection Scene
+  set Name = block
+end
+subsection Geometry
+  set Source = {os.path.join(HERE, 'block.geo')}
+end
+subsection Meshing
+  set Coarse size = 4
+  set Element degree = 2
+end
+subsection Scenario 1
+  set Name = press
+  set Shape = ball
+  set Ball centre = 0, 0, 10
+  set Ball radius = 6
+  set Fine size = {fine_size}
+  set Transition = 6
+end
+subsection Material
+  set Young's modulus = 2.3e9
+  set Poisson's ratio = 0.35
+  set Density = 1050
+end
+subsection Modes
+  set Maximum number of modes = 6
+  set Minimum number of modes = 6
+  set Cut-off rule = none
+end
+subsection Contact
+  set Patch radius = {patch_radius}
+  set Validation samples = 0
+  set Validation points = 0, 0, 10
+  set Cross compliance = false
+end
+subsection Output
+  set VTU modes = 0
+end
+"""
+
+
+def felt_compliance(binary, workdir, fine_size, patch_radius):
+    folder = os.path.join(workdir, f"h{fine_size}_rho{patch_radius}")
+    os.makedirs(folder, exist_ok=True)
+    prm = os.path.join(folder, "block.prm")
+    with open(prm, "w") as f:
+        f.write(scene(fine_size, patch_radius))
+    subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], check=True)
+    with open(os.path.join(folder, "report.json")) as f:
+        report = json.load(f)
+    press = [s for s in report["spaces"] if s["name"] == "press"][0]
+    case = [c for c in press["validation"] if c["direction"] == "z"][0]
+    return case["full_contact_response_m_per_n"][2]
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--workdir", required=True)
+    args = parser.parse_args()
+    shutil.rmtree(args.workdir, ignore_errors=True)
+    ok = True
+    for rho in [1.5, 0.0]:
+        c = [felt_compliance(args.binary, args.workdir, h, rho) for h in FINE_SIZES]
+        d1, d2 = abs(c[1] - c[0]), abs(c[2] - c[1])
+        print(f"rho = {rho} mm: compliance at h = {FINE_SIZES}: " + ", ".join(f"{x:.6e}" for x in c) +
+              f" m/N; differences {d1:.3e}, {d2:.3e} (ratio {d2 / d1:.2f}; change {100 * d2 / c[2]:.2f} %)")
+        if rho > 0:
+            converges = d2 < 0.5 * d1 and d2 / c[2] < 0.02
+            print("  patch load converges:", converges)
+            ok &= converges
+        else:
+            keeps_growing = c[2] > c[1] > c[0] and d2 > 0.5 * d1
+            print("  single-vertex load keeps growing:", keeps_growing)
+            ok &= keeps_growing
+    print("1 passed, 0 failed" if ok else "0 passed, 1 failed")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

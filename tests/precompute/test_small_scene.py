@@ -1,0 +1,82 @@
+#!/usr/bin/python3
+"""Self-checks of a whole precompute run on a small scene (two VOIs + global):
+
+* the eigenpairs check themselves: max |Phi^T M Phi - I| < 1e-10, max relative residual < 1e-8;
+* every output exists (h5, mrt, report.json, used_parameters.prm, VTU/PVD per space);
+* the static correction is exact: corrected contact error <= 1e-8 for every validated candidate
+  and direction, for one contact and for two simultaneous contacts, while the modal-only error is
+  honest (non-zero);
+* transfer: the normal equations of a space onto itself give the identity; a field that lies in
+  both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error.
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def transfer(phi_to, phi_from, area):
+    w = np.repeat(area, 3)[:, None]
+    return np.linalg.solve(phi_to.T @ (w * phi_to), phi_to.T @ (w * phi_from))
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--workdir", required=True)
+    args = parser.parse_args()
+    shutil.rmtree(args.workdir, ignore_errors=True)
+    subprocess.run([args.binary, os.path.join(HERE, "small_scene.prm"), "--output-dir", args.workdir], check=True)
+    report = json.load(open(os.path.join(args.workdir, "report.json")))
+    failures = []
+
+    def expect(condition, what):
+        print(("ok      " if condition else "FAILED  ") + what)
+        if not condition:
+            failures.append(what)
+
+    for name in ["small_block.h5", "small_block.mrt", "used_parameters.prm"] + \
+            [f"modes_{s}.{e}" for s in ["global", "left", "right"] for e in ["vtu", "pvd"]]:
+        expect(os.path.getsize(os.path.join(args.workdir, name)) > 0, f"{name} written")
+    expect([s["name"] for s in report["spaces"]] == ["global", "left", "right"], "three spaces, global first")
+    for s in report["spaces"]:
+        n = s["name"]
+        expect(s["orthonormality_error"] < 1e-10, f"{n}: orthonormality error {s['orthonormality_error']:.2e} < 1e-10")
+        expect(s["max_relative_residual"] < 1e-8, f"{n}: eigen-residual {s['max_relative_residual']:.2e} < 1e-8")
+        expect(len(s["validation"]) >= 3, f"{n}: {len(s['validation'])} validation cases")
+        for c in s["validation"]:
+            expect(c["contact_rel_error_corrected"] <= 1e-8,
+                   f"{n}: vertex {c['vertex']} {c['direction']}: corrected {c['contact_rel_error_corrected']:.1e} <= 1e-8"
+                   f" (modal-only {c['contact_rel_error_modal']:.2e})")
+            expect(c["contact_rel_error_modal"] > 1e-4, f"{n}: modal-only error is honest (non-zero)")
+            expect(c["solve_relative_residual"] < 1e-10, f"{n}: full solve residual {c['solve_relative_residual']:.1e}")
+        expect(s.get("two_contact_rel_error_corrected", 1.0) <= 1e-8,
+               f"{n}: two contacts, corrected error {s.get('two_contact_rel_error_corrected')} <= 1e-8")
+
+    with h5py.File(os.path.join(args.workdir, "small_block.h5"), "r") as h5:
+        area = h5["display_surface/vertex_area"][:]
+        phi = {n: h5[f"spaces/{n}/display_modes"][:].reshape(len(area) * 3, -1) for n in ["global", "left", "right"]}
+        for n, p in phi.items():
+            identity_error = np.abs(transfer(p, p, area) - np.eye(p.shape[1])).max()
+            expect(identity_error < 1e-8, f"T({n} <- {n}) = I to {identity_error:.1e}")
+        w = np.repeat(area, 3)
+        for n in ["left", "right"]:
+            T = h5[f"transfer/{n}__from__global"][:]
+            for i in range(3):
+                carried = phi[n] @ T[:, i]
+                original = phi["global"][:, i]
+                error = np.sqrt(np.sum(w * (carried - original) ** 2) / np.sum(w * original**2))
+                expect(error < 0.05, f"global mode {i + 1} carried into {n}: error {error:.2e} < 5 %")
+    print(f"{0 if failures else 1} passed, {1 if failures else 0} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
