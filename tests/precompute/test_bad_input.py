@@ -62,7 +62,7 @@ CASES = [
     ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
     ("part with no clamp", scene_with(section("Geometry", "set Clamp groups =")), ["free-floating"]),
     ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
-    ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["Material"]),
+    ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["subsection", "missing_subsection_end.prm"]),
 ]
 
 
