@@ -30,6 +30,17 @@ namespace modal_haptics
                                    double                              tolerance,
                                    bool                                verbose);
 
+  // The same spectral transformation with a block Krylov method (block_eigensolver.cc): blocks of
+  // block_size right-hand sides per solve, thick restarts. Converged when every wanted Ritz pair's residual
+  // ||OP z - theta z||_M / theta is below tolerance.
+  EigenSolution solve_block_shift_invert(const dealii::SparseMatrix<double> &M,
+                                         Factorization                      &shifted_inverse,
+                                         double                              shift,
+                                         unsigned int                        n_modes,
+                                         unsigned int                        block_size,
+                                         double                              tolerance,
+                                         bool                                verbose);
+
   struct EigenSelfCheck
   {
     double orthonormality_error   = 0.; // max |Phi^T M Phi - I|

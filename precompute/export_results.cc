@@ -459,7 +459,7 @@ namespace modal_haptics
                "none: the " + std::to_string(s.n_spurious_rows) +
                  " constrained rows have M_ii = 0, which puts their eigenvalues at infinity");
       json.begin_object("eigensolver")
-        .value("method", "ARPACK dsaupd mode 3 (shift-invert) + " + s.factorization.method)
+        .value("method", s.eigensolver_method + " + " + s.factorization.method)
         .value("factor_nonzeros", s.factorization.factor_nonzeros)
         .value("factor_flops", s.factorization.factor_flops)
         .value("analyze_s", s.factorization.analyze_seconds)

@@ -339,8 +339,14 @@ namespace modal_haptics
            << f.factorize_seconds << " s";
       log(line.str());
 
-      eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
-                                 scene.modes.maximum_count, scene.modes.tolerance, verbose);
+      eigen = scene.modes.block_krylov ?
+                solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
+                                         scene.modes.block_size, scene.modes.tolerance, verbose) :
+                solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+                                   scene.modes.maximum_count, scene.modes.tolerance, verbose);
+      result.eigensolver_method = scene.modes.block_krylov ?
+                                    "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
+                                                             "ARPACK dsaupd mode 3 (shift-invert)";
       result.n_operator_applications = eigen.n_operator_applications;
       result.arpack_seconds          = eigen.arpack_seconds;
       result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen);

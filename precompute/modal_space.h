@@ -76,6 +76,7 @@ namespace modal_haptics
     double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
 
     FactorizationStatistics factorization;
+    std::string             eigensolver_method;
     unsigned int            n_operator_applications = 0;
     double                  arpack_seconds = 0.; // the Lanczos iteration with its solves, after the factorization
     double                  correction_seconds_per_candidate = 0.;

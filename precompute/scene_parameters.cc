@@ -184,6 +184,12 @@ namespace modal_haptics
                           "frequency. Units: Hz.");
         prm.declare_entry("Tolerance", "1e-10", Patterns::Double(1e-16, 1e-2),
                           "ARPACK's relative tolerance on the Ritz values. Units: none.");
+        prm.declare_entry("Eigensolver", "block-krylov", Patterns::Selection("block-krylov|arpack"),
+                          "The Krylov method on the shift-invert operator: 'block-krylov' (blocks of 'Block size' "
+                          "right-hand sides per solve, thick restarts) or 'arpack' (ARPACK's dsaupd, one vector "
+                          "per solve). Both converge to the same modes. Units: none.");
+        prm.declare_entry("Block size", "4", Patterns::Integer(1, 64),
+                          "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
         prm.declare_entry("Operator", "cholmod", Patterns::Selection("cholmod|umfpack"),
                           "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
                           "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
@@ -403,6 +409,8 @@ namespace modal_haptics
       modes.shift          = prm.get_double("Shift");
       modes.tolerance      = prm.get_double("Tolerance");
       modes.eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
+      modes.block_krylov   = prm.get("Eigensolver") == "block-krylov";
+      modes.block_size     = prm.get_integer("Block size");
       prm.leave_subsection();
 
       prm.enter_subsection("Damping");

@@ -44,6 +44,8 @@ namespace modal_haptics
     double       shift         = 0.;    // shift-invert shift [Hz]
     double       tolerance     = 1e-10; // ARPACK relative tolerance on Ritz values
     EigenOperator eigen_operator = EigenOperator::cholmod;
+    bool         block_krylov  = true;  // block Krylov (blocks of solves) instead of ARPACK's one-at-a-time
+    unsigned int block_size    = 4;     // right-hand sides per block solve of the block Krylov method
 
     // The cut-off frequency [Hz] the rule gives, +inf for CutOffRule::none.
     double cut_off_frequency() const;

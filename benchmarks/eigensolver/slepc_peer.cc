@@ -45,19 +45,17 @@ namespace
 
   Mat to_petsc(const Csr &m)
   {
-    Mat A;
-    MatCreate(PETSC_COMM_WORLD, &A);
-    MatSetSizes(A, PETSC_DECIDE, PETSC_DECIDE, m.n, m.n);
-    MatSetType(A, MATAIJ);
-    PetscLayoutSetUp(A->rmap);
-    PetscInt first, last;
-    MatGetOwnershipRange(A, &first, &last);
-    std::vector<PetscInt> diagonal(last - first), off_diagonal(last - first);
+    // Contiguous blocks of rows, as PETSc would split them; exact preallocation.
+    PetscInt local = PETSC_DECIDE, global = m.n, last = 0;
+    PetscSplitOwnership(PETSC_COMM_WORLD, &local, &global);
+    MPI_Scan(&local, &last, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD);
+    const PetscInt first = last - local;
+    std::vector<PetscInt> diagonal(local), off_diagonal(local);
     for (PetscInt row = first; row < last; ++row)
       for (auto k = m.row_start[row]; k < m.row_start[row + 1]; ++k)
         (m.columns[k] >= first && m.columns[k] < last ? diagonal : off_diagonal)[row - first]++;
-    MatSeqAIJSetPreallocation(A, 0, diagonal.data());
-    MatMPIAIJSetPreallocation(A, 0, diagonal.data(), 0, off_diagonal.data());
+    Mat A;
+    MatCreateAIJ(PETSC_COMM_WORLD, local, local, m.n, m.n, 0, diagonal.data(), 0, off_diagonal.data(), &A);
     std::vector<PetscInt> columns;
     for (PetscInt row = first; row < last; ++row)
       {
@@ -123,8 +121,10 @@ int main(int argc, char **argv)
       EPSGetEigenvalue(eps, 0, &first, nullptr);
       EPSGetEigenvalue(eps, std::min(converged, nev) - 1, &last, nullptr);
     }
+  PetscInt n, unused;
+  MatGetSize(K, &n, &unused);
   PetscPrintf(PETSC_COMM_WORLD, "slepc ranks=%d n=%d nev=%d converged=%d seconds=%.3f lambda_first=%.12e lambda_last=%.12e\n",
-              ranks, int(K->rmap->N), int(nev), int(converged), seconds, double(first), double(last));
+              ranks, int(n), int(nev), int(converged), seconds, double(first), double(last));
   EPSDestroy(&eps);
   MatDestroy(&K);
   MatDestroy(&M);
