@@ -19,7 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 NEV = 50
 
 
-def scene(fine_size, operator):
+def scene(fine_size, operator, eigensolver):
     return f"""
 subsection Scene
   set Name = facts_plate
@@ -43,6 +43,7 @@ subsection Modes
   set Minimum number of modes = {NEV}
   set Cut-off rule = none
   set Operator = {operator}
+  set Eigensolver = {eigensolver}
 end
 subsection Contact
   set Maximum candidates = 1
@@ -56,10 +57,10 @@ end
 """
 
 
-def run_ours(build, folder, fine_size, operator):
+def run_ours(build, folder, fine_size, operator, eigensolver):
     os.makedirs(folder, exist_ok=True)
-    prm = os.path.join(folder, f"facts_plate_{operator}.prm")
-    open(prm, "w").write(scene(fine_size, operator))
+    prm = os.path.join(folder, f"facts_plate_{operator}_{eigensolver}.prm")
+    open(prm, "w").write(scene(fine_size, operator, eigensolver))
     subprocess.run([os.path.join(build, "bin", "modal-precompute"), prm, "--output-dir", folder, "--quiet"], check=True)
     report = json.load(open(os.path.join(folder, "report.json")))
     rib = [s for s in report["spaces"] if s["name"] == "rib"][0]
@@ -99,12 +100,17 @@ def main():
     sizes = [float(s) for s in args.sizes.split(",")]
     for size_index, fine in enumerate(sizes):
         folder = os.path.join(args.work, f"fine_{fine}")
-        ours = run_ours(args.build, folder, fine, "cholmod")
+        ours = run_ours(args.build, folder, fine, "cholmod", "block-krylov")
         n = ours["n"]
         print(f"[{fine} mm, {n} DoFs] ours: {ours['seconds']:.1f} s ({ours['phases']})", flush=True)
-        rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ours: ARPACK + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
+        rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ours: block Krylov + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
                          ranks=1, seconds=ours["seconds"], lambda_first=ours["lambda_first"],
                          lambda_last=ours["lambda_last"], phases=ours["phases"]))
+        arpack = run_ours(args.build, folder, fine, "cholmod", "arpack")
+        print(f"  ARPACK + CHOLMOD: {arpack['seconds']:.1f} s ({arpack['phases']})", flush=True)
+        rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ARPACK + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
+                         ranks=1, seconds=arpack["seconds"], lambda_first=arpack["lambda_first"],
+                         lambda_last=arpack["lambda_last"], phases=arpack["phases"]))
         K, M = os.path.join(folder, "rib_K.csr"), os.path.join(folder, "rib_M.csr")
         slow_ok = not args.skip_slow or size_index == 0
         for ranks in [1, 2]:
@@ -113,7 +119,7 @@ def main():
             rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
                              ranks=ranks, seconds=p["seconds"], lambda_first=p["lambda_first"], lambda_last=p["lambda_last"], phases=""))
         if slow_ok:
-            umf = run_ours(args.build, folder, fine, "umfpack")
+            umf = run_ours(args.build, folder, fine, "umfpack", "arpack")
             print(f"  ARPACK + UMFPACK: {umf['seconds']:.1f} s", flush=True)
             rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ARPACK + deal.II SparseDirectUMFPACK (OpenBLAS)", ranks=1,
                              seconds=umf["seconds"], lambda_first=umf["lambda_first"], lambda_last=umf["lambda_last"],

@@ -1,0 +1,317 @@
+// bench-kernel-tick: cost of one haptic tick and of one display reconstruction.
+//
+// Part 1 (CSV "tick"): per-tick latency percentiles over N ticks (default 10^6) for r in
+// {20, 50, 200, 1000}, 1 to 4 HIPs held in contact at candidate vertices, with and without the
+// static correction, for the admittance and the impedance step; a "hover" row where the HIPs hover
+// just above the surface, so that every tick runs the snap search; and a "landing" row timing only
+// the ticks where a contact starts and the modal space switches (row build, transfer, coupling).
+// Part 2 (CSV "display"): time to reconstruct the whole display surface u = Phi q from a snapshot,
+// against a plain memcpy of the same DISPLAY_MODES bytes measured in the same run.
+//
+// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...]
+// The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space).
+#include "synthetic_scene.h"
+
+#include <modalrt/modalrt.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace
+{
+  using Clock = std::chrono::steady_clock;
+
+  struct Options
+  {
+    long                       ticks              = 1000000;
+    std::uint32_t              vertices_per_side  = 64;
+    std::vector<std::uint32_t> modes              = {20, 50, 200, 1000};
+  };
+
+  struct Percentiles
+  {
+    double p50, p99, p999, max, mean;
+  };
+
+  Percentiles percentiles(std::vector<std::uint32_t> &ns)
+  {
+    Percentiles p{};
+    double      sum = 0.0;
+    for (std::uint32_t x : ns)
+      sum += x;
+    p.mean   = sum / double(ns.size());
+    auto at  = [&](double fraction) {
+      const std::size_t k = std::min(ns.size() - 1, std::size_t(fraction * double(ns.size())));
+      std::nth_element(ns.begin(), ns.begin() + long(k), ns.end());
+      return double(ns[k]);
+    };
+    p.p50  = at(0.5);
+    p.p99  = at(0.99);
+    p.p999 = at(0.999);
+    p.max  = double(*std::max_element(ns.begin(), ns.end()));
+    return p;
+  }
+
+  modalrt_basis *make_basis(const Options &o, std::uint32_t r)
+  {
+    modalrt::PlateOptions plate;
+    plate.nx = plate.ny  = o.vertices_per_side;
+    plate.modes          = r;
+    plate.float64_modes  = false;
+    plate.patch_radius   = 2.5 * plate.length / (plate.nx - 1); // about 20 vertices per patch
+    const auto     bytes = modalrt::write_basis(modalrt::make_analytic_plate(plate));
+    modalrt_basis *basis = nullptr;
+    if (modalrt_basis_load_memory(bytes.data(), bytes.size(), &basis) != MODALRT_OK)
+      {
+        std::fprintf(stderr, "bench-kernel-tick: %s\n", modalrt_last_error_message());
+        std::exit(1);
+      }
+    return basis;
+  }
+
+  enum class Scenario
+  {
+    admittance,
+    impedance,
+    hover,
+    landing
+  };
+
+  const char *name(Scenario s)
+  {
+    switch (s)
+      {
+        case Scenario::admittance: return "admittance";
+        case Scenario::impedance: return "impedance";
+        case Scenario::hover: return "hover";
+        default: return "landing";
+      }
+  }
+
+  // Contact starts: one HIP lands every 20 ticks, alternately in the global region and in the VOI of
+  // space 1, so that every landing snaps, builds its row, switches space (transfer r x r) and
+  // rebuilds the coupling. Only the landing ticks are timed.
+  Percentiles run_landings(const modalrt_basis *basis, const Options &o, bool corrected, std::vector<std::uint32_t> &ns)
+  {
+    modalrt_kernel_def def    = modalrt_kernel_default_def();
+    def.hip_capacity          = 1;
+    def.use_static_correction = corrected ? 1 : 0;
+    modalrt_kernel *k         = nullptr;
+    modalrt_kernel_create(basis, &def, &k);
+    const double   *x        = modalrt_basis_display_vertices(basis);
+    const uint32_t *regions  = modalrt_basis_display_regions(basis);
+    // Landing sites: candidates of each space inside that space's region.
+    std::vector<std::uint32_t> sites[2];
+    for (std::uint32_t s = 0; s < 2; ++s)
+      {
+        modalrt_space_info info;
+        modalrt_basis_get_space_info(basis, s, &info);
+        const uint32_t *candidates = modalrt_basis_candidates(basis, s);
+        for (std::uint32_t c = 0; c < info.candidate_count; ++c)
+          if (regions[candidates[c]] == s)
+            sites[s].push_back(candidates[c]);
+      }
+    modalrt_hip_input  in{};
+    modalrt_hip_output out;
+    const long landings = std::max(1000L, o.ticks / 20);
+    ns.resize(std::size_t(landings));
+    long recorded = 0;
+    for (long n = 0; recorded < landings; ++n)
+      {
+        const long     cycle = n / 20, phase = n % 20;
+        const auto         &site = sites[cycle % 2];
+        const std::uint32_t v    = site[std::size_t(cycle / 2) % site.size()];
+        std::memcpy(in.position, x + 3 * v, sizeof in.position);
+        in.position[2] += phase < 10 ? -0.0005 : 0.004;
+        in.force[2]     = phase < 10 ? -0.5 : 0.5;
+        const auto start = Clock::now();
+        modalrt_kernel_tick_impedance(k, &in, 1, &out);
+        const auto stop = Clock::now();
+        if (phase == 0 && n >= 200)
+          ns[std::size_t(recorded++)] =
+            std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+      }
+    modalrt_kernel_stats stats;
+    modalrt_kernel_get_stats(k, &stats);
+    if (stats.switch_count < std::uint64_t(landings))
+      std::fprintf(stderr, "bench-kernel-tick: only %llu switches for %ld landings\n",
+                   (unsigned long long)stats.switch_count, landings);
+    modalrt_kernel_destroy(k);
+    return percentiles(ns);
+  }
+
+  // HIPs at candidate vertices of the global space, pressing with slowly varying inputs.
+  Percentiles run(const modalrt_basis *basis, const Options &o, Scenario scenario, std::uint32_t hips, bool corrected,
+                  std::vector<std::uint32_t> &ns)
+  {
+    modalrt_kernel_def def    = modalrt_kernel_default_def();
+    def.hip_capacity          = hips;
+    def.use_static_correction = corrected ? 1 : 0;
+    def.switch_rule           = MODALRT_SWITCH_NEVER;
+    def.auto_release          = 0;
+    modalrt_kernel *k         = nullptr;
+    if (modalrt_kernel_create(basis, &def, &k) != MODALRT_OK)
+      {
+        std::fprintf(stderr, "bench-kernel-tick: %s\n", modalrt_last_error_message());
+        std::exit(1);
+      }
+    const double   *x          = modalrt_basis_display_vertices(basis);
+    const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
+    modalrt_hip_input  in[4];
+    modalrt_hip_output out[4];
+    std::memset(in, 0, sizeof in);
+    for (std::uint32_t h = 0; h < hips; ++h)
+      {
+        const std::uint32_t v = candidates[3 + 7 * h];
+        std::memcpy(in[h].position, x + 3 * v, sizeof in[h].position);
+        in[h].position[2] += scenario == Scenario::hover ? 0.002 : -0.001;
+        if (scenario != Scenario::hover)
+          modalrt_kernel_contact_begin(k, h, v);
+      }
+    const long warmup = 10000;
+    ns.resize(std::size_t(o.ticks));
+    for (long n = -warmup; n < o.ticks; ++n)
+      {
+        const double t = 1e-3 * double(n);
+        for (std::uint32_t h = 0; h < hips; ++h)
+          {
+            in[h].force[2]    = -0.5 - 0.3 * std::sin(3.0 * t + h);
+            in[h].velocity[2] = 1e-4 * std::cos(5.0 * t);
+          }
+        const auto start = Clock::now();
+        if (scenario == Scenario::admittance)
+          modalrt_kernel_tick_admittance(k, in, hips, out);
+        else
+          modalrt_kernel_tick_impedance(k, in, hips, out);
+        const auto stop = Clock::now();
+        if (n >= 0)
+          ns[std::size_t(n)] = std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+      }
+    modalrt_kernel_destroy(k);
+    return percentiles(ns);
+  }
+
+  // Median over repetitions of `body`, in seconds.
+  template <typename Body>
+  double median_seconds(int repetitions, Body &&body)
+  {
+    std::vector<double> s;
+    for (int k = 0; k < repetitions; ++k)
+      {
+        const auto start = Clock::now();
+        body();
+        s.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+      }
+    std::nth_element(s.begin(), s.begin() + long(s.size() / 2), s.end());
+    return s[s.size() / 2];
+  }
+
+  void display(const modalrt_basis *basis, std::uint32_t r)
+  {
+    modalrt_kernel_def def = modalrt_kernel_default_def();
+    modalrt_kernel    *k   = nullptr;
+    modalrt_kernel_create(basis, &def, &k);
+    const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
+    modalrt_kernel_contact_begin(k, 0, candidates[5]);
+    modalrt_hip_input in{};
+    std::memcpy(in.position, modalrt_basis_display_vertices(basis) + 3 * candidates[5], sizeof in.position);
+    in.force[2] = -1.0;
+    modalrt_hip_output out;
+    for (int n = 0; n < 100; ++n)
+      modalrt_kernel_tick_admittance(k, &in, 1, &out);
+    modalrt_snapshot *snapshot = nullptr;
+    modalrt_snapshot_create(k, &snapshot);
+    modalrt_kernel_snapshot_read(k, snapshot);
+
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    const std::uint32_t nv    = info.display_vertex_count;
+    const std::size_t   bytes = std::size_t(3) * nv * r * info.mode_scalar_bytes;
+    std::vector<float>  positions(3 * std::size_t(nv));
+    std::vector<unsigned char> source(bytes, 1), target(bytes, 0);
+    const int repetitions = bytes > (64u << 20) ? 9 : 25;
+    const double reconstruct = median_seconds(repetitions, [&] {
+      modalrt_display_reconstruct(snapshot, 0, nv, MODALRT_DISPLAY_POSITIONS, positions.data());
+    });
+    const double copy = median_seconds(repetitions, [&] {
+      std::memcpy(target.data(), source.data(), bytes);
+      source[bytes / 2] ^= target[bytes / 3]; // keep the copy from being optimized away
+    });
+    std::printf("display,%u,%u,%zu,%.4f,%.4f,%.2f,%.2f,%.3f\n", r, nv, bytes, 1e3 * reconstruct, 1e3 * copy,
+                double(bytes) / reconstruct * 1e-9, double(bytes) / copy * 1e-9, copy / reconstruct);
+    modalrt_snapshot_destroy(snapshot);
+    modalrt_kernel_destroy(k);
+  }
+
+  Options parse(int argc, char **argv)
+  {
+    Options o;
+    for (int k = 1; k < argc; ++k)
+      {
+        const std::string arg = argv[k];
+        if (arg == "--ticks" && k + 1 < argc)
+          o.ticks = std::atol(argv[++k]);
+        else if (arg == "--vertices-per-side" && k + 1 < argc)
+          o.vertices_per_side = std::uint32_t(std::atol(argv[++k]));
+        else if (arg == "--modes" && k + 1 < argc)
+          {
+            o.modes.clear();
+            for (char *p = argv[++k]; *p;)
+              {
+                o.modes.push_back(std::uint32_t(std::strtoul(p, &p, 10)));
+                if (*p == ',')
+                  ++p;
+              }
+          }
+        else
+          {
+            std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...]\n");
+            std::exit(2);
+          }
+      }
+    return o;
+  }
+} // namespace
+
+int main(int argc, char **argv)
+{
+  const Options o = parse(argc, argv);
+  std::printf("# bench-kernel-tick: %ld ticks per row, display surface %u x %u vertices, float32 modes\n", o.ticks,
+              o.vertices_per_side, o.vertices_per_side);
+  std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns\n");
+  std::vector<std::uint32_t> ns;
+  std::vector<modalrt_basis *> bases;
+  for (std::uint32_t r : o.modes)
+    {
+      modalrt_basis *basis = make_basis(o, r);
+      bases.push_back(basis);
+      for (Scenario scenario : {Scenario::admittance, Scenario::impedance, Scenario::hover})
+        for (std::uint32_t hips = 1; hips <= 4; ++hips)
+          for (bool corrected : {false, true})
+            {
+              if (scenario == Scenario::hover && !corrected)
+                continue; // no contact: the correction plays no part
+              const Percentiles p = run(basis, o, scenario, hips, corrected, ns);
+              std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(scenario), r, hips, corrected ? 1 : 0,
+                          p.p50, p.p99, p.p999, p.max, p.mean);
+              std::fflush(stdout);
+            }
+      const Percentiles p = run_landings(basis, o, true, ns);
+      std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(Scenario::landing), r, 1u, 1, p.p50, p.p99, p.p999,
+                  p.max, p.mean);
+      std::fflush(stdout);
+    }
+  std::printf("kind,r,vertices,mode_bytes,reconstruct_ms,memcpy_ms,reconstruct_GBps,memcpy_GBps,memcpy_time_over_reconstruct_time\n");
+  for (std::size_t k = 0; k < o.modes.size(); ++k)
+    {
+      display(bases[k], o.modes[k]);
+      modalrt_basis_destroy(bases[k]);
+    }
+  return 0;
+}
