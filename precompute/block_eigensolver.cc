@@ -146,14 +146,19 @@ namespace modal_haptics
       int append_block(double *X, const int count, const int size)
       {
         std::vector<double> C(std::size_t(std::max(size, 1)) * count), MX(std::size_t(n) * count), G(count * count);
+        // Two passes of classical Gram-Schmidt and Cholesky QR; M X is computed once and then
+        // updated with the same dense operations as X (M V is stored for that).
         for (int pass = 0; pass < 2; ++pass)
           {
             if (size > 0)
               {
                 gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C.data(), size);
                 gemm('N', 'N', n, count, size, -1., V.data(), n, C.data(), size, 1., X, n);
+                if (pass > 0)
+                  gemm('N', 'N', n, count, size, -1., MV.data(), n, C.data(), size, 1., MX.data(), n);
               }
-            multiply_by_mass(X, MX.data(), count);
+            if (pass == 0)
+              multiply_by_mass(X, MX.data(), count);
             // Cholesky QR in the M inner product: X^T M X = R^T R, X <- X R^-1.
             gemm('T', 'N', count, count, n, 1., X, n, MX.data(), n, 0., G.data(), count);
             int info = 0;
