@@ -8,8 +8,9 @@
 // Part 2 (CSV "display"): time to reconstruct the whole display surface u = Phi q from a snapshot,
 // against a plain memcpy of the same DISPLAY_MODES bytes measured in the same run.
 //
-// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...]
-// The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space).
+// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
+// The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
+// the given .mrt file (its space 0 and, for the landing row, space 1).
 #include "synthetic_scene.h"
 
 #include <modalrt/modalrt.h>
@@ -32,6 +33,7 @@ namespace
     long                       ticks              = 1000000;
     std::uint32_t              vertices_per_side  = 64;
     std::vector<std::uint32_t> modes              = {20, 50, 200, 1000};
+    std::string                basis_file;
   };
 
   struct Percentiles
@@ -56,6 +58,17 @@ namespace
     p.p999 = at(0.999);
     p.max  = double(*std::max_element(ns.begin(), ns.end()));
     return p;
+  }
+
+  modalrt_basis *load_basis_file(const std::string &path)
+  {
+    modalrt_basis *basis = nullptr;
+    if (modalrt_basis_load(path.c_str(), &basis) != MODALRT_OK)
+      {
+        std::fprintf(stderr, "bench-kernel-tick: %s\n", modalrt_last_error_message());
+        std::exit(1);
+      }
+    return basis;
   }
 
   modalrt_basis *make_basis(const Options &o, std::uint32_t r)
@@ -105,6 +118,7 @@ namespace
     modalrt_kernel *k         = nullptr;
     modalrt_kernel_create(basis, &def, &k);
     const double   *x        = modalrt_basis_display_vertices(basis);
+    const double   *normals  = modalrt_basis_display_normals(basis);
     const uint32_t *regions  = modalrt_basis_display_regions(basis);
     // Landing sites: candidates of each space inside that space's region.
     std::vector<std::uint32_t> sites[2];
@@ -127,9 +141,13 @@ namespace
         const long     cycle = n / 20, phase = n % 20;
         const auto         &site = sites[cycle % 2];
         const std::uint32_t v    = site[std::size_t(cycle / 2) % site.size()];
-        std::memcpy(in.position, x + 3 * v, sizeof in.position);
-        in.position[2] += phase < 10 ? -0.0005 : 0.004;
-        in.force[2]     = phase < 10 ? -0.5 : 0.5;
+        // Pressed 0.5 mm in along the vertex normal, then lifted 4 mm out.
+        const double depth = phase < 10 ? -0.0005 : 0.004;
+        for (int d = 0; d < 3; ++d)
+          {
+            in.position[d] = x[3 * v + d] + depth * normals[3 * v + d];
+            in.force[d]    = (phase < 10 ? -0.5 : 0.5) * normals[3 * v + d];
+          }
         const auto start = Clock::now();
         modalrt_kernel_tick_impedance(k, &in, 1, &out);
         const auto stop = Clock::now();
@@ -162,6 +180,7 @@ namespace
         std::exit(1);
       }
     const double   *x          = modalrt_basis_display_vertices(basis);
+    const double   *normals    = modalrt_basis_display_normals(basis);
     const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
     modalrt_hip_input  in[4];
     modalrt_hip_output out[4];
@@ -169,8 +188,8 @@ namespace
     for (std::uint32_t h = 0; h < hips; ++h)
       {
         const std::uint32_t v = candidates[3 + 7 * h];
-        std::memcpy(in[h].position, x + 3 * v, sizeof in[h].position);
-        in[h].position[2] += scenario == Scenario::hover ? 0.002 : -0.001;
+        for (int d = 0; d < 3; ++d) // 1 mm in along the normal, or hovering 2 mm out
+          in[h].position[d] = x[3 * v + d] + (scenario == Scenario::hover ? 0.002 : -0.001) * normals[3 * v + d];
         if (scenario != Scenario::hover)
           modalrt_kernel_contact_begin(k, h, v);
       }
@@ -181,8 +200,12 @@ namespace
         const double t = 1e-3 * double(n);
         for (std::uint32_t h = 0; h < hips; ++h)
           {
-            in[h].force[2]    = -0.5 - 0.3 * std::sin(3.0 * t + h);
-            in[h].velocity[2] = 1e-4 * std::cos(5.0 * t);
+            const double *n = normals + 3 * candidates[3 + 7 * h];
+            for (int d = 0; d < 3; ++d)
+              {
+                in[h].force[d]    = (-0.5 - 0.3 * std::sin(3.0 * t + h)) * n[d];
+                in[h].velocity[d] = 1e-4 * std::cos(5.0 * t) * n[d];
+              }
           }
         const auto start = Clock::now();
         if (scenario == Scenario::admittance)
@@ -259,6 +282,8 @@ namespace
           o.ticks = std::atol(argv[++k]);
         else if (arg == "--vertices-per-side" && k + 1 < argc)
           o.vertices_per_side = std::uint32_t(std::atol(argv[++k]));
+        else if (arg == "--basis" && k + 1 < argc)
+          o.basis_file = argv[++k];
         else if (arg == "--modes" && k + 1 < argc)
           {
             o.modes.clear();
@@ -271,7 +296,8 @@ namespace
           }
         else
           {
-            std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...]\n");
+            std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] "
+                                 "[--basis FILE]\n");
             std::exit(2);
           }
       }
@@ -281,15 +307,25 @@ namespace
 
 int main(int argc, char **argv)
 {
-  const Options o = parse(argc, argv);
-  std::printf("# bench-kernel-tick: %ld ticks per row, display surface %u x %u vertices, float32 modes\n", o.ticks,
-              o.vertices_per_side, o.vertices_per_side);
+  Options o = parse(argc, argv);
+  if (o.basis_file.empty())
+    std::printf("# bench-kernel-tick: %ld ticks per row, display surface %u x %u vertices, float32 modes\n", o.ticks,
+                o.vertices_per_side, o.vertices_per_side);
+  else
+    {
+      modalrt_basis *probe = load_basis_file(o.basis_file);
+      modalrt_space_info info;
+      modalrt_basis_get_space_info(probe, 0, &info);
+      o.modes = {info.mode_count};
+      modalrt_basis_destroy(probe);
+      std::printf("# bench-kernel-tick: %ld ticks per row, basis %s\n", o.ticks, o.basis_file.c_str());
+    }
   std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns\n");
   std::vector<std::uint32_t> ns;
   std::vector<modalrt_basis *> bases;
   for (std::uint32_t r : o.modes)
     {
-      modalrt_basis *basis = make_basis(o, r);
+      modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
       bases.push_back(basis);
       for (Scenario scenario : {Scenario::admittance, Scenario::impedance, Scenario::hover})
         for (std::uint32_t hips = 1; hips <= 4; ++hips)

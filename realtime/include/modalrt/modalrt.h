@@ -1,0 +1,440 @@
+/*
+ * modalrt: the real-time kernel of modal-haptics.
+ *
+ * Loads a `.mrt` basis file (docs/basis-format.md) and runs the haptic loop on it: each tick turns
+ * device inputs at the HIPs (haptic interaction points) into the part's response, by the exact
+ * zero-order-hold integration of its modal spaces. A display thread reconstructs the whole display
+ * surface from a snapshot of the modal state that the tick publishes without locks.
+ *
+ * Objects and threads
+ *   modalrt_basis    immutable after load; may be shared by any number of kernels and threads.
+ *   modalrt_kernel   owned by one tick thread (the haptic loop). Every call on it comes from that
+ *                    thread, except modalrt_kernel_snapshot_read, which one display thread may call
+ *                    concurrently with the ticks (it never blocks them).
+ *   modalrt_snapshot owned by the display thread.
+ *
+ * Guarantees of a tick (modalrt_kernel_tick_admittance / _impedance): no allocation, no lock, no
+ * I/O, no exception, bounded work (capacities are fixed by modalrt_kernel_create). Every device input
+ * is checked; a tick with a non-finite or absurd input is rejected as a whole: the state does not
+ * move, the outputs are the last safe ones (before any accepted tick: zero force, not in contact),
+ * the call returns MODALRT_INPUT_REJECTED and a counter (modalrt_kernel_stats.rejected_ticks) says
+ * how many were rejected.
+ *
+ * Frames: the part's body frame is the frame of the basis file. It may move in the world
+ * (modalrt_kernel_set_frame); all tick inputs and outputs are in world coordinates.
+ *
+ * Contact (snap and release rules)
+ *   - A HIP that is not in contact looks for the closest vertex of the deformed display surface
+ *     within snap_distance of it (a uniform grid over the rest positions finds the candidates; at
+ *     most snap_candidate_budget of them, the nearest at rest, are evaluated deformed). It snaps to
+ *     that vertex, its active vertex, when its signed distance along the vertex's outward normal
+ *     (rest normal, area-weighted) is <= contact_tolerance, i.e. when it touches or is inside.
+ *   - The contact is anchored at the active vertex plus the HIP's tangential offset from it at
+ *     contact start (zero for modalrt_kernel_contact_begin): a HIP landing between vertices feels
+ *     no lateral jerk, and an admittance device is not pulled sideways onto the vertex.
+ *   - Release, impedance tick: when the HIP is pulled out of the surface, i.e. its signed distance
+ *     from the deformed active vertex along the outward normal exceeds release_distance.
+ *   - Release, admittance tick: when the force the user applies pulls outward, i.e. its component
+ *     along the outward normal exceeds release_force (a contact can push, not pull).
+ *   - modalrt_kernel_release_hip releases at once; with auto_release = 0 it is the only release.
+ *   - After any release a HIP snaps again only once it has been seen farther than release_distance
+ *     outside the surface (or beyond snap_distance from it): no chattering at the surface.
+ *   - Switch: at a contact start the active modal space becomes the one whose VOI holds every active
+ *     vertex (DISPLAY_REGION), else the global space 0. The state is carried across with the
+ *     TRANSFER matrix (q_new = T q_old, same for the velocities); without one it restarts at rest.
+ *
+ * Units are SI everywhere: m, N, kg, s, rad. Every struct field names its unit.
+ */
+#ifndef MODALRT_MODALRT_H
+#define MODALRT_MODALRT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(_WIN32) && defined(MODALRT_SHARED)
+#  if defined(MODALRT_BUILDING)
+#    define MODALRT_API __declspec(dllexport)
+#  else
+#    define MODALRT_API __declspec(dllimport)
+#  endif
+#elif defined(__GNUC__) && defined(MODALRT_BUILDING)
+#  define MODALRT_API __attribute__((visibility("default")))
+#else
+#  define MODALRT_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MODALRT_VERSION_MAJOR 1
+#define MODALRT_VERSION_MINOR 0
+
+/* Highest major and minor version of the .mrt format this library reads. */
+#define MODALRT_BASIS_FORMAT_MAJOR 1
+#define MODALRT_BASIS_FORMAT_MINOR 0
+
+/* Marks "no vertex" / "no space" in outputs. */
+#define MODALRT_NONE 0xFFFFFFFFu
+
+/* ------------------------------------------------------------------------------------------------
+ * Status codes: 0 is success, a positive code is a warning whose outputs are valid, a negative code
+ * is an error. After an error from a non-tick call, modalrt_last_error_message() tells what failed.
+ * --------------------------------------------------------------------------------------------- */
+enum
+{
+  MODALRT_OK                     = 0,
+  MODALRT_INPUT_REJECTED         = 1,  /* tick: an input was rejected, outputs are the last safe ones */
+  MODALRT_ERROR_INVALID_ARGUMENT = -1, /* null pointer, index out of range, bad definition field */
+  MODALRT_ERROR_IO               = -2, /* the file could not be opened or read */
+  MODALRT_ERROR_FORMAT           = -3, /* magic, version, sizes, layout or indices of a basis file */
+  MODALRT_ERROR_CHECKSUM         = -4, /* a CRC-32 of a basis file does not match */
+  MODALRT_ERROR_VALUE            = -5, /* a number is not finite or out of its range */
+  MODALRT_ERROR_OUT_OF_MEMORY    = -6,
+  MODALRT_ERROR_DEVICE_LIMIT     = -7, /* the virtual coupling breaks the device spec or passivity */
+  MODALRT_ERROR_STATE            = -8, /* the call is not allowed in the current state */
+  MODALRT_ERROR_VERIFY_FAILED    = -9  /* the self-check exceeded its tolerance */
+};
+
+/* Why inputs were rejected (bits of modalrt_kernel_stats.last_reject_reasons). */
+enum
+{
+  MODALRT_REJECT_NOT_FINITE     = 1u << 0, /* NaN or infinity */
+  MODALRT_REJECT_FORCE          = 1u << 1, /* |force| > max_input_force */
+  MODALRT_REJECT_POSITION       = 1u << 2, /* |position| > workspace_radius */
+  MODALRT_REJECT_VELOCITY       = 1u << 3, /* |velocity| > max_input_velocity */
+  MODALRT_REJECT_FRAME          = 1u << 4, /* the frame state is not finite or absurd */
+  MODALRT_REJECT_HIP_COUNT      = 1u << 5  /* more HIPs than the kernel's capacity */
+};
+
+/* Message of the last failed non-tick call in this thread ("" if none). Never NULL. */
+MODALRT_API const char *modalrt_last_error_message(void);
+
+/* Constant name of a status code ("MODALRT_ERROR_CHECKSUM", ...). */
+MODALRT_API const char *modalrt_status_name(int status);
+
+/* Library version, MODALRT_VERSION_MAJOR * 1000 + MODALRT_VERSION_MINOR. */
+MODALRT_API uint32_t modalrt_version(void);
+
+/* Sets flush-to-zero and denormals-are-zero in the calling thread on x86 (SSE MXCSR); no effect
+ * elsewhere. Optional: the integrator already flushes decaying states explicitly, so denormals
+ * never reach it; call it in the tick thread to cover the application's own arithmetic too.
+ * Returns 1 when the flags were set, 0 on platforms without them. */
+MODALRT_API int modalrt_thread_enable_flush_to_zero(void);
+
+/* ------------------------------------------------------------------------------------------------
+ * Basis: one loaded .mrt file
+ * --------------------------------------------------------------------------------------------- */
+typedef struct modalrt_basis modalrt_basis;
+
+/* Reads and checks a .mrt file: magic, version, sizes, every CRC-32, finite numbers, index ranges,
+ * patch weights summing to 1. On failure *basis is NULL and the message names the file and the
+ * section. */
+MODALRT_API int  modalrt_basis_load(const char *path, modalrt_basis **basis);
+/* Same from bytes in memory (copied; `bytes` may be freed after the call). */
+MODALRT_API int  modalrt_basis_load_memory(const void *bytes, size_t size, modalrt_basis **basis);
+MODALRT_API void modalrt_basis_destroy(modalrt_basis *basis);
+
+typedef struct modalrt_basis_info
+{
+  uint32_t version_major;          /* [-] format version of the file */
+  uint32_t version_minor;          /* [-] */
+  uint64_t file_bytes;             /* [bytes] */
+  uint32_t section_count;          /* [-] entries in the section table */
+  uint32_t space_count;            /* [-] modal spaces, space 0 is the global space */
+  uint32_t display_vertex_count;   /* [-] */
+  uint32_t display_triangle_count; /* [-] */
+  uint32_t max_modes;              /* [-] max over spaces of r */
+  uint32_t max_patch_size;         /* [-] max display vertices in one contact patch */
+  uint32_t mode_scalar_bytes;      /* [bytes] 4: float32 display modes, 8: float64 */
+  uint32_t reserved;               /* 0 */
+  double   patch_radius;           /* [m] contact patch radius rho */
+  double   mass;                   /* [kg] */
+  double   centre_of_mass[3];      /* [m] body frame */
+  double   inertia[9];             /* [kg m^2] about the centre of mass, row-major */
+  double   bounds_min[3];          /* [m] bounding box of the display vertices at rest */
+  double   bounds_max[3];          /* [m] */
+} modalrt_basis_info;
+
+MODALRT_API int modalrt_basis_get_info(const modalrt_basis *basis, modalrt_basis_info *info);
+
+typedef struct modalrt_space_info
+{
+  char     name[64];          /* UTF-8, NUL-terminated (truncated if longer) */
+  uint32_t mode_count;        /* [-] r */
+  uint32_t candidate_count;   /* [-] contact candidates with a stored static correction */
+  uint32_t validation_count;  /* [-] full-FE validation cases */
+  uint32_t cross_count;       /* [-] candidates covered by the cross compliance (0 or candidate_count) */
+  uint32_t has_participation; /* 1 if PARTICIPATION is stored (frame acceleration drives the modes) */
+  uint32_t reserved;          /* 0 */
+  double   lowest_frequency;  /* [Hz] */
+  double   highest_frequency; /* [Hz] */
+} modalrt_space_info;
+
+MODALRT_API int modalrt_basis_get_space_info(const modalrt_basis *basis, uint32_t space, modalrt_space_info *info);
+
+/* Arrays owned by the basis, valid until modalrt_basis_destroy; NULL if out of range. */
+MODALRT_API const double   *modalrt_basis_eigenvalues(const modalrt_basis *basis, uint32_t space);     /* r [rad^2/s^2] */
+MODALRT_API const double   *modalrt_basis_damping_ratios(const modalrt_basis *basis, uint32_t space);  /* r [-] */
+MODALRT_API const uint32_t *modalrt_basis_candidates(const modalrt_basis *basis, uint32_t space);      /* nc vertices */
+MODALRT_API const double   *modalrt_basis_display_vertices(const modalrt_basis *basis);  /* 3 nv [m] rest, body frame */
+MODALRT_API const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis); /* 3 nt vertex indices */
+MODALRT_API const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis);   /* nv space per vertex */
+MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *basis);   /* 3 nv unit outward [-] */
+/* 1 if the file holds TRANSFER from space `from` into space `to`, else 0. */
+MODALRT_API int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from);
+
+typedef struct modalrt_section_info
+{
+  char     name[24];     /* "DISPLAY_MODES", ..., "UNKNOWN" for kinds of a newer minor version */
+  uint32_t kind;         /* [-] section kind of the format */
+  uint32_t space;        /* [-] MODALRT_NONE for scene-wide sections */
+  uint32_t source_space; /* [-] TRANSFER: the space the state comes from; else MODALRT_NONE */
+  uint32_t scalar_type;  /* [-] 1 u32, 2 f32, 3 f64, 4 u8 */
+  uint32_t reserved;     /* 0 */
+  uint64_t offset;       /* [bytes] from the start of the file */
+  uint64_t count;        /* [-] scalars */
+  uint64_t bytes;        /* [bytes] */
+} modalrt_section_info;
+
+MODALRT_API int modalrt_basis_get_section(const modalrt_basis *basis, uint32_t index, modalrt_section_info *info);
+
+/* ------------------------------------------------------------------------------------------------
+ * Self-check: the stored full-FE validation cases against the kernel's static response
+ * --------------------------------------------------------------------------------------------- */
+typedef struct modalrt_verify_case
+{
+  uint32_t space;          /* [-] */
+  uint32_t vertex;         /* [-] display vertex of the unit force */
+  uint32_t direction;      /* [-] 0, 1, 2 = x, y, z */
+  uint32_t is_candidate;   /* 1 if the vertex has a static correction in this space */
+  double   kernel[3];      /* [m/N] u_c the kernel settles to under a unit force */
+  double   reference[3];   /* [m/N] VALIDATION_RESPONSE (full static FE) */
+  double   relative_error; /* [-] |kernel - reference| / |reference| */
+} modalrt_verify_case;
+
+typedef struct modalrt_verify_report
+{
+  uint32_t case_count;         /* [-] over all spaces */
+  uint32_t worst_case;         /* [-] index (over all spaces, in file order) of the largest error */
+  double   max_relative_error; /* [-] */
+  double   tolerance;          /* [-] 1e-8 with float64 modes, 1e-5 with float32 */
+} modalrt_verify_report;
+
+/* Drives one kernel per space with each stored unit force (contact at the case's vertex, modal state
+ * settled to its exact static equilibrium, then one admittance tick) and compares u_c to the
+ * reference. `index` counts cases over all spaces in file order. */
+MODALRT_API int modalrt_basis_verify_case(const modalrt_basis *basis, uint32_t index, modalrt_verify_case *result);
+/* All cases; returns MODALRT_ERROR_VERIFY_FAILED if the max error exceeds the tolerance. */
+MODALRT_API int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *report);
+
+/* ------------------------------------------------------------------------------------------------
+ * Kernel definition
+ * --------------------------------------------------------------------------------------------- */
+
+/* What the device can render (after CHAI3D's cHapticDeviceInfo). */
+typedef struct modalrt_device_def
+{
+  double max_force;        /* [N] largest force the device renders; impedance outputs are clamped to it */
+  double max_stiffness;    /* [N/m] largest stiffness the device renders stably at the tick rate */
+  double max_damping;      /* [N s/m] largest damping the device renders stably */
+  double physical_damping; /* [N s/m] the device's own viscous damping b (0 if unknown) */
+} modalrt_device_def;
+
+MODALRT_API modalrt_device_def modalrt_device_default_def(void);
+
+enum
+{
+  MODALRT_SWITCH_AT_CONTACT_START = 0, /* change space when a contact starts (default) */
+  MODALRT_SWITCH_NEVER            = 1  /* stay in the space set by the application */
+};
+
+typedef struct modalrt_kernel_def
+{
+  double   time_step;             /* [s] tick period T, 1e-6 .. 1 */
+  uint32_t hip_capacity;          /* [-] HIPs the kernel handles, 1 .. 16 */
+  uint32_t initial_space;         /* [-] active space before any contact */
+  modalrt_device_def device;      /* the device's limits */
+  double   coupling_stiffness;    /* [N/m] impedance virtual coupling K, <= device.max_stiffness */
+  double   coupling_damping;      /* [N s/m] impedance virtual coupling D, <= device.max_damping */
+  double   snap_distance;         /* [m] a HIP snaps to a vertex only within this distance */
+  double   contact_tolerance;     /* [m] signed distance along the normal at or below which a HIP touches */
+  double   release_distance;      /* [m] impedance release and re-arm distance outside the surface */
+  double   release_force;         /* [N] admittance release: outward pulling force above this */
+  double   max_input_force;       /* [N] a larger input force is absurd: the tick is rejected */
+  double   workspace_radius;      /* [m] a HIP farther than this from the world origin is rejected */
+  double   max_input_velocity;    /* [m/s] a faster HIP is rejected */
+  double   max_frame_acceleration; /* [m/s^2, rad/s^2] a larger frame acceleration is rejected */
+  uint32_t snap_candidate_budget; /* [-] vertices evaluated deformed per snap query, 1 .. 256 */
+  uint32_t switch_rule;           /* MODALRT_SWITCH_AT_CONTACT_START or MODALRT_SWITCH_NEVER */
+  uint32_t carry_state_on_switch; /* 1: q_new = T q_old at a switch; 0: restart at rest */
+  uint32_t use_static_correction; /* 1: add the residual compliance C_v F at candidates */
+  uint32_t auto_release;          /* 1: apply the release rules; 0: only modalrt_kernel_release_hip */
+  uint32_t snapshot_interval;     /* [ticks] publish a display snapshot every this many ticks, >= 1 */
+  uint32_t enable_profile;        /* 1: time every tick (two clock reads) into modalrt_kernel_stats */
+  uint32_t reserved;              /* 0 */
+} modalrt_kernel_def;
+
+MODALRT_API modalrt_kernel_def modalrt_kernel_default_def(void);
+
+/* ------------------------------------------------------------------------------------------------
+ * Kernel: the haptic loop
+ * --------------------------------------------------------------------------------------------- */
+typedef struct modalrt_kernel modalrt_kernel;
+
+/* Allocates every buffer the ticks will need. Checks the coupling against the device: K <= max
+ * stiffness, D <= max damping, and the sampled-passivity condition K T / 2 < b + D (Colgate: the
+ * energy a zero-order-held spring can generate per tick must be dissipated by the device's damping b
+ * and the coupling damper, whose velocity is the device's measured one). The basis must outlive the
+ * kernel. */
+MODALRT_API int  modalrt_kernel_create(const modalrt_basis *basis, const modalrt_kernel_def *def, modalrt_kernel **kernel);
+MODALRT_API void modalrt_kernel_destroy(modalrt_kernel *kernel);
+
+/* Modal state to rest, every HIP released, active space = initial_space, counters kept. */
+MODALRT_API int modalrt_kernel_reset(modalrt_kernel *kernel);
+
+typedef struct modalrt_hip_input
+{
+  double position[3]; /* [m] world position of the HIP (the device's end effector) */
+  double velocity[3]; /* [m/s] world velocity of the HIP (measured by the device) */
+  double force[3];    /* [N] admittance: world force the user applies to the part; impedance: unused */
+} modalrt_hip_input;
+
+enum
+{
+  MODALRT_HIP_CONTACT_STARTED = 1u << 0, /* snapped during this tick */
+  MODALRT_HIP_RELEASED        = 1u << 1, /* released during this tick */
+  MODALRT_HIP_FORCE_CLAMPED   = 1u << 2, /* impedance force limited to device.max_force */
+  MODALRT_HIP_CORRECTED       = 1u << 3, /* the active vertex is a candidate: static correction applied */
+  MODALRT_HIP_SPACE_SWITCHED  = 1u << 4  /* the active space changed during this tick */
+};
+
+typedef struct modalrt_hip_output
+{
+  double   position[3];   /* [m] world position of the active vertex plus the contact's anchor offset
+                            (what an admittance device tracks); the HIP's input position when not in
+                            contact */
+  double   velocity[3];   /* [m/s] world velocity of the active vertex (modal part; the static correction
+                            is quasi-static and adds no velocity); the input velocity when not in contact */
+  double   force[3];      /* [N] impedance: world force to command on the device; admittance: the force
+                            applied to the part (the input force in contact, else 0) */
+  uint32_t in_contact;    /* 1 while the HIP has an active vertex */
+  uint32_t active_vertex; /* display vertex, MODALRT_NONE when not in contact */
+  uint32_t space;         /* active modal space of the kernel */
+  uint32_t flags;         /* MODALRT_HIP_* bits */
+} modalrt_hip_output;
+
+/* Admittance step (the original method, for admittance devices): forces at the HIPs in, positions
+ * and velocities of the active vertices out: u_c = B_v q (+ C_v F + cross terms at candidates).
+ * `count` HIPs (<= hip_capacity) in `inputs` and `outputs`; HIPs from `count` on are released. */
+MODALRT_API int modalrt_kernel_tick_admittance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
+                                               modalrt_hip_output *outputs);
+
+/* Impedance step (Phantom/Touch-type devices): HIP positions and velocities in, forces out through
+ * the virtual coupling F = K (x_hip - x_v) + D (v_hip - v_v), solved together with the modal step so
+ * that a stiff coupling on a compliant part stays stable, and clamped to device.max_force. */
+MODALRT_API int modalrt_kernel_tick_impedance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
+                                              modalrt_hip_output *outputs);
+
+/* Pose and motion of the part's body frame in the world. The frame's acceleration drives the modes
+ * through PARTICIPATION (f -= Gamma a); centrifugal and Coriolis loads on the modes are neglected.
+ * Gravity g is rendered by adding -g to linear_acceleration. */
+typedef struct modalrt_frame_state
+{
+  double position[3];             /* [m] world position of the body frame's origin */
+  double orientation[4];          /* [-] unit quaternion w, x, y, z: body to world */
+  double linear_velocity[3];      /* [m/s] world velocity of the origin */
+  double angular_velocity[3];     /* [rad/s] world */
+  double linear_acceleration[3];  /* [m/s^2] world acceleration of the origin */
+  double angular_acceleration[3]; /* [rad/s^2] world */
+} modalrt_frame_state;
+
+MODALRT_API modalrt_frame_state modalrt_frame_state_identity(void);
+
+/* Applies from the next tick. A non-finite or absurd frame is rejected (counted, old frame kept). */
+MODALRT_API int modalrt_kernel_set_frame(modalrt_kernel *kernel, const modalrt_frame_state *frame);
+
+/* Snaps HIP `hip` to display vertex `vertex` now (as a detected contact would, switch included). */
+MODALRT_API int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hip, uint32_t vertex);
+/* Releases HIP `hip` now (no effect if not in contact). */
+MODALRT_API int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip);
+/* Makes `space` the active space now, carrying the state as a switch does. */
+MODALRT_API int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space);
+/* Puts the modal state at the exact static equilibrium under the given admittance forces (and the
+ * frame's acceleration): q = Lambda^-1 f, velocities 0. Modes with omega = 0 keep their state. */
+MODALRT_API int modalrt_kernel_settle(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count);
+
+/* Copies the modal state of the active space: coordinates [m sqrt(kg)] and velocities. */
+MODALRT_API int modalrt_kernel_get_modal_state(const modalrt_kernel *kernel, double *coordinates, double *velocities,
+                                               uint32_t capacity, uint32_t *mode_count);
+
+typedef struct modalrt_kernel_stats
+{
+  uint64_t tick_count;          /* [-] ticks run, rejected ones included */
+  uint64_t rejected_ticks;      /* [-] ticks whose inputs were rejected */
+  uint64_t rejected_frames;     /* [-] frame states rejected by modalrt_kernel_set_frame */
+  uint64_t clamped_forces;      /* [-] impedance forces limited to device.max_force */
+  uint64_t switch_count;        /* [-] changes of active space */
+  uint32_t last_reject_reasons; /* MODALRT_REJECT_* bits of the last rejected tick */
+  uint32_t active_space;        /* [-] */
+  double   time;                /* [s] simulated time */
+  double   last_tick_seconds;   /* [s] duration of the last tick (enable_profile) */
+  double   max_tick_seconds;    /* [s] worst tick duration (enable_profile) */
+  double   max_switch_jump;     /* [m] largest displacement jump of an active vertex at a switch */
+} modalrt_kernel_stats;
+
+MODALRT_API int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_kernel_stats *stats);
+
+/* ------------------------------------------------------------------------------------------------
+ * Display: snapshots of the modal state and the reconstruction of the display surface
+ * --------------------------------------------------------------------------------------------- */
+typedef struct modalrt_snapshot modalrt_snapshot;
+
+/* A snapshot sized for the kernel's capacities (allocates; call it outside the loops). */
+MODALRT_API int  modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_snapshot **snapshot);
+MODALRT_API void modalrt_snapshot_destroy(modalrt_snapshot *snapshot);
+
+/* Copies the latest published state into `snapshot` (triple buffer: wait-free for both sides, one
+ * reader thread at a time). Returns 1 if the state is newer than the previous read, 0 if not, or a
+ * negative error. */
+MODALRT_API int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot);
+
+typedef struct modalrt_snapshot_info
+{
+  uint64_t tick;             /* [-] tick that published it */
+  double   time;             /* [s] simulated time */
+  uint32_t space;            /* [-] active space */
+  uint32_t mode_count;       /* [-] r of that space */
+  uint32_t contact_count;    /* [-] HIPs in contact */
+  uint32_t reserved;         /* 0 */
+  double   frame_position[3];    /* [m] */
+  double   frame_orientation[4]; /* [-] w, x, y, z */
+} modalrt_snapshot_info;
+
+MODALRT_API int modalrt_snapshot_get_info(const modalrt_snapshot *snapshot, modalrt_snapshot_info *info);
+/* The modal coordinates of the snapshot (mode_count values) [m sqrt(kg)]. */
+MODALRT_API const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapshot);
+
+enum
+{
+  MODALRT_DISPLAY_DISPLACEMENTS = 0,      /* output u [m] in the body frame (default) */
+  MODALRT_DISPLAY_POSITIONS     = 1u << 0, /* output rest position + u [m] */
+  MODALRT_DISPLAY_WORLD         = 1u << 1, /* with POSITIONS: apply the frame pose */
+  MODALRT_DISPLAY_NO_CORRECTION = 1u << 2  /* leave out the static correction near the contacts */
+};
+
+/* u = Phi q over display vertices [vertex_begin, vertex_end) plus, near each contact at a candidate,
+ * its static correction C F spread over the contact patch with the profile (1 - (d/rho)^2)^2 (so the
+ * active vertex is drawn where it is felt). Writes 3 floats per vertex to `out` (out[0] is vertex
+ * vertex_begin). Callable from any thread; splitting the range splits the work. */
+MODALRT_API int modalrt_display_reconstruct(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
+                                            uint32_t flags, float *out);
+/* Same with double output. */
+MODALRT_API int modalrt_display_reconstruct_f64(const modalrt_snapshot *snapshot, uint32_t vertex_begin,
+                                                uint32_t vertex_end, uint32_t flags, double *out);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* MODALRT_MODALRT_H */

@@ -1,0 +1,389 @@
+// The C API: argument checks, exceptions turned into status codes and messages, and defaults.
+#include "basis_format.h"
+#include "basis_loader.h"
+#include "display.h"
+#include "error.h"
+#include "kernel.h"
+#include "self_check.h"
+
+#include <modalrt/modalrt.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#if defined(__SSE__) || defined(_M_X64) || defined(__x86_64__)
+#  include <xmmintrin.h>
+#  define MODALRT_HAVE_MXCSR 1
+#endif
+
+using namespace modalrt;
+
+namespace
+{
+  int invalid(const char *message)
+  {
+    set_last_error(message);
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  }
+} // namespace
+
+extern "C" {
+
+const char *modalrt_status_name(int status)
+{
+  switch (status)
+    {
+      case MODALRT_OK: return "MODALRT_OK";
+      case MODALRT_INPUT_REJECTED: return "MODALRT_INPUT_REJECTED";
+      case MODALRT_ERROR_INVALID_ARGUMENT: return "MODALRT_ERROR_INVALID_ARGUMENT";
+      case MODALRT_ERROR_IO: return "MODALRT_ERROR_IO";
+      case MODALRT_ERROR_FORMAT: return "MODALRT_ERROR_FORMAT";
+      case MODALRT_ERROR_CHECKSUM: return "MODALRT_ERROR_CHECKSUM";
+      case MODALRT_ERROR_VALUE: return "MODALRT_ERROR_VALUE";
+      case MODALRT_ERROR_OUT_OF_MEMORY: return "MODALRT_ERROR_OUT_OF_MEMORY";
+      case MODALRT_ERROR_DEVICE_LIMIT: return "MODALRT_ERROR_DEVICE_LIMIT";
+      case MODALRT_ERROR_STATE: return "MODALRT_ERROR_STATE";
+      case MODALRT_ERROR_VERIFY_FAILED: return "MODALRT_ERROR_VERIFY_FAILED";
+      default: return "MODALRT_UNKNOWN_STATUS";
+    }
+}
+
+uint32_t modalrt_version(void) { return MODALRT_VERSION_MAJOR * 1000u + MODALRT_VERSION_MINOR; }
+
+int modalrt_thread_enable_flush_to_zero(void)
+{
+#if defined(MODALRT_HAVE_MXCSR)
+  _mm_setcsr(_mm_getcsr() | 0x8040u); // FTZ (bit 15) and DAZ (bit 6)
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+// ----- basis -----------------------------------------------------------------------------------
+int modalrt_basis_load(const char *path, modalrt_basis **basis)
+{
+  if (!path || !basis)
+    return invalid("modalrt_basis_load: null argument");
+  *basis = nullptr;
+  return guarded([&] {
+    *basis = load_basis_file(path).release();
+    return MODALRT_OK;
+  });
+}
+
+int modalrt_basis_load_memory(const void *bytes, size_t size, modalrt_basis **basis)
+{
+  if ((!bytes && size > 0) || !basis)
+    return invalid("modalrt_basis_load_memory: null argument");
+  *basis = nullptr;
+  return guarded([&] {
+    *basis = load_basis_memory(bytes, size).release();
+    return MODALRT_OK;
+  });
+}
+
+void modalrt_basis_destroy(modalrt_basis *basis) { delete basis; }
+
+int modalrt_basis_get_info(const modalrt_basis *basis, modalrt_basis_info *info)
+{
+  if (!basis || !info)
+    return invalid("modalrt_basis_get_info: null argument");
+  modalrt_basis_info i{};
+  i.version_major          = basis->version_major;
+  i.version_minor          = basis->version_minor;
+  i.file_bytes             = basis->file_bytes;
+  i.section_count          = std::uint32_t(basis->sections.size());
+  i.space_count            = basis->space_count();
+  i.display_vertex_count   = basis->vertex_count;
+  i.display_triangle_count = basis->triangle_count;
+  i.max_modes              = basis->max_modes;
+  i.max_patch_size         = basis->max_patch_size;
+  i.mode_scalar_bytes      = basis->float64_modes() ? 8 : 4;
+  i.patch_radius           = basis->scene_scalars[0];
+  i.mass                   = basis->scene_scalars[1];
+  std::copy_n(&basis->scene_scalars[2], 3, i.centre_of_mass);
+  std::copy_n(&basis->scene_scalars[5], 9, i.inertia);
+  std::copy_n(basis->bounds_min, 3, i.bounds_min);
+  std::copy_n(basis->bounds_max, 3, i.bounds_max);
+  *info = i;
+  return MODALRT_OK;
+}
+
+int modalrt_basis_get_space_info(const modalrt_basis *basis, uint32_t space, modalrt_space_info *info)
+{
+  if (!basis || !info || space >= basis->space_count())
+    return invalid("modalrt_basis_get_space_info: null argument or space out of range");
+  const ModalSpace  &s = basis->spaces[space];
+  modalrt_space_info i{};
+  const std::size_t  n = std::min(s.name.size(), sizeof(i.name) - 1);
+  std::memcpy(i.name, s.name.data(), n);
+  i.mode_count        = s.mode_count;
+  i.candidate_count   = s.candidate_count;
+  i.validation_count  = s.validation_count;
+  i.cross_count       = s.cross_count;
+  i.has_participation = s.participation.empty() ? 0 : 1;
+  const double two_pi = 6.283185307179586476925;
+  i.lowest_frequency  = std::sqrt(s.eigenvalues.front()) / two_pi;
+  i.highest_frequency = std::sqrt(s.eigenvalues.back()) / two_pi;
+  *info               = i;
+  return MODALRT_OK;
+}
+
+const double *modalrt_basis_eigenvalues(const modalrt_basis *basis, uint32_t space)
+{
+  return basis && space < basis->space_count() ? basis->spaces[space].eigenvalues.data() : nullptr;
+}
+
+const double *modalrt_basis_damping_ratios(const modalrt_basis *basis, uint32_t space)
+{
+  return basis && space < basis->space_count() ? basis->spaces[space].damping_ratios.data() : nullptr;
+}
+
+const uint32_t *modalrt_basis_candidates(const modalrt_basis *basis, uint32_t space)
+{
+  return basis && space < basis->space_count() ? basis->spaces[space].candidates.data() : nullptr;
+}
+
+const double   *modalrt_basis_display_vertices(const modalrt_basis *basis) { return basis ? basis->vertices.data() : nullptr; }
+const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis) { return basis ? basis->triangles.data() : nullptr; }
+const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis) { return basis ? basis->region.data() : nullptr; }
+const double   *modalrt_basis_display_normals(const modalrt_basis *basis) { return basis ? basis->normals.data() : nullptr; }
+
+int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from)
+{
+  if (!basis || to >= basis->space_count() || from >= basis->space_count() || to == from)
+    return 0;
+  return basis->transfer(to, from).empty() ? 0 : 1;
+}
+
+int modalrt_basis_get_section(const modalrt_basis *basis, uint32_t index, modalrt_section_info *info)
+{
+  if (!basis || !info || index >= basis->sections.size())
+    return invalid("modalrt_basis_get_section: null argument or index out of range");
+  const SectionRecord &s = basis->sections[index];
+  modalrt_section_info i{};
+  std::strncpy(i.name, format::kind_name(s.kind), sizeof(i.name) - 1);
+  i.kind         = s.kind;
+  i.space        = s.space;
+  i.source_space = s.source_space;
+  i.scalar_type  = s.scalar_type;
+  i.offset       = s.offset;
+  i.count        = s.count;
+  i.bytes        = s.count * format::scalar_bytes(s.scalar_type);
+  *info          = i;
+  return MODALRT_OK;
+}
+
+int modalrt_basis_verify_case(const modalrt_basis *basis, uint32_t index, modalrt_verify_case *result)
+{
+  if (!basis || !result)
+    return invalid("modalrt_basis_verify_case: null argument");
+  return guarded([&] {
+    verify_case(*basis, index, *result);
+    return MODALRT_OK;
+  });
+}
+
+int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *report)
+{
+  if (!basis || !report)
+    return invalid("modalrt_basis_verify: null argument");
+  return guarded([&] {
+    const int status = verify(*basis, *report);
+    if (status != MODALRT_OK)
+      set_last_error(cat(basis->source, ": self-check failed: max relative error ", report->max_relative_error,
+                         " > tolerance ", report->tolerance, " (case ", report->worst_case, ")"));
+    return status;
+  });
+}
+
+// ----- kernel ----------------------------------------------------------------------------------
+modalrt_device_def modalrt_device_default_def(void)
+{
+  modalrt_device_def d{};
+  d.max_force        = 10.0;   // N
+  d.max_stiffness    = 3000.0; // N/m at 1 kHz
+  d.max_damping      = 10.0;   // N s/m
+  d.physical_damping = 0.0;    // unknown
+  return d;
+}
+
+modalrt_kernel_def modalrt_kernel_default_def(void)
+{
+  modalrt_kernel_def d{};
+  d.time_step              = 1e-3; // 1 kHz
+  d.hip_capacity           = 4;
+  d.initial_space          = 0;
+  d.device                 = modalrt_device_default_def();
+  d.coupling_stiffness     = 1000.0; // N/m
+  d.coupling_damping       = 2.0;    // N s/m: K T / 2 = 0.5 < 2
+  d.snap_distance          = 0.01;   // m
+  d.contact_tolerance      = 0.0;    // m
+  d.release_distance       = 1e-3;   // m
+  d.release_force          = 0.05;   // N
+  d.max_input_force        = 1000.0; // N
+  d.workspace_radius       = 10.0;   // m
+  d.max_input_velocity     = 100.0;  // m/s
+  d.max_frame_acceleration = 1e4;    // m/s^2, rad/s^2
+  d.snap_candidate_budget  = 16;
+  d.switch_rule            = MODALRT_SWITCH_AT_CONTACT_START;
+  d.carry_state_on_switch  = 1;
+  d.use_static_correction  = 1;
+  d.auto_release           = 1;
+  d.snapshot_interval      = 1;
+  d.enable_profile         = 0;
+  return d;
+}
+
+int modalrt_kernel_create(const modalrt_basis *basis, const modalrt_kernel_def *def, modalrt_kernel **kernel)
+{
+  if (!basis || !def || !kernel)
+    return invalid("modalrt_kernel_create: null argument");
+  *kernel = nullptr;
+  return guarded([&] {
+    *kernel = new modalrt_kernel(*basis, *def);
+    return MODALRT_OK;
+  });
+}
+
+void modalrt_kernel_destroy(modalrt_kernel *kernel) { delete kernel; }
+
+int modalrt_kernel_reset(modalrt_kernel *kernel)
+{
+  if (!kernel)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  kernel->reset();
+  return MODALRT_OK;
+}
+
+int modalrt_kernel_tick_admittance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
+                                   modalrt_hip_output *outputs)
+{
+  return kernel ? kernel->tick(inputs, count, outputs, false) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_tick_impedance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
+                                  modalrt_hip_output *outputs)
+{
+  return kernel ? kernel->tick(inputs, count, outputs, true) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+modalrt_frame_state modalrt_frame_state_identity(void)
+{
+  modalrt_frame_state f{};
+  f.orientation[0] = 1.0;
+  return f;
+}
+
+int modalrt_kernel_set_frame(modalrt_kernel *kernel, const modalrt_frame_state *frame)
+{
+  return kernel && frame ? kernel->set_frame(*frame) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hip, uint32_t vertex)
+{
+  return kernel ? kernel->contact_begin(hip, vertex) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip)
+{
+  return kernel ? kernel->release(hip) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space)
+{
+  return kernel ? kernel->switch_space(space) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_settle(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count)
+{
+  return kernel ? kernel->settle(inputs, count) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_kernel_get_modal_state(const modalrt_kernel *kernel, double *coordinates, double *velocities,
+                                   uint32_t capacity, uint32_t *mode_count)
+{
+  if (!kernel)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  const uint32_t r = kernel->mode_count();
+  if (mode_count)
+    *mode_count = r;
+  if ((coordinates || velocities) && capacity < r)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  if (coordinates)
+    std::copy_n(kernel->coordinates(), r, coordinates);
+  if (velocities)
+    std::copy_n(kernel->velocities(), r, velocities);
+  return MODALRT_OK;
+}
+
+int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_kernel_stats *stats)
+{
+  if (!kernel || !stats)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  *stats = kernel->stats;
+  return MODALRT_OK;
+}
+
+// ----- display ---------------------------------------------------------------------------------
+int modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_snapshot **snapshot)
+{
+  if (!kernel || !snapshot)
+    return invalid("modalrt_snapshot_create: null argument");
+  *snapshot = nullptr;
+  return guarded([&] {
+    auto s   = new modalrt_snapshot;
+    s->basis = &kernel->basis;
+    s->state.allocate(kernel->basis.max_modes, kernel->def.hip_capacity);
+    s->q_f32.assign(kernel->basis.max_modes, 0.0f);
+    *snapshot = s;
+    return MODALRT_OK;
+  });
+}
+
+void modalrt_snapshot_destroy(modalrt_snapshot *snapshot) { delete snapshot; }
+
+int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot)
+{
+  if (!kernel || !snapshot || snapshot->basis != &kernel->basis ||
+      snapshot->state.contact_vertices.size() != kernel->def.hip_capacity)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  return read_snapshot(*kernel, *snapshot);
+}
+
+int modalrt_snapshot_get_info(const modalrt_snapshot *snapshot, modalrt_snapshot_info *info)
+{
+  if (!snapshot || !info)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  modalrt_snapshot_info i{};
+  i.tick          = snapshot->state.tick;
+  i.time          = snapshot->state.time;
+  i.space         = snapshot->state.space;
+  i.mode_count    = snapshot->state.mode_count;
+  i.contact_count = snapshot->state.contact_count;
+  std::copy_n(snapshot->state.frame_position, 3, i.frame_position);
+  std::copy_n(snapshot->state.frame_orientation, 4, i.frame_orientation);
+  *info = i;
+  return MODALRT_OK;
+}
+
+const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapshot)
+{
+  return snapshot ? snapshot->state.q.data() : nullptr;
+}
+
+int modalrt_display_reconstruct(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
+                                uint32_t flags, float *out)
+{
+  return snapshot ? reconstruct(*snapshot, vertex_begin, vertex_end, flags, out) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+int modalrt_display_reconstruct_f64(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
+                                    uint32_t flags, double *out)
+{
+  return snapshot ? reconstruct(*snapshot, vertex_begin, vertex_end, flags, out) : MODALRT_ERROR_INVALID_ARGUMENT;
+}
+
+} // extern "C"

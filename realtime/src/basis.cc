@@ -1,0 +1,115 @@
+// What is derived from a checked basis once, at load: vertex normals, bounds, the spatial index,
+// and the mode-norm bound that sizes the snap search.
+#include "basis.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace modalrt
+{
+  int ModalSpace::candidate_index(std::uint32_t vertex) const
+  {
+    const auto it = std::lower_bound(candidates.begin(), candidates.end(), vertex);
+    return it != candidates.end() && *it == vertex ? int(it - candidates.begin()) : -1;
+  }
+
+  void vertex_mode_block(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, double *out)
+  {
+    const std::size_t n = 3 * std::size_t(space.mode_count), first = std::size_t(v) * n;
+    if (basis.float64_modes())
+      std::copy_n(space.display_modes_f64.data() + first, n, out);
+    else
+      std::copy_n(space.display_modes_f32.data() + first, n, out);
+  }
+
+  namespace
+  {
+    // Area-weighted vertex normals: the sum of the (doubled-area) normals of the triangles around a
+    // vertex, which follows the triangles' outward orientation.
+    void compute_normals(modalrt_basis &basis)
+    {
+      const double *x = basis.vertices.data();
+      basis.normals.assign(basis.vertices.size(), 0.0);
+      for (std::size_t t = 0; t < basis.triangle_count; ++t)
+        {
+          const std::uint32_t *tri = &basis.triangles[3 * t];
+          double               e1[3], e2[3];
+          for (int d = 0; d < 3; ++d)
+            {
+              e1[d] = x[3 * tri[1] + d] - x[3 * tri[0] + d];
+              e2[d] = x[3 * tri[2] + d] - x[3 * tri[0] + d];
+            }
+          const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                               e1[0] * e2[1] - e1[1] * e2[0]};
+          for (int k = 0; k < 3; ++k)
+            for (int d = 0; d < 3; ++d)
+              basis.normals[3 * tri[k] + d] += n[d];
+        }
+      for (std::size_t v = 0; v < basis.vertex_count; ++v)
+        {
+          double *n      = &basis.normals[3 * v];
+          const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+          for (int d = 0; d < 3; ++d)
+            n[d] = l > 0.0 ? n[d] / l : 0.0;
+        }
+    }
+
+    // Typical spacing of the display vertices: mean edge length, or the bounding box spread over
+    // the vertices when there are no triangles.
+    double typical_spacing(const modalrt_basis &basis)
+    {
+      const double *x     = basis.vertices.data();
+      double        total = 0.0;
+      for (std::size_t t = 0; t < basis.triangle_count; ++t)
+        for (int k = 0; k < 3; ++k)
+          {
+            const std::uint32_t a = basis.triangles[3 * t + k], b = basis.triangles[3 * t + (k + 1) % 3];
+            total += std::sqrt((x[3 * a] - x[3 * b]) * (x[3 * a] - x[3 * b]) +
+                               (x[3 * a + 1] - x[3 * b + 1]) * (x[3 * a + 1] - x[3 * b + 1]) +
+                               (x[3 * a + 2] - x[3 * b + 2]) * (x[3 * a + 2] - x[3 * b + 2]));
+          }
+      if (basis.triangle_count > 0 && total > 0.0)
+        return total / (3.0 * basis.triangle_count);
+      double diagonal = 0.0;
+      for (int d = 0; d < 3; ++d)
+        diagonal += (basis.bounds_max[d] - basis.bounds_min[d]) * (basis.bounds_max[d] - basis.bounds_min[d]);
+      return std::sqrt(diagonal) / std::cbrt(double(std::max<std::uint32_t>(basis.vertex_count, 1)));
+    }
+
+    template <typename Scalar>
+    double max_block_norm(const Scalar *modes, std::uint32_t nv, std::uint32_t r)
+    {
+      double worst = 0.0;
+      for (std::size_t v = 0; v < nv; ++v)
+        {
+          double sum = 0.0;
+          for (std::size_t k = 0; k < 3 * std::size_t(r); ++k)
+            sum += double(modes[v * 3 * r + k]) * double(modes[v * 3 * r + k]);
+          worst = std::max(worst, sum);
+        }
+      return std::sqrt(worst);
+    }
+  } // namespace
+
+  void finish_basis(modalrt_basis &basis)
+  {
+    for (int d = 0; d < 3; ++d)
+      {
+        basis.bounds_min[d] = HUGE_VAL;
+        basis.bounds_max[d] = -HUGE_VAL;
+      }
+    for (std::size_t v = 0; v < basis.vertex_count; ++v)
+      for (int d = 0; d < 3; ++d)
+        {
+          basis.bounds_min[d] = std::min(basis.bounds_min[d], basis.vertices[3 * v + d]);
+          basis.bounds_max[d] = std::max(basis.bounds_max[d], basis.vertices[3 * v + d]);
+        }
+    compute_normals(basis);
+    basis.grid.build(basis.vertices.data(), basis.vertex_count, 1.5 * typical_spacing(basis));
+    for (ModalSpace &space : basis.spaces)
+      space.max_vertex_mode_norm =
+        basis.float64_modes()
+          ? max_block_norm(space.display_modes_f64.data(), basis.vertex_count, space.mode_count)
+          : max_block_norm(space.display_modes_f32.data(), basis.vertex_count, space.mode_count);
+  }
+} // namespace modalrt

@@ -1,0 +1,145 @@
+// Constants of the .mrt basis file, version 1.0 (docs/basis-format.md), shared by the loader and
+// by the writer that tests use to make synthetic bases.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace modalrt::format
+{
+  constexpr char          magic[8]          = {'M', 'O', 'D', 'A', 'L', 'R', 'T', '\0'};
+  constexpr std::uint32_t version_major     = 1;
+  constexpr std::uint32_t version_minor     = 0;
+  constexpr std::size_t   header_bytes      = 64;
+  constexpr std::size_t   table_entry_bytes = 40;
+  constexpr std::size_t   section_alignment = 64;
+  constexpr std::uint32_t scene_wide        = 0xFFFFFFFFu; // `space` of scene-wide sections
+  constexpr std::size_t   scene_scalar_count = 14;
+
+  enum ScalarType : std::uint32_t
+  {
+    u32 = 1,
+    f32 = 2,
+    f64 = 3,
+    u8  = 4
+  };
+
+  inline std::size_t scalar_bytes(std::uint32_t type)
+  {
+    switch (type)
+      {
+        case u32: return 4;
+        case f32: return 4;
+        case f64: return 8;
+        case u8: return 1;
+        default: return 0;
+      }
+  }
+
+  enum Kind : std::uint32_t
+  {
+    display_vertices     = 1,
+    display_triangles    = 2,
+    display_region       = 3,
+    patch_offsets        = 4,
+    patch_vertices       = 5,
+    patch_weights        = 6,
+    scene_scalars        = 7,
+    space_info           = 16,
+    space_name           = 17,
+    eigenvalues          = 18,
+    damping_ratios       = 19,
+    display_modes        = 20,
+    candidate_vertices   = 21,
+    candidate_modes      = 22,
+    candidate_compliance = 23,
+    cross_compliance     = 24,
+    participation        = 25,
+    validation_cases     = 26,
+    validation_response  = 27,
+    transfer             = 32
+  };
+
+  // Name of a kind as the specification spells it, "UNKNOWN" for kinds of a newer minor version.
+  inline const char *kind_name(std::uint32_t kind)
+  {
+    switch (kind)
+      {
+        case display_vertices: return "DISPLAY_VERTICES";
+        case display_triangles: return "DISPLAY_TRIANGLES";
+        case display_region: return "DISPLAY_REGION";
+        case patch_offsets: return "PATCH_OFFSETS";
+        case patch_vertices: return "PATCH_VERTICES";
+        case patch_weights: return "PATCH_WEIGHTS";
+        case scene_scalars: return "SCENE_SCALARS";
+        case space_info: return "SPACE_INFO";
+        case space_name: return "SPACE_NAME";
+        case eigenvalues: return "EIGENVALUES";
+        case damping_ratios: return "DAMPING_RATIOS";
+        case display_modes: return "DISPLAY_MODES";
+        case candidate_vertices: return "CANDIDATE_VERTICES";
+        case candidate_modes: return "CANDIDATE_MODES";
+        case candidate_compliance: return "CANDIDATE_COMPLIANCE";
+        case cross_compliance: return "CROSS_COMPLIANCE";
+        case participation: return "PARTICIPATION";
+        case validation_cases: return "VALIDATION_CASES";
+        case validation_response: return "VALIDATION_RESPONSE";
+        case transfer: return "TRANSFER";
+        default: return "UNKNOWN";
+      }
+  }
+
+  inline bool is_known_kind(std::uint32_t kind) { return kind_name(kind)[0] != 'U'; }
+
+  inline bool is_scene_wide_kind(std::uint32_t kind) { return kind >= display_vertices && kind <= scene_scalars; }
+
+  // The scalar type a known kind must have; 0 for DISPLAY_MODES, whose type the header gives.
+  inline std::uint32_t expected_scalar_type(std::uint32_t kind)
+  {
+    switch (kind)
+      {
+        case display_triangles:
+        case display_region:
+        case patch_offsets:
+        case patch_vertices:
+        case space_info:
+        case candidate_vertices:
+        case validation_cases: return u32;
+        case space_name: return u8;
+        case display_modes: return 0;
+        default: return f64;
+      }
+  }
+
+  // Header field offsets (bytes).
+  namespace header
+  {
+    constexpr std::size_t magic               = 0;
+    constexpr std::size_t version_major       = 8;
+    constexpr std::size_t version_minor       = 12;
+    constexpr std::size_t header_bytes        = 16;
+    constexpr std::size_t section_count       = 20;
+    constexpr std::size_t file_bytes          = 24;
+    constexpr std::size_t n_spaces            = 32;
+    constexpr std::size_t n_display_vertices  = 36;
+    constexpr std::size_t n_display_triangles = 40;
+    constexpr std::size_t max_modes           = 44;
+    constexpr std::size_t max_patch_size      = 48;
+    constexpr std::size_t mode_scalar_type    = 52;
+    constexpr std::size_t section_table_crc32 = 56;
+    constexpr std::size_t header_crc32        = 60;
+  } // namespace header
+
+  // Section table entry field offsets (bytes).
+  namespace entry
+  {
+    constexpr std::size_t kind         = 0;
+    constexpr std::size_t space        = 4;
+    constexpr std::size_t source_space = 8;
+    constexpr std::size_t scalar_type  = 12;
+    constexpr std::size_t offset       = 16;
+    constexpr std::size_t count        = 24;
+    constexpr std::size_t crc32        = 32;
+    constexpr std::size_t reserved     = 36;
+  } // namespace entry
+} // namespace modalrt::format

@@ -1,0 +1,402 @@
+// Contacts of the haptic loop: the snap search on the deformed surface, the release rules, the row
+// B of each active vertex, the residual compliances between contacts, and the switch of modal space.
+#include "kernel.h"
+
+#include "dense.h"
+#include "vector3.h"
+
+#include <algorithm>
+#include <cmath>
+
+using namespace modalrt;
+
+// =================================================================================================
+// Release, snap and switch rules (tick phases)
+// =================================================================================================
+// Impedance: released when pulled out beyond release_distance along the outward normal.
+// Admittance: released when the user's force pulls outward by more than release_force.
+// HIPs beyond `count` are absent this tick and released.
+void modalrt_kernel::apply_release_rules(std::uint32_t count, bool impedance) noexcept
+{
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    {
+      Contact &c = contacts_[h];
+      if (!c.in_contact)
+        continue;
+      if (h >= count)
+        {
+          end_contact(h);
+          continue;
+        }
+      if (!def.auto_release)
+        continue;
+      const BodyInput &in = body_inputs_[h];
+      bool             release_now;
+      if (impedance)
+        {
+          double u[3], gap[3];
+          felt_displacement(c, q_.data(), u);
+          for (int d = 0; d < 3; ++d)
+            gap[d] = in.x[d] - (c.rest[d] + u[d] + c.correction[d]);
+          release_now = dot3(gap, c.normal) > def.release_distance;
+        }
+      else
+        release_now = dot3(in.force, c.normal) > def.release_force;
+      if (release_now)
+        {
+          end_contact(h);
+          flags_[h] |= MODALRT_HIP_RELEASED;
+        }
+    }
+}
+
+bool modalrt_kernel::detect_contacts(std::uint32_t count) noexcept
+{
+  bool started = false;
+  for (std::uint32_t h = 0; h < count; ++h)
+    {
+      Contact &c = contacts_[h];
+      if (c.in_contact)
+        continue;
+      std::uint32_t vertex;
+      double        gap[3], signed_distance;
+      const bool    found = find_snap_vertex(body_inputs_[h].x, vertex, gap, signed_distance);
+      if (!c.armed)
+        {
+          // After a release the HIP must leave the surface before it may snap again.
+          if (found && signed_distance <= def.release_distance)
+            continue;
+          c.armed = true;
+        }
+      if (found && signed_distance <= def.contact_tolerance)
+        {
+          begin_contact(h, vertex, gap);
+          flags_[h] |= MODALRT_HIP_CONTACT_STARTED;
+          started = true;
+        }
+    }
+  return started;
+}
+
+// At a contact start the active space becomes the one whose VOI holds every active vertex, else
+// the global space.
+void modalrt_kernel::apply_switch_rule() noexcept
+{
+  if (!contact_started_)
+    return;
+  contact_started_ = false;
+  if (def.switch_rule != MODALRT_SWITCH_AT_CONTACT_START)
+    return;
+  std::uint32_t desired = MODALRT_NONE;
+  for (const Contact &c : contacts_)
+    {
+      if (!c.in_contact)
+        continue;
+      const std::uint32_t region = basis.region[c.vertex];
+      desired                    = desired == MODALRT_NONE || desired == region ? region : 0u;
+    }
+  if (desired == MODALRT_NONE || desired == space_)
+    return;
+  change_space(desired);
+  for (std::uint32_t &f : flags_)
+    f |= MODALRT_HIP_SPACE_SWITCHED;
+}
+
+// =================================================================================================
+// Contacts and their rows
+// =================================================================================================
+
+// `offset`: the HIP's position relative to the deformed vertex (body frame), or null; its
+// tangential part becomes the contact's anchor.
+void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept
+{
+  Contact &c   = contacts_[hip];
+  c.in_contact = true;
+  c.armed      = false;
+  c.vertex     = vertex;
+  std::copy_n(&basis.vertices[3 * std::size_t(vertex)], 3, c.rest);
+  std::copy_n(&basis.normals[3 * std::size_t(vertex)], 3, c.normal);
+  std::fill_n(c.force, 3, 0.0);
+  std::fill_n(c.correction, 3, 0.0);
+  std::fill_n(c.anchor, 3, 0.0);
+  if (offset)
+    {
+      const double normal_part = dot3(offset, c.normal);
+      for (int d = 0; d < 3; ++d)
+        c.anchor[d] = offset[d] - normal_part * c.normal[d];
+    }
+  build_row(c);
+  contacts_changed_ = true;
+  contact_started_  = true;
+}
+
+void modalrt_kernel::end_contact(std::uint32_t hip) noexcept
+{
+  Contact &c   = contacts_[hip];
+  c.in_contact = false;
+  c.armed      = false;
+  c.vertex     = MODALRT_NONE;
+  c.candidate  = -1;
+  std::fill_n(c.force, 3, 0.0);
+  std::fill_n(c.correction, 3, 0.0);
+  std::fill_n(c.anchor, 3, 0.0);
+  contacts_changed_ = true;
+}
+
+// B of the active vertex in the active space: the stored candidate block (with its static
+// correction), else the patch average of the display modes sum_j w_j Phi_j.
+void modalrt_kernel::build_row(Contact &c) noexcept
+{
+  const ModalSpace   &space = basis.spaces[space_];
+  const std::uint32_t r     = space.mode_count;
+  c.candidate               = space.candidate_index(c.vertex);
+  if (c.candidate >= 0)
+    {
+      std::copy_n(&space.candidate_modes[3 * std::size_t(r) * std::size_t(c.candidate)], 3 * std::size_t(r), c.B);
+      return;
+    }
+  std::fill_n(c.B, 3 * std::size_t(r), 0.0);
+  for (std::uint32_t k = basis.patch_offsets[c.vertex]; k < basis.patch_offsets[c.vertex + 1]; ++k)
+    {
+      const double      w     = basis.patch_weights[k];
+      const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r;
+      if (basis.float64_modes())
+        for (std::size_t i = 0; i < 3 * std::size_t(r); ++i)
+          c.B[i] += w * space.display_modes_f64[first + i];
+      else
+        for (std::size_t i = 0; i < 3 * std::size_t(r); ++i)
+          c.B[i] += w * double(space.display_modes_f32[first + i]);
+    }
+}
+
+// The closest vertex of the deformed surface. The grid gives the vertices whose rest position is
+// within snap_distance plus a bound on every displacement; the snap_candidate_budget nearest of
+// them at rest are evaluated deformed (bounded work per tick).
+bool modalrt_kernel::find_snap_vertex(const double x[3], std::uint32_t &vertex, double gap[3],
+                                      double &signed_distance) noexcept
+{
+  const ModalSpace   &space = basis.spaces[space_];
+  const std::uint32_t r     = space.mode_count;
+  double              q_norm = 0.0;
+  for (std::uint32_t i = 0; i < r; ++i)
+    q_norm += q_[i] * q_[i];
+  q_norm                 = std::sqrt(q_norm);
+  const double radius    = def.snap_distance + space.max_vertex_mode_norm * q_norm;
+  const double radius2   = radius * radius;
+  const std::uint32_t budget = def.snap_candidate_budget;
+  std::uint32_t       found  = 0;
+  vertex                     = MODALRT_NONE;
+
+  basis.grid.for_each_near(x, radius, [&](std::uint32_t v) {
+    const double *p  = &basis.vertices[3 * std::size_t(v)];
+    const double  d2 = (x[0] - p[0]) * (x[0] - p[0]) + (x[1] - p[1]) * (x[1] - p[1]) + (x[2] - p[2]) * (x[2] - p[2]);
+    if (d2 > radius2)
+      return;
+    if (found < budget)
+      {
+        snap_candidates_[found++] = {v, d2};
+        return;
+      }
+    std::uint32_t farthest = 0;
+    for (std::uint32_t k = 1; k < budget; ++k)
+      if (snap_candidates_[k].rest_distance_squared > snap_candidates_[farthest].rest_distance_squared)
+        farthest = k;
+    if (d2 < snap_candidates_[farthest].rest_distance_squared)
+      snap_candidates_[farthest] = {v, d2};
+  });
+
+  double best = HUGE_VAL, best_position[3] = {0, 0, 0};
+  for (std::uint32_t k = 0; k < found; ++k)
+    {
+      const std::uint32_t v = snap_candidates_[k].vertex;
+      double              p[3], u[3] = {0.0, 0.0, 0.0};
+      if (q_norm > 0.0)
+        vertex_displacement(v, u);
+      for (int d = 0; d < 3; ++d)
+        p[d] = basis.vertices[3 * std::size_t(v) + d] + u[d];
+      const double d2 = (x[0] - p[0]) * (x[0] - p[0]) + (x[1] - p[1]) * (x[1] - p[1]) + (x[2] - p[2]) * (x[2] - p[2]);
+      if (d2 < best || (d2 == best && v < vertex))
+        {
+          best   = d2;
+          vertex = v;
+          std::copy_n(p, 3, best_position);
+        }
+    }
+  if (found == 0 || best > def.snap_distance * def.snap_distance)
+    return false;
+  for (int d = 0; d < 3; ++d)
+    gap[d] = x[d] - best_position[d];
+  signed_distance = dot3(gap, &basis.normals[3 * std::size_t(vertex)]);
+  return true;
+}
+
+// u = Phi_v q in the active space.
+void modalrt_kernel::vertex_displacement(std::uint32_t v, double u[3]) const noexcept
+{
+  const ModalSpace   &space = basis.spaces[space_];
+  const std::uint32_t r     = space.mode_count;
+  const std::size_t   first = std::size_t(v) * 3 * r;
+  for (int c = 0; c < 3; ++c)
+    u[c] = basis.float64_modes() ? dot(&space.display_modes_f64[first + c * r], q_.data(), r)
+                                 : dot(&space.display_modes_f32[first + c * r], q_.data(), r);
+}
+
+void modalrt_kernel::felt_displacement(const Contact &c, const double *q, double u[3]) const noexcept
+{
+  dot_rows3(c.B, q, mode_count(), u);
+}
+
+// The list of contacts and their residual compliances, after contacts began or ended.
+void modalrt_kernel::refresh_contact_set() noexcept
+{
+  if (!contacts_changed_)
+    return;
+  contacts_changed_ = false;
+  coupling_dirty_   = true;
+  active_count_     = 0;
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    if (contacts_[h].in_contact)
+      active_[active_count_++] = h;
+  const std::uint32_t n3 = 3 * active_count_;
+  for (std::uint32_t a = 0; a < active_count_; ++a)
+    for (std::uint32_t b = 0; b < active_count_; ++b)
+      {
+        double C[9];
+        pair_compliance(contacts_[active_[a]], contacts_[active_[b]], C);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            compliance_[(3 * a + i) * n3 + 3 * b + j] = C[3 * i + j];
+      }
+}
+
+// C_ab: the candidate's own compliance for one vertex, the cross block for two candidates of the
+// active space, 0 when either vertex has no correction (or corrections are off).
+void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
+{
+  std::fill_n(C, 9, 0.0);
+  if (!def.use_static_correction || a.candidate < 0 || b.candidate < 0)
+    return;
+  const ModalSpace &space = basis.spaces[space_];
+  if (a.candidate == b.candidate)
+    {
+      std::copy_n(&space.candidate_compliance[9 * std::size_t(a.candidate)], 9, C);
+      return;
+    }
+  if (space.cross_count == 0)
+    return;
+  const std::size_t n3 = 3 * std::size_t(space.cross_count);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      C[3 * i + j] = space.cross_compliance[(3 * std::size_t(a.candidate) + i) * n3 + 3 * std::size_t(b.candidate) + j];
+}
+
+void modalrt_kernel::refresh_coupling_matrices() noexcept
+{
+  coupling_dirty_                   = false;
+  const ModalIntegrator &integrator = integrators_[space_];
+  const std::uint32_t    r = integrator.mode_count(), n = active_count_, n3 = 3 * n;
+  const double          *g1 = integrator.g1(), *g2 = integrator.g2();
+  for (std::uint32_t a = 0; a < n; ++a)
+    for (std::uint32_t b = a; b < n; ++b)
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d)
+          {
+            const double *row_a = contacts_[active_[a]].B + std::size_t(c) * r;
+            const double *row_b = contacts_[active_[b]].B + std::size_t(d) * r;
+            double        s = 0.0, sv = 0.0;
+#pragma omp simd reduction(+ : s, sv)
+            for (std::uint32_t i = 0; i < r; ++i)
+              {
+                s += row_a[i] * g1[i] * row_b[i];
+                sv += row_a[i] * g2[i] * row_b[i];
+              }
+            const std::size_t ab = (3 * a + c) * n3 + 3 * b + d, ba = (3 * b + d) * n3 + 3 * a + c;
+            coupling_[ab] = s + compliance_[ab];
+            coupling_[ba] = s + compliance_[ba];
+            coupling_velocity_[ab] = coupling_velocity_[ba] = sv;
+          }
+}
+
+// =================================================================================================
+// Switch of modal space
+// =================================================================================================
+
+// Changes the active space, carrying the state with TRANSFER (or restarting at rest), and records
+// how far the active vertices jumped.
+void modalrt_kernel::change_space(std::uint32_t target) noexcept
+{
+  const std::uint32_t source = space_;
+  const std::uint32_t r_from = basis.spaces[source].mode_count, r_to = basis.spaces[target].mode_count;
+  double              before[3 * max_hip_capacity];
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    if (contacts_[h].in_contact)
+      felt_displacement(contacts_[h], q_.data(), before + 3 * h);
+
+  const std::vector<double> &T = basis.transfer(target, source);
+  if (def.carry_state_on_switch && !T.empty())
+    {
+      double *q_to = transfer_scratch_.data(), *v_to = f_.data();
+      for (std::uint32_t a = 0; a < r_to; ++a)
+        dot_pair(&T[std::size_t(a) * r_from], q_.data(), v_.data(), r_from, q_to[a], v_to[a]);
+      std::copy_n(q_to, r_to, q_.data());
+      std::copy_n(v_to, r_to, v_.data());
+    }
+  else
+    {
+      std::fill_n(q_.data(), r_to, 0.0);
+      std::fill_n(v_.data(), r_to, 0.0);
+    }
+  std::fill(q_.begin() + r_to, q_.end(), 0.0);
+  std::fill(v_.begin() + r_to, v_.end(), 0.0);
+
+  space_             = target;
+  stats.active_space = target;
+  ++stats.switch_count;
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    {
+      Contact &c = contacts_[h];
+      if (!c.in_contact)
+        continue;
+      build_row(c);
+      double after[3];
+      felt_displacement(c, q_.data(), after);
+      const double jump[3] = {after[0] - before[3 * h], after[1] - before[3 * h + 1], after[2] - before[3 * h + 2]};
+      stats.max_switch_jump = std::max(stats.max_switch_jump, norm3(jump));
+    }
+  contacts_changed_ = true;
+}
+
+// =================================================================================================
+// Calls of the tick thread outside the tick
+// =================================================================================================
+int modalrt_kernel::contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept
+{
+  if (hip >= def.hip_capacity || vertex >= basis.vertex_count)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  if (contacts_[hip].in_contact)
+    end_contact(hip);
+  begin_contact(hip, vertex, nullptr);
+  apply_switch_rule();
+  refresh_contact_set();
+  return MODALRT_OK;
+}
+
+int modalrt_kernel::release(std::uint32_t hip) noexcept
+{
+  if (hip >= def.hip_capacity)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  if (contacts_[hip].in_contact)
+    end_contact(hip);
+  refresh_contact_set();
+  return MODALRT_OK;
+}
+
+int modalrt_kernel::switch_space(std::uint32_t space) noexcept
+{
+  if (space >= basis.space_count())
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  if (space != space_)
+    change_space(space);
+  refresh_contact_set();
+  return MODALRT_OK;
+}

@@ -1,0 +1,76 @@
+// The dot products of the hot loops (tick rows B q, display blocks Phi_v q).
+//
+// A plain `sum += a[i] * b[i]` loop is a chain of dependent additions that compilers may not
+// reorder without -ffast-math, so it runs at one addition per add-latency (4 cycles). The
+// `omp simd reduction` pragma allows reordering for these loops only (vector lanes, partial sums);
+// the build passes -fopenmp-simd, which honours the pragma without any OpenMP runtime. The order of
+// the partial sums is fixed by the build, so results are reproducible run to run.
+#pragma once
+
+#include <cstdint>
+
+namespace modalrt
+{
+  template <typename A, typename B>
+  inline double dot(const A *a, const B *b, std::uint32_t n)
+  {
+    double sum = 0.0;
+#pragma omp simd reduction(+ : sum)
+    for (std::uint32_t i = 0; i < n; ++i)
+      sum += double(a[i]) * double(b[i]);
+    return sum;
+  }
+
+  // Two dot products sharing their first vector, in one pass over it: (a . x, a . y).
+  inline void dot_pair(const double *a, const double *x, const double *y, std::uint32_t n, double &ax, double &ay)
+  {
+    double sx = 0.0, sy = 0.0;
+#pragma omp simd reduction(+ : sx, sy)
+    for (std::uint32_t i = 0; i < n; ++i)
+      {
+        sx += a[i] * x[i];
+        sy += a[i] * y[i];
+      }
+    ax = sx;
+    ay = sy;
+  }
+
+  // u[c] = sum_i block[c n + i] q[i], c = 0, 1, 2: a 3 x n row-major block times a vector, the three
+  // rows in one pass so that q is loaded once.
+  template <typename Scalar, typename Result>
+  inline void dot_rows3(const Scalar *block, const Scalar *q, std::uint32_t n, Result u[3])
+  {
+    const Scalar *row1 = block + n, *row2 = block + 2 * std::size_t(n);
+    Scalar        s0 = 0, s1 = 0, s2 = 0;
+#pragma omp simd reduction(+ : s0, s1, s2)
+    for (std::uint32_t i = 0; i < n; ++i)
+      {
+        s0 += block[i] * q[i];
+        s1 += row1[i] * q[i];
+        s2 += row2[i] * q[i];
+      }
+    u[0] = Result(s0);
+    u[1] = Result(s1);
+    u[2] = Result(s2);
+  }
+  // u = B x and w = B y for a 3 x n row-major block B, in one pass over B (positions and velocities
+  // of a contact read its row block once).
+  inline void dot_rows3_pair(const double *block, const double *x, const double *y, std::uint32_t n, double u[3],
+                             double w[3])
+  {
+    const double *row1 = block + n, *row2 = block + 2 * std::size_t(n);
+    double        u0 = 0, u1 = 0, u2 = 0, w0 = 0, w1 = 0, w2 = 0;
+#pragma omp simd reduction(+ : u0, u1, u2, w0, w1, w2)
+    for (std::uint32_t i = 0; i < n; ++i)
+      {
+        u0 += block[i] * x[i];
+        u1 += row1[i] * x[i];
+        u2 += row2[i] * x[i];
+        w0 += block[i] * y[i];
+        w1 += row1[i] * y[i];
+        w2 += row2[i] * y[i];
+      }
+    u[0] = u0, u[1] = u1, u[2] = u2;
+    w[0] = w0, w[1] = w1, w[2] = w2;
+  }
+} // namespace modalrt

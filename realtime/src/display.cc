@@ -1,0 +1,121 @@
+// Display side: snapshots and the reconstruction u = Phi q of the display surface, run at display
+// rate on another thread than the tick. The reconstruction streams the whole DISPLAY_MODES array
+// once, so its speed is bounded by memory bandwidth; the inner loop over the r modes of a vertex is
+// a vectorized three-row dot product (dense.h).
+#include "display.h"
+
+#include "dense.h"
+#include "kernel.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace modalrt
+{
+  namespace
+  {
+    template <typename Scalar, typename Out>
+    void modal_displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
+                             std::uint32_t end, Out *out)
+    {
+      for (std::uint32_t v = begin; v < end; ++v)
+        {
+          Scalar u[3];
+          dot_rows3(modes + std::size_t(v) * 3 * r, q, r, u);
+          Out *o = out + 3 * std::size_t(v - begin);
+          o[0]   = Out(u[0]);
+          o[1]   = Out(u[1]);
+          o[2]   = Out(u[2]);
+        }
+    }
+
+    // Near each contact at a candidate, the felt static correction C F spread over the patch with
+    // the profile of the patch weights (1 - (d/rho)^2)^2, equal to 1 at the active vertex.
+    template <typename Out>
+    void add_corrections(const modalrt_snapshot &snapshot, std::uint32_t begin, std::uint32_t end, Out *out)
+    {
+      const modalrt_basis         &basis = *snapshot.basis;
+      const modalrt::SnapshotState &s     = snapshot.state;
+      const double                 rho   = basis.patch_radius();
+      for (std::uint32_t k = 0; k < s.contact_count; ++k)
+        {
+          const double *c = &s.contact_corrections[3 * std::size_t(k)];
+          if (c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0)
+            continue;
+          const std::uint32_t v  = s.contact_vertices[k];
+          const double       *xv = &basis.vertices[3 * std::size_t(v)];
+          for (std::uint32_t e = basis.patch_offsets[v]; e < basis.patch_offsets[v + 1]; ++e)
+            {
+              const std::uint32_t j = basis.patch_vertices[e];
+              if (j < begin || j >= end)
+                continue;
+              double weight = j == v ? 1.0 : 0.0;
+              if (rho > 0.0)
+                {
+                  const double *xj = &basis.vertices[3 * std::size_t(j)];
+                  const double  d2 = (xj[0] - xv[0]) * (xj[0] - xv[0]) + (xj[1] - xv[1]) * (xj[1] - xv[1]) +
+                                    (xj[2] - xv[2]) * (xj[2] - xv[2]);
+                  const double t = std::max(0.0, 1.0 - d2 / (rho * rho));
+                  weight         = t * t;
+                }
+              Out *o = out + 3 * std::size_t(j - begin);
+              for (int d = 0; d < 3; ++d)
+                o[d] = Out(double(o[d]) + weight * c[d]);
+            }
+        }
+    }
+
+    template <typename Out>
+    void to_positions(const modalrt_snapshot &snapshot, std::uint32_t begin, std::uint32_t end, bool world, Out *out)
+    {
+      const modalrt_basis         &basis = *snapshot.basis;
+      const modalrt::SnapshotState &s     = snapshot.state;
+      const double                *R     = s.frame_rotation;
+      for (std::uint32_t v = begin; v < end; ++v)
+        {
+          Out         *o = out + 3 * std::size_t(v - begin);
+          const double x[3] = {basis.vertices[3 * std::size_t(v)] + double(o[0]),
+                               basis.vertices[3 * std::size_t(v) + 1] + double(o[1]),
+                               basis.vertices[3 * std::size_t(v) + 2] + double(o[2])};
+          for (int d = 0; d < 3; ++d)
+            o[d] = world ? Out(s.frame_position[d] + R[3 * d] * x[0] + R[3 * d + 1] * x[1] + R[3 * d + 2] * x[2])
+                         : Out(x[d]);
+        }
+    }
+  } // namespace
+
+  template <typename Out>
+  int reconstruct(const modalrt_snapshot &snapshot, std::uint32_t begin, std::uint32_t end, std::uint32_t flags,
+                  Out *out) noexcept
+  {
+    const modalrt_basis &basis = *snapshot.basis;
+    if (begin > end || end > basis.vertex_count || (!out && end > begin))
+      return MODALRT_ERROR_INVALID_ARGUMENT;
+    const modalrt::SnapshotState &s = snapshot.state;
+    const std::uint32_t           r = s.mode_count;
+    const ModalSpace             &space = basis.spaces[s.space];
+    if (basis.float64_modes())
+      modal_displacements(space.display_modes_f64.data(), s.q.data(), r, begin, end, out);
+    else
+      modal_displacements(space.display_modes_f32.data(), snapshot.q_f32.data(), r, begin, end, out);
+    if (!(flags & MODALRT_DISPLAY_NO_CORRECTION))
+      add_corrections(snapshot, begin, end, out);
+    if (flags & MODALRT_DISPLAY_POSITIONS)
+      to_positions(snapshot, begin, end, (flags & MODALRT_DISPLAY_WORLD) != 0, out);
+    return MODALRT_OK;
+  }
+
+  template int reconstruct<float>(const modalrt_snapshot &, std::uint32_t, std::uint32_t, std::uint32_t, float *) noexcept;
+  template int reconstruct<double>(const modalrt_snapshot &, std::uint32_t, std::uint32_t, std::uint32_t,
+                                   double *) noexcept;
+
+  int read_snapshot(modalrt_kernel &kernel, modalrt_snapshot &snapshot) noexcept
+  {
+    bool                          fresh;
+    const modalrt::SnapshotState &latest = kernel.snapshots.acquire(fresh);
+    snapshot.state.copy_from(latest);
+    for (std::uint32_t i = 0; i < snapshot.state.mode_count; ++i)
+      snapshot.q_f32[i] = float(snapshot.state.q[i]);
+    return fresh ? 1 : 0;
+  }
+} // namespace modalrt

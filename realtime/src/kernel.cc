@@ -1,0 +1,451 @@
+// The haptic loop: creation, the tick and its admittance and impedance steps, the outputs and the
+// publication of display snapshots. Contacts live in contact.cc, the moving frame in moving_frame.cc;
+// modalrt.h states the rules as the user sees them.
+#include "kernel.h"
+
+#include "dense.h"
+#include "error.h"
+#include "vector3.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+using namespace modalrt;
+
+namespace
+{
+  std::uint64_t now_ns()
+  {
+    return std::uint64_t(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
+  }
+
+  // ----- the definition's checks (at create, with messages) ----------------------------------
+  void require(bool condition, int status, const std::string &message)
+  {
+    if (!condition)
+      fail(status, "kernel definition: " + message);
+  }
+
+  void check_device(const modalrt_kernel_def &d)
+  {
+    const modalrt_device_def &dev = d.device;
+    require(std::isfinite(dev.max_force) && dev.max_force > 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("device.max_force = ", dev.max_force, " N must be finite and > 0"));
+    require(std::isfinite(dev.max_stiffness) && dev.max_stiffness >= 0.0 && std::isfinite(dev.max_damping) &&
+              dev.max_damping >= 0.0 && std::isfinite(dev.physical_damping) && dev.physical_damping >= 0.0,
+            MODALRT_ERROR_INVALID_ARGUMENT, "device stiffness and damping limits must be finite and >= 0");
+    const double K = d.coupling_stiffness, D = d.coupling_damping, T = d.time_step;
+    require(std::isfinite(K) && K >= 0.0 && std::isfinite(D) && D >= 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
+            "coupling_stiffness and coupling_damping must be finite and >= 0");
+    require(K <= dev.max_stiffness, MODALRT_ERROR_DEVICE_LIMIT,
+            cat("coupling_stiffness ", K, " N/m exceeds the device's max_stiffness ", dev.max_stiffness, " N/m"));
+    require(D <= dev.max_damping, MODALRT_ERROR_DEVICE_LIMIT,
+            cat("coupling_damping ", D, " N s/m exceeds the device's max_damping ", dev.max_damping, " N s/m"));
+    // Sampled passivity (Colgate): a spring held over a tick of length T can generate up to K T / 2
+    // of energy per unit squared velocity, which the dampers must dissipate.
+    require(K == 0.0 || K * T / 2.0 < dev.physical_damping + D, MODALRT_ERROR_DEVICE_LIMIT,
+            cat("the virtual coupling is not passive at T = ", T, " s: K T / 2 = ", K * T / 2.0,
+                " N s/m must be below b + D = ", dev.physical_damping + D, " N s/m (largest passive K: ",
+                2.0 * (dev.physical_damping + D) / T, " N/m)"));
+  }
+
+  void check_definition(const modalrt_basis &basis, const modalrt_kernel_def &d)
+  {
+    require(std::isfinite(d.time_step) && d.time_step >= 1e-6 && d.time_step <= 1.0, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("time_step = ", d.time_step, " s, expected 1e-6 .. 1"));
+    require(d.hip_capacity >= 1 && d.hip_capacity <= max_hip_capacity, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("hip_capacity = ", d.hip_capacity, ", expected 1 .. ", max_hip_capacity));
+    require(d.initial_space < basis.space_count(), MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("initial_space = ", d.initial_space, ", the basis has ", basis.space_count(), " spaces"));
+    check_device(d);
+    require(std::isfinite(d.snap_distance) && d.snap_distance > 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
+            "snap_distance must be finite and > 0");
+    require(std::isfinite(d.contact_tolerance) && std::isfinite(d.release_distance) && d.release_distance >= 0.0 &&
+              std::isfinite(d.release_force) && d.release_force >= 0.0,
+            MODALRT_ERROR_INVALID_ARGUMENT, "contact_tolerance, release_distance and release_force must be finite "
+                                            "(the last two >= 0)");
+    require(d.max_input_force > 0.0 && d.workspace_radius > 0.0 && d.max_input_velocity > 0.0 &&
+              d.max_frame_acceleration > 0.0,
+            MODALRT_ERROR_INVALID_ARGUMENT,
+            "max_input_force, workspace_radius, max_input_velocity and max_frame_acceleration must be > 0");
+    require(d.snap_candidate_budget >= 1 && d.snap_candidate_budget <= 256, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("snap_candidate_budget = ", d.snap_candidate_budget, ", expected 1 .. 256"));
+    require(d.switch_rule <= MODALRT_SWITCH_NEVER, MODALRT_ERROR_INVALID_ARGUMENT, "unknown switch_rule");
+    require(d.snapshot_interval >= 1, MODALRT_ERROR_INVALID_ARGUMENT, "snapshot_interval must be >= 1");
+  }
+} // namespace
+
+// =================================================================================================
+// Creation (allocates everything the loop will use)
+// =================================================================================================
+modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel_def &def_)
+  : basis(basis_)
+  , def(def_)
+{
+  check_definition(basis, def);
+  const std::uint32_t R = basis.max_modes, H = def.hip_capacity;
+  integrators_.resize(basis.space_count());
+  for (std::uint32_t s = 0; s < basis.space_count(); ++s)
+    {
+      const ModalSpace &space = basis.spaces[s];
+      integrators_[s].setup(space.eigenvalues.data(), space.damping_ratios.data(), space.mode_count, def.time_step);
+    }
+  for (std::vector<double> *buffer : {&q_, &v_, &f_, &q_free_, &v_free_, &transfer_scratch_})
+    buffer->assign(R, 0.0);
+  rows_.assign(std::size_t(H) * 3 * R, 0.0);
+  contacts_.resize(H);
+  for (std::uint32_t h = 0; h < H; ++h)
+    contacts_[h].B = rows_.data() + std::size_t(h) * 3 * R;
+  body_inputs_.resize(H);
+  flags_.assign(H, 0);
+  last_outputs_.assign(H, modalrt_hip_output{});
+  for (modalrt_hip_output &o : last_outputs_)
+    o.active_vertex = MODALRT_NONE;
+  active_.assign(H, 0);
+  for (std::vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
+    m->assign(9 * std::size_t(H) * H, 0.0);
+  rhs_.assign(3 * std::size_t(H), 0.0);
+  snap_candidates_.resize(def.snap_candidate_budget);
+  snapshots.allocate(R, H);
+  space_              = def.initial_space;
+  stats.active_space  = space_;
+}
+
+// =================================================================================================
+// The tick
+// =================================================================================================
+int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs,
+                         bool impedance) noexcept
+{
+  if ((count > 0 && (!inputs || !outputs)))
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  const std::uint64_t start = def.enable_profile ? now_ns() : 0;
+  ++stats.tick_count;
+
+  if (const std::uint32_t reasons = validate(inputs, count, impedance))
+    {
+      // The state does not move; the device gets the last outputs that were safe.
+      ++stats.rejected_ticks;
+      stats.last_reject_reasons = reasons;
+      for (std::uint32_t h = 0; h < std::min(count, def.hip_capacity); ++h)
+        outputs[h] = last_outputs_[h];
+      return MODALRT_INPUT_REJECTED;
+    }
+
+  std::fill(flags_.begin(), flags_.end(), 0u);
+  to_body(inputs, count);
+  apply_release_rules(count, impedance);
+  detect_contacts(count);
+  apply_switch_rule();
+  if (impedance)
+    impedance_step();
+  else
+    admittance_step();
+  write_outputs(count, outputs, impedance);
+  stats.time += def.time_step;
+  publish_snapshot();
+
+  if (def.enable_profile)
+    {
+      stats.last_tick_seconds = 1e-9 * double(now_ns() - start);
+      stats.max_tick_seconds  = std::max(stats.max_tick_seconds, stats.last_tick_seconds);
+    }
+  return MODALRT_OK;
+}
+
+// Every device input is checked before anything moves.
+std::uint32_t modalrt_kernel::validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept
+{
+  if (count > def.hip_capacity)
+    return MODALRT_REJECT_HIP_COUNT;
+  std::uint32_t reasons = 0;
+  for (std::uint32_t h = 0; h < count; ++h)
+    {
+      const modalrt_hip_input &in = inputs[h];
+      if (!finite3(in.position) || !finite3(in.velocity) || (!impedance && !finite3(in.force)))
+        {
+          reasons |= MODALRT_REJECT_NOT_FINITE;
+          continue;
+        }
+      if (norm3(in.position) > def.workspace_radius)
+        reasons |= MODALRT_REJECT_POSITION;
+      if (norm3(in.velocity) > def.max_input_velocity)
+        reasons |= MODALRT_REJECT_VELOCITY;
+      if (!impedance && norm3(in.force) > def.max_input_force)
+        reasons |= MODALRT_REJECT_FORCE;
+    }
+  return reasons;
+}
+
+// Admittance: the forces are given; the modes move; the active vertices report where they are.
+void modalrt_kernel::admittance_step() noexcept
+{
+  refresh_contact_set();
+  for (std::uint32_t k = 0; k < active_count_; ++k)
+    std::copy_n(body_inputs_[active_[k]].force, 3, contacts_[active_[k]].force);
+  frame_modal_force(f_.data());
+  add_contact_forces(f_.data());
+  integrators_[space_].step(q_.data(), v_.data(), f_.data());
+  update_corrections();
+}
+
+// Impedance: the coupling force and the modal step are solved together. With the free step
+// (q_f, v_f) (no contact force) and the per-tick gains G = diag(g1), H = diag(g2), the felt
+// displacement and velocity after the tick are linear in the coupling forces F:
+//     x_a = rest_a + B_a q_f + sum_b (B_a G B_b^T + C_ab) F_b,    v_a = B_a v_f + sum_b B_a H B_b^T F_b
+// and F_a = K (x_hip,a - x_a) + D (v_hip,a - v_a) gives a 3n x 3n linear system.
+void modalrt_kernel::impedance_step() noexcept
+{
+  refresh_contact_set();
+  if (coupling_dirty_)
+    refresh_coupling_matrices();
+  const ModalIntegrator &integrator = integrators_[space_];
+  const std::uint32_t    r          = integrator.mode_count();
+  frame_modal_force(f_.data());
+  integrator.step_to(q_.data(), v_.data(), f_.data(), q_free_.data(), v_free_.data());
+
+  const std::uint32_t n = active_count_, n3 = 3 * n;
+  const double        K = def.coupling_stiffness, D = def.coupling_damping;
+  for (std::uint32_t a = 0; a < n; ++a)
+    {
+      const Contact   &c  = contacts_[active_[a]];
+      const BodyInput &in = body_inputs_[active_[a]];
+      double           xp[3], vp[3];
+      dot_rows3_pair(c.B, q_free_.data(), v_free_.data(), r, xp, vp);
+      for (int d = 0; d < 3; ++d)
+        rhs_[3 * a + d] = K * (in.x[d] - c.rest[d] - c.anchor[d] - xp[d]) + D * (in.v[d] - vp[d]);
+    }
+  for (std::uint32_t i = 0; i < n3; ++i)
+    for (std::uint32_t j = 0; j < n3; ++j)
+      system_[i * n3 + j] = (i == j ? 1.0 : 0.0) + K * coupling_[i * n3 + j] + D * coupling_velocity_[i * n3 + j];
+  solve_coupling(n3);
+
+  for (std::uint32_t a = 0; a < n; ++a)
+    {
+      double      *F     = &rhs_[3 * a];
+      const double size  = norm3(F);
+      const double limit = def.device.max_force;
+      if (size > limit)
+        {
+          for (int d = 0; d < 3; ++d)
+            F[d] *= limit / size;
+          flags_[active_[a]] |= MODALRT_HIP_FORCE_CLAMPED;
+          ++stats.clamped_forces;
+        }
+      std::copy_n(F, 3, contacts_[active_[a]].force);
+    }
+
+  std::fill_n(f_.data(), r, 0.0);
+  add_contact_forces(f_.data());
+  const double *g1 = integrator.g1(), *g2 = integrator.g2();
+  for (std::uint32_t i = 0; i < r; ++i)
+    {
+      q_[i] = flush(q_free_[i] + g1[i] * f_[i]);
+      v_[i] = flush(v_free_[i] + g2[i] * f_[i]);
+    }
+  update_corrections();
+}
+
+// The static correction of each contact: sum_b C_ab F_b.
+void modalrt_kernel::update_corrections() noexcept
+{
+  const std::uint32_t n3 = 3 * active_count_;
+  for (std::uint32_t a = 0; a < active_count_; ++a)
+    {
+      double *corr = contacts_[active_[a]].correction;
+      for (int c = 0; c < 3; ++c)
+        {
+          double sum = 0.0;
+          for (std::uint32_t b = 0; b < active_count_; ++b)
+            for (int d = 0; d < 3; ++d)
+              sum += compliance_[(3 * a + c) * n3 + 3 * b + d] * contacts_[active_[b]].force[d];
+          corr[c] = sum;
+        }
+    }
+}
+
+// Gaussian elimination with partial pivoting on system_ (n x n), right-hand side rhs_ (solution
+// written over it). A vanishing pivot (not met with a passive coupling) falls back to the
+// explicit coupling force, which is the right-hand side itself.
+bool modalrt_kernel::solve_coupling(std::uint32_t n) noexcept
+{
+  double *A = system_.data(), *b = rhs_.data();
+  for (std::uint32_t k = 0; k < n; ++k)
+    {
+      std::uint32_t pivot = k;
+      for (std::uint32_t i = k + 1; i < n; ++i)
+        if (std::fabs(A[i * n + k]) > std::fabs(A[pivot * n + k]))
+          pivot = i;
+      if (!(std::fabs(A[pivot * n + k]) > 1e-300))
+        return false;
+      if (pivot != k)
+        {
+          for (std::uint32_t j = 0; j < n; ++j)
+            std::swap(A[k * n + j], A[pivot * n + j]);
+          std::swap(b[k], b[pivot]);
+        }
+      for (std::uint32_t i = k + 1; i < n; ++i)
+        {
+          const double factor = A[i * n + k] / A[k * n + k];
+          for (std::uint32_t j = k; j < n; ++j)
+            A[i * n + j] -= factor * A[k * n + j];
+          b[i] -= factor * b[k];
+        }
+    }
+  for (std::uint32_t k = n; k-- > 0;)
+    {
+      double sum = b[k];
+      for (std::uint32_t j = k + 1; j < n; ++j)
+        sum -= A[k * n + j] * b[j];
+      b[k] = sum / A[k * n + k];
+    }
+  return true;
+}
+
+void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept
+{
+  const Frame        &fr = frame_;
+  const std::uint32_t r  = mode_count();
+  for (std::uint32_t h = 0; h < count; ++h)
+    {
+      const Contact     &c   = contacts_[h];
+      modalrt_hip_output out{};
+      out.space = space_;
+      out.flags = flags_[h];
+      if (c.in_contact)
+        {
+          double u[3], u_dot[3], x_body[3], x_rel[3], spin[3], u_dot_world[3];
+          dot_rows3_pair(c.B, q_.data(), v_.data(), r, u, u_dot);
+          for (int d = 0; d < 3; ++d)
+            x_body[d] = c.rest[d] + c.anchor[d] + u[d] + c.correction[d];
+          rotate(fr.rotation, x_body, x_rel);
+          cross3(fr.angular_velocity, x_rel, spin);
+          rotate(fr.rotation, u_dot, u_dot_world);
+          rotate(fr.rotation, c.force, out.force);
+          for (int d = 0; d < 3; ++d)
+            {
+              out.position[d] = fr.position[d] + x_rel[d];
+              out.velocity[d] = fr.linear_velocity[d] + spin[d] + u_dot_world[d];
+              if (impedance)
+                out.force[d] = -out.force[d]; // the part pushes the HIP back
+            }
+          out.in_contact    = 1;
+          out.active_vertex = c.vertex;
+          if (c.candidate >= 0 && def.use_static_correction)
+            out.flags |= MODALRT_HIP_CORRECTED;
+        }
+      else
+        {
+          // Not in contact: the kernel has nothing to impose.
+          double p[3], v[3];
+          rotate(fr.rotation, body_inputs_[h].x, p);
+          rotate(fr.rotation, body_inputs_[h].v, v);
+          double spin[3];
+          cross3(fr.angular_velocity, p, spin);
+          for (int d = 0; d < 3; ++d)
+            {
+              out.position[d] = fr.position[d] + p[d];
+              out.velocity[d] = fr.linear_velocity[d] + spin[d] + v[d];
+            }
+          out.active_vertex = MODALRT_NONE;
+        }
+      outputs[h]       = out;
+      last_outputs_[h] = out;
+    }
+}
+
+void modalrt_kernel::publish_snapshot() noexcept
+{
+  if (++ticks_since_publish_ < def.snapshot_interval)
+    return;
+  ticks_since_publish_ = 0;
+  SnapshotState &s     = snapshots.back();
+  s.tick               = stats.tick_count;
+  s.time               = stats.time;
+  s.space              = space_;
+  s.mode_count         = mode_count();
+  std::copy_n(q_.data(), s.mode_count, s.q.data());
+  std::copy_n(frame_.position, 3, s.frame_position);
+  std::copy_n(frame_.orientation, 4, s.frame_orientation);
+  std::copy_n(frame_.rotation, 9, s.frame_rotation);
+  std::uint32_t n = 0;
+  for (const Contact &c : contacts_)
+    if (c.in_contact)
+      {
+        s.contact_vertices[n] = c.vertex;
+        std::copy_n(c.correction, 3, &s.contact_corrections[3 * n]);
+        ++n;
+      }
+  s.contact_count = n;
+  snapshots.publish();
+}
+
+// f += sum_h B_h^T F_h.
+void modalrt_kernel::add_contact_forces(double *f) const noexcept
+{
+  const std::uint32_t r = mode_count();
+  for (std::uint32_t k = 0; k < active_count_; ++k)
+    {
+      const Contact &c = contacts_[active_[k]];
+      const double  *b0 = c.B, *b1 = c.B + r, *b2 = c.B + 2 * std::size_t(r);
+      const double   F0 = c.force[0], F1 = c.force[1], F2 = c.force[2];
+      for (std::uint32_t i = 0; i < r; ++i)
+        f[i] += b0[i] * F0 + b1[i] * F1 + b2[i] * F2;
+    }
+}
+
+// =================================================================================================
+// Calls of the tick thread outside the tick
+// =================================================================================================
+
+// The exact static equilibrium q = Lambda^-1 f under the given admittance forces.
+int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count) noexcept
+{
+  if (count > 0 && !inputs)
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  if (validate(inputs, count, false) != 0)
+    return MODALRT_ERROR_VALUE;
+  to_body(inputs, count);
+  refresh_contact_set();
+  for (std::uint32_t k = 0; k < active_count_; ++k)
+    {
+      Contact &c = contacts_[active_[k]];
+      if (active_[k] < count)
+        std::copy_n(body_inputs_[active_[k]].force, 3, c.force);
+      else
+        std::fill_n(c.force, 3, 0.0);
+    }
+  frame_modal_force(f_.data());
+  add_contact_forces(f_.data());
+  const ModalSpace &space = basis.spaces[space_];
+  for (std::uint32_t i = 0; i < space.mode_count; ++i)
+    {
+      if (space.eigenvalues[i] > 0.0)
+        q_[i] = f_[i] / space.eigenvalues[i];
+      v_[i] = 0.0;
+    }
+  update_corrections();
+  return MODALRT_OK;
+}
+
+void modalrt_kernel::reset() noexcept
+{
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    {
+      if (contacts_[h].in_contact)
+        end_contact(h);
+      contacts_[h].armed = true;
+      last_outputs_[h]   = modalrt_hip_output{};
+      last_outputs_[h].active_vertex = MODALRT_NONE;
+    }
+  std::fill(q_.begin(), q_.end(), 0.0);
+  std::fill(v_.begin(), v_.end(), 0.0);
+  space_             = def.initial_space;
+  stats.active_space = space_;
+  stats.time         = 0.0;
+  contact_started_   = false;
+  refresh_contact_set();
+}

@@ -1,0 +1,139 @@
+// The haptic loop. Everything a tick touches is allocated by the constructor; the tick functions
+// are noexcept and only index into those buffers.
+#pragma once
+
+#include "basis.h"
+#include "modal_integrator.h"
+#include "snapshot.h"
+
+#include <modalrt/modalrt.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace modalrt
+{
+  constexpr std::uint32_t max_hip_capacity = 16;
+
+  // Pose and motion of the body frame, as the tick uses it.
+  struct Frame
+  {
+    double position[3]    = {0.0, 0.0, 0.0};
+    double orientation[4] = {1.0, 0.0, 0.0, 0.0};
+    double rotation[9]    = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // row-major, body to world
+    double linear_velocity[3]  = {0.0, 0.0, 0.0};
+    double angular_velocity[3] = {0.0, 0.0, 0.0};
+    double body_acceleration[6] = {0, 0, 0, 0, 0, 0}; // centre-of-mass acceleration and angular
+                                                       // acceleration in body coordinates: the
+                                                       // column vector that PARTICIPATION multiplies
+    bool moving = false; // any non-zero velocity or acceleration
+  };
+
+  // A HIP's input in body coordinates.
+  struct BodyInput
+  {
+    double x[3], v[3], force[3];
+  };
+
+  // One HIP's contact. B (3 x r, row-major, in the kernel's row buffer) maps the modal state to the
+  // felt displacement u_c of the active vertex: the candidate's B_v, or sum_j w_j Phi_j over the patch.
+  struct Contact
+  {
+    bool          in_contact = false;
+    bool          armed      = true; // may snap (re-armed after having left the surface)
+    std::uint32_t vertex     = MODALRT_NONE;
+    int           candidate  = -1; // index among the active space's candidates, -1 if none
+    double        rest[3]    = {0.0, 0.0, 0.0};
+    double        normal[3]  = {0.0, 0.0, 0.0};
+    double        force[3]   = {0.0, 0.0, 0.0}; // on the part during the last tick [N] body
+    double        correction[3] = {0.0, 0.0, 0.0}; // sum_b C_ab F_b of the last tick [m] body
+    double        anchor[3]  = {0.0, 0.0, 0.0}; // tangential offset of the HIP from the vertex at
+                                                 // contact start [m] body: the coupling and the
+                                                 // admittance output are anchored there, so a
+                                                 // contact starts without a lateral jerk
+    double       *B          = nullptr;
+  };
+
+  struct SnapCandidate
+  {
+    std::uint32_t vertex;
+    double        rest_distance_squared;
+  };
+} // namespace modalrt
+
+struct modalrt_kernel
+{
+  modalrt_kernel(const modalrt_basis &basis, const modalrt_kernel_def &def);
+
+  // The C API's operations; ticks and the calls documented as tick-thread calls never allocate.
+  int  tick(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
+  int  set_frame(const modalrt_frame_state &state) noexcept;
+  int  contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept;
+  int  release(std::uint32_t hip) noexcept;
+  int  switch_space(std::uint32_t space) noexcept;
+  int  settle(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
+  void reset() noexcept;
+
+  const modalrt_basis     &basis;
+  const modalrt_kernel_def def;
+  modalrt_kernel_stats     stats{};
+  modalrt::SnapshotExchange snapshots;
+
+  std::uint32_t active_space() const { return space_; }
+  std::uint32_t mode_count() const { return basis.spaces[space_].mode_count; }
+  const double *coordinates() const { return q_.data(); }
+  const double *velocities() const { return v_.data(); }
+
+private:
+  using Contact = modalrt::Contact;
+
+  // Tick phases, in order.
+  std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
+  void          to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
+  void          apply_release_rules(std::uint32_t count, bool impedance) noexcept;
+  bool          detect_contacts(std::uint32_t count) noexcept;
+  void          apply_switch_rule() noexcept;
+  void          admittance_step() noexcept;
+  void          impedance_step() noexcept;
+  void          update_corrections() noexcept;
+  void          write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
+  void          publish_snapshot() noexcept;
+
+  // Contacts.
+  void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
+  void end_contact(std::uint32_t hip) noexcept;
+  void build_row(Contact &contact) noexcept;
+  bool find_snap_vertex(const double x[3], std::uint32_t &vertex, double gap[3], double &signed_distance) noexcept;
+  void vertex_displacement(std::uint32_t vertex, double u[3]) const noexcept;
+  void felt_displacement(const Contact &contact, const double *q, double u[3]) const noexcept;
+  void refresh_contact_set() noexcept;
+  void refresh_coupling_matrices() noexcept;
+  void pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
+
+  // Modal state.
+  void frame_modal_force(double *f) const noexcept;
+  void add_contact_forces(double *f) const noexcept;
+  void change_space(std::uint32_t space) noexcept;
+  bool solve_coupling(std::uint32_t n) noexcept;
+
+  modalrt::Frame                 frame_;
+  std::vector<modalrt::ModalIntegrator> integrators_; // one per space, for def.time_step
+  std::uint32_t                  space_ = 0;
+  std::vector<double>            q_, v_, f_, q_free_, v_free_, transfer_scratch_; // max_modes each
+  std::vector<double>            rows_;          // hip_capacity x 3 x max_modes
+  std::vector<Contact>           contacts_;      // hip_capacity
+  std::vector<modalrt::BodyInput> body_inputs_;  // hip_capacity
+  std::vector<std::uint32_t>     flags_;         // hip_capacity, MODALRT_HIP_* of this tick
+  std::vector<modalrt_hip_output> last_outputs_; // hip_capacity: the last safe outputs
+  std::vector<std::uint32_t>     active_;        // HIPs in contact, in HIP order
+  std::uint32_t                  active_count_ = 0;
+  std::vector<double>            compliance_;    // (3 hip_capacity)^2: C between active contacts
+  std::vector<double>            coupling_;      // (3 hip_capacity)^2: B_a G B_b^T + C_ab
+  std::vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
+  std::vector<double>            system_, rhs_;  // the coupling solve
+  std::vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
+  bool                           contacts_changed_ = true;
+  bool                           coupling_dirty_   = true;
+  bool                           contact_started_  = false;
+  std::uint64_t                  ticks_since_publish_ = 0;
+};

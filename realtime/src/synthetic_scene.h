@@ -1,0 +1,66 @@
+// Synthetic bases for tests and benchmarks, written with basis_writer.h.
+//
+// make_lattice_cantilever: a physically consistent scene. A small lattice of point masses joined by
+// springs (axial, face and body diagonals), clamped at x = 0, with its top face as the display
+// surface. Its full eigendecomposition is computed (dense Jacobi, a few hundred DoFs), so every
+// number the format stores is exact for this model: modes, the residual compliance of the modes
+// left out (static correction), cross compliances, full "FE" validation responses, participation
+// factors and least-squares transfers. Space 0 is the global space; space 1 ("tip") owns the VOI
+// x >= voi_start * length and has more modes.
+//
+// make_analytic_plate: a large scene for benchmarks (any r, any number of vertices), with analytic
+// mode shapes and a made-up residual compliance; its validation responses are computed from its
+// own numbers, so the self-check passes on it too.
+#pragma once
+
+#include "basis_writer.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace modalrt
+{
+  struct LatticeOptions
+  {
+    std::uint32_t nx = 9, ny = 3, nz = 2;  // nodes along the length, width, thickness
+    double        length    = 0.2;          // [m]
+    double        width     = 0.05;         // [m]
+    double        thickness = 0.01;         // [m]
+    double        density   = 1200.0;       // [kg/m^3]
+    double        stiffness_modulus = 2e7;  // [Pa] spring stiffness = modulus * spacing^2 / length
+                                            // (2e7: about 2 mm/N at the tip, a compliant part)
+    std::vector<std::uint32_t> modes   = {8, 16}; // r per space (space 0 global, space 1 the tip VOI)
+    std::vector<double>        damping = {0.02, 0.05};
+    double        voi_start     = 0.6;      // VOI of space 1: x >= voi_start * length
+    double        patch_radius  = 0.0;      // [m]
+    bool          float64_modes = true;
+    bool          cross         = true;     // store CROSS_COMPLIANCE
+    bool          transfers     = true;     // store TRANSFER between every ordered pair
+    bool          participation = true;
+    std::uint32_t candidate_stride = 1;     // every this-many eligible vertex is a candidate
+    bool          all_candidates   = false; // every unclamped vertex is a candidate of every space
+                                            // (else only the vertices of the space's region)
+    std::uint32_t validation_vertices = 3;  // per space, x 3 directions
+  };
+
+  BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());
+
+  // Display vertex of lattice node (i, j) of the top face.
+  inline std::uint32_t lattice_display_vertex(const LatticeOptions &o, std::uint32_t i, std::uint32_t j)
+  {
+    return j * o.nx + i;
+  }
+
+  struct PlateOptions
+  {
+    std::uint32_t nx = 64, ny = 64;      // display vertices
+    double        length = 0.3, width = 0.3; // [m]
+    std::uint32_t modes         = 200;   // r of every space
+    std::uint32_t spaces        = 2;
+    std::uint32_t candidates    = 32;    // per space
+    bool          float64_modes = false;
+    double        patch_radius  = 0.0;   // [m]
+  };
+
+  BasisContent make_analytic_plate(const PlateOptions &options = PlateOptions());
+} // namespace modalrt

@@ -1,0 +1,149 @@
+// Bad device input: NaN, infinity, absurd forces, far positions, too many HIPs, a broken frame.
+// Each rejected tick leaves the state where it was, repeats the last safe outputs (finite) and is
+// counted.
+#include "test_support.h"
+
+#include <cstring>
+#include <limits>
+
+namespace
+{
+  struct Run
+  {
+    modalrt_basis     *basis;
+    modalrt_kernel    *kernel;
+    modalrt_hip_input  good[2];
+    modalrt_hip_output last[2];
+  };
+
+  std::vector<double> state(const modalrt_kernel *k)
+  {
+    std::vector<double> q(64), v(64);
+    std::uint32_t       r = 0;
+    modalrt_kernel_get_modal_state(k, q.data(), v.data(), 64, &r);
+    q.resize(r);
+    q.insert(q.end(), v.begin(), v.begin() + r);
+    return q;
+  }
+
+  bool finite(const modalrt_hip_output &o)
+  {
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
+        return false;
+    return true;
+  }
+
+  // Runs one tick with `inputs`; expects a rejection with `reason` and unchanged state and outputs.
+  void expect_rejected(Run &run, const modalrt_hip_input *inputs, std::uint32_t count, std::uint32_t reason, bool impedance)
+  {
+    const std::vector<double> before = state(run.kernel);
+    modalrt_kernel_stats      s0, s1;
+    modalrt_kernel_get_stats(run.kernel, &s0);
+    modalrt_hip_output out[2];
+    std::memset(out, 0xFF, sizeof out); // garbage that must be overwritten
+    const int status = impedance ? modalrt_kernel_tick_impedance(run.kernel, inputs, count, out)
+                                 : modalrt_kernel_tick_admittance(run.kernel, inputs, count, out);
+    modalrt_kernel_get_stats(run.kernel, &s1);
+    ENSURE(status == MODALRT_INPUT_REJECTED);
+    ENSURE(s1.rejected_ticks == s0.rejected_ticks + 1 && (s1.last_reject_reasons & reason));
+    ENSURE(state(run.kernel) == before);
+    for (std::uint32_t h = 0; h < std::min<std::uint32_t>(count, 2); ++h)
+      {
+        ENSURE(finite(out[h]));
+        ENSURE(std::memcmp(&out[h], &run.last[h], sizeof out[h]) == 0);
+      }
+  }
+
+  void bad_inputs(bool impedance)
+  {
+    Run run;
+    run.basis             = test::load(modalrt::make_lattice_cantilever());
+    modalrt_kernel_def d  = modalrt_kernel_default_def();
+    d.hip_capacity        = 2;
+    run.kernel            = test::create(run.basis, d);
+    const double *x       = modalrt_basis_display_vertices(run.basis);
+    run.good[0]           = test::hip_at(x + 3 * 15, 0.0, 0.0, -1.0);
+    run.good[1]           = test::hip_at(x + 3 * 21, 0.0, 0.0, -0.5);
+    run.good[0].position[2] -= 0.001;
+    run.good[1].position[2] -= 0.001;
+    for (int n = 0; n < 20; ++n)
+      impedance ? modalrt_kernel_tick_impedance(run.kernel, run.good, 2, run.last)
+                : modalrt_kernel_tick_admittance(run.kernel, run.good, 2, run.last);
+    ENSURE(run.last[0].in_contact == 1 && run.last[1].in_contact == 1);
+
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    modalrt_hip_input bad[2] = {run.good[0], run.good[1]};
+    bad[1].position[0]       = nan;
+    expect_rejected(run, bad, 2, MODALRT_REJECT_NOT_FINITE, impedance);
+    bad[1] = run.good[1];
+    bad[0].velocity[2] = -inf;
+    expect_rejected(run, bad, 2, MODALRT_REJECT_NOT_FINITE, impedance);
+    bad[0] = run.good[0];
+    bad[0].position[1] = 1e6; // 1000 km away
+    expect_rejected(run, bad, 2, MODALRT_REJECT_POSITION, impedance);
+    bad[0] = run.good[0];
+    bad[0].velocity[0] = 1e4;
+    expect_rejected(run, bad, 2, MODALRT_REJECT_VELOCITY, impedance);
+    if (!impedance) // forces are inputs of the admittance step only
+      {
+        bad[0]          = run.good[0];
+        bad[0].force[2] = -1e30;
+        expect_rejected(run, bad, 2, MODALRT_REJECT_FORCE, impedance);
+        bad[0].force[2] = nan;
+        expect_rejected(run, bad, 2, MODALRT_REJECT_NOT_FINITE, impedance);
+      }
+    modalrt_hip_input three[3] = {run.good[0], run.good[1], run.good[1]};
+    expect_rejected(run, three, 3, MODALRT_REJECT_HIP_COUNT, impedance);
+
+    // A broken frame is refused and counted; the old frame stays.
+    modalrt_frame_state frame = modalrt_frame_state_identity();
+    frame.linear_acceleration[2] = nan;
+    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_INPUT_REJECTED);
+    frame = modalrt_frame_state_identity();
+    frame.angular_acceleration[0] = 1e30;
+    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_INPUT_REJECTED);
+
+    // Good input again: the loop goes on from where it was.
+    modalrt_hip_output out[2];
+    const int status = impedance ? modalrt_kernel_tick_impedance(run.kernel, run.good, 2, out)
+                                 : modalrt_kernel_tick_admittance(run.kernel, run.good, 2, out);
+    ENSURE(status == MODALRT_OK && finite(out[0]) && finite(out[1]) && out[0].in_contact == 1);
+    modalrt_kernel_stats stats;
+    modalrt_kernel_get_stats(run.kernel, &stats);
+    ENSURE(stats.rejected_ticks == (impedance ? 5u : 7u) && stats.rejected_frames == 2);
+    ENSURE(stats.tick_count == 20 + stats.rejected_ticks + 1);
+    std::printf("  %s: %llu ticks rejected, %llu frames rejected\n", impedance ? "impedance" : "admittance",
+                (unsigned long long)stats.rejected_ticks, (unsigned long long)stats.rejected_frames);
+    modalrt_kernel_destroy(run.kernel);
+    modalrt_basis_destroy(run.basis);
+  }
+
+  // API misuse fails safely.
+  void misuse()
+  {
+    modalrt_hip_output out;
+    ENSURE(modalrt_kernel_tick_admittance(nullptr, nullptr, 0, &out) == MODALRT_ERROR_INVALID_ARGUMENT);
+    modalrt_basis *b = test::load(modalrt::make_lattice_cantilever());
+    modalrt_kernel *k = test::create(b, modalrt_kernel_default_def());
+    ENSURE(modalrt_kernel_tick_impedance(k, nullptr, 1, &out) == MODALRT_ERROR_INVALID_ARGUMENT);
+    ENSURE(modalrt_kernel_contact_begin(k, 0, 1000000) == MODALRT_ERROR_INVALID_ARGUMENT);
+    ENSURE(modalrt_kernel_contact_begin(k, 9, 0) == MODALRT_ERROR_INVALID_ARGUMENT);
+    ENSURE(modalrt_kernel_switch_space(k, 5) == MODALRT_ERROR_INVALID_ARGUMENT);
+    modalrt_kernel_def def = modalrt_kernel_default_def();
+    def.time_step          = std::numeric_limits<double>::quiet_NaN();
+    modalrt_kernel *bad    = nullptr;
+    ENSURE(modalrt_kernel_create(b, &def, &bad) == MODALRT_ERROR_INVALID_ARGUMENT && bad == nullptr);
+    ENSURE(std::string(modalrt_last_error_message()).find("time_step") != std::string::npos);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(b);
+  }
+} // namespace
+
+int main()
+{
+  bad_inputs(false);
+  bad_inputs(true);
+  misuse();
+  return test::finish("test_device_input");
+}
