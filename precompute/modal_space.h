@@ -59,7 +59,7 @@ namespace modal_haptics
     EigenSelfCheck           self_check;
     unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
 
-    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [m/sqrt(kg)]
+    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)]
     std::vector<double> display_modes;     // (3 nv) x r row-major: (3v + c) r + i
 
     std::vector<unsigned int> candidates;
