@@ -77,6 +77,27 @@ namespace modal_haptics
       std::unordered_map<long long, std::vector<unsigned int>> cells;
     };
 
+    void build_vertex_triangles(DisplaySurface &s)
+    {
+      s.vertex_triangle_offsets.assign(s.n_vertices() + 1, 0);
+      for (const auto &t : s.triangles)
+        for (const unsigned int i : t)
+          ++s.vertex_triangle_offsets[i + 1];
+      for (unsigned int v = 0; v < s.n_vertices(); ++v)
+        s.vertex_triangle_offsets[v + 1] += s.vertex_triangle_offsets[v];
+      s.vertex_triangles.resize(s.vertex_triangle_offsets.back());
+      std::vector<unsigned int> next(s.vertex_triangle_offsets.begin(), s.vertex_triangle_offsets.end() - 1);
+      for (unsigned int t = 0; t < s.triangles.size(); ++t)
+        for (const unsigned int i : s.triangles[t])
+          s.vertex_triangles[next[i]++] = t;
+    }
+
+    double patch_density(const meshing::Point3 &centre, const meshing::Point3 &x, const double rho)
+    {
+      const double s = distance(centre, x) / rho;
+      return s < 1. ? (1. - s * s) * (1. - s * s) : 0.;
+    }
+
     void build_patches(DisplaySurface &s)
     {
       const double rho = s.patch_radius;
@@ -142,6 +163,69 @@ namespace modal_haptics
       }
     s.vertex_area = lumped_vertex_areas(s);
     build_patches(s);
+    build_vertex_triangles(s);
     return s;
+  }
+
+  std::vector<SurfacePoint> patch_quadrature(const DisplaySurface &s, const unsigned int vertex)
+  {
+    const meshing::Point3 &centre = s.vertices[vertex];
+    const double           rho    = s.patch_radius;
+    if (rho <= 0.)
+      return {{centre, 1.}};
+
+    // Every triangle around a patch vertex: that covers the disk of radius rho, also where the
+    // triangles are larger than rho (then the patch is v alone and the disk lies in v's star).
+    std::vector<unsigned int> triangles;
+    for (unsigned int k = s.patch_offsets[vertex]; k < s.patch_offsets[vertex + 1]; ++k)
+      {
+        const unsigned int j = s.patch_vertices[k];
+        triangles.insert(triangles.end(), s.vertex_triangles.begin() + s.vertex_triangle_offsets[j],
+                         s.vertex_triangles.begin() + s.vertex_triangle_offsets[j + 1]);
+      }
+    std::sort(triangles.begin(), triangles.end());
+    triangles.erase(std::unique(triangles.begin(), triangles.end()), triangles.end());
+
+    // Degree-2 rule on a triangle: three points at barycentric (2/3, 1/6, 1/6) and permutations.
+    const double rule[3][3] = {{2. / 3., 1. / 6., 1. / 6.}, {1. / 6., 2. / 3., 1. / 6.}, {1. / 6., 1. / 6., 2. / 3.}};
+    std::vector<SurfacePoint> points;
+    double                    sum = 0.;
+    for (const unsigned int t : triangles)
+      {
+        const auto &a = s.vertices[s.triangles[t][0]], &b = s.vertices[s.triangles[t][1]],
+                   &c = s.vertices[s.triangles[t][2]];
+        const double longest  = std::max({distance(a, b), distance(b, c), distance(c, a)});
+        const unsigned int m  = std::min<unsigned int>(32, std::max<unsigned int>(1, std::ceil(2. * longest / rho)));
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+        const double sub_area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) / (m * m);
+        // The m^2 sub-triangles of a regular split, in the (s, t) parameters of the triangle: the
+        // "upward" ones (i, j), (i+1, j), (i, j+1) and the "downward" ones (i+1, j), (i+1, j+1), (i, j+1).
+        const auto add_sub_triangle = [&](const std::array<std::array<double, 2>, 3> &corners) {
+          for (const auto &weights : rule)
+            {
+              double st[2] = {0., 0.};
+              for (unsigned int k = 0; k < 3; ++k)
+                for (unsigned int d = 0; d < 2; ++d)
+                  st[d] += weights[k] * corners[k][d];
+              const meshing::Point3 x = {a[0] + st[0] * u[0] + st[1] * v[0], a[1] + st[0] * u[1] + st[1] * v[1],
+                                         a[2] + st[0] * u[2] + st[1] * v[2]};
+              const double w = patch_density(centre, x, rho) * sub_area / 3.;
+              if (w > 0.)
+                points.push_back({x, w}), sum += w;
+            }
+        };
+        for (unsigned int i = 0; i < m; ++i)
+          for (unsigned int j = 0; i + j < m; ++j)
+            {
+              const double s0 = double(i) / m, t0 = double(j) / m, h = 1. / m;
+              add_sub_triangle({{{s0, t0}, {s0 + h, t0}, {s0, t0 + h}}});
+              if (i + j + 1 < m)
+                add_sub_triangle({{{s0 + h, t0}, {s0 + h, t0 + h}, {s0, t0 + h}}});
+            }
+      }
+    for (auto &p : points)
+      p.weight /= sum;
+    return points;
   }
 } // namespace modal_haptics

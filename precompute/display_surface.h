@@ -23,9 +23,27 @@ namespace modal_haptics
     std::vector<unsigned int> patch_vertices;
     std::vector<double>       patch_weights;
     unsigned int              max_patch_size = 0;
+    // The triangles around each vertex, CSR: entries [vertex_triangle_offsets[v], ...[v+1]).
+    std::vector<unsigned int> vertex_triangle_offsets;
+    std::vector<unsigned int> vertex_triangles;
 
     unsigned int n_vertices() const { return vertices.size(); }
   };
+
+  // A point of a quadrature over the display surface [m] and its weight [-].
+  struct SurfacePoint
+  {
+    meshing::Point3 x;
+    double          weight;
+  };
+
+  // The contact patch of a vertex as a surface traction: the density w(x) ~ (1 - (|x - x_v| / rho)^2)^2
+  // integrated over the display triangles that touch the patch, each split into sub-triangles no
+  // larger than rho / 2 with a degree-2 rule. Weights sum to one; rho = 0 gives the vertex alone.
+  // The static solves load the FE mesh with this quadrature (the consistent load of the traction),
+  // not with point forces at the patch vertices: on P2 meshes point forces at vertices are a sum of
+  // singular loads whose response converges slowly under refinement.
+  std::vector<SurfacePoint> patch_quadrature(const DisplaySurface &surface, unsigned int vertex);
 
   // Scales the mesher's surface to metres, tags each vertex with the first VOI (1-based, in the order
   // given) that contains it, and builds the patches of radius patch_radius [m]:

@@ -31,6 +31,8 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 
@@ -86,6 +88,18 @@ namespace modal_haptics
       void export_matrices() const;
       void output_results() const;
 
+      struct LocatedPoint
+      {
+        DoFHandler<3>::active_cell_iterator cell;
+        Point<3>                            unit;             // in the reference tet
+        double                              distance_outside; // 0 inside, else the clipped barycentric
+      };
+      LocatedPoint locate(const meshing::Point3 &x) const;
+      // visit(dof, N_dof(x)) for the nonzero shape functions of one displacement component at x.
+      template <typename Visitor>
+      void for_each_shape_value(const LocatedPoint &point, unsigned int component, Visitor visit) const;
+      void build_patch_load(unsigned int vertex);
+
       // Patch load W_v e_c for c = 0, 1, 2 as three DoF vectors, stored one after the other.
       void add_patch_load(unsigned int vertex, double *three_columns) const;
       // u_c = W_v^T u for a DoF field u.
@@ -110,6 +124,9 @@ namespace modal_haptics
       std::unique_ptr<Factorization> factorization;
       EigenSolution             eigen;
       DisplayInterpolation      interpolation;
+      mutable std::unique_ptr<GridTools::Cache<3>> cell_locator; // built on first use
+      // W_v of the loaded vertices (candidates, shared vertices): per direction (dof, weight) pairs.
+      std::map<unsigned int, std::array<std::vector<std::pair<types::global_dof_index, double>>, 3>> patch_loads;
       ModalSpaceResult          result;
       std::vector<Vector<double>> validation_fields; // full - modal error fields for VTU
       std::vector<std::string>    validation_field_names;
@@ -390,61 +407,90 @@ namespace modal_haptics
           std::to_string(result.dropped_modes.size()));
     }
 
-    // Each display vertex is located in the space's mesh (the closest cell when it lies slightly
-    // outside a coarse mesh's chordal facets) and the FE basis is evaluated there.
+    // A point is located in the space's mesh: the tet with the largest smallest barycentric
+    // coordinate among the nearest bounding boxes, so that a point slightly outside a coarse mesh's
+    // chordal facets is projected onto the closest cell (negative coordinates clipped).
+    ModalSpace::LocatedPoint ModalSpace::locate(const meshing::Point3 &x) const
+    {
+      if (!cell_locator)
+        cell_locator = std::make_unique<GridTools::Cache<3>>(triangulation, mapping);
+      const Point<3> p(x[0], x[1], x[2]);
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cell_locator->get_cell_bounding_boxes_rtree().query(boost::geometry::index::nearest(p, 12),
+                                                          std::back_inserter(near));
+      double                                 best_min = -1e300;
+      Triangulation<3>::active_cell_iterator best_cell;
+      std::array<double, 4>                  best_bary{};
+      for (const auto &[box, cell] : near)
+        {
+          Tensor<2, 3> J;
+          for (unsigned int d = 0; d < 3; ++d)
+            for (unsigned int e = 0; e < 3; ++e)
+              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
+          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+          const double                m    = *std::min_element(bary.begin(), bary.end());
+          if (m > best_min)
+            best_min = m, best_cell = cell, best_bary = bary;
+        }
+      double sum = 0.;
+      for (double &b : best_bary)
+        sum += (b = std::max(b, 0.));
+      for (double &b : best_bary)
+        b /= sum;
+      return {DoFHandler<3>::active_cell_iterator(&triangulation, best_cell->level(), best_cell->index(), &dof_handler),
+              Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
+    }
+
+    template <typename Visitor>
+    void ModalSpace::for_each_shape_value(const LocatedPoint &point, const unsigned int component, Visitor visit) const
+    {
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      point.cell->get_dof_indices(dof_indices);
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        if (fe.system_to_component_index(i).first == component)
+          {
+            const double w = fe.shape_value(i, point.unit);
+            if (w != 0.)
+              visit(dof_indices[i], w);
+          }
+    }
+
+    // W_v as three sparse DoF vectors: the consistent nodal load of the patch traction (see
+    // patch_quadrature), one column per force direction. Its transpose is the patch average.
+    void ModalSpace::build_patch_load(const unsigned int vertex)
+    {
+      if (patch_loads.count(vertex))
+        return;
+      std::array<std::map<types::global_dof_index, double>, 3> columns;
+      for (const auto &point : patch_quadrature(display, vertex))
+        {
+          const auto located = locate(point.x);
+          for (unsigned int c = 0; c < 3; ++c)
+            for_each_shape_value(located, c, [&](const types::global_dof_index dof, const double w) {
+              columns[c][dof] += point.weight * w;
+            });
+        }
+      auto &load = patch_loads[vertex];
+      for (unsigned int c = 0; c < 3; ++c)
+        load[c].assign(columns[c].begin(), columns[c].end());
+    }
+
+    // Each display vertex is located in the space's mesh and the FE basis is evaluated there.
     void ModalSpace::interpolate_on_display_surface()
     {
-      GridTools::Cache<3> cache(triangulation, mapping);
-      const auto         &rtree = cache.get_cell_bounding_boxes_rtree();
-      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
       interpolation.row_start.assign(1, 0);
       double max_outside = 0.;
-
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
         {
-          const Point<3> p(display.vertices[v][0], display.vertices[v][1], display.vertices[v][2]);
-          std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
-          rtree.query(boost::geometry::index::nearest(p, 12), std::back_inserter(near));
-          // Barycentric coordinates in each candidate tet; the best has the largest smallest one.
-          double                                  best_min = -1e300;
-          Triangulation<3>::active_cell_iterator  best_cell;
-          std::array<double, 4>                   best_bary{};
-          for (const auto &[box, cell] : near)
-            {
-              Tensor<2, 3> J;
-              for (unsigned int d = 0; d < 3; ++d)
-                for (unsigned int e = 0; e < 3; ++e)
-                  J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
-              const Tensor<1, 3> xi = invert(J) * (p - cell->vertex(0));
-              const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
-              const double m = *std::min_element(bary.begin(), bary.end());
-              if (m > best_min)
-                best_min = m, best_cell = cell, best_bary = bary;
-            }
-          // Project a point outside onto the tet by clipping negative coordinates.
-          double sum = 0.;
-          for (double &b : best_bary)
-            sum += (b = std::max(b, 0.));
-          for (double &b : best_bary)
-            b /= sum;
-          max_outside = std::max(max_outside, -best_min);
-          const Point<3> unit(best_bary[1], best_bary[2], best_bary[3]);
-
-          const DoFHandler<3>::active_cell_iterator dof_cell(&triangulation, best_cell->level(),
-                                                             best_cell->index(), &dof_handler);
-          dof_cell->get_dof_indices(dof_indices);
+          const auto located = locate(display.vertices[v]);
+          max_outside        = std::max(max_outside, located.distance_outside);
           for (unsigned int c = 0; c < 3; ++c)
             {
-              for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
-                if (fe.system_to_component_index(i).first == c)
-                  {
-                    const double w = fe.shape_value(i, unit);
-                    if (w != 0.)
-                      {
-                        interpolation.dofs.push_back(dof_indices[i]);
-                        interpolation.weights.push_back(w);
-                      }
-                  }
+              for_each_shape_value(located, c, [&](const types::global_dof_index dof, const double w) {
+                interpolation.dofs.push_back(dof);
+                interpolation.weights.push_back(w);
+              });
               interpolation.row_start.push_back(interpolation.dofs.size());
             }
         }
@@ -516,31 +562,20 @@ namespace modal_haptics
     void ModalSpace::add_patch_load(const unsigned int vertex, double *three_columns) const
     {
       const std::size_t n = dof_handler.n_dofs();
-      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
-        for (unsigned int c = 0; c < 3; ++c)
-          interpolation.add_row_transpose(3 * display.patch_vertices[k] + c, display.patch_weights[k],
-                                          three_columns + c * n);
+      const auto       &W = patch_loads.at(vertex);
+      for (unsigned int c = 0; c < 3; ++c)
+        for (const auto &[dof, w] : W[c])
+          three_columns[c * n + dof] += w;
     }
 
     std::array<double, 3> ModalSpace::patch_average(const unsigned int vertex, const double *field) const
     {
+      const auto           &W = patch_loads.at(vertex);
       std::array<double, 3> u{};
-      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
-        for (unsigned int c = 0; c < 3; ++c)
-          u[c] += display.patch_weights[k] * interpolation.row_dot(3 * display.patch_vertices[k] + c, field);
+      for (unsigned int c = 0; c < 3; ++c)
+        for (const auto &[dof, w] : W[c])
+          u[c] += w * field[dof];
       return u;
-    }
-
-    // B_v = W_v^T Phi from the display modes (W_v^T u = sum_j w_j u(x_j)).
-    std::vector<double> contact_modes(const DisplaySurface &display, const std::vector<double> &display_modes,
-                                      const unsigned int r, const unsigned int vertex)
-    {
-      std::vector<double> B(3 * r, 0.);
-      for (unsigned int k = display.patch_offsets[vertex]; k < display.patch_offsets[vertex + 1]; ++k)
-        for (unsigned int c = 0; c < 3; ++c)
-          for (unsigned int i = 0; i < r; ++i)
-            B[c * r + i] += display.patch_weights[k] * display_modes[(3 * std::size_t(display.patch_vertices[k]) + c) * r + i];
-      return B;
     }
 
     std::array<double, 3> ModalSpace::modal_patch_response(const unsigned int candidate, const unsigned int direction) const
@@ -566,24 +601,30 @@ namespace modal_haptics
       const std::size_t  n  = dof_handler.n_dofs();
       result.candidates     = task.candidates;
       const unsigned int nc = result.candidates.size();
-      for (unsigned int a = 0; a < nc; ++a)
-        {
-          const auto B = contact_modes(display, result.display_modes, r, result.candidates[a]);
-          result.candidate_modes.insert(result.candidate_modes.end(), B.begin(), B.end());
-        }
-      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
-      const bool store_cross = scene.contact.cross_compliance && nc > 0;
-      if (store_cross)
-        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
-
+      Timer              timer;
       // The shared vertices (compared across spaces) are solved in the same blocks.
       std::vector<unsigned int> loads = result.candidates;
       for (const unsigned int v : task.shared_vertices)
         if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
           loads.push_back(v);
+      for (const unsigned int v : loads)
+        build_patch_load(v);
 
-      const unsigned int block = 16;
-      Timer              timer;
+      // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
+      result.candidate_modes.assign(3 * std::size_t(nc) * r, 0.);
+      for (unsigned int a = 0; a < nc; ++a)
+        for (unsigned int i = 0; i < r; ++i)
+          {
+            const auto b = patch_average(result.candidates[a], eigen.eigenvectors[i].data());
+            for (unsigned int c = 0; c < 3; ++c)
+              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = b[c];
+          }
+      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
+      const bool store_cross = scene.contact.cross_compliance && nc > 0;
+      if (store_cross)
+        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
+
+      const unsigned int  block = 16;
       std::vector<double> X;
       for (unsigned int first = 0; first < loads.size(); first += block)
         {
