@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <set>
 
@@ -440,6 +441,17 @@ namespace modal_haptics
       scene.output.export_matrices = prm.get_bool("Export matrices");
       prm.leave_subsection();
     }
+
+    // Linear tets lock as nu -> 0.5 (the divergence-free constraint leaves them almost no motion):
+    // frequencies and stiffness come out too high. Not an error, the user may want to see it, but a
+    // warning (tests/precompute/test_nearly_incompressible.py measures the error).
+    void warn_about_locking(const SceneParameters &scene)
+    {
+      if (scene.element_degree == 1 && scene.material.poissons_ratio >= 0.45)
+        std::cerr << "Warning: 'Material/Poisson's ratio' = " << scene.material.poissons_ratio
+                  << " with 'Meshing/Element degree' = 1: linear tets lock on nearly incompressible materials "
+                     "(too stiff, frequencies too high); use Element degree = 2." << std::endl;
+    }
   } // namespace
 
   SceneParameters parse_scene_parameters(ParameterHandler &prm,
@@ -462,6 +474,7 @@ namespace modal_haptics
     parse_meshing(prm, scene);
     parse_physics(prm, scene);
     parse_contact_and_output(prm, scene);
+    warn_about_locking(scene);
     AssertThrow(!(scene.meshing.geometry.size() > 4 &&
                   scene.meshing.geometry.substr(scene.meshing.geometry.size() - 4) == ".msh" &&
                   !scene.volumes_of_interest.empty()),

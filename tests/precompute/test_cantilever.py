@@ -32,12 +32,20 @@ E, NU, RHO = 2e11, 0.3, 7850.0
 L, A_SIDE = 0.2, 0.01
 AREA = A_SIDE**2
 I = A_SIDE**4 / 12
-G = E / (2 * (1 + NU))
-KAPPA = 10 * (1 + NU) / (12 + 11 * NU)
 
 
-def timoshenko_frequencies(n_elements=2000, n_modes=2):
+def shear_modulus(nu):
+    return E / (2 * (1 + nu))
+
+
+def shear_coefficient(nu):
+    """Cowper's kappa for a rectangular section."""
+    return 10 * (1 + nu) / (12 + 11 * nu)
+
+
+def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2):
     """Cantilever Timoshenko beam, linear elements with one-point (reduced) shear integration."""
+    G, KAPPA = shear_modulus(nu), shear_coefficient(nu)
     h = L / n_elements
     n = 2 * (n_elements + 1)
     K = np.zeros((n, n))
@@ -56,8 +64,8 @@ def timoshenko_frequencies(n_elements=2000, n_modes=2):
     return np.sqrt(lam) / (2 * math.pi)
 
 
-def tip_compliance():
-    return L**3 / (3 * E * I) + L / (KAPPA * G * AREA)
+def tip_compliance(nu=NU):
+    return L**3 / (3 * E * I) + L / (shear_coefficient(nu) * shear_modulus(nu) * AREA)
 
 
 def check(name, value, reference, tolerance):
