@@ -4,8 +4,15 @@
 //   modal-rt verify --basis FILE   replays the stored full-FE validation cases through the kernel and
 //                                  prints the max relative error; exit 1 above the tolerance
 //                                  (1e-8 with float64 display modes, 1e-5 with float32)
+//   modal-rt run --basis FILE --session SESSION.csv --output-dir DIR ...
+//                                  a scripted session through the kernel in real time
+//                                  (run_command.cc; realtime/README.md)
+//   modal-rt serve --basis FILE --output-dir DIR ...
+//                                  the same loop for a device that talks UDP (udp_device.cc)
 //
 // Exit status: 0 success, 1 bad basis or failed check, 2 bad command line.
+#include "run_command.h"
+
 #include <modalrt/modalrt.h>
 
 #include <cmath>
@@ -21,7 +28,8 @@ namespace
   int usage()
   {
     std::fprintf(stderr, "usage: modal-rt info --basis FILE\n"
-                         "       modal-rt verify --basis FILE [--quiet]\n");
+                         "       modal-rt verify --basis FILE [--quiet]\n%s%s",
+                 modalrt_tool::run_usage(), modalrt_tool::serve_usage());
     return 2;
   }
 
@@ -157,6 +165,8 @@ int main(int argc, char **argv)
   if (argc < 2)
     return usage();
   const std::string command = argv[1];
+  if (command == "run" || command == "serve")
+    return modalrt_tool::run_command(argc - 2, argv + 2, command == "serve");
   const char       *path    = nullptr;
   bool              quiet   = false;
   for (int k = 2; k < argc; ++k)

@@ -1,0 +1,378 @@
+#include "run_command.h"
+
+#include "devices.h"
+#include "run_loop.h"
+#include "run_outputs.h"
+#include "session.h"
+#include "udp_device.h"
+
+#include <modalrt/modalrt.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace modalrt_tool
+{
+  namespace
+  {
+    constexpr double        min_rate = 100.0, max_rate = 20000.0; // [Hz]
+    constexpr std::uint64_t max_ticks = 20000000;                  // bounds the per-tick arrays (160 MB)
+    constexpr double        display_rate = 60.0;                   // [Hz]
+    constexpr double        default_serve_duration = 600.0;        // [s]
+
+    struct RunOptions
+    {
+      bool        serve = false; // `serve`: a UDP device and no session; else `run`
+      std::string basis, session, output_dir;
+      double      rate          = 1000.0; // [Hz]
+      double      duration      = -1.0;   // [s] < 0: the session's end (serve: 600 s)
+      bool        impedance     = true;
+      DeviceKind  device        = DeviceKind::hand;
+      double      frame_rate    = 10.0;  // [Hz] of simulated time
+      double      trace_rate    = 100.0; // [Hz] of simulated time
+      double      snap_distance = -1.0;  // [m] < 0: automatic
+      double      spin_us       = 100.0; // [us] spin before each deadline
+      bool        quiet         = false;
+      UdpSettings udp;                   // serve only
+    };
+
+    // A bad command line: one message naming the option and the value.
+    struct UsageError
+    {
+      std::string message;
+    };
+
+    double number_option(const std::string &option, const char *text, double low, double high, const char *unit)
+    {
+      char        *end   = nullptr;
+      const double value = std::strtod(text, &end);
+      if (end == text || *end != '\0' || !std::isfinite(value))
+        throw UsageError{option + ": '" + text + "' is not a number"};
+      if (value < low || value > high)
+        {
+          char range[128];
+          std::snprintf(range, sizeof range, " is out of range [%g, %g] %s", low, high, unit);
+          throw UsageError{option + " " + text + range};
+        }
+      return value;
+    }
+
+    std::uint32_t integer_option(const std::string &option, const char *text, double low, double high)
+    {
+      const double value = number_option(option, text, low, high, "");
+      if (value != std::floor(value))
+        throw UsageError{option + ": '" + text + "' is not an integer"};
+      return std::uint32_t(value);
+    }
+
+    // An option of one command only is an unknown option of the other.
+    void parse_serve_option(RunOptions &o, const std::string &option, const char *value)
+    {
+      if (option == "--bind")
+        o.udp.bind_address = value;
+      else if (option == "--port")
+        o.udp.port = std::uint16_t(integer_option(option, value, 1, 65535));
+      else if (option == "--hips")
+        o.udp.hips = integer_option(option, value, 1, udp::max_hips);
+      else if (option == "--silence-ticks")
+        o.udp.silence_ticks = integer_option(option, value, 1, 1e6);
+      else
+        throw UsageError{"unknown option '" + option + "'"};
+    }
+
+    RunOptions parse_options(int argc, char **argv, bool serve)
+    {
+      RunOptions o;
+      o.serve = serve;
+      for (int k = 0; k < argc; ++k)
+        {
+          const std::string option = argv[k];
+          if (option == "--quiet")
+            {
+              o.quiet = true;
+              continue;
+            }
+          if (option.rfind("--", 0) != 0)
+            throw UsageError{"unexpected argument '" + option + "'"};
+          if (k + 1 >= argc)
+            throw UsageError{option + " needs a value"};
+          const char       *value = argv[++k];
+          const std::string text  = value;
+          if (option == "--basis")
+            o.basis = text;
+          else if (option == "--session" && !serve)
+            o.session = text;
+          else if (option == "--output-dir")
+            o.output_dir = text;
+          else if (option == "--rate")
+            o.rate = number_option(option, value, min_rate, max_rate, "Hz");
+          else if (option == "--duration")
+            o.duration = number_option(option, value, 1e-3, 1e6, "s");
+          else if (option == "--frame-rate")
+            o.frame_rate = number_option(option, value, 0.0, display_rate, "Hz");
+          else if (option == "--trace-rate")
+            o.trace_rate = number_option(option, value, 1e-3, max_rate, "Hz");
+          else if (option == "--spin-us")
+            o.spin_us = number_option(option, value, 0.0, 1e6, "us");
+          else if (option == "--snap-distance")
+            o.snap_distance = number_option(option, value, 1e-6, 1.0, "m");
+          else if (option == "--mode" && (text == "impedance" || text == "admittance"))
+            o.impedance = text == "impedance";
+          else if (option == "--mode")
+            throw UsageError{"--mode '" + text + "' is not impedance or admittance"};
+          else if (option == "--device" && !serve && (text == "hand" || text == "probe"))
+            o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
+          else if (option == "--device" && !serve)
+            throw UsageError{"--device '" + text + "' is not hand or probe"};
+          else if (serve)
+            parse_serve_option(o, option, value);
+          else
+            throw UsageError{"unknown option '" + option + "'"};
+        }
+      if (o.basis.empty())
+        throw UsageError{"missing --basis"};
+      if (o.session.empty() && !serve)
+        throw UsageError{"missing --session"};
+      if (o.output_dir.empty())
+        throw UsageError{"missing --output-dir"};
+      return o;
+    }
+
+    // Longest edge of the display triangles [m]: a HIP anywhere on the surface is that close to a
+    // vertex, so snapping needs at least that search radius.
+    double longest_display_edge(const modalrt_basis *basis)
+    {
+      modalrt_basis_info info;
+      modalrt_basis_get_info(basis, &info);
+      const double   *x = modalrt_basis_display_vertices(basis);
+      const uint32_t *t = modalrt_basis_display_triangles(basis);
+      double          longest = 0.0;
+      for (std::uint32_t k = 0; k < 3 * info.display_triangle_count; ++k)
+        {
+          const std::uint32_t a = t[k], b = t[k - k % 3 + (k + 1) % 3];
+          double              d2 = 0.0;
+          for (int d = 0; d < 3; ++d)
+            d2 += (x[3 * a + d] - x[3 * b + d]) * (x[3 * a + d] - x[3 * b + d]);
+          longest = std::max(longest, std::sqrt(d2));
+        }
+      return longest;
+    }
+
+    // The kernel's definition for this device and rate. The coupling is the kernel's default
+    // (1000 N/m, 2 N s/m) within the device's limits, and softened at low rates so that the
+    // sampled-passivity condition K T / 2 < b + D holds with a 10 % margin.
+    modalrt_kernel_def kernel_def(const RunOptions &o, const DeviceSpec &spec, const modalrt_basis *basis,
+                                  std::uint32_t hips)
+    {
+      modalrt_kernel_def def      = modalrt_kernel_default_def();
+      def.time_step               = 1.0 / o.rate;
+      def.hip_capacity            = hips;
+      def.device.max_force        = spec.max_force;
+      def.device.max_stiffness    = spec.max_stiffness;
+      def.device.max_damping      = spec.max_damping;
+      def.device.physical_damping = spec.physical_damping;
+      def.coupling_damping        = std::min(def.coupling_damping, spec.max_damping);
+      const double passive        = 0.9 * 2.0 * (spec.physical_damping + def.coupling_damping) / def.time_step;
+      def.coupling_stiffness      = std::min({def.coupling_stiffness, spec.max_stiffness, passive});
+      def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
+      return def;
+    }
+
+    // --output-dir and its frames/ (stale frames of an earlier run are removed: frames.pvd must
+    // describe exactly the files beside it).
+    bool prepare_output_dir(const std::string &dir, std::string &error)
+    {
+      namespace fs = std::filesystem;
+      std::error_code code;
+      fs::create_directories(fs::path(dir) / "frames", code);
+      if (code)
+        {
+          error = "cannot create output directory '" + dir + "/frames': " + code.message();
+          return false;
+        }
+      for (const fs::directory_entry &entry : fs::directory_iterator(fs::path(dir) / "frames", code))
+        {
+          const std::string name = entry.path().filename().string();
+          if (name.rfind("frame_", 0) == 0 && entry.path().extension() == ".vtu")
+            fs::remove(entry.path(), code);
+        }
+      return true;
+    }
+
+    struct Resources
+    {
+      modalrt_basis  *basis  = nullptr;
+      modalrt_kernel *kernel = nullptr;
+      ~Resources()
+      {
+        modalrt_kernel_destroy(kernel);
+        modalrt_basis_destroy(basis);
+      }
+    };
+
+    int fail(const std::string &message)
+    {
+      std::fprintf(stderr, "modal-rt: %s\n", message.c_str());
+      return 1;
+    }
+
+    bool write_outputs(const RunOptions &o, const RunReport &report, const HapticResult &haptic,
+                       const DisplayResult &display, std::uint32_t hips, std::string &error)
+    {
+      return write_trace(o.output_dir + "/trace.csv", haptic, hips, error) &&
+             write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
+             write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
+    }
+
+    // The session a command plays: the file (run), or none with --hips HIPs (serve: the device
+    // brings the motion).
+    bool load_session(const RunOptions &o, Session &session)
+    {
+      if (o.serve)
+        {
+          session.path      = "(udp)";
+          session.hip_count = o.udp.hips;
+          session.end_time  = o.duration > 0.0 ? o.duration : default_serve_duration;
+          return true;
+        }
+      try
+        {
+          session = read_session(o.session);
+          return true;
+        }
+      catch (const SessionError &e)
+        {
+          fail(std::string("bad session: ") + e.what());
+          return false;
+        }
+    }
+
+    std::unique_ptr<Device> open_device(const RunOptions &o, const Session &session, const modalrt_basis_info &info)
+    {
+      if (!o.serve)
+        return make_device(o.device, session, 1.0 / o.rate);
+      UdpSettings settings = o.udp;
+      // Before the first state the HIPs wait half a metre above the part's middle: no contact.
+      settings.park[0] = 0.5 * (info.bounds_min[0] + info.bounds_max[0]);
+      settings.park[1] = 0.5 * (info.bounds_min[1] + info.bounds_max[1]);
+      settings.park[2] = info.bounds_max[2] + 0.5;
+      return make_udp_device(settings);
+    }
+
+    RunReport make_report(const RunOptions &o, const Session &session, double duration, const modalrt_kernel_def &def,
+                          const modalrt_kernel *kernel, const Device &device, const HapticResult &haptic,
+                          const DisplayResult &display, double press_distance)
+    {
+      RunReport report  = summarize(haptic, o.rate);
+      report.command    = o.serve ? "serve" : "run";
+      report.basis      = o.basis;
+      report.session    = session.path;
+      report.output_dir = o.output_dir;
+      report.mode       = o.impedance ? "impedance" : "admittance";
+      report.device     = device.spec().name;
+      report.stopped_by = haptic.interrupted ? "signal" : "end of session";
+      report.rate       = o.rate;
+      report.duration   = duration;
+      report.hips       = session.hip_count;
+      modalrt_kernel_get_stats(kernel, &report.kernel);
+      report.haptic             = &haptic;
+      report.display            = &display;
+      report.max_press_distance = press_distance;
+      report.coupling_stiffness = def.coupling_stiffness;
+      report.coupling_damping   = def.coupling_damping;
+      report.snap_distance      = def.snap_distance;
+      report.device_counters    = device.counters();
+      return report;
+    }
+
+    int execute(const RunOptions &o)
+    {
+      Session session;
+      if (!load_session(o, session))
+        return 1;
+      const double duration = o.duration > 0.0 ? o.duration : session.end_time;
+      const auto   ticks    = std::uint64_t(std::llround(duration * o.rate));
+      if (ticks == 0 || ticks > max_ticks)
+        return fail("the session is " + std::to_string(ticks) + " ticks long (" + std::to_string(duration) +
+                    " s at " + std::to_string(o.rate) + " Hz): it must be 1 .. " + std::to_string(max_ticks));
+
+      Resources r;
+      if (modalrt_basis_load(o.basis.c_str(), &r.basis) != MODALRT_OK)
+        return fail("bad basis file '" + o.basis + "': " + modalrt_last_error_message());
+      modalrt_basis_info info;
+      modalrt_basis_get_info(r.basis, &info);
+      const double press_distance =
+        resolve_press_vertices(session, modalrt_basis_display_vertices(r.basis), info.display_vertex_count);
+
+      std::unique_ptr<Device> device = open_device(o, session, info);
+      std::string             error;
+      if (!device->open(error))
+        return fail("cannot open the device: " + error);
+      const modalrt_kernel_def def = kernel_def(o, device->spec(), r.basis, session.hip_count);
+      if (modalrt_kernel_create(r.basis, &def, &r.kernel) != MODALRT_OK)
+        return fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
+      if (!prepare_output_dir(o.output_dir, error))
+        return fail(error);
+
+      HapticSettings haptic;
+      haptic.rate             = o.rate;
+      haptic.tick_limit       = ticks;
+      haptic.impedance        = o.impedance;
+      haptic.trace_decimation = std::uint32_t(std::max(1.0, std::round(o.rate / o.trace_rate)));
+      haptic.spin_us          = o.spin_us;
+      DisplaySettings display{o.output_dir, display_rate, o.frame_rate};
+      HapticResult    haptic_result;
+      DisplayResult   display_result;
+      install_stop_handler();
+      run_threads(r.kernel, r.basis, *device, session, haptic, display, haptic_result, display_result);
+      device->close();
+
+      const RunReport report =
+        make_report(o, session, duration, def, r.kernel, *device, haptic_result, display_result, press_distance);
+      if (!write_outputs(o, report, haptic_result, display_result, session.hip_count, error))
+        return fail(error);
+      if (!o.quiet)
+        print_summary(report);
+      if (!display_result.error.empty())
+        return fail("frames: " + display_result.error);
+      return 0;
+  }
+  } // namespace
+
+  const char *run_usage()
+  {
+    return "       modal-rt run --basis FILE.mrt --session SESSION.csv --output-dir DIR [--rate HZ (1000)]\n"
+           "                    [--duration S] [--mode impedance|admittance] [--device hand|probe]\n"
+           "                    [--frame-rate HZ (10)] [--trace-rate HZ (100)] [--snap-distance M]\n"
+           "                    [--spin-us US (100)] [--quiet]\n";
+  }
+
+  const char *serve_usage()
+  {
+    return "       modal-rt serve --basis FILE.mrt --output-dir DIR [--bind ADDRESS (127.0.0.1)] [--port N (47000)]\n"
+           "                    [--hips N (1)] [--silence-ticks N (1)] [--rate HZ (1000)] [--duration S (600)]\n"
+           "                    [--mode impedance|admittance] [--frame-rate HZ] [--trace-rate HZ]\n"
+           "                    [--snap-distance M] [--spin-us US] [--quiet]\n";
+  }
+
+  int run_command(int argc, char **argv, bool serve)
+  {
+    RunOptions o;
+    try
+      {
+        o = parse_options(argc, argv, serve);
+      }
+    catch (const UsageError &e)
+      {
+        std::fprintf(stderr, "modal-rt %s: %s\nusage:\n%s", serve ? "serve" : "run", e.message.c_str(),
+                     serve ? serve_usage() : run_usage());
+        return 2;
+      }
+    return execute(o);
+  }
+} // namespace modalrt_tool

@@ -1,0 +1,302 @@
+#include "run_loop.h"
+
+#include "allocation_counter.h"
+#include "run_outputs.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <csignal>
+#include <thread>
+
+#include <pthread.h>
+#include <sched.h>
+
+namespace modalrt_tool
+{
+  namespace
+  {
+    using Clock = std::chrono::steady_clock;
+
+    std::atomic<bool> stop_flag{false};
+    static_assert(std::atomic<bool>::is_always_lock_free, "the stop flag is set from a signal handler");
+
+    extern "C" void on_stop_signal(int) { stop_flag.store(true, std::memory_order_relaxed); }
+
+    void wait_until(Clock::time_point deadline, std::chrono::nanoseconds margin)
+    {
+      if (deadline - Clock::now() > margin)
+        std::this_thread::sleep_until(deadline - margin);
+      while (Clock::now() < deadline)
+        {
+        }
+    }
+
+    // SCHED_FIFO for the haptic thread when the system allows it (root or CAP_SYS_NICE/rtprio
+    // limits); otherwise the thread keeps the default policy and stats.json says so.
+    bool try_realtime_priority()
+    {
+      sched_param param{};
+      param.sched_priority = std::min(80, sched_get_priority_max(SCHED_FIFO));
+      return pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
+    }
+
+    bool finite_output(const modalrt_hip_output &o)
+    {
+      for (int d = 0; d < 3; ++d)
+        if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
+          return false;
+      return true;
+    }
+
+    // Everything the haptic thread touches, sized before the first tick.
+    class HapticLoop
+    {
+    public:
+      HapticLoop(modalrt_kernel *kernel, Device &device, const Session &session, const HapticSettings &settings,
+                 HapticResult &result)
+        : kernel_(kernel), device_(device), session_(session), settings_(settings), result_(result),
+          hips_(device.hip_count()), inputs_(hips_), outputs_(hips_)
+      {
+        result_.latency_us.assign(settings.tick_limit, 0.0f);
+        result_.period_us.assign(settings.tick_limit, 0.0f);
+        const std::uint64_t rows = settings.tick_limit / settings.trace_decimation + 1;
+        result_.trace.assign(rows * hips_, TraceSample{});
+      }
+
+      void run(std::atomic<bool> &done)
+      {
+        result_.realtime_priority = try_realtime_priority();
+        modalrt_thread_enable_flush_to_zero();
+        const std::chrono::nanoseconds period{std::llround(1e9 / settings_.rate)};
+        // Sleeping is only precise to tens of microseconds on a general-purpose kernel: sleep until
+        // spin_us before the deadline, then spin on the clock. At most half a period: a SCHED_FIFO
+        // thread that never sleeps is throttled by the kernel (sched_rt_runtime_us), tens of ms at once.
+        const std::chrono::nanoseconds margin =
+          std::min(std::chrono::nanoseconds(std::llround(1e3 * settings_.spin_us)), period / 2);
+        const double                   T      = 1.0 / settings_.rate;
+
+        count_allocations_in_this_thread(true);
+        const Clock::time_point start    = Clock::now();
+        Clock::time_point       deadline = start, previous = start;
+        std::uint64_t           n        = 0;
+        for (; n < settings_.tick_limit && !stop_flag.load(std::memory_order_relaxed); ++n)
+          {
+            wait_until(deadline, margin);
+            const Clock::time_point begin = Clock::now();
+            tick(n, n * T);
+            const Clock::time_point end = Clock::now();
+            result_.latency_us[n] = float(std::chrono::duration<double, std::micro>(end - begin).count());
+            result_.period_us[n]  = n == 0 ? float(1e6 * T)
+                                           : float(std::chrono::duration<double, std::micro>(begin - previous).count());
+            previous = begin;
+            deadline += period;
+            if (end > deadline)
+              {
+                ++result_.overruns;
+                if (end - deadline > period)
+                  {
+                    result_.missed_periods += std::uint64_t((end - deadline) / period);
+                    deadline = end; // restart the schedule: no burst of catch-up ticks
+                  }
+              }
+          }
+        count_allocations_in_this_thread(false);
+        result_.allocations  = counted_allocations();
+        result_.ticks        = n;
+        result_.interrupted  = n < settings_.tick_limit;
+        result_.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        result_.latency_us.resize(n);
+        result_.period_us.resize(n);
+        const std::uint64_t rows = (n + settings_.trace_decimation - 1) / settings_.trace_decimation;
+        result_.trace.resize(rows * hips_); // rows past a stopped session's last tick were never written
+        result_.last_inputs  = inputs_;
+        result_.last_outputs = outputs_;
+        done.store(true);
+      }
+
+    private:
+      void tick(std::uint64_t n, double t)
+      {
+        apply_events(t);
+        apply_frame(t);
+        device_.read_state(t, inputs_.data());
+        if (settings_.impedance)
+          modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
+        else
+          modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());
+        for (std::uint32_t h = 0; h < hips_; ++h)
+          {
+            const modalrt_hip_output &o = outputs_[h];
+            if (settings_.impedance)
+              device_.write_force(h, o.force);
+            else
+              device_.track_position(h, o.position, o.velocity, o.in_contact != 0);
+            device_.report_output(h, o);
+            if (!finite_output(o))
+              ++result_.non_finite_outputs;
+          }
+        device_.end_tick();
+        if (n % settings_.trace_decimation == 0)
+          record_trace(n / settings_.trace_decimation, t);
+      }
+
+      // Session events due at or before t (each applied once, in file order).
+      void apply_events(double t)
+      {
+        const std::vector<Event> &events = session_.events;
+        for (; next_event_ < events.size() && events[next_event_].time <= t; ++next_event_)
+          {
+            const Event &e      = events[next_event_];
+            const int    status = e.kind == EventKind::press ? modalrt_kernel_contact_begin(kernel_, e.hip, e.vertex)
+                                                             : modalrt_kernel_release_hip(kernel_, e.hip);
+            ++result_.events_applied;
+            if (status != MODALRT_OK)
+              ++result_.failed_events;
+          }
+      }
+
+      // The part's frame follows the session's frame keys (translation only).
+      void apply_frame(double t)
+      {
+        if (session_.frame.empty())
+          return;
+        ChannelSample s;
+        sample(session_.frame, t, frame_cursor_, s);
+        modalrt_frame_state f = modalrt_frame_state_identity();
+        for (int d = 0; d < 3; ++d)
+          {
+            f.position[d]            = s.value[d];
+            f.linear_velocity[d]     = s.velocity[d];
+            f.linear_acceleration[d] = s.acceleration[d];
+          }
+        modalrt_kernel_set_frame(kernel_, &f); // a rejected frame is counted by the kernel
+      }
+
+      void record_trace(std::uint64_t row, double t)
+      {
+        for (std::uint32_t h = 0; h < hips_; ++h)
+          {
+            TraceSample              &s = result_.trace[row * hips_ + h];
+            const modalrt_hip_output &o = outputs_[h];
+            s.time                      = t;
+            std::copy_n(inputs_[h].position, 3, s.hip);
+            std::copy_n(o.position, 3, s.contact);
+            std::copy_n(o.force, 3, s.force);
+            s.in_contact    = o.in_contact;
+            s.active_vertex = o.active_vertex;
+            s.space         = o.space;
+          }
+      }
+
+      modalrt_kernel                 *kernel_;
+      Device                         &device_;
+      const Session                  &session_;
+      const HapticSettings           &settings_;
+      HapticResult                   &result_;
+      const std::uint32_t             hips_;
+      std::vector<modalrt_hip_input>  inputs_;
+      std::vector<modalrt_hip_output> outputs_;
+      std::size_t                     next_event_   = 0;
+      std::size_t                     frame_cursor_ = 0;
+    };
+
+    // The display side: snapshots at 60 Hz, a VTU frame every 1/frame_rate s of simulated time.
+    class DisplayLoop
+    {
+    public:
+      DisplayLoop(modalrt_kernel *kernel, const modalrt_basis *basis, const DisplaySettings &settings,
+                  DisplayResult &result)
+        : kernel_(kernel), settings_(settings), result_(result), writer_(basis)
+      {
+        modalrt_basis_info info;
+        modalrt_basis_get_info(basis, &info);
+        displacements_.assign(3 * std::size_t(info.display_vertex_count), 0.0f);
+        vertex_count_ = info.display_vertex_count;
+        if (modalrt_snapshot_create(kernel, &snapshot_) != MODALRT_OK)
+          result_.error = std::string("cannot create a display snapshot: ") + modalrt_last_error_message();
+      }
+      ~DisplayLoop() { modalrt_snapshot_destroy(snapshot_); }
+
+      void run(const std::atomic<bool> &haptic_done)
+      {
+        if (!snapshot_)
+          return;
+        const auto period   = std::chrono::nanoseconds(std::llround(1e9 / settings_.rate));
+        auto       deadline = Clock::now();
+        while (!haptic_done.load())
+          {
+            deadline += period;
+            std::this_thread::sleep_until(deadline);
+            if (Clock::now() - deadline > period)
+              deadline = Clock::now(); // writing a frame took long: no burst of redraws
+            redraw(false);
+          }
+        redraw(true); // the final state is always in the frames
+      }
+
+    private:
+      void redraw(bool last)
+      {
+        if (modalrt_kernel_snapshot_read(kernel_, snapshot_) != 1 && !last)
+          return;
+        const Clock::time_point begin = Clock::now();
+        modalrt_display_reconstruct(snapshot_, 0, vertex_count_, MODALRT_DISPLAY_DISPLACEMENTS, displacements_.data());
+        ++result_.reconstructions;
+        result_.max_reconstruct_ms =
+          std::max(result_.max_reconstruct_ms, std::chrono::duration<double, std::milli>(Clock::now() - begin).count());
+        modalrt_snapshot_info info;
+        modalrt_snapshot_get_info(snapshot_, &info);
+        const bool due = settings_.frame_rate > 0.0 && (info.time >= next_frame_time_ || last);
+        if (!due || !result_.error.empty() || (last && !result_.frames.empty() && result_.frames.back().time == info.time))
+          return;
+        char name[64];
+        std::snprintf(name, sizeof name, "frames/frame_%06zu.vtu", result_.frames.size());
+        std::string error;
+        if (!writer_.write(settings_.output_dir + "/" + name, info, displacements_.data(), error))
+          {
+            result_.error = error;
+            return;
+          }
+        result_.frames.push_back(FrameRecord{info.time, name});
+        next_frame_time_ = info.time + 1.0 / settings_.frame_rate;
+      }
+
+      modalrt_kernel        *kernel_;
+      const DisplaySettings &settings_;
+      DisplayResult         &result_;
+      VtuFrameWriter         writer_;
+      modalrt_snapshot      *snapshot_ = nullptr;
+      std::vector<float>     displacements_;
+      std::uint32_t          vertex_count_   = 0;
+      double                 next_frame_time_ = 0.0;
+    };
+  } // namespace
+
+  void install_stop_handler()
+  {
+    struct sigaction action
+    {};
+    action.sa_handler = on_stop_signal;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESETHAND; // a second Ctrl-C stops the program the default way
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+  }
+
+  bool stop_requested() { return stop_flag.load(); }
+
+  void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
+                   const HapticSettings &haptic, const DisplaySettings &display, HapticResult &haptic_result,
+                   DisplayResult &display_result)
+  {
+    HapticLoop        haptic_loop(kernel, device, session, haptic, haptic_result);
+    DisplayLoop       display_loop(kernel, basis, display, display_result);
+    std::atomic<bool> haptic_done{false};
+    std::thread       display_thread([&] { display_loop.run(haptic_done); });
+    std::thread       haptic_thread([&] { haptic_loop.run(haptic_done); });
+    haptic_thread.join();
+    display_thread.join();
+  }
+} // namespace modalrt_tool

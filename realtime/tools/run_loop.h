@@ -1,0 +1,96 @@
+// The two threads of `modal-rt run`.
+//
+// Haptic thread: one kernel tick per period on an absolute schedule (sleep until shortly before the
+// deadline, then spin), with SCHED_FIFO when the system grants it. Each tick applies the session's
+// events and frame, reads the device, ticks the kernel, writes the device, and records its latency
+// (wake-up to force written) and its start time into arrays sized before the first tick. A tick that
+// ends after the next deadline is an overrun; when more than a whole period is lost the schedule
+// restarts from now (missed periods are counted; no burst of catch-up ticks). Simulated time is
+// tick count x period, so a session always runs rate x duration ticks.
+//
+// Display thread: at 60 Hz, reads the kernel's snapshot (lock-free) and reconstructs the display
+// surface; every 1/frame_rate s of simulated time it writes that surface as a VTU frame.
+#pragma once
+
+#include "devices.h"
+#include "session.h"
+
+#include <modalrt/modalrt.h>
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace modalrt_tool
+{
+  // One decimated tick of one HIP, for trace.csv.
+  struct TraceSample
+  {
+    double        time;         // [s] simulated
+    double        hip[3];       // [m] device (HIP) position, world
+    double        contact[3];   // [m] output position: the felt contact point in contact, else the HIP
+    double        force[3];     // [N] impedance: rendered on the device; admittance: applied to the part
+    std::uint32_t in_contact;
+    std::uint32_t active_vertex; // MODALRT_NONE when not in contact
+    std::uint32_t space;
+  };
+
+  struct HapticSettings
+  {
+    double        rate       = 1000.0; // [Hz]
+    std::uint64_t tick_limit = 0;      // ticks of the session (rate x duration)
+    bool          impedance  = true;
+    std::uint32_t trace_decimation = 10; // a trace row every this many ticks
+    double        spin_us          = 100.0; // [us] sleep until this long before a deadline, then spin
+  };
+
+  struct HapticResult
+  {
+    std::uint64_t ticks           = 0;
+    std::uint64_t overruns        = 0; // ticks that ended after the next deadline
+    std::uint64_t missed_periods  = 0; // whole periods lost when the schedule restarted
+    std::uint64_t non_finite_outputs = 0; // output values that are NaN or infinite
+    std::uint64_t failed_events   = 0; // press/release calls the kernel refused
+    std::uint64_t events_applied  = 0;
+    std::uint64_t allocations     = 0; // in the haptic thread, first tick to last
+    bool          interrupted     = false; // stopped by SIGINT/SIGTERM
+    bool          realtime_priority = false; // SCHED_FIFO granted
+    double        wall_seconds    = 0.0;
+    std::vector<float> latency_us; // per tick: wake-up to device written
+    std::vector<float> period_us;  // per tick: start minus the previous tick's start
+    std::vector<TraceSample> trace; // decimation rows x HIPs
+    std::vector<modalrt_hip_input>  last_inputs;
+    std::vector<modalrt_hip_output> last_outputs;
+  };
+
+  struct FrameRecord
+  {
+    double      time; // [s] simulated time of the snapshot
+    std::string file; // relative to the output directory
+  };
+
+  struct DisplaySettings
+  {
+    std::string output_dir;
+    double      rate       = 60.0; // [Hz] reconstructions
+    double      frame_rate = 10.0; // [Hz] of simulated time: frames written (0: none)
+  };
+
+  struct DisplayResult
+  {
+    std::uint64_t            reconstructions = 0;
+    double                   max_reconstruct_ms = 0.0;
+    std::vector<FrameRecord> frames;
+    std::string              error; // first frame that could not be written
+  };
+
+  // Installs the SIGINT/SIGTERM handler that asks both loops to stop (a second Ctrl-C kills).
+  void install_stop_handler();
+  bool stop_requested();
+
+  // Runs both threads to the end of the session or a stop request; returns when both are done.
+  void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
+                   const HapticSettings &haptic, const DisplaySettings &display, HapticResult &haptic_result,
+                   DisplayResult &display_result);
+} // namespace modalrt_tool

@@ -1,0 +1,293 @@
+#include "run_outputs.h"
+
+#include "allocation_counter.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+namespace modalrt_tool
+{
+  namespace
+  {
+    std::string format(const char *pattern, double value)
+    {
+      char text[64];
+      std::snprintf(text, sizeof text, pattern, value);
+      return text;
+    }
+
+    // Round-trip precision: stats.json feeds checks at 1e-6 relative.
+    std::string number(double x) { return std::isfinite(x) ? format("%.17g", x) : std::string("null"); }
+
+    std::string vector3(const double *x)
+    {
+      return "[" + number(x[0]) + ", " + number(x[1]) + ", " + number(x[2]) + "]";
+    }
+
+    std::string quoted(const std::string &text)
+    {
+      std::string out = "\"";
+      for (char c : text)
+        {
+          if (c == '"' || c == '\\')
+            out += '\\';
+          if (static_cast<unsigned char>(c) >= 0x20)
+            out += c;
+        }
+      return out + "\"";
+    }
+
+    void rotate(const double q[4], const double v[3], double out[3])
+    {
+      // v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z) of the unit quaternion.
+      const double w = q[0], u[3] = {q[1], q[2], q[3]};
+      const double t[3] = {2.0 * (u[1] * v[2] - u[2] * v[1]), 2.0 * (u[2] * v[0] - u[0] * v[2]),
+                           2.0 * (u[0] * v[1] - u[1] * v[0])};
+      out[0] = v[0] + w * t[0] + (u[1] * t[2] - u[2] * t[1]);
+      out[1] = v[1] + w * t[1] + (u[2] * t[0] - u[0] * t[2]);
+      out[2] = v[2] + w * t[2] + (u[0] * t[1] - u[1] * t[0]);
+    }
+  } // namespace
+
+  bool write_file_atomically(const std::string &path, const std::string &text, std::string &error)
+  {
+    const std::string temporary = path + ".tmp";
+    std::FILE        *file      = std::fopen(temporary.c_str(), "wb");
+    if (!file)
+      {
+        error = "cannot write '" + temporary + "': " + std::strerror(errno);
+        return false;
+      }
+    const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
+    const bool closed  = std::fclose(file) == 0;
+    if (!written || !closed || std::rename(temporary.c_str(), path.c_str()) != 0)
+      {
+        error = "cannot write '" + path + "': " + std::strerror(errno);
+        std::remove(temporary.c_str());
+        return false;
+      }
+    return true;
+  }
+
+  VtuFrameWriter::VtuFrameWriter(const modalrt_basis *basis) : rest_(modalrt_basis_display_vertices(basis))
+  {
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    vertex_count_   = info.display_vertex_count;
+    triangle_count_ = info.display_triangle_count;
+    const std::uint32_t *triangles = modalrt_basis_display_triangles(basis);
+    const std::uint32_t *regions   = modalrt_basis_display_regions(basis);
+    std::ostringstream   out;
+    out << "      <Cells>\n        <DataArray type=\"UInt32\" Name=\"connectivity\" format=\"ascii\">\n";
+    for (std::uint32_t t = 0; t < triangle_count_; ++t)
+      out << triangles[3 * t] << ' ' << triangles[3 * t + 1] << ' ' << triangles[3 * t + 2] << '\n';
+    out << "        </DataArray>\n        <DataArray type=\"UInt32\" Name=\"offsets\" format=\"ascii\">\n";
+    for (std::uint32_t t = 0; t < triangle_count_; ++t)
+      out << 3 * (t + 1) << '\n';
+    out << "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
+    for (std::uint32_t t = 0; t < triangle_count_; ++t)
+      out << "5\n"; // VTK_TRIANGLE
+    out << "        </DataArray>\n      </Cells>\n";
+    out << "      <PointData Vectors=\"displacement\">\n"
+           "        <DataArray type=\"UInt32\" Name=\"region\" format=\"ascii\">\n";
+    for (std::uint32_t v = 0; v < vertex_count_; ++v)
+      out << regions[v] << '\n';
+    out << "        </DataArray>\n";
+    cells_and_regions_ = out.str();
+  }
+
+  bool VtuFrameWriter::write(const std::string &path, const modalrt_snapshot_info &info, const float *displacements,
+                             std::string &error) const
+  {
+    std::string text;
+    text.reserve(cells_and_regions_.size() + std::size_t(vertex_count_) * 96 + 1024);
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "<?xml version=\"1.0\"?>\n<!-- modal-rt run: t = %.9g s, space %u -->\n"
+                  "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+                  "  <UnstructuredGrid>\n",
+                  info.time, info.space);
+    text += line;
+    std::snprintf(line, sizeof line, "    <Piece NumberOfPoints=\"%u\" NumberOfCells=\"%u\">\n", vertex_count_,
+                  triangle_count_);
+    text += line;
+    text += "      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+    for (std::uint32_t v = 0; v < vertex_count_; ++v)
+      {
+        double x[3];
+        rotate(info.frame_orientation, rest_ + 3 * std::size_t(v), x);
+        std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", x[0] + info.frame_position[0],
+                      x[1] + info.frame_position[1], x[2] + info.frame_position[2]);
+        text += line;
+      }
+    text += "        </DataArray>\n      </Points>\n";
+    text += cells_and_regions_;
+    text += "        <DataArray type=\"Float32\" Name=\"displacement\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+    for (std::uint32_t v = 0; v < vertex_count_; ++v)
+      {
+        const double u[3] = {displacements[3 * v], displacements[3 * v + 1], displacements[3 * v + 2]};
+        double       w[3];
+        rotate(info.frame_orientation, u, w);
+        std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", w[0], w[1], w[2]);
+        text += line;
+      }
+    text += "        </DataArray>\n      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+    return write_file_atomically(path, text, error);
+  }
+
+  bool write_pvd(const std::string &path, const std::vector<FrameRecord> &frames, std::string &error)
+  {
+    std::string text = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
+    for (const FrameRecord &f : frames)
+      text += "    <DataSet timestep=\"" + format("%.9g", f.time) + "\" file=\"" + f.file + "\"/>\n";
+    text += "  </Collection>\n</VTKFile>\n";
+    return write_file_atomically(path, text, error);
+  }
+
+  bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count, std::string &error)
+  {
+    std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
+                       "(the felt point in contact, else the device), force [N], in contact, active vertex (-1: "
+                       "none), active space\ntime";
+    for (std::uint32_t h = 0; h < hip_count; ++h)
+      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space"})
+        text += ",hip" + std::to_string(h) + "_" + column;
+    text += '\n';
+    const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
+    char                field[64];
+    for (std::uint64_t r = 0; r < rows; ++r)
+      {
+        text += format("%.9g", result.trace[r * hip_count].time);
+        for (std::uint32_t h = 0; h < hip_count; ++h)
+          {
+            const TraceSample &s = result.trace[r * hip_count + h];
+            for (const double *v : {s.hip, s.contact, s.force})
+              for (int d = 0; d < 3; ++d)
+                text += "," + format("%.9g", v[d]);
+            std::snprintf(field, sizeof field, ",%u,%lld,%u", s.in_contact,
+                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space);
+            text += field;
+          }
+        text += '\n';
+      }
+    return write_file_atomically(path, text, error);
+  }
+
+  double percentile(std::vector<float> values, double p)
+  {
+    if (values.empty())
+      return 0.0;
+    const std::size_t rank = std::min(values.size() - 1, std::size_t(std::ceil(p / 100.0 * values.size())) - (p > 0 ? 1 : 0));
+    std::nth_element(values.begin(), values.begin() + rank, values.end());
+    return values[rank];
+  }
+
+  RunReport summarize(const HapticResult &haptic, double rate)
+  {
+    RunReport r;
+    r.latency_p50  = percentile(haptic.latency_us, 50.0);
+    r.latency_p99  = percentile(haptic.latency_us, 99.0);
+    r.latency_p999 = percentile(haptic.latency_us, 99.9);
+    r.latency_max  = percentile(haptic.latency_us, 100.0);
+    // Jitter: how far each tick's period (start to start) is from the nominal period.
+    std::vector<float> jitter(haptic.period_us.size());
+    for (std::size_t k = 0; k < jitter.size(); ++k)
+      jitter[k] = float(std::fabs(haptic.period_us[k] - 1e6 / rate));
+    r.jitter_p99 = percentile(jitter, 99.0);
+    r.jitter_max = percentile(jitter, 100.0);
+    return r;
+  }
+
+  std::string stats_json(const RunReport &r)
+  {
+    const HapticResult  &h = *r.haptic;
+    const DisplayResult &d = *r.display;
+    std::ostringstream   o;
+    o << "{\n  \"command\": " << quoted(r.command) << ",\n  \"basis\": " << quoted(r.basis) << ",\n  \"session\": " << quoted(r.session)
+      << ",\n  \"mode\": " << quoted(r.mode) << ",\n  \"device\": " << quoted(r.device)
+      << ",\n  \"hips\": " << r.hips << ",\n  \"rate_hz\": " << number(r.rate)
+      << ",\n  \"duration_s\": " << number(r.duration) << ",\n  \"ticks\": " << h.ticks
+      << ",\n  \"simulated_s\": " << number(h.ticks / r.rate) << ",\n  \"wall_s\": " << number(h.wall_seconds)
+      << ",\n  \"stopped_by\": " << quoted(r.stopped_by)
+      << ",\n  \"realtime_priority\": " << (h.realtime_priority ? "true" : "false")
+      << ",\n  \"tick_latency_us\": {\"p50\": " << number(r.latency_p50) << ", \"p99\": " << number(r.latency_p99)
+      << ", \"p99_9\": " << number(r.latency_p999) << ", \"max\": " << number(r.latency_max) << "}"
+      << ",\n  \"period_jitter_us\": {\"p99\": " << number(r.jitter_p99) << ", \"max\": " << number(r.jitter_max) << "}"
+      << ",\n  \"overruns\": " << h.overruns << ",\n  \"missed_periods\": " << h.missed_periods
+      << ",\n  \"switches\": " << r.kernel.switch_count << ",\n  \"max_switch_jump_m\": " << number(r.kernel.max_switch_jump)
+      << ",\n  \"rejected_inputs\": " << r.kernel.rejected_ticks << ",\n  \"rejected_frames\": " << r.kernel.rejected_frames
+      << ",\n  \"clamped_forces\": " << r.kernel.clamped_forces << ",\n  \"non_finite_outputs\": " << h.non_finite_outputs
+      << ",\n  \"max_press_distance_m\": " << number(r.max_press_distance)
+      << ",\n  \"events_applied\": " << h.events_applied << ",\n  \"failed_events\": " << h.failed_events
+      << ",\n  \"allocations_after_start\": " << h.allocations
+      << ",\n  \"allocation_counting\": " << quoted(allocation_counting_method())
+      << ",\n  \"coupling\": {\"stiffness_n_per_m\": " << number(r.coupling_stiffness)
+      << ", \"damping_n_s_per_m\": " << number(r.coupling_damping) << ", \"snap_distance_m\": " << number(r.snap_distance)
+      << "}"
+      << ",\n  \"display\": {\"reconstructions\": " << d.reconstructions << ", \"max_reconstruct_ms\": "
+      << number(d.max_reconstruct_ms) << ", \"frames_written\": " << d.frames.size() << "}"
+      << ",\n  \"device_counters\": {";
+    for (std::size_t k = 0; k < r.device_counters.size(); ++k)
+      o << (k ? ", " : "") << quoted(r.device_counters[k].first) << ": " << r.device_counters[k].second;
+    o << "}"
+      << ",\n  \"final\": [";
+    for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
+      {
+        const modalrt_hip_output &out = h.last_outputs[k];
+        const modalrt_hip_input  &in  = h.last_inputs[k];
+        o << (k ? "," : "") << "\n    {\"hip\": " << k << ", \"in_contact\": " << out.in_contact
+          << ", \"active_vertex\": " << (out.active_vertex == MODALRT_NONE ? -1ll : (long long)out.active_vertex)
+          << ", \"space\": " << out.space << ", \"device_position\": " << vector3(in.position)
+          << ", \"input_force\": " << vector3(in.force) << ", \"position\": " << vector3(out.position)
+          << ", \"force\": " << vector3(out.force) << "}";
+      }
+    o << "\n  ]\n}\n";
+    return o.str();
+  }
+
+  void print_summary(const RunReport &r)
+  {
+    const HapticResult  &h = *r.haptic;
+    const DisplayResult &d = *r.display;
+    std::printf("modal-rt %s: %s, session %s\n", r.command.c_str(), r.basis.c_str(), r.session.c_str());
+    std::printf("  mode          %s, device %s, %u HIP(s), coupling %g N/m, %g N s/m\n", r.mode.c_str(),
+                r.device.c_str(), r.hips, r.coupling_stiffness, r.coupling_damping);
+    std::printf("  ticks         %llu at %g Hz: %.3f s simulated, %.3f s wall, stopped by %s\n",
+                (unsigned long long)h.ticks, r.rate, h.ticks / r.rate, h.wall_seconds, r.stopped_by.c_str());
+    std::printf("  tick latency  p50 %.2f us, p99 %.2f us, p99.9 %.2f us, max %.2f us (period %.1f us)\n",
+                r.latency_p50, r.latency_p99, r.latency_p999, r.latency_max, 1e6 / r.rate);
+    std::printf("  period jitter p99 %.2f us, max %.2f us; overruns %llu, missed periods %llu; %s\n", r.jitter_p99,
+                r.jitter_max, (unsigned long long)h.overruns, (unsigned long long)h.missed_periods,
+                h.realtime_priority ? "SCHED_FIFO" : "default scheduling (SCHED_FIFO not granted)");
+    std::printf("  kernel        switches %llu (max jump %.3g m), rejected inputs %llu, rejected frames %llu, "
+                "clamped forces %llu\n",
+                (unsigned long long)r.kernel.switch_count, r.kernel.max_switch_jump,
+                (unsigned long long)r.kernel.rejected_ticks, (unsigned long long)r.kernel.rejected_frames,
+                (unsigned long long)r.kernel.clamped_forces);
+    std::printf("  checks        non-finite outputs %llu, allocations after start %llu, events %llu (%llu refused)\n",
+                (unsigned long long)h.non_finite_outputs, (unsigned long long)h.allocations,
+                (unsigned long long)h.events_applied, (unsigned long long)h.failed_events);
+    if (!r.device_counters.empty())
+      {
+        std::printf("  device       ");
+        for (const auto &[name, count] : r.device_counters)
+          std::printf(" %s %llu", name.c_str(), (unsigned long long)count);
+        std::printf("\n");
+      }
+    std::printf("  display       %llu reconstructions (max %.2f ms), %zu frames written%s%s\n",
+                (unsigned long long)d.reconstructions, d.max_reconstruct_ms, d.frames.size(),
+                d.error.empty() ? "" : "; ERROR: ", d.error.c_str());
+    for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
+      {
+        const modalrt_hip_output &o = h.last_outputs[k];
+        std::printf("  HIP %zu at end  %s, space %u, position [%.6g %.6g %.6g] m, force [%.4g %.4g %.4g] N\n", k,
+                    o.in_contact ? ("vertex " + std::to_string(o.active_vertex)).c_str() : "free", o.space,
+                    o.position[0], o.position[1], o.position[2], o.force[0], o.force[1], o.force[2]);
+      }
+    std::printf("  outputs       %s/{stats.json, trace.csv, frames.pvd, frames/}\n", r.output_dir.c_str());
+  }
+} // namespace modalrt_tool

@@ -1,0 +1,250 @@
+// modal-rt run end to end on a synthetic basis (the lattice cantilever, damped enough to settle in
+// a fraction of a second): a two-HIP impedance session with switches and a carried part at 1 and
+// 4 kHz, the static response of an admittance press, a clean stop on SIGINT, and one clear message
+// and a non-zero exit for each bad command line and bad session file. Everything is asserted from
+// the files the run writes; nothing is asserted on timing (the machine may be loaded).
+#include "test_support.h"
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+namespace
+{
+  const std::string basis_path = "run_lattice.mrt";
+
+  std::string read_text(const std::string &path)
+  {
+    std::ifstream     file(path);
+    std::stringstream text;
+    text << file.rdbuf();
+    return text.str();
+  }
+
+  void write_text(const std::string &path, const std::string &text) { std::ofstream(path) << text; }
+
+  bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
+
+  // Runs `modal-rt run` with `arguments`; returns the exit status and the output (stdout, stderr).
+  int run(const std::string &arguments, std::string &output)
+  {
+    const std::string command = std::string(MODAL_RT_PROGRAM) + " run " + arguments + " > run_output.txt 2>&1";
+    const int         status  = std::system(command.c_str());
+    output                    = read_text("run_output.txt");
+    std::remove("run_output.txt");
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  // The number after "key": in a stats.json text (NaN if absent).
+  double json_number(const std::string &json, const std::string &key, std::size_t from = 0)
+  {
+    const std::size_t at = json.find("\"" + key + "\": ", from);
+    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+  }
+
+  // The 3-vector after "key": [ in the first entry of "final".
+  void json_final_vector(const std::string &json, const std::string &key, double out[3])
+  {
+    std::size_t at = json.find("\"" + key + "\": [", json.find("\"final\""));
+    const char *p  = json.c_str() + at + key.size() + 5;
+    for (int d = 0; d < 3; ++d)
+      {
+        char *end = nullptr;
+        out[d]    = std::strtod(p, &end);
+        p         = end + 1; // the comma
+      }
+  }
+
+  modalrt::LatticeOptions lattice()
+  {
+    modalrt::LatticeOptions o;
+    o.patch_radius = 0.03;
+    o.damping      = {0.7, 0.7}; // settles to 1e-9 relative in well under a second
+    return o;
+  }
+
+  // Two HIPs on the lattice's top face (z = 0.01 m; the tip space owns x >= 0.12 m): HIP 0 presses
+  // the tip (switch to space 1), lifts off; HIP 1 presses near the root (switch back to space 0);
+  // both press while the part is carried up 5 cm; HIP 0 is released by an event and pressed again.
+  const char *two_hip_session = R"(# test session
+time,hip,event,x,y,z
+0.0,0,target,0.125,0.025,0.02
+0.0,1,target,0.025,0.025,0.03
+0.2,0,target,0.125,0.025,0.005
+0.4,0,target,0.125,0.025,0.02
+0.5,1,target,0.025,0.025,0.005
+0.6,0,target,0.05,0.025,0.005
+0.8,-,frame,0,0,0
+0.8,0,target,0.05,0.025,0.005
+0.8,1,target,0.025,0.025,0.005
+1.1,-,frame,0,0,0.05
+1.1,0,target,0.05,0.025,0.055
+1.1,1,target,0.025,0.025,0.055
+1.2,0,release
+1.3,0,press,0.05,0.025,0.01
+1.5,-,end
+)";
+
+  void impedance_session()
+  {
+    write_text("run_two_hips.csv", two_hip_session);
+    for (const double rate : {1000.0, 4000.0})
+      {
+        const std::string dir = rate == 1000.0 ? "run_out_1k" : "run_out_4k";
+        std::string       out;
+        ENSURE(run("--basis " + basis_path + " --session run_two_hips.csv --output-dir " + dir + " --rate " +
+                     std::to_string(int(rate)),
+                   out) == 0);
+        std::printf("%s", out.c_str());
+        const std::string stats = read_text(dir + "/stats.json");
+        ENSURE(json_number(stats, "ticks") == 1.5 * rate);
+        ENSURE(json_number(stats, "allocations_after_start") == 0);
+        ENSURE(json_number(stats, "non_finite_outputs") == 0);
+        ENSURE(json_number(stats, "rejected_inputs") == 0);
+        ENSURE(json_number(stats, "switches") >= 2);
+        ENSURE(json_number(stats, "events_applied") == 2 && json_number(stats, "failed_events") == 0);
+        ENSURE(contains(stats, "\"stopped_by\": \"end of session\""));
+        ENSURE(json_number(stats, "in_contact") == 1); // HIP 0, pressed by the last event
+        ENSURE(contains(read_text(dir + "/trace.csv"), "time,hip0_x"));
+        ENSURE(contains(read_text(dir + "/frames.pvd"), "frames/frame_000000.vtu"));
+        ENSURE(contains(read_text(dir + "/frames/frame_000000.vtu"), "Name=\"displacement\""));
+      }
+  }
+
+  // A constant force on a validation vertex of the tip space, admittance, rigid probe: the settled
+  // felt displacement is F times the stored full static response (B Lambda^-1 B^T + C) e_z.
+  void admittance_static_response(const modalrt::BasisContent &c)
+  {
+    const modalrt::BasisSpaceContent &tip = c.spaces[1];
+    std::size_t                       k   = 0;
+    while (tip.validation_cases[2 * k + 1] != 2 || c.region[tip.validation_cases[2 * k]] != 1)
+      ++k;
+    const std::uint32_t vertex = tip.validation_cases[2 * k];
+    const double       *x      = &c.vertices[3 * vertex];
+    const double        force  = -2.0; // [N] along z, into the part
+    char                text[512];
+    std::snprintf(text, sizeof text,
+                  "time,hip,event,x,y,z\n0,0,target,%.17g,%.17g,%.17g\n0,0,force,0,0,0\n0.2,0,force,0,0,%g\n"
+                  "1.0,-,end\n",
+                  x[0], x[1], x[2], force);
+    write_text("run_static.csv", text);
+    std::string out;
+    ENSURE(run("--basis " + basis_path + " --session run_static.csv --output-dir run_out_static --mode admittance "
+                 "--device probe --quiet",
+               out) == 0);
+    const std::string stats = read_text("run_out_static/stats.json");
+    ENSURE(json_number(stats, "active_vertex") == vertex);
+    double position[3];
+    json_final_vector(stats, "position", position);
+    double error = 0.0, size = 0.0;
+    for (int d = 0; d < 3; ++d)
+      {
+        const double expected = force * tip.validation_response[3 * k + d];
+        error += (position[d] - x[d] - expected) * (position[d] - x[d] - expected);
+        size += expected * expected;
+      }
+    std::printf("  static response at vertex %u: relative error %.3e\n", vertex, std::sqrt(error / size));
+    ENSURE(std::sqrt(error / size) <= 1e-6);
+    ENSURE(json_number(stats, "allocations_after_start") == 0 && json_number(stats, "non_finite_outputs") == 0);
+  }
+
+  // SIGINT once a one-minute session runs (its first frame is written): exit 0, every output written.
+  void stop_on_sigint()
+  {
+    std::filesystem::remove_all("run_out_sigint");
+    const pid_t child = fork();
+    if (child == 0)
+      {
+        const int null = open("/dev/null", O_WRONLY);
+        dup2(null, 1);
+        execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "run", "--basis", basis_path.c_str(), "--session", "run_two_hips.csv",
+              "--output-dir", "run_out_sigint", "--duration", "60", static_cast<char *>(nullptr));
+        _exit(127);
+      }
+    for (int k = 0; k < 600 && !std::filesystem::exists("run_out_sigint/frames/frame_000000.vtu"); ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    kill(child, SIGINT);
+    int status = 0;
+    waitpid(child, &status, 0);
+    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    const std::string stats = read_text("run_out_sigint/stats.json");
+    ENSURE(contains(stats, "\"stopped_by\": \"signal\""));
+    ENSURE(json_number(stats, "ticks") > 0 && json_number(stats, "ticks") < 60000);
+    ENSURE(contains(read_text("run_out_sigint/frames.pvd"), "</VTKFile>"));
+  }
+
+  // Exit `code` and every `culprit` named in the message.
+  void expect_failure(const std::string &arguments, int code, std::initializer_list<const char *> culprits)
+  {
+    std::string out;
+    const int   status = run(arguments, out);
+    ENSURE(status == code);
+    for (const char *culprit : culprits)
+      if (!contains(out, culprit))
+        test::report(false, __FILE__, __LINE__, "'" + std::string(culprit) + "' not named in: " + out);
+    std::printf("  exit %d: %s", status, out.substr(0, out.find('\n') + 1).c_str());
+  }
+
+  void bad_command_lines()
+  {
+    const std::string files = "--basis " + basis_path + " --session run_two_hips.csv";
+    expect_failure(files, 2, {"missing --output-dir"});
+    expect_failure(files + " --output-dir x --rate abc", 2, {"--rate", "'abc'"});
+    expect_failure(files + " --output-dir x --rate 50", 2, {"--rate 50", "out of range"});
+    expect_failure(files + " --output-dir x --mode rigid", 2, {"--mode", "'rigid'"});
+    expect_failure(files + " --output-dir x --frobnicate 1", 2, {"--frobnicate"});
+    expect_failure(files + " --output-dir x --duration", 2, {"--duration needs a value"});
+    expect_failure("--basis no_such.mrt --session run_two_hips.csv --output-dir x", 1, {"no_such.mrt"});
+  }
+
+  void bad_session_files()
+  {
+    const std::string head = "time,hip,event,x,y,z\n0,0,target,0.1,0.02,0.02\n";
+    const struct
+    {
+      const char *name, *text;
+      std::initializer_list<const char *> culprits;
+    } cases[] = {
+      {"run_bad_row.csv", "0.5,0,target,0.1,0.02\n", {"run_bad_row.csv:3", "'z'"}},
+      {"run_bad_fields.csv", "0.5,0,target,1,2,3,4\n", {"run_bad_fields.csv:3", "found 7"}},
+      {"run_bad_nan.csv", "0.5,0,force,0,nan,0\n", {"run_bad_nan.csv:3", "'nan'", "not a finite number"}},
+      {"run_bad_inf.csv", "0.5,0,target,0,0,1e999\n", {"run_bad_inf.csv:3", "'1e999'"}},
+      {"run_bad_number.csv", "0.5,0,target,0,0.0.1,0\n", {"run_bad_number.csv:3", "'0.0.1'", "not a number"}},
+      {"run_bad_event.csv", "# comment\n0.5,0,jump,0,0,0\n", {"run_bad_event.csv:4", "unknown event 'jump'"}},
+      {"run_bad_time.csv", "0.5,0,target,0,0,0\n0.2,0,target,0,0,0\n", {"run_bad_time.csv:4", "time 0.2"}},
+      {"run_bad_hip.csv", "0.5,x,target,0,0,0\n", {"run_bad_hip.csv:3", "hip 'x'"}},
+      {"run_bad_target.csv", "0.5,1,force,0,0,-1\n", {"run_bad_target.csv", "HIP 1 has no 'target' row"}},
+    };
+    for (const auto &c : cases)
+      {
+        write_text(c.name, head + c.text);
+        expect_failure("--basis " + basis_path + " --session " + c.name + " --output-dir x", 1, c.culprits);
+        std::remove(c.name);
+      }
+    write_text("run_bad_header.csv", "t,hip,event\n");
+    expect_failure("--basis " + basis_path + " --session run_bad_header.csv --output-dir x", 1,
+                   {"run_bad_header.csv:1", "header"});
+    expect_failure("--basis " + basis_path + " --session no_such_session.csv --output-dir x", 1,
+                   {"no_such_session.csv", "cannot open"});
+  }
+} // namespace
+
+int main()
+{
+  const modalrt::BasisContent content = modalrt::make_lattice_cantilever(lattice());
+  ENSURE(modalrt::write_basis_file(basis_path, content));
+  impedance_session();
+  admittance_static_response(content);
+  stop_on_sigint();
+  bad_command_lines();
+  bad_session_files();
+  return test::finish("test_run");
+}
