@@ -11,13 +11,12 @@ nu -> 0.5 (volumetric locking), so the P1 beam turns far too stiff. Asserted:
   (the figure is printed: it is what docs/accuracy.md quotes);
 * modal-precompute warns when P1 is used at nu >= 0.45, and not for P2."""
 import argparse
-import json
 import os
 import shutil
-import subprocess
 import sys
 
 import test_cantilever as cantilever
+from precompute_run import run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 POISSON_RATIOS = [0.45, 0.49, 0.499]
@@ -58,16 +57,10 @@ end
 """
 
 
-def run(binary, folder, prm_text):
+def first_frequency(binary, folder, prm_text):
     """First frequency [Hz] and what the program wrote to stderr."""
-    os.makedirs(folder, exist_ok=True)
-    prm = os.path.join(folder, "cantilever.prm")
-    with open(prm, "w") as f:
-        f.write(prm_text)
-    done = subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], check=True,
-                          stderr=subprocess.PIPE, text=True)
-    with open(os.path.join(folder, "report.json")) as f:
-        return json.load(f)["spaces"][0]["frequencies_hz"][0], done.stderr
+    report, stderr = run_precompute(binary, folder, prm_text)
+    return report["spaces"][0]["frequencies_hz"][0], stderr
 
 
 def main():
@@ -78,7 +71,7 @@ def main():
     shutil.rmtree(args.workdir, ignore_errors=True)
 
     # One mesh for all runs, so that P1 and P2 differ by the element only.
-    run(args.binary, os.path.join(args.workdir, "mesh"), scene(os.path.join(HERE, "cantilever.geo"), 2, 0.3))
+    run_precompute(args.binary, os.path.join(args.workdir, "mesh"), scene(os.path.join(HERE, "cantilever.geo"), 2, 0.3))
     mesh = os.path.join(args.workdir, "cantilever.msh")
     shutil.copy(os.path.join(args.workdir, "mesh", "mesh_global.msh"), mesh)
 
@@ -87,7 +80,7 @@ def main():
     for nu in POISSON_RATIOS:
         reference = cantilever.timoshenko_frequencies(nu)[0]
         for degree in (1, 2):
-            f1, stderr = run(args.binary, os.path.join(args.workdir, f"p{degree}_nu{nu}"), scene(mesh, degree, nu))
+            f1, stderr = first_frequency(args.binary, os.path.join(args.workdir, f"p{degree}_nu{nu}"), scene(mesh, degree, nu))
             error = (f1 - reference) / reference
             errors[degree].append(error)
             warned = "lock" in stderr

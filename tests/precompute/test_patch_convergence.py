@@ -7,11 +7,11 @@ is a ball of radius 6 mm around that point, meshed with 2, 1 and 0.5 mm. For eac
 full static FE compliance u_c,z / F_z is read from report.json (validation at that point), and every
 run's corrected contact error must be <= 1e-8 (rho = 0 and rho > 0)."""
 import argparse
-import json
 import os
 import shutil
-import subprocess
 import sys
+
+from precompute_run import run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FINE_SIZES = [2.0, 1.0, 0.5]
@@ -60,14 +60,8 @@ end
 
 
 def felt_compliance(binary, workdir, fine_size, patch_radius):
-    folder = os.path.join(workdir, f"h{fine_size}_rho{patch_radius}")
-    os.makedirs(folder, exist_ok=True)
-    prm = os.path.join(folder, "block.prm")
-    with open(prm, "w") as f:
-        f.write(scene(fine_size, patch_radius))
-    subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], check=True)
-    with open(os.path.join(folder, "report.json")) as f:
-        report = json.load(f)
+    report, _ = run_precompute(binary, os.path.join(workdir, f"h{fine_size}_rho{patch_radius}"),
+                               scene(fine_size, patch_radius))
     press = [s for s in report["spaces"] if s["name"] == "press"][0]
     # The static correction is exact for a single-vertex load and for a patch alike.
     corrected = max(c["contact_rel_error_corrected"] for s in report["spaces"] for c in s["validation"])

@@ -1,0 +1,17 @@
+"""Running modal-precompute from a test: a .prm text written into its own folder, the program run on
+it with that folder as its output, and the report read back."""
+import json
+import os
+import subprocess
+
+
+def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
+    """Returns (report.json as a dict, what the program wrote to stderr); raises if it fails."""
+    os.makedirs(folder, exist_ok=True)
+    prm = os.path.join(folder, prm_name)
+    with open(prm, "w") as f:
+        f.write(prm_text)
+    done = subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], check=True,
+                          stderr=subprocess.PIPE, text=True)
+    with open(os.path.join(folder, "report.json")) as f:
+        return json.load(f), done.stderr
