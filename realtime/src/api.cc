@@ -26,6 +26,36 @@ namespace
     set_last_error(message);
     return MODALRT_ERROR_INVALID_ARGUMENT;
   }
+
+  // G += sum_i b_i b_i^T / lambda_i for the 3 x r row block b (row-major) of a contact.
+  void add_modal_compliance(const double *B, const double *lambda, std::uint32_t r, double G[9])
+  {
+    for (std::uint32_t i = 0; i < r; ++i)
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d)
+          G[3 * c + d] += B[c * r + i] * B[d * r + i] / lambda[i];
+  }
+
+  // Same for a vertex without a stored block: b_i = sum_j w_j Phi_j(:, i) over its patch, as the
+  // kernel's contact row. Mode by mode, so that no 3 x r buffer is needed.
+  void add_patch_compliance(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t vertex, double G[9])
+  {
+    const std::size_t r = space.mode_count;
+    for (std::size_t i = 0; i < r; ++i)
+      {
+        double b[3] = {0.0, 0.0, 0.0};
+        for (std::uint32_t k = basis.patch_offsets[vertex]; k < basis.patch_offsets[vertex + 1]; ++k)
+          {
+            const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r + i;
+            for (int c = 0; c < 3; ++c)
+              b[c] += basis.patch_weights[k] * (basis.float64_modes() ? space.display_modes_f64[first + c * r]
+                                                                      : double(space.display_modes_f32[first + c * r]));
+          }
+        for (int c = 0; c < 3; ++c)
+          for (int d = 0; d < 3; ++d)
+            G[3 * c + d] += b[c] * b[d] / space.eigenvalues[i];
+      }
+  }
 } // namespace
 
 extern "C" {
@@ -150,6 +180,34 @@ const double   *modalrt_basis_display_vertices(const modalrt_basis *basis) { ret
 const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis) { return basis ? basis->triangles.data() : nullptr; }
 const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis) { return basis ? basis->region.data() : nullptr; }
 const double   *modalrt_basis_display_normals(const modalrt_basis *basis) { return basis ? basis->normals.data() : nullptr; }
+
+int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space, uint32_t vertex, double compliance[9],
+                                     uint32_t *full_fe)
+{
+  if (!basis || !compliance || space >= basis->space_count() || vertex >= basis->vertex_count)
+    return invalid("modalrt_basis_contact_compliance: null argument, space or vertex out of range");
+  const ModalSpace &s = basis->spaces[space];
+  // Eigenvalues are ascending: one check covers every mode.
+  if (s.mode_count > 0 && !(s.eigenvalues.front() > 0.0))
+    {
+      set_last_error("modalrt_basis_contact_compliance: the space has a mode with omega = 0: no static compliance");
+      return MODALRT_ERROR_VALUE;
+    }
+  std::fill_n(compliance, 9, 0.0);
+  const int candidate = s.candidate_index(vertex);
+  if (candidate >= 0)
+    {
+      add_modal_compliance(&s.candidate_modes[3 * std::size_t(s.mode_count) * std::size_t(candidate)],
+                           s.eigenvalues.data(), s.mode_count, compliance);
+      for (int k = 0; k < 9; ++k)
+        compliance[k] += s.candidate_compliance[9 * std::size_t(candidate) + k];
+    }
+  else
+    add_patch_compliance(*basis, s, vertex, compliance);
+  if (full_fe)
+    *full_fe = candidate >= 0 ? 1u : 0u;
+  return MODALRT_OK;
+}
 
 int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from)
 {

@@ -38,6 +38,7 @@ namespace modalrt_tool
       double      snap_distance = -1.0;  // [m] < 0: automatic
       double      spin_us       = 100.0; // [us] spin before each deadline
       bool        quiet         = false;
+      bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
       UdpSettings udp;                   // serve only
     };
 
@@ -95,6 +96,11 @@ namespace modalrt_tool
           if (option == "--quiet")
             {
               o.quiet = true;
+              continue;
+            }
+          if (option == "--no-plot")
+            {
+              o.plot = false;
               continue;
             }
           if (option.rfind("--", 0) != 0)
@@ -225,8 +231,25 @@ namespace modalrt_tool
                        const DisplayResult &display, std::uint32_t hips, std::string &error)
     {
       return write_trace(o.output_dir + "/trace.csv", haptic, hips, error) &&
+             write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
              write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
+    }
+
+    // force_displacement.png from trace.csv and presses.csv. Optional: without Python and matplotlib
+    // (or with --no-plot) the run still succeeds, and one line says how to draw it later. A stale
+    // picture of an earlier run is removed first.
+    bool draw_plot(const RunOptions &o)
+    {
+      std::error_code code;
+      std::filesystem::remove(o.output_dir + "/force_displacement.png", code);
+      if (!o.plot)
+        return false;
+      std::string notice;
+      const bool  written = plot_force_displacement(o.output_dir, notice);
+      if (!written)
+        std::fprintf(stderr, "modal-rt: %s\n", notice.c_str());
+      return written;
     }
 
     // The session a command plays: the file (run), or none with --hips HIPs (serve: the device
@@ -332,10 +355,12 @@ namespace modalrt_tool
       run_threads(r.kernel, r.basis, *device, session, haptic, display, haptic_result, display_result);
       device->close();
 
-      const RunReport report =
+      RunReport report =
         make_report(o, session, duration, def, r.kernel, *device, haptic_result, display_result, press_distance);
+      report.presses = find_presses(haptic_result, session.hip_count, r.basis, o.impedance);
       if (!write_outputs(o, report, haptic_result, display_result, session.hip_count, error))
         return fail(error);
+      report.plot_written = draw_plot(o);
       if (!o.quiet)
         print_summary(report);
       if (!display_result.error.empty())
@@ -349,7 +374,7 @@ namespace modalrt_tool
     return "       modal-rt run --basis FILE.mrt --session SESSION.csv --output-dir DIR [--rate HZ (1000)]\n"
            "                    [--duration S] [--mode impedance|admittance] [--device hand|probe]\n"
            "                    [--frame-rate HZ (10)] [--trace-rate HZ (100)] [--snap-distance M]\n"
-           "                    [--spin-us US (100)] [--quiet]\n";
+           "                    [--spin-us US (100)] [--no-plot] [--quiet]\n";
   }
 
   const char *serve_usage()
@@ -357,7 +382,7 @@ namespace modalrt_tool
     return "       modal-rt serve --basis FILE.mrt --output-dir DIR [--bind ADDRESS (127.0.0.1)] [--port N (47000)]\n"
            "                    [--hips N (1)] [--silence-ticks N (1)] [--rate HZ (1000)] [--duration S (600)]\n"
            "                    [--mode impedance|admittance] [--frame-rate HZ] [--trace-rate HZ]\n"
-           "                    [--snap-distance M] [--spin-us US] [--quiet]\n";
+           "                    [--snap-distance M] [--spin-us US] [--no-plot] [--quiet]\n";
   }
 
   int run_command(int argc, char **argv, bool serve)

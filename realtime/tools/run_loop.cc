@@ -171,7 +171,8 @@ namespace modalrt_tool
             f.linear_velocity[d]     = s.velocity[d];
             f.linear_acceleration[d] = s.acceleration[d];
           }
-        modalrt_kernel_set_frame(kernel_, &f); // a rejected frame is counted by the kernel
+        if (modalrt_kernel_set_frame(kernel_, &f) == MODALRT_OK) // a rejected frame is counted by the kernel
+          std::copy_n(f.position, 3, frame_position_);
       }
 
       void record_trace(std::uint64_t row, double t)
@@ -184,6 +185,7 @@ namespace modalrt_tool
             std::copy_n(inputs_[h].position, 3, s.hip);
             std::copy_n(o.position, 3, s.contact);
             std::copy_n(o.force, 3, s.force);
+            std::copy_n(frame_position_, 3, s.frame);
             s.in_contact    = o.in_contact;
             s.active_vertex = o.active_vertex;
             s.space         = o.space;
@@ -200,6 +202,7 @@ namespace modalrt_tool
       std::vector<modalrt_hip_output> outputs_;
       std::size_t                     next_event_   = 0;
       std::size_t                     frame_cursor_ = 0;
+      double                          frame_position_[3] = {0.0, 0.0, 0.0}; // [m] of the last accepted frame
     };
 
     // The display side: snapshots at 60 Hz, a VTU frame every 1/frame_rate s of simulated time.

@@ -31,6 +31,8 @@ namespace modalrt_tool
     double        hip[3];       // [m] device (HIP) position, world
     double        contact[3];   // [m] output position: the felt contact point in contact, else the HIP
     double        force[3];     // [N] impedance: rendered on the device; admittance: applied to the part
+    double        frame[3];     // [m] world position of the part frame's origin (the felt displacement
+                                //     of a carried part is contact - frame - rest)
     std::uint32_t in_contact;
     std::uint32_t active_vertex; // MODALRT_NONE when not in contact
     std::uint32_t space;

@@ -7,7 +7,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char **environ;
 
 namespace modalrt_tool
 {
@@ -152,11 +159,11 @@ namespace modalrt_tool
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
                        "(the felt point in contact, else the device), force [N], in contact, active vertex (-1: "
-                       "none), active space\ntime";
+                       "none), active space; then the origin of the part's frame [m]\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
       for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space"})
         text += ",hip" + std::to_string(h) + "_" + column;
-    text += '\n';
+    text += ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
     char                field[64];
     for (std::uint64_t r = 0; r < rows; ++r)
@@ -172,9 +179,215 @@ namespace modalrt_tool
                           s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space);
             text += field;
           }
-        text += '\n';
+        const double *frame = result.trace[r * hip_count].frame;
+        text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]) + '\n';
       }
     return write_file_atomically(path, text, error);
+  }
+
+  namespace
+  {
+    double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+    // Space names go into a CSV field and a plot title: no separators, no control characters.
+    std::string csv_safe(const char *text)
+    {
+      std::string out = text;
+      for (char &c : out)
+        if (c == ',' || c == '"' || static_cast<unsigned char>(c) < 0x20)
+          c = '_';
+      return out;
+    }
+
+    // The contact periods of one HIP: runs of trace rows in contact at the same active vertex (a
+    // release and a new snap between two rows start a new press).
+    void collect_presses(const HapticResult &result, std::uint32_t hips, std::uint32_t hip, std::vector<Press> &out)
+    {
+      const std::size_t rows = result.trace.size() / hips;
+      bool              open = false;
+      for (std::size_t r = 0; r < rows; ++r)
+        {
+          const TraceSample &s = result.trace[r * hips + hip];
+          if (open && (!s.in_contact || s.active_vertex != out.back().vertex))
+            open = false;
+          if (s.in_contact && !open)
+            {
+              Press p;
+              p.hip       = hip;
+              p.vertex    = s.active_vertex;
+              p.first_row = r;
+              out.push_back(p);
+              open = true;
+            }
+          if (open)
+            out.back().last_row = r;
+        }
+    }
+
+    // The static compliance of the press's contact along its normal, in the space of its last row.
+    void static_reference(Press &p, const modalrt_basis *basis)
+    {
+      modalrt_space_info info;
+      modalrt_basis_get_space_info(basis, p.space, &info);
+      p.space_name = csv_safe(info.name);
+      std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(p.vertex), 3, p.normal);
+      std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(p.vertex), 3, p.rest);
+      double        G[9], Gn[3];
+      std::uint32_t full_fe = 0;
+      if (modalrt_basis_contact_compliance(basis, p.space, p.vertex, G, &full_fe) != MODALRT_OK)
+        {
+          p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
+          return;
+        }
+      for (int c = 0; c < 3; ++c)
+        Gn[c] = dot3(G + 3 * c, p.normal);
+      p.compliance = dot3(p.normal, Gn);
+      p.full_fe    = full_fe != 0;
+    }
+
+    // Normal force pushing into the part [N] and normal displacement into it [m] of one trace row.
+    void normal_response(const Press &p, const TraceSample &s, double force_sign, double &force, double &displacement)
+    {
+      // The anchor offset is tangential: it drops out along the normal.
+      const double moved[3] = {s.contact[0] - s.frame[0] - p.rest[0], s.contact[1] - s.frame[1] - p.rest[1],
+                               s.contact[2] - s.frame[2] - p.rest[2]};
+      force        = force_sign * dot3(s.force, p.normal);
+      displacement = -dot3(moved, p.normal);
+    }
+
+    // The felt stiffness at the end of the push: at the last local maximum of the normal force that
+    // reaches half the press's largest force, i.e. the end of a hold before unloading. (The largest
+    // force itself is often the transient of the hand landing on the surface, not a settled state.)
+    void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign)
+    {
+      const std::size_t   n = p.last_row - p.first_row + 1;
+      std::vector<double> force(n), displacement(n);
+      double              largest = -HUGE_VAL;
+      for (std::size_t k = 0; k < n; ++k)
+        {
+          const std::size_t row      = (p.first_row + k) * hips;
+          std::uint32_t     contacts = 0;
+          for (std::uint32_t h = 0; h < hips; ++h)
+            contacts += result.trace[row + h].in_contact;
+          p.max_contacts = std::max(p.max_contacts, contacts);
+          normal_response(p, result.trace[row + p.hip], force_sign, force[k], displacement[k]);
+          largest = std::max(largest, force[k]);
+        }
+      std::size_t end = n - 1;
+      while (end > 0 && !(force[end] >= 0.5 * largest && (end + 1 == n || force[end + 1] <= force[end]) &&
+                          force[end - 1] <= force[end]))
+        --end;
+      p.felt_time         = result.trace[(p.first_row + end) * hips].time;
+      p.felt_force        = force[end];
+      p.felt_displacement = displacement[end];
+      const bool pushed   = p.felt_force > 0.0 && p.felt_displacement > 0.0;
+      p.felt_stiffness    = pushed ? p.felt_force / p.felt_displacement : std::nan("");
+    }
+
+    // Runs `arguments` (arguments[0] is the program's path) and waits: its exit status, -1 if it
+    // could not be started or did not exit normally.
+    int run_program(const std::vector<std::string> &arguments)
+    {
+      std::vector<char *> argv;
+      for (const std::string &a : arguments)
+        argv.push_back(const_cast<char *>(a.c_str()));
+      argv.push_back(nullptr);
+      pid_t pid = 0;
+      if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0)
+        return -1;
+      int status = 0;
+      while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR)
+          return -1;
+      return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+
+    // scripts/plot_force_displacement.py of the source tree this tool was built from (__FILE__ is
+    // realtime/tools/run_outputs.cc there), else of a build directory inside the repository
+    // (build/bin/modal-rt). Empty if neither exists.
+    std::string find_plot_script()
+    {
+      namespace fs        = std::filesystem;
+      const fs::path name = "scripts/plot_force_displacement.py";
+      std::error_code code;
+      std::vector<fs::path> places = {fs::path(__FILE__).parent_path() / "../.." / name};
+      const fs::path        exe    = fs::read_symlink("/proc/self/exe", code);
+      if (!code)
+        places.push_back(exe.parent_path() / "../.." / name);
+      for (const fs::path &place : places)
+        if (fs::is_regular_file(place, code))
+          return place.lexically_normal().string();
+      return "";
+    }
+  } // namespace
+
+  std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
+                                  bool impedance)
+  {
+    std::vector<Press> presses;
+    if (hip_count == 0)
+      return presses;
+    for (std::uint32_t h = 0; h < hip_count; ++h)
+      collect_presses(result, hip_count, h, presses);
+    for (Press &p : presses)
+      {
+        p.start = result.trace[p.first_row * hip_count].time;
+        p.end   = result.trace[p.last_row * hip_count].time;
+        p.space = result.trace[p.last_row * hip_count + p.hip].space;
+        static_reference(p, basis);
+        felt_response(p, result, hip_count, impedance ? 1.0 : -1.0);
+      }
+    std::stable_sort(presses.begin(), presses.end(), [](const Press &a, const Press &b) { return a.start < b.start; });
+    return presses;
+  }
+
+  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance, std::string &error)
+  {
+    std::string text =
+      "# modal-rt run presses: one row per contact period of a HIP (from trace.csv). Along the vertex's outward "
+      "normal n: the force pushing into the part = force_sign * n . F(trace) [N], the displacement into the part "
+      "= -n . (contact - frame - rest) [m]. compliance = n^T G n [m/N] of the static compliance G of the contact "
+      "(full_fe 1: full FE; 0: modal part only, no full-FE reference). felt_*: at the end of the push (the last "
+      "local maximum of the force reaching half its largest value); felt_stiffness = felt_force / "
+      "felt_displacement [N/m]; ratio = felt / static stiffness\n"
+      "press,hip,space,space_name,vertex,start_s,end_s,nx,ny,nz,rest_x,rest_y,rest_z,compliance_m_per_n,full_fe,"
+      "force_sign,max_contacts,felt_time_s,felt_force_n,felt_displacement_m,felt_stiffness_n_per_m,static_stiffness_n_per_m,"
+      "ratio\n";
+    char line[1024];
+    for (std::size_t k = 0; k < presses.size(); ++k)
+      {
+        const Press &p = presses[k];
+        std::snprintf(line, sizeof line,
+                      "%zu,%u,%u,%s,%u,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%u,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", k,
+                      p.hip, p.space, p.space_name.c_str(), p.vertex, p.start, p.end, p.normal[0], p.normal[1],
+                      p.normal[2], p.rest[0], p.rest[1], p.rest[2], p.compliance, p.full_fe ? 1 : 0,
+                      impedance ? 1 : -1, p.max_contacts, p.felt_time, p.felt_force, p.felt_displacement, p.felt_stiffness,
+                      1.0 / p.compliance, p.felt_stiffness * p.compliance);
+        text += line;
+      }
+    return write_file_atomically(path, text, error);
+  }
+
+  bool plot_force_displacement(const std::string &output_dir, std::string &notice)
+  {
+    const char       *python = "/usr/bin/python3";
+    const std::string script = find_plot_script();
+    const std::string how    = "apt-get install python3-matplotlib, then /usr/bin/python3 "
+                               "scripts/plot_force_displacement.py " + output_dir;
+    if (script.empty() || access(python, X_OK) != 0)
+      {
+        notice = std::string("force_displacement.png skipped: ") +
+                 (script.empty() ? "scripts/plot_force_displacement.py not found" : "no /usr/bin/python3") + " (" +
+                 how + ")";
+        return false;
+      }
+    const int status = run_program({python, script, output_dir});
+    if (status == 0)
+      return true;
+    notice = status == 3 ? "force_displacement.png skipped: matplotlib is missing (" + how + ")"
+                         : "force_displacement.png not written: " + script + " failed (exit status " +
+                             std::to_string(status) + ")";
+    return false;
   }
 
   double percentile(std::vector<float> values, double p)
@@ -249,6 +462,31 @@ namespace modalrt_tool
     return o.str();
   }
 
+  namespace
+  {
+    // Per press: the felt stiffness at the end of the push against the static stiffness of the contact.
+    void print_presses(const std::vector<Press> &presses)
+    {
+      constexpr std::size_t shown = 12; // one screen; presses.csv has them all
+      if (!presses.empty())
+        std::printf("  presses       %zu: felt = force / displacement along the normal at the end of the push\n",
+                    presses.size());
+      for (std::size_t k = 0; k < std::min(presses.size(), shown); ++k)
+        {
+          const Press &p = presses[k];
+          std::printf("  press %-7zu HIP %u, %s vertex %u, %.2f-%.2f s%s: felt %.4g N/mm (%.3g N at %.2f s); %s "
+                      "%.4g N/mm; ratio %.3f\n",
+                      k, p.hip, p.space_name.c_str(), p.vertex, p.start, p.end,
+                      p.max_contacts > 1 ? " (several HIPs in contact)" : "", 1e-3 * p.felt_stiffness, p.felt_force,
+                      p.felt_time,
+                      p.full_fe ? "full-FE static" : "modal-only static (no full-FE reference)",
+                      1e-3 / p.compliance, p.felt_stiffness * p.compliance);
+        }
+      if (presses.size() > shown)
+        std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);
+    }
+  } // namespace
+
   void print_summary(const RunReport &r)
   {
     const HapticResult  &h = *r.haptic;
@@ -281,6 +519,7 @@ namespace modalrt_tool
     std::printf("  display       %llu reconstructions (max %.2f ms), %zu frames written%s%s\n",
                 (unsigned long long)d.reconstructions, d.max_reconstruct_ms, d.frames.size(),
                 d.error.empty() ? "" : "; ERROR: ", d.error.c_str());
+    print_presses(r.presses);
     for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
       {
         const modalrt_hip_output &o = h.last_outputs[k];
@@ -288,6 +527,7 @@ namespace modalrt_tool
                     o.in_contact ? ("vertex " + std::to_string(o.active_vertex)).c_str() : "free", o.space,
                     o.position[0], o.position[1], o.position[2], o.force[0], o.force[1], o.force[2]);
       }
-    std::printf("  outputs       %s/{stats.json, trace.csv, frames.pvd, frames/}\n", r.output_dir.c_str());
+    std::printf("  outputs       %s/{stats.json, trace.csv, presses.csv, frames.pvd, frames/%s}\n", r.output_dir.c_str(),
+                r.plot_written ? ", force_displacement.png" : "");
   }
 } // namespace modalrt_tool

@@ -1,5 +1,6 @@
 // The files `modal-rt run` writes into --output-dir, each to a temporary file then renamed (a
-// reader never sees half a file): stats.json, trace.csv, frames.pvd and frames/frame_*.vtu.
+// reader never sees half a file): stats.json, trace.csv, presses.csv, frames.pvd and
+// frames/frame_*.vtu; and force_displacement.png, drawn by scripts/plot_force_displacement.py.
 #pragma once
 
 #include "run_loop.h"
@@ -37,6 +38,41 @@ namespace modalrt_tool
   // trace.csv: one row per decimated tick, the HIPs' columns side by side.
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count, std::string &error);
 
+  // One press: a contact period of one HIP (consecutive trace rows in contact at the same active
+  // vertex), what it felt like, and the static stiffness of that contact. Along the vertex's outward
+  // normal n (rest normal; sessions translate the part, so it is also the world normal): the force
+  // pushes into the part and the active vertex is displaced into it, both counted positive.
+  struct Press
+  {
+    std::uint32_t hip = 0, vertex = 0;
+    std::uint32_t space = 0;           // active space at the press's last row (the compliance's space)
+    std::string   space_name;
+    std::size_t   first_row = 0, last_row = 0; // trace rows
+    double        start = 0.0, end = 0.0;      // [s] first and last trace row in contact
+    double        normal[3] = {0, 0, 0};       // [-] outward unit normal of the vertex
+    double        rest[3]   = {0, 0, 0};       // [m] rest position of the vertex, body frame
+    double        compliance = 0.0;            // [m/N] n^T G n (modalrt_basis_contact_compliance); NaN if none
+    bool          full_fe    = false;          // G is the full-FE compliance (a candidate vertex)
+    std::uint32_t max_contacts = 0;            // HIPs in contact at once during the press
+    double        felt_time = 0.0;             // [s] end of the push: the last local maximum of the normal
+                                               //     force that reaches half the press's largest force
+    double        felt_force = 0.0;            // [N] normal force there
+    double        felt_displacement = 0.0;     // [m] normal displacement there
+    double        felt_stiffness = 0.0;        // [N/m] felt_force / felt_displacement (NaN if not pushed in)
+  };
+
+  // The presses of a run, in order of start time. `impedance`: the trace's force is the one
+  // rendered on the device (it pushes the hand out: +n), else the one applied to the part (-n).
+  std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
+                                  bool impedance);
+
+  // presses.csv: one row per press (the columns are documented in realtime/README.md).
+  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance, std::string &error);
+
+  // Runs scripts/plot_force_displacement.py on the output directory with /usr/bin/python3. Returns
+  // true when force_displacement.png was written; else `notice` says why and how to make it.
+  bool plot_force_displacement(const std::string &output_dir, std::string &notice);
+
   // Percentile p (0..100) of the values (nearest rank); 0 for none.
   double percentile(std::vector<float> values, double p);
 
@@ -54,6 +90,8 @@ namespace modalrt_tool
     double              max_press_distance = 0.0; // [m] press points to their vertices
     double              coupling_stiffness = 0.0, coupling_damping = 0.0, snap_distance = 0.0;
     std::vector<std::pair<std::string, std::uint64_t>> device_counters; // packets, ... (serve)
+    std::vector<Press>  presses;
+    bool                plot_written = false; // force_displacement.png
   };
 
   RunReport   summarize(const HapticResult &haptic, double rate);

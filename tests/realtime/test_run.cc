@@ -5,6 +5,7 @@
 // the files the run writes; nothing is asserted on timing (the machine may be loaded).
 #include "test_support.h"
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -15,6 +16,7 @@
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
+#include <vector>
 
 namespace
 {
@@ -62,6 +64,103 @@ namespace
       }
   }
 
+  // The rows of a CSV output (comment lines skipped), each split at commas; rows[0] is the header.
+  std::vector<std::vector<std::string>> read_csv(const std::string &path)
+  {
+    std::ifstream                         file(path);
+    std::vector<std::vector<std::string>> rows;
+    for (std::string line; std::getline(file, line);)
+      {
+        if (line.empty() || line[0] == '#')
+          continue;
+        std::vector<std::string> fields(1);
+        for (char c : line)
+          if (c == ',')
+            fields.emplace_back();
+          else
+            fields.back() += c;
+        rows.push_back(fields);
+      }
+    return rows;
+  }
+
+  std::size_t column(const std::vector<std::string> &header, const std::string &name)
+  {
+    const auto at = std::find(header.begin(), header.end(), name);
+    ENSURE(at != header.end());
+    return std::size_t(at - header.begin());
+  }
+
+  // Contact periods in a trace: per HIP, runs of rows in contact at the same vertex.
+  std::size_t contact_periods(const std::vector<std::vector<std::string>> &trace, std::uint32_t hips)
+  {
+    std::size_t periods = 0;
+    for (std::uint32_t h = 0; h < hips; ++h)
+      {
+        const std::string hip = "hip" + std::to_string(h) + "_";
+        const std::size_t contact = column(trace[0], hip + "contact"), vertex = column(trace[0], hip + "vertex");
+        std::string       previous = "-1";
+        for (std::size_t r = 1; r < trace.size(); ++r)
+          {
+            const std::string now = trace[r][contact] == "1" ? trace[r][vertex] : "-1";
+            periods += now != "-1" && now != previous;
+            previous = now;
+          }
+      }
+    return periods;
+  }
+
+  // presses.csv against the trace and the basis: one row per contact period; the compliance along the
+  // normal is n^T G n of modalrt_basis_contact_compliance, finite and > 0, and full_fe is set exactly
+  // for the candidates of the press's space. Returns the rows (header first).
+  std::vector<std::vector<std::string>> check_presses(const std::string &dir, std::uint32_t hips)
+  {
+    const auto presses = read_csv(dir + "/presses.csv");
+    ENSURE(!presses.empty() && presses[0][0] == "press");
+    ENSURE(presses.size() - 1 == contact_periods(read_csv(dir + "/trace.csv"), hips));
+    modalrt_basis *basis = nullptr;
+    ENSURE(modalrt_basis_load(basis_path.c_str(), &basis) == MODALRT_OK);
+    const std::vector<std::string> &h = presses[0];
+    for (std::size_t r = 1; r < presses.size(); ++r)
+      {
+        const auto         &p          = presses[r];
+        const std::uint32_t space      = std::stoul(p[column(h, "space")]);
+        const std::uint32_t vertex     = std::stoul(p[column(h, "vertex")]);
+        const double        compliance = std::strtod(p[column(h, "compliance_m_per_n")].c_str(), nullptr);
+        const double        n[3]       = {std::stod(p[column(h, "nx")]), std::stod(p[column(h, "ny")]),
+                                          std::stod(p[column(h, "nz")])};
+        double              G[9];
+        std::uint32_t       full_fe = 0;
+        ENSURE(modalrt_basis_contact_compliance(basis, space, vertex, G, &full_fe) == MODALRT_OK);
+        double expected = 0.0;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            expected += n[a] * G[3 * a + b] * n[b];
+        ENSURE(std::isfinite(compliance) && compliance > 0.0);
+        ENSURE_RELATIVE(compliance, expected, 1e-6);
+        modalrt_space_info info;
+        modalrt_basis_get_space_info(basis, space, &info);
+        const std::uint32_t *candidates   = modalrt_basis_candidates(basis, space);
+        const bool           is_candidate = std::binary_search(candidates, candidates + info.candidate_count, vertex);
+        ENSURE(p[column(h, "full_fe")] == (is_candidate ? "1" : "0"));
+      }
+    modalrt_basis_destroy(basis);
+    return presses;
+  }
+
+  // The tool draws force_displacement.png when /usr/bin/python3 has matplotlib, else says it skipped.
+  void check_plot(const std::string &dir, const std::string &output)
+  {
+    static const bool matplotlib = std::system("/usr/bin/python3 -c 'import matplotlib' > /dev/null 2>&1") == 0;
+    if (!matplotlib)
+      {
+        ENSURE(contains(output, "force_displacement.png skipped"));
+        return;
+      }
+    const std::string png = read_text(dir + "/force_displacement.png");
+    ENSURE(png.size() > 1000 && png.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
+  }
+
   modalrt::LatticeOptions lattice()
   {
     modalrt::LatticeOptions o;
@@ -99,8 +198,10 @@ time,hip,event,x,y,z
       {
         const std::string dir = rate == 1000.0 ? "run_out_1k" : "run_out_4k";
         std::string       out;
+        // The plot once (Python takes a second); --no-plot leaves none, not even a stale one.
+        const std::string plot = rate == 1000.0 ? "" : " --no-plot";
         ENSURE(run("--basis " + basis_path + " --session run_two_hips.csv --output-dir " + dir + " --rate " +
-                     std::to_string(int(rate)),
+                     std::to_string(int(rate)) + plot,
                    out) == 0);
         std::printf("%s", out.c_str());
         const std::string stats = read_text(dir + "/stats.json");
@@ -115,6 +216,12 @@ time,hip,event,x,y,z
         ENSURE(contains(read_text(dir + "/trace.csv"), "time,hip0_x"));
         ENSURE(contains(read_text(dir + "/frames.pvd"), "frames/frame_000000.vtu"));
         ENSURE(contains(read_text(dir + "/frames/frame_000000.vtu"), "Name=\"displacement\""));
+        // At least HIP 0 on the tip, HIP 1 near the root, HIP 0 again after the release event.
+        ENSURE(check_presses(dir, 2).size() >= 1 + 3);
+        if (plot.empty())
+          check_plot(dir, out);
+        else
+          ENSURE(!std::filesystem::exists(dir + "/force_displacement.png"));
       }
   }
 
@@ -152,6 +259,16 @@ time,hip,event,x,y,z
       }
     std::printf("  static response at vertex %u: relative error %.3e\n", vertex, std::sqrt(error / size));
     ENSURE(std::sqrt(error / size) <= 1e-6);
+    // One press at a candidate, settled under a constant force along the normal (the lattice's top
+    // face is flat): the felt stiffness is the full-FE static stiffness.
+    const auto presses = check_presses("run_out_static", 1);
+    ENSURE(presses.size() == 2);
+    if (presses.size() == 2)
+      {
+        ENSURE(presses[1][column(presses[0], "full_fe")] == "1");
+        ENSURE_NEAR(std::stod(presses[1][column(presses[0], "ratio")]), 1.0, 1e-6);
+        ENSURE_NEAR(std::stod(presses[1][column(presses[0], "felt_force_n")]), -force, 1e-9);
+      }
     ENSURE(json_number(stats, "allocations_after_start") == 0 && json_number(stats, "non_finite_outputs") == 0);
   }
 

@@ -181,6 +181,16 @@ MODALRT_API const double   *modalrt_basis_display_vertices(const modalrt_basis *
 MODALRT_API const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis); /* 3 nt vertex indices */
 MODALRT_API const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis);   /* nv space per vertex */
 MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *basis);   /* 3 nv unit outward [-] */
+/* Static compliance G [m/N] (3x3, row-major, body frame) of a contact at display vertex `vertex` in
+ * space `space`: the settled felt displacement of the active vertex (patch average) is u_c = G F for
+ * a constant force F on it, alone on the part. At a candidate of the space G = B_v Lambda^-1 B_v^T +
+ * C_v, which is exactly the full static FE compliance W_v^T K^-1 W_v of its patch, and *full_fe is
+ * set to 1; elsewhere only the modal part B_v Lambda^-1 B_v^T (B_v from the vertex-lumped patch, as
+ * the kernel builds it) is available and *full_fe is 0. The stiffness felt along a unit direction n
+ * is 1 / (n^T G n). `full_fe` may be NULL. No allocation. MODALRT_ERROR_VALUE if the space has a mode
+ * with omega = 0 (a part that is not held has no static compliance). */
+MODALRT_API int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space, uint32_t vertex,
+                                                 double compliance[9], uint32_t *full_fe);
 /* 1 if the file holds TRANSFER from space `from` into space `to`, else 0. */
 MODALRT_API int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from);
 
