@@ -91,7 +91,7 @@ def main():
     parser.add_argument("--build", default="build")
     parser.add_argument("--out", required=True)
     parser.add_argument("--work", default="/tmp/modal-haptics-bench-eigensolver")
-    parser.add_argument("--sizes", default="1.0,0.5", help="VOI fine sizes in mm (1.0 ~ 40k DoFs, 0.5 ~ 250k)")
+    parser.add_argument("--sizes", default="1.0,0.5", help="VOI fine sizes in mm (1.0 ~ 18k DoFs, 0.5 ~ 93k, 0.36 ~ 222k)")
     parser.add_argument("--skip-slow", action="store_true", help="run UMFPACK and scipy only on the smallest size")
     args = parser.parse_args()
     rows = []
