@@ -141,6 +141,7 @@ namespace modalrt
         read_space_names();
         for (std::uint32_t s = 0; s < basis_.space_count(); ++s)
           read_space(s);
+        check_max_modes();
         read_transfers();
       }
 
@@ -192,6 +193,12 @@ namespace modalrt
 
         if (space_count_ == 0)
           fail(MODALRT_ERROR_FORMAT, cat(file, ": header: n_spaces is 0 (the global space is mandatory)"));
+        // The spaces are allocated before their sections are read: bound n_spaces by the table
+        // first (each space has 4 mandatory sections, the scene 7), so that a corrupt count cannot
+        // make the reader allocate gigabytes before it finds the sections missing.
+        if (std::uint64_t(space_count_) * 4 + 7 > section_count_)
+          fail(MODALRT_ERROR_FORMAT, cat(file, ": header: n_spaces is ", space_count_, ", but the ", section_count_,
+                                         " sections cannot hold its mandatory sections (4 n_spaces + 7)"));
         if (basis_.vertex_count == 0)
           fail(MODALRT_ERROR_FORMAT, cat(file, ": header: n_display_vertices is 0"));
         if (basis_.max_modes == 0 || basis_.max_patch_size == 0)
@@ -246,7 +253,8 @@ namespace modalrt
           fail(MODALRT_ERROR_FORMAT, cat(where, ": offset ", s.offset, " is not a multiple of 64"));
         if (s.offset < table_end)
           fail(MODALRT_ERROR_FORMAT, cat(where, ": offset ", s.offset, " overlaps the header or the section table"));
-        if (s.count > (basis_.file_bytes - s.offset) / size)
+        // offset > file_bytes first: the subtraction below would wrap around and let any count pass.
+        if (s.offset > basis_.file_bytes || s.count > (basis_.file_bytes - s.offset) / size)
           fail(MODALRT_ERROR_FORMAT, cat(where, ": ", s.count, " scalars at offset ", s.offset,
                                          " run past the end of the file (", basis_.file_bytes, " bytes)"));
         if (!format::is_known_kind(s.kind))
@@ -302,6 +310,7 @@ namespace modalrt
         const std::uint64_t nv = basis_.vertex_count, nt = basis_.triangle_count;
         basis_.vertices  = read<double>(required(format::display_vertices), 3 * nv, "3 n_display_vertices");
         check_finite(basis_.vertices, format::display_vertices);
+        check_coordinates();
         basis_.triangles = read<std::uint32_t>(required(format::display_triangles), 3 * nt, "3 n_display_triangles");
         check_below(basis_.triangles, basis_.vertex_count, format::display_triangles, "vertex index");
         basis_.region = read<std::uint32_t>(required(format::display_region), nv, "n_display_vertices");
@@ -314,6 +323,19 @@ namespace modalrt
         if (scalars[0] < 0.0 || scalars[1] < 0.0)
           fail(MODALRT_ERROR_VALUE, cat(basis_.source, ": section SCENE_SCALARS: patch radius (", scalars[0],
                                         " m) and mass (", scalars[1], " kg) must be >= 0"));
+      }
+
+      // Finite is not enough for the rest positions: what is derived from them at load (the bounding
+      // box extent, edge lengths, normals, the snap grid) subtracts and multiplies them, and
+      // coordinates near the largest double overflow there to infinity or NaN (the grid's cell-size
+      // search then never ended). A bound far beyond any part keeps every derived number finite.
+      void check_coordinates() const
+      {
+        constexpr double max_coordinate = 1e6; // [m]
+        for (std::size_t i = 0; i < basis_.vertices.size(); ++i)
+          if (std::fabs(basis_.vertices[i]) > max_coordinate)
+            fail(MODALRT_ERROR_VALUE, cat(basis_.source, ": section DISPLAY_VERTICES: coordinate ", basis_.vertices[i],
+                                          " m at index ", i, " is beyond +-", max_coordinate, " m"));
       }
 
       void read_patches()
@@ -334,6 +356,11 @@ namespace modalrt
         for (std::uint32_t v = 0; v < nv; ++v)
           {
             const std::uint32_t begin = offsets[v], end = offsets[v + 1];
+            // Within PATCH_VERTICES before anything is read: offsets that rise past the end and only
+            // fall back later would otherwise be read out of bounds before the fall is seen.
+            if (end > offsets[nv])
+              fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section PATCH_OFFSETS: the patch of vertex ", v,
+                                             " ends at ", end, ", past the ", offsets[nv], " entries of PATCH_VERTICES"));
             if (end < begin || end - begin == 0 || end - begin > basis_.max_patch_size)
               fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section PATCH_OFFSETS: the patch of vertex ", v, " has ",
                                              std::int64_t(end) - std::int64_t(begin),
@@ -396,9 +423,27 @@ namespace modalrt
             check_finite(space.display_modes_f32, format::display_modes, s);
           }
         read_candidates(s, space);
-        space.participation = read_optional<double>(format::participation, s, 6 * r, "6 r");
+        // PARTICIPATION is optional whatever r is (it is not in the specification's mandatory
+        // list; without it the frame's acceleration does not drive the modes), so a missing one
+        // is "not stored", not a count mismatch.
+        if (const SectionRecord *participation = find(format::participation, s))
+          space.participation = read<double>(participation, 6 * r, "6 r");
         check_finite(space.participation, format::participation, s);
         read_validation(s, space);
+      }
+
+      // The header's max_modes sizes every buffer of a kernel and of a snapshot, so it must be what
+      // the specification says, the largest r, and not merely an upper bound: a corrupt value with
+      // recomputed checksums would otherwise pass and make modalrt_kernel_create (and the
+      // self-check) allocate gigabytes.
+      void check_max_modes() const
+      {
+        std::uint32_t largest = 0;
+        for (const modalrt::ModalSpace &space : basis_.spaces)
+          largest = std::max(largest, space.mode_count);
+        if (basis_.max_modes != largest)
+          fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": header: max_modes is ", basis_.max_modes,
+                                         ", but the largest r over the spaces is ", largest));
       }
 
       void read_spectrum(std::uint32_t s, modalrt::ModalSpace &space)

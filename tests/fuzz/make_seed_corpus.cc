@@ -1,0 +1,196 @@
+// Writes the seed corpus of fuzz_basis_loader (tests/fuzz/corpus/basis/): small valid .mrt files
+// made with the kernel's synthetic scenes, and corrupted variants that each stop at a different
+// check of the reader. Seeds are kept small (a few kB) because libFuzzer mutates faster and
+// further on small inputs, and because the corpus is committed.
+//
+//   make_seed_corpus DIR      (scripts/test-kernel-checks does not run it: the corpus is committed;
+//                              run it again only when the format or the synthetic scenes change)
+#include "basis_format.h"
+#include "basis_writer.h"
+#include "synthetic_scene.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace
+{
+  using Bytes = std::vector<unsigned char>;
+  namespace format = modalrt::format;
+
+  template <typename T>
+  T get(const Bytes &bytes, std::size_t offset)
+  {
+    T value;
+    std::memcpy(&value, bytes.data() + offset, sizeof(T));
+    return value;
+  }
+
+  template <typename T>
+  void put(Bytes &bytes, std::size_t offset, T value)
+  {
+    std::memcpy(bytes.data() + offset, &value, sizeof(T));
+  }
+
+  // Byte offset of the table entry of section (kind, space) in a file this program just wrote.
+  std::size_t table_entry(const Bytes &bytes, std::uint32_t kind, std::uint32_t space = format::scene_wide)
+  {
+    const std::uint32_t n = get<std::uint32_t>(bytes, format::header::section_count);
+    for (std::uint32_t k = 0; k < n; ++k)
+      {
+        const std::size_t entry = format::header_bytes + format::table_entry_bytes * k;
+        if (get<std::uint32_t>(bytes, entry + format::entry::kind) == kind &&
+            get<std::uint32_t>(bytes, entry + format::entry::space) == space)
+          return entry;
+      }
+    std::fprintf(stderr, "make_seed_corpus: section kind %u of space %u not found\n", kind, space);
+    std::exit(1);
+  }
+
+  // Byte offset of the data of section (kind, space).
+  std::size_t section_offset(const Bytes &bytes, std::uint32_t kind, std::uint32_t space = format::scene_wide)
+  {
+    return std::size_t(get<std::uint64_t>(bytes, table_entry(bytes, kind, space) + format::entry::offset));
+  }
+
+  bool save(const std::string &dir, const char *name, const Bytes &bytes)
+  {
+    const std::string path = dir + "/" + name;
+    std::FILE        *file = std::fopen(path.c_str(), "wb");
+    const bool        ok   = file && std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
+    if (file && std::fclose(file) != 0)
+      return false;
+    if (ok)
+      std::printf("%-40s %6zu bytes\n", name, bytes.size());
+    else
+      std::fprintf(stderr, "make_seed_corpus: cannot write %s\n", path.c_str());
+    return ok;
+  }
+
+  // The smallest lattice that still has two spaces, candidates, validation cases and transfers.
+  modalrt::LatticeOptions small_lattice()
+  {
+    modalrt::LatticeOptions o;
+    o.nx = 5;
+    o.ny = 2;
+    o.nz = 2;
+    o.modes               = {4, 6};
+    o.damping             = {0.02, 0.05};
+    o.candidate_stride    = 2;
+    o.validation_vertices = 1;
+    return o;
+  }
+} // namespace
+
+int main(int argc, char **argv)
+{
+  if (argc != 2)
+    {
+      std::fprintf(stderr, "usage: make_seed_corpus DIR\n");
+      return 2;
+    }
+  const std::string dir = argv[1];
+  bool              ok  = true;
+
+  // ----- valid files: each feature of the format at least once ------------------------------------
+  const Bytes two_spaces = modalrt::write_basis(modalrt::make_lattice_cantilever(small_lattice()));
+  ok &= save(dir, "lattice_two_spaces_f64.mrt", two_spaces);
+
+  modalrt::LatticeOptions patches = small_lattice();
+  patches.float64_modes = false; // f32 display modes
+  patches.patch_radius  = 0.06;  // patches of several vertices (spacing 0.05 m along x)
+  patches.cross         = false;
+  patches.transfers     = false;
+  patches.participation = false;
+  ok &= save(dir, "lattice_patches_f32.mrt", modalrt::write_basis(modalrt::make_lattice_cantilever(patches)));
+
+  modalrt::LatticeOptions one_space = small_lattice();
+  one_space.modes   = {5};
+  one_space.damping = {0.03};
+  ok &= save(dir, "lattice_one_space.mrt", modalrt::write_basis(modalrt::make_lattice_cantilever(one_space)));
+
+  modalrt::PlateOptions plate;
+  plate.nx         = 6;
+  plate.ny         = 5;
+  plate.modes      = 4;
+  plate.spaces     = 2;
+  plate.candidates = 3;
+  ok &= save(dir, "plate_two_spaces_f32.mrt", modalrt::write_basis(modalrt::make_analytic_plate(plate)));
+
+  // A newer minor version with a section kind this reader does not know (skipped after its CRC).
+  modalrt::BasisContent newer = modalrt::make_lattice_cantilever(one_space);
+  newer.version_minor         = 1;
+  newer.extra_sections.push_back({99, format::scene_wide, format::scene_wide, format::u8, 5, {1, 2, 3, 4, 5}});
+  ok &= save(dir, "newer_minor_extra_section.mrt", modalrt::write_basis(newer));
+
+  // ----- corrupted variants of the two-space file --------------------------------------------------
+  ok &= save(dir, "corrupt_header_only.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + format::header_bytes));
+  ok &= save(dir, "corrupt_truncated.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + two_spaces.size() * 3 / 5));
+
+  Bytes magic = two_spaces;
+  magic[0]    = 'X';
+  ok &= save(dir, "corrupt_bad_magic.mrt", magic);
+
+  // A flipped bit in the modes, checksum left stale: refused by the section CRC.
+  Bytes stale = two_spaces;
+  stale[section_offset(stale, format::display_modes, 0) + 5] ^= 0x10;
+  ok &= save(dir, "corrupt_section_crc.mrt", stale);
+
+  // The next ones have their checksums recomputed, so they reach the check behind the CRC.
+  Bytes triangle = two_spaces;
+  put<std::uint32_t>(triangle, section_offset(triangle, format::display_triangles) + 4,
+                     get<std::uint32_t>(triangle, format::header::n_display_vertices)); // one past the last vertex
+  modalrt::refresh_checksums(triangle);
+  ok &= save(dir, "corrupt_triangle_index.mrt", triangle);
+
+  Bytes nan = two_spaces;
+  put<double>(nan, section_offset(nan, format::eigenvalues, 1) + 8, std::numeric_limits<double>::quiet_NaN());
+  modalrt::refresh_checksums(nan);
+  ok &= save(dir, "corrupt_nan_eigenvalue.mrt", nan);
+
+  Bytes offsets = two_spaces;
+  put<std::uint32_t>(offsets, section_offset(offsets, format::patch_offsets) + 8, 0); // patch of vertex 1 ends before it starts
+  modalrt::refresh_checksums(offsets);
+  ok &= save(dir, "corrupt_patch_offsets.mrt", offsets);
+
+  // The patch of vertex 0 running past the end of PATCH_VERTICES (the offsets fall back only at
+  // vertex 1), with a max_patch_size that allows it: the reader read its weights out of bounds.
+  Bytes overrun = two_spaces;
+  put<std::uint32_t>(overrun, section_offset(overrun, format::patch_offsets) + 4, 40);
+  put<std::uint32_t>(overrun, format::header::max_patch_size, 64);
+  modalrt::refresh_checksums(overrun);
+  ok &= save(dir, "corrupt_patch_overrun.mrt", overrun);
+
+  // Finite but astronomically far vertices: their differences overflow in what the loader derives.
+  Bytes far = two_spaces;
+  put<double>(far, section_offset(far, format::display_vertices), -1e308);
+  put<double>(far, section_offset(far, format::display_vertices) + 24, 1e308);
+  modalrt::refresh_checksums(far);
+  ok &= save(dir, "corrupt_far_vertices.mrt", far);
+
+  // A capacity far above every space's r: the kernel would size its buffers by it.
+  Bytes capacity = two_spaces;
+  put<std::uint32_t>(capacity, format::header::max_modes, 0x40000000u);
+  modalrt::refresh_checksums(capacity);
+  ok &= save(dir, "corrupt_max_modes.mrt", capacity);
+
+  // A space count the section table cannot hold (the reader sized its spaces by it first).
+  Bytes spaces = two_spaces;
+  put<std::uint32_t>(spaces, format::header::n_spaces, 0x10000000u);
+  modalrt::refresh_checksums(spaces);
+  ok &= save(dir, "corrupt_n_spaces.mrt", spaces);
+
+  // A section whose offset lies beyond the end of the file, with a count of about 10^12 bytes (the
+  // bounds check wrapped around and the reader allocated the count before reading).
+  Bytes beyond             = two_spaces;
+  const std::size_t name   = table_entry(beyond, format::space_name, 0);
+  put<std::uint64_t>(beyond, name + format::entry::offset, (beyond.size() / 64 + 1000) * 64);
+  put<std::uint64_t>(beyond, name + format::entry::count, 0xFFFFFFFFFAull);
+  modalrt::refresh_checksums(beyond);
+  ok &= save(dir, "corrupt_section_offset.mrt", beyond);
+
+  return ok ? 0 : 1;
+}
