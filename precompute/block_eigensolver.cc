@@ -21,6 +21,8 @@
 #include <cmath>
 #include <iostream>
 #include <random>
+#include <sstream>
+#include <string>
 
 extern "C"
 {
@@ -102,7 +104,7 @@ namespace modal_haptics
                         << std::endl;
             if (converged >= nev)
               break;
-            AssertThrow(cycle + 1 < 50, ExcMessage("The block eigensolver did not converge in 50 restarts."));
+            AssertThrow(cycle + 1 < 50, ExcMessage(not_converged_message(converged, shift, theta)));
             size = restart(size, theta, Z);
           }
 
@@ -119,6 +121,23 @@ namespace modal_haptics
       }
 
     private:
+      // What was found when the iteration gives up: the converged count and their frequencies, so
+      // that the user can ask for fewer modes or a looser tolerance instead of losing the run silently.
+      std::string not_converged_message(const int converged, const double shift, const std::vector<double> &theta) const
+      {
+        std::ostringstream message;
+        message << "The block eigensolver did not converge in 50 restarts: " << converged << " of " << nev
+                << " modes met 'Modes/Tolerance' = " << tolerance << ".";
+        if (converged > 0)
+          {
+            message << " Converged frequencies [Hz]:";
+            for (int i = 0; i < converged; ++i)
+              message << ' ' << std::sqrt(std::max(0., shift + 1. / theta[i])) / (2. * M_PI);
+          }
+        message << " Ask for fewer modes ('Modes/Maximum number of modes') or a looser tolerance.";
+        return message.str();
+      }
+
       // dst = (K - sigma M)^-1 M src for count columns (dst may alias src).
       void apply_operator(const double *src, double *dst, const int count)
       {

@@ -75,22 +75,23 @@ namespace modal_haptics
       return thinned;
     }
 
-    unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point,
-                                        const double length_unit)
-    {
-      unsigned int best = 0;
-      double       best_distance = 1e300;
-      for (unsigned int v = 0; v < display.n_vertices(); ++v)
-        {
-          double d = 0.;
-          for (unsigned int c = 0; c < 3; ++c)
-            d += std::pow(display.vertices[v][c] - point[c] * length_unit, 2);
-          if (d < best_distance)
-            best_distance = d, best = v;
-        }
-      return best;
-    }
   } // namespace
+
+  unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point,
+                                      const double length_unit)
+  {
+    unsigned int best = 0;
+    double       best_distance = 1e300;
+    for (unsigned int v = 0; v < display.n_vertices(); ++v)
+      {
+        double d = 0.;
+        for (unsigned int c = 0; c < 3; ++c)
+          d += std::pow(display.vertices[v][c] - point[c] * length_unit, 2);
+        if (d < best_distance)
+          best_distance = d, best = v;
+      }
+    return best;
+  }
 
   // A VOI space's candidates are the display vertices inside its VOI; the global space's are every
   // n-th vertex outside all VOIs (none by default): "model only what a scene requires".
@@ -160,13 +161,13 @@ namespace modal_haptics
 
   // T_(k <- j) = argmin_T || Phi_k T - Phi_j ||_A over the display surface, with A the lumped vertex
   // areas: the normal equations (Phi_k^T A Phi_k) T = Phi_k^T A Phi_j, small and dense.
-  void ModalPrecompute::compute_transfer_matrices()
+  std::vector<TransferMatrix> compute_transfer_matrices(const DisplaySurface &display,
+                                                        const std::vector<ModalSpaceResult> &spaces)
   {
-    TimerOutput::Scope scope(timer, "transfer matrices");
-    const auto        &display = results.display;
-    const unsigned int nv      = display.n_vertices();
-    for (const auto &to : results.spaces)
-      for (const auto &from : results.spaces)
+    std::vector<TransferMatrix> transfers;
+    const unsigned int          nv = display.n_vertices();
+    for (const auto &to : spaces)
+      for (const auto &from : spaces)
         {
           if (to.index == from.index)
             continue;
@@ -213,8 +214,15 @@ namespace modal_haptics
                 }
             }
           transfer.relative_residual = std::sqrt(residual / norm);
-          results.transfers.push_back(std::move(transfer));
+          transfers.push_back(std::move(transfer));
         }
+    return transfers;
+  }
+
+  void ModalPrecompute::compute_transfer_matrices()
+  {
+    TimerOutput::Scope scope(timer, "transfer matrices");
+    results.transfers = modal_haptics::compute_transfer_matrices(results.display, results.spaces);
   }
 
   void ModalPrecompute::export_results()

@@ -44,6 +44,7 @@ namespace modal_haptics
   public:
     ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true);
     void run();
+    const PrecomputeResults &get_results() const { return results; }
 
   private:
     void make_meshes();
@@ -58,6 +59,13 @@ namespace modal_haptics
     dealii::TimerOutput             timer;
     PrecomputeResults               results;
   };
+
+  // T_(k <- j) for every ordered pair of spaces: least squares over the display surface.
+  std::vector<TransferMatrix> compute_transfer_matrices(const DisplaySurface &display,
+                                                        const std::vector<ModalSpaceResult> &spaces);
+
+  // The display vertex nearest to a point given in geometry units.
+  unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point, double length_unit);
 
   // The exporters (export_results.cc). Each writes atomically: temporary file, then rename.
   void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);

@@ -33,6 +33,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <set>
 #include <sstream>
 
@@ -105,6 +106,10 @@ namespace modal_haptics
       // u_c = W_v^T u for a DoF field u.
       std::array<double, 3> patch_average(unsigned int vertex, const double *field) const;
       std::array<double, 3> modal_patch_response(unsigned int candidate, unsigned int direction) const;
+      // Area-weighted l2 error of the modal display field against full_field (3 per display vertex)
+      // with the first k modes, k = 1..r, relative to full_field: how the drawn field converges with r.
+      std::vector<double> display_error_by_mode_count(const std::vector<double> &full_field,
+                                                      const std::vector<double> &modal_coefficient) const;
       void log(const std::string &message) const;
 
       const SceneParameters &scene;
@@ -716,9 +721,13 @@ namespace modal_haptics
               residual -= f;
               vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
 
+              std::vector<double> modal_coefficient(r);
               u_modal = 0.;
               for (unsigned int i = 0; i < r; ++i)
-                u_modal.add((eigen.eigenvectors[i] * f) / result.eigenvalues[i], eigen.eigenvectors[i]);
+                {
+                  modal_coefficient[i] = (eigen.eigenvectors[i] * f) / result.eigenvalues[i];
+                  u_modal.add(modal_coefficient[i], eigen.eigenvectors[i]);
+                }
 
               const auto uc_full  = patch_average(vertex, u.data());
               const auto uc_modal = patch_average(vertex, u_modal.data());
@@ -739,15 +748,17 @@ namespace modal_haptics
               // Display field: modal vs full. The correction field d = full - modal is local; kept
               // only where |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected
               // field misses the dropped part.
-              std::vector<double> error2(nv, 0.), full2(nv, 0.);
+              std::vector<double> error2(nv, 0.), full2(nv, 0.), full_field(3 * nv);
               for (unsigned int v = 0; v < nv; ++v)
                 for (unsigned int c = 0; c < 3; ++c)
                   {
                     const double full  = interpolation.row_dot(3 * v + c, u.data());
                     const double modal = interpolation.row_dot(3 * v + c, u_modal.data());
+                    full_field[3 * v + c] = full;
                     full2[v] += full * full;
                     error2[v] += (modal - full) * (modal - full);
                   }
+              vc.field_rel_error_by_modes = display_error_by_mode_count(full_field, modal_coefficient);
               const double max_error = std::sqrt(*std::max_element(error2.begin(), error2.end()));
               const double max_full  = std::sqrt(*std::max_element(full2.begin(), full2.end()));
               const double keep      = scene.contact.correction_field_tolerance * max_error;
@@ -787,6 +798,27 @@ namespace modal_haptics
       line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
            << worst_modal << ", corrected up to " << worst_corrected;
       log(line.str());
+    }
+
+    std::vector<double> ModalSpace::display_error_by_mode_count(const std::vector<double> &full_field,
+                                                                const std::vector<double> &modal_coefficient) const
+    {
+      const unsigned int r = modal_coefficient.size();
+      std::vector<double> remainder = full_field, errors;
+      double              full_norm = 0.;
+      for (std::size_t row = 0; row < full_field.size(); ++row)
+        full_norm += display.vertex_area[row / 3] * full_field[row] * full_field[row];
+      for (unsigned int k = 0; k < r; ++k)
+        {
+          double error = 0.;
+          for (std::size_t row = 0; row < remainder.size(); ++row)
+            {
+              remainder[row] -= modal_coefficient[k] * result.display_modes[row * r + k];
+              error += display.vertex_area[row / 3] * remainder[row] * remainder[row];
+            }
+          errors.push_back(std::sqrt(error / full_norm));
+        }
+      return errors;
     }
 
     // K and M for the benchmark's peers (scipy, SLEPc) in a plain binary CSR: int64 n, int64 nnz,
@@ -907,5 +939,58 @@ namespace modal_haptics
   {
     ModalSpace space(scene, display, task, timer, verbose);
     return space.run();
+  }
+
+  namespace
+  {
+    // Adds sum_{i in [r_kept, r)} B[p][i] B[q][i] / lambda_i to the (rows x rows) block `target` for
+    // the rows of B listed in `rows` (B: one row of r mode values per contact direction).
+    void add_dropped_modes(const std::vector<double> &B, const unsigned int r, const unsigned int r_kept,
+                           const std::vector<double> &eigenvalues, const std::vector<std::size_t> &rows, double *target)
+    {
+      for (std::size_t p = 0; p < rows.size(); ++p)
+        for (std::size_t q = 0; q < rows.size(); ++q)
+          for (unsigned int i = r_kept; i < r; ++i)
+            target[p * rows.size() + q] += B[rows[p] * r + i] * B[rows[q] * r + i] / eigenvalues[i];
+    }
+
+    // Keeps the first r_kept of every block of r values.
+    std::vector<double> keep_leading(const std::vector<double> &values, const unsigned int r, const unsigned int r_kept)
+    {
+      std::vector<double> kept;
+      kept.reserve(values.size() / r * r_kept);
+      for (std::size_t start = 0; start < values.size(); start += r)
+        kept.insert(kept.end(), values.begin() + start, values.begin() + start + r_kept);
+      return kept;
+    }
+  } // namespace
+
+  ModalSpaceResult truncate_modal_space(const ModalSpaceResult &space, const unsigned int r_kept)
+  {
+    const unsigned int r = space.eigenvalues.size();
+    AssertThrow(r_kept >= 1 && r_kept <= r,
+                ExcMessage("Space '" + space.name + "' has " + std::to_string(r) + " modes; " + std::to_string(r_kept) +
+                           " cannot be kept."));
+    ModalSpaceResult kept = space;
+    for (auto *list : {&kept.eigenvalues, &kept.frequencies_hz, &kept.damping_ratios})
+      list->resize(r_kept);
+    kept.participation.resize(std::size_t(r_kept) * 6);
+    kept.modes_at_vertices.resize(std::size_t(r_kept) * space.n_vertices * 3);
+    kept.display_modes   = keep_leading(space.display_modes, r, r_kept);
+    kept.candidate_modes = keep_leading(space.candidate_modes, r, r_kept);
+
+    const std::size_t nc = space.candidates.size();
+    for (std::size_t a = 0; a < nc; ++a)
+      add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, {3 * a, 3 * a + 1, 3 * a + 2},
+                        &kept.candidate_compliance[9 * a]);
+    if (!space.cross_compliance.empty())
+      {
+        std::vector<std::size_t> every_row(3 * nc);
+        std::iota(every_row.begin(), every_row.end(), 0);
+        add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, every_row, kept.cross_compliance.data());
+      }
+    for (unsigned int i = r_kept; i < r; ++i)
+      kept.dropped_modes.push_back({i, space.frequencies_hz[i], "truncated to " + std::to_string(r_kept) + " modes"});
+    return kept;
   }
 } // namespace modal_haptics

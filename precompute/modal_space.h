@@ -34,6 +34,7 @@ namespace modal_haptics
     double field_rel_error_modal       = 0.; // l2 over the display surface, relative to the full field
     double field_max_error_modal       = 0.; // max over display vertices, relative to the full field's max
     double field_rel_error_corrected   = 0.; // the same with the correction field added, truncated
+    std::vector<double> field_rel_error_by_modes; // [k-1]: field_rel_error_modal with the first k modes only
     unsigned int correction_field_vertices = 0; // display vertices the truncated correction field keeps
     double energy_rel_error_modal      = 0.; // sqrt((u - u_r)^T K (u - u_r) / u^T K u)
     double solve_relative_residual     = 0.; // ||K u - f|| / ||f|| of the full solve
@@ -95,6 +96,12 @@ namespace modal_haptics
     std::vector<unsigned int>   shared_vertices;    // vertices whose full compliance every space reports
     std::string                 vtu_file;           // mode shapes + validation error fields, or empty
   };
+
+  // The space with its first r modes only (r <= its count), as if the eigensolve had kept r: the
+  // static correction grows by the dropped modes' share, C_v(r) = C_v + sum_{i >= r} b_i b_i^T / lambda_i
+  // (and so for the cross-compliance), so corrected contacts stay exact. Validation cases keep the
+  // errors of the full count (their full-FE responses stay true).
+  ModalSpaceResult truncate_modal_space(const ModalSpaceResult &space, unsigned int r);
 
   // Runs the whole pipeline of one space: read mesh, assemble, eigensolve, select, interpolate on
   // the display surface, static correction, validation, VTU output.
