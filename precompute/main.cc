@@ -7,6 +7,7 @@
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 
+#include <csignal>
 #include <cstring>
 #include <iostream>
 #include <sstream>
@@ -33,6 +34,9 @@ namespace
 int main(int argc, char **argv)
 {
   using namespace modal_haptics;
+  // A file that reaches the size limit (RLIMIT_FSIZE, a quota) would kill the program with SIGXFSZ
+  // and no word of why; ignored, the write fails with EFBIG and the program says which file.
+  std::signal(SIGXFSZ, SIG_IGN);
   dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
   std::string parameter_file, output_directory;
   bool        validate_only = false, verbose = true;

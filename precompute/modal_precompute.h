@@ -39,6 +39,8 @@ namespace modal_haptics
     std::map<std::string, double> timings_s;
   };
 
+  class StagedFiles; // atomic_file.h
+
   class ModalPrecompute
   {
   public:
@@ -50,7 +52,7 @@ namespace modal_haptics
     void plan_contacts();
     void compute_modal_spaces();
     void compute_transfer_matrices();
-    void export_results();
+    void export_results(StagedFiles &staged);
 
     const SceneParameters          &scene;
     const dealii::ParameterHandler &prm;
@@ -59,8 +61,12 @@ namespace modal_haptics
     PrecomputeResults               results;
   };
 
-  // The exporters (export_results.cc). Each writes atomically: temporary file, then rename.
-  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
-  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
-  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
+  // The exporters (export_results.cc). Each stages its file in `staged` (atomic_file.h): written
+  // complete to a temporary file, renamed over `filename` when the run commits its results.
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                       StagedFiles &staged);
+  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                        StagedFiles &staged);
+  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                    StagedFiles &staged);
 } // namespace modal_haptics
