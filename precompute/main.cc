@@ -5,9 +5,11 @@
 #include "scene_parameters.h"
 
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/hdf5.h>
 #include <deal.II/base/parameter_handler.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <sstream>
@@ -28,6 +30,18 @@ namespace
     std::cerr << "\n----------------------------------------------------\n"
               << "modal-precompute: error\n"
               << what << "\n----------------------------------------------------" << std::endl;
+  }
+
+  // HDF5 keeps a file it failed to write (a full disk) open, and its clean-up in MPI_Finalize then
+  // crashes on it (SIGSEGV, after the error was reported). By the time the error is reported every
+  // other output is closed and the temporaries are removed, so the program ends at once.
+  void end_now_if_hdf5_holds_a_file()
+  {
+    if (H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0)
+      {
+        std::cout.flush();
+        std::_Exit(1);
+      }
   }
 } // namespace
 
@@ -93,11 +107,13 @@ int main(int argc, char **argv)
       std::ostringstream message;
       e.print_info(message);
       print_error(message.str());
+      end_now_if_hdf5_holds_a_file();
       return 1;
     }
   catch (const std::exception &e)
     {
       print_error(e.what());
+      end_now_if_hdf5_holds_a_file();
       return 1;
     }
   return 0;

@@ -4,7 +4,7 @@ folder. On the small scene, after one good run:
 
 * output folder not writable (a path under a regular file; a read-only bind mount of the folder),
 * disk full while writing (RLIMIT_FSIZE: every file larger than the limit fails to grow, EFBIG),
-  at limits that stop it in the VTU mode shapes and in the .h5,
+  at limits that stop it in a VTU file and in the .h5,
 * SIGKILL while it writes its outputs (as soon as the temporary file of each main output appears),
 
 the earlier .h5, .mrt, report.json, used_parameters.prm and .pvd files must be byte-identical
@@ -126,22 +126,29 @@ def main():
                          failed_cleanly(run, ["Read-only file system"]) + damage(before, results, False), ""))
 
     # --- disk full -----------------------------------------------------------------------------
-    # A file size limit stops the first output that outgrows it: the VTU mode shapes come first (each
-    # larger than the limit below); without them the .h5 does (the .mrt and report.json are smaller
-    # than the .h5 and written after it, so no limit stops them first).
+    # A file size limit stops the first output that outgrows it. The VTU files come first: half the
+    # smallest stops the run in one of them. Without mode shapes the VTU files (validation fields)
+    # are smaller than the .h5, written next: a limit between them stops the run in the .h5. (The
+    # .mrt and report.json are smaller than the .h5 and written after it: no limit stops them first.)
     no_vtu = os.path.join(args.workdir, "no_vtu.prm")
     with open(no_vtu, "w") as f:
         f.write(open(prm).read() + "\nsubsection Output\n  set VTU modes = 0\nend\n")
+    scratch = os.path.join(args.workdir, "no_vtu_sizes")
+    subprocess.run([args.binary, no_vtu, "--output-dir", scratch, "--quiet"], check=True, capture_output=True)
+    largest_vtu = max(os.path.getsize(os.path.join(scratch, n)) for n in os.listdir(scratch) if n.endswith(".vtu"))
+    h5_size = os.path.getsize(os.path.join(scratch, f"{SCENE}.h5"))
+    if largest_vtu >= h5_size:
+        outcomes.append(("disk full in the .h5", [f"cannot be targeted: a VTU ({largest_vtu} B) >= the .h5 ({h5_size} B)"], ""))
     # Open MPI's start-up (PMIx's shared-memory store, the shared-memory transport) writes files larger
     # than these limits and MPI_Init fails before the program runs: one process needs neither.
     mpi_without_shared_files = dict(os.environ, PMIX_MCA_gds="hash", OMPI_MCA_btl="self")
     vtu_limit = min(len(d) for n, d in before.items() if n.endswith(".vtu")) // 2
-    for scene_file, limit, stopped_in in ((prm, vtu_limit, "the first .vtu"),
-                                          (no_vtu, len(before[f"{SCENE}.h5"]) // 2, f"{SCENE}.h5")):
+    for scene_file, limit, stopped_in in ((prm, vtu_limit, ".vtu"),
+                                          (no_vtu, (largest_vtu + h5_size) // 2, f"{SCENE}.h5")):
         run = subprocess.run([args.binary, scene_file, "--output-dir", results, "--quiet"], capture_output=True,
                              text=True, preexec_fn=file_size_limit(limit), env=mpi_without_shared_files)
-        outcomes.append((f"disk full in {stopped_in} (files limited to {limit} B)",
-                         failed_cleanly(run, ["disk full"]) + damage(before, results, False), ""))
+        outcomes.append((f"disk full in a {stopped_in} (files limited to {limit} B)",
+                         failed_cleanly(run, ["disk full", stopped_in]) + damage(before, results, False), ""))
 
     # --- killed ----------------------------------------------------------------------------------
     # As soon as the target's temporary file is seen (polled without pause) the run is stopped
