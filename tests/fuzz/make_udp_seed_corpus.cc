@@ -4,6 +4,8 @@
 // from the layout of realtime/README.md, not with the tool's code.
 //
 //   make_udp_seed_corpus DIR     (run again only when the packet layout changes)
+#include "seed_file.h"
+
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -15,6 +17,7 @@
 namespace
 {
   using Bytes = std::vector<unsigned char>;
+  using seed::save;
 
   template <typename T> void put(Bytes &bytes, std::size_t offset, T value)
   {
@@ -37,16 +40,6 @@ namespace
           put<double>(p, 16 + 72 * std::size_t(h) + 8 * std::size_t(k), values[k]);
       }
     return p;
-  }
-
-  bool save(const std::string &dir, const char *name, const Bytes &bytes)
-  {
-    const std::string path = dir + "/" + name;
-    std::FILE        *file = std::fopen(path.c_str(), "wb");
-    const bool ok = file && std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size() && std::fclose(file) == 0;
-    if (!ok)
-      std::fprintf(stderr, "make_udp_seed_corpus: cannot write %s\n", path.c_str());
-    return ok;
   }
 } // namespace
 

@@ -11,7 +11,6 @@ the earlier .h5, .mrt, report.json, used_parameters.prm and .pvd files must be b
 afterwards, any other earlier file (the VTU mode shapes, written while the modes are computed) may
 only have been replaced by a complete one, and no new file may appear under a final name. A run that
 fails (not killed) must exit non-zero with a message naming the cause and leave no temporary file."""
-import argparse
 import json
 import os
 import resource
@@ -21,6 +20,8 @@ import struct
 import subprocess
 import sys
 import time
+
+from precompute_run import binary_and_fresh_workdir
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = "small_block"
@@ -87,12 +88,7 @@ def file_size_limit(limit):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
-    os.makedirs(args.workdir)
+    args = binary_and_fresh_workdir()
     for name in ("small_scene.prm", "block.geo"):
         shutil.copy(os.path.join(HERE, name), args.workdir)
     prm = os.path.join(args.workdir, "small_scene.prm")
@@ -151,7 +147,7 @@ def main():
                          failed_cleanly(run, ["disk full", stopped_in]) + damage(before, results, False), ""))
 
     # --- killed ----------------------------------------------------------------------------------
-    # As soon as the target's temporary file is seen (polled without pause) the run is stopped
+    # As soon as the target's temporary file is seen (polled every 0.1 ms) the run is stopped
     # (SIGSTOP), where it is is read from the folder, then it is killed. Until its results are
     # committed (renamed, .h5 first) nothing earlier may change; a kill that lands during the renames
     # (about a millisecond) may leave a mixed set, but only of complete files.
@@ -161,6 +157,7 @@ def main():
         hit = None
         while child.poll() is None and hit is None and time.monotonic() - started < 60:
             hit = next((n for n in os.listdir(results) if is_temporary(n) and n.startswith(target)), None)
+            time.sleep(1e-4)  # fine enough for the windows of a few ms, and leaves the CPU to the run
         if hit:
             child.send_signal(signal.SIGSTOP)
             committing = not os.path.exists(os.path.join(results, f"{SCENE}.h5.tmp.{child.pid}"))

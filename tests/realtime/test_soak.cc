@@ -49,14 +49,6 @@ namespace
     return energy;
   }
 
-  bool finite(const modalrt_hip_output &o)
-  {
-    for (int d = 0; d < 3; ++d)
-      if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
-        return false;
-    return true;
-  }
-
   // The largest Frobenius norm (>= the spectral norm) of a contact compliance over every vertex of
   // every space, and the smallest damping ratio: together they bound the energy forces can store.
   void energy_scales(const modalrt_basis *basis, double &g_max, double &zeta_min)
@@ -175,7 +167,7 @@ int main(int argc, char **argv)
           modalrt_kernel_tick_admittance(kernel[k], in, hips, out);
           modalrt_kernel_get_stats(kernel[k], &after);
           const double next = modal_energy(kernel[k], basis, q.data(), v.data(), info.max_modes);
-          if (!std::isfinite(next) || !finite(out[0]) || !finite(out[1]))
+          if (!std::isfinite(next) || !test::finite(out[0]) || !test::finite(out[1]))
             ++f.non_finite;
           f.max_energy = std::max(f.max_energy, next);
           f.over_bound += next > energy_bound;
