@@ -89,9 +89,27 @@ namespace modal_haptics
     }
   } // namespace
 
-  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  namespace
   {
-    const std::string temporary = temporary_name_for(filename);
+    // deal.II 9.4's HDF5Object::set_attribute<std::string> never closes the string datatype it
+    // creates, and that datatype keeps the file open inside HDF5 after the File object is gone: HDF5
+    // then writes the rest of the file at exit, after it was renamed into place, where a failure (a
+    // full disk) leaves a truncated .h5 under its final name and nobody told. Nothing else of HDF5 is
+    // open once the File is destroyed, so the datatypes still open are those and are closed here.
+    void close_leaked_string_types()
+    {
+      const ssize_t count = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_DATATYPE);
+      std::vector<hid_t> types(count > 0 ? std::size_t(count) : 0);
+      H5Fget_obj_ids(H5F_OBJ_ALL, H5F_OBJ_DATATYPE, types.size(), types.data());
+      for (const hid_t type : types)
+        H5Tclose(type);
+    }
+  } // namespace
+
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                       StagedFiles &staged)
+  {
+    const std::string temporary = staged.stage(filename);
     {
       dealii::HDF5::File file(temporary, dealii::HDF5::File::FileAccessMode::create);
       file.set_attribute("scene", scene.scene_name);
@@ -121,7 +139,15 @@ namespace modal_haptics
         write_array(transfer, results.spaces[t.to].name + "__from__" + results.spaces[t.from].name, t.values,
                     {t.rows, t.columns});
     }
-    commit_temporary_file(temporary, filename);
+    close_leaked_string_types();
+    // HDF5 writes much of the file when it closes it, and deal.II's File cannot report a failure there
+    // (its destructor drops H5Fclose's status). A file HDF5 still holds now is one it failed to
+    // finish; one it can open again is whole (it refuses a file shorter than the end it recorded).
+    const bool  closed = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) == 0;
+    const hid_t check  = closed ? H5Fopen(temporary.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT) : -1;
+    AssertThrow(check >= 0, dealii::ExcMessage("Writing '" + filename + "' failed: HDF5 could not complete the "
+                                               "file (disk full?); the previous file is kept."));
+    H5Fclose(check);
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -239,7 +265,8 @@ namespace modal_haptics
     }
   } // namespace
 
-  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                        StagedFiles &staged)
   {
     const std::vector<Section> sections = basis_sections(scene, results);
     constexpr std::size_t      header_bytes = 64, entry_bytes = 40;
@@ -285,9 +312,8 @@ namespace modal_haptics
     put<std::uint32_t>(file, 56, crc32(file.data() + header_bytes, entry_bytes * sections.size()));
     put<std::uint32_t>(file, 60, crc32(file.data(), 60));
 
-    write_file_atomically(filename,
-                          [&](std::ostream &out) { out.write(reinterpret_cast<const char *>(file.data()), file.size()); },
-                          std::ios::binary);
+    staged.write(filename, [&](std::ostream &out) { out.write(reinterpret_cast<const char *>(file.data()), file.size()); },
+                 std::ios::binary);
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -514,10 +540,11 @@ namespace modal_haptics
     }
   } // namespace
 
-  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results)
+  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                    StagedFiles &staged)
   {
     const std::string base = scene.output_directory + "/" + scene.scene_name;
-    write_file_atomically(filename, [&](std::ostream &out) {
+    staged.write(filename, [&](std::ostream &out) {
       Json json(out);
       json.begin_object()
         .value("schema_version", "1.0")
@@ -551,8 +578,8 @@ namespace modal_haptics
           .end_object();
       json.end_array();
       json.begin_object("files")
-        .value("h5_bytes", file_size(base + ".h5"))
-        .value("mrt_bytes", file_size(base + ".mrt"))
+        .value("h5_bytes", file_size(staged.current_path(base + ".h5")))
+        .value("mrt_bytes", file_size(staged.current_path(base + ".mrt")))
         .end_object();
       json.begin_object("timings_s");
       for (const auto &[phase, seconds] : results.timings_s)

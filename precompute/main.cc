@@ -5,8 +5,11 @@
 #include "scene_parameters.h"
 
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/hdf5.h>
 #include <deal.II/base/parameter_handler.h>
 
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <sstream>
@@ -28,11 +31,26 @@ namespace
               << "modal-precompute: error\n"
               << what << "\n----------------------------------------------------" << std::endl;
   }
+
+  // HDF5 keeps a file it failed to write (a full disk) open, and its clean-up in MPI_Finalize then
+  // crashes on it (SIGSEGV, after the error was reported). By the time the error is reported every
+  // other output is closed and the temporaries are removed, so the program ends at once.
+  void end_now_if_hdf5_holds_a_file()
+  {
+    if (H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0)
+      {
+        std::cout.flush();
+        std::_Exit(1);
+      }
+  }
 } // namespace
 
 int main(int argc, char **argv)
 {
   using namespace modal_haptics;
+  // A file that reaches the size limit (RLIMIT_FSIZE, a quota) would kill the program with SIGXFSZ
+  // and no word of why; ignored, the write fails with EFBIG and the program says which file.
+  std::signal(SIGXFSZ, SIG_IGN);
   dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
   std::string parameter_file, output_directory;
   bool        validate_only = false, verbose = true;
@@ -89,11 +107,13 @@ int main(int argc, char **argv)
       std::ostringstream message;
       e.print_info(message);
       print_error(message.str());
+      end_now_if_hdf5_holds_a_file();
       return 1;
     }
   catch (const std::exception &e)
     {
       print_error(e.what());
+      end_now_if_hdf5_holds_a_file();
       return 1;
     }
   return 0;

@@ -36,10 +36,12 @@ namespace modal_haptics
     plan_contacts();
     compute_modal_spaces();
     compute_transfer_matrices();
-    export_results();
+    StagedFiles staged;
+    export_results(staged);
     // The report is written last: it gives the size of every other file and the total time.
     results.timings_s["total"] = total.wall_time();
-    write_report(scene.output_directory + "/report.json", scene, results);
+    write_report(scene.output_directory + "/report.json", scene, results, staged);
+    staged.commit();
   }
 
   void ModalPrecompute::make_meshes()
@@ -225,17 +227,17 @@ namespace modal_haptics
     results.transfers = modal_haptics::compute_transfer_matrices(results.display, results.spaces);
   }
 
-  void ModalPrecompute::export_results()
+  void ModalPrecompute::export_results(StagedFiles &staged)
   {
     TimerOutput::Scope scope(timer, "export");
     dealii::Timer      wall;
     const std::string  base = scene.output_directory + "/" + scene.scene_name;
-    write_hdf5_file(base + ".h5", scene, results);
-    write_basis_file(base + ".mrt", scene, results);
-    write_file_atomically(scene.output_directory + "/used_parameters.prm",
-                          [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
+    write_hdf5_file(base + ".h5", scene, results, staged);
+    write_basis_file(base + ".mrt", scene, results, staged);
+    staged.write(scene.output_directory + "/used_parameters.prm",
+                 [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
     for (const auto &task : results.tasks)
-      write_file_atomically(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
+      staged.write(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
         out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n"
             << "    <DataSet timestep=\"0\" group=\"\" part=\"0\" file=\"modes_" << task.name << ".vtu\"/>\n"
             << "  </Collection>\n</VTKFile>\n";

@@ -39,6 +39,8 @@ namespace modal_haptics
     std::map<std::string, double> timings_s;
   };
 
+  class StagedFiles; // atomic_file.h
+
   class ModalPrecompute
   {
   public:
@@ -51,7 +53,7 @@ namespace modal_haptics
     void plan_contacts();
     void compute_modal_spaces();
     void compute_transfer_matrices();
-    void export_results();
+    void export_results(StagedFiles &staged);
 
     const SceneParameters          &scene;
     const dealii::ParameterHandler &prm;
@@ -67,8 +69,12 @@ namespace modal_haptics
   // The display vertex nearest to a point given in geometry units.
   unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point, double length_unit);
 
-  // The exporters (export_results.cc). Each writes atomically: temporary file, then rename.
-  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
-  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
-  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results);
+  // The exporters (export_results.cc). Each stages its file in `staged` (atomic_file.h): written
+  // complete to a temporary file, renamed over `filename` when the run commits its results.
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                       StagedFiles &staged);
+  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                        StagedFiles &staged);
+  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                    StagedFiles &staged);
 } // namespace modal_haptics

@@ -638,7 +638,9 @@ namespace modal_haptics
                             const Contact &contact) const
     {
       const std::string file = scene.output_directory + "/study_r" + std::to_string(row.r) + ".mrt";
-      write_basis_file(file, scene, truncated_results(results, row.r));
+      StagedFiles staged;
+      write_basis_file(file, scene, truncated_results(results, row.r), staged);
+      staged.commit();
       row.mrt_bytes = fs::file_size(file);
       row.kernel    = measure_kernel(file, contact, study.kernel_ticks);
       fs::remove(file);

@@ -4,6 +4,23 @@
 #include <cstdlib>
 #include <new>
 
+// The sanitizer runtimes must own malloc: they call it while they initialize, before a replacement
+// could run, and the program dies with SIGSEGV before main. Under a sanitizer (scripts/test-kernel-checks)
+// only operator new is replaced and counted; elsewhere on glibc malloc/calloc/realloc are too.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define MODALRT_UNDER_SANITIZER 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define MODALRT_UNDER_SANITIZER 1
+#endif
+#if defined(__GLIBC__) && !defined(MODALRT_UNDER_SANITIZER)
+#define MODALRT_REPLACE_MALLOC 1
+#else
+#define MODALRT_REPLACE_MALLOC 0
+#endif
+
 namespace
 {
   // Constant-initialized and trivial: reading it never allocates (no TLS constructor to run).
@@ -16,11 +33,7 @@ namespace
       allocations.fetch_add(1, std::memory_order_relaxed);
   }
 
-#if defined(__GLIBC__)
-  constexpr bool malloc_counts = true; // the replaced malloc below counts
-#else
-  constexpr bool malloc_counts = false;
-#endif
+  constexpr bool malloc_counts = MODALRT_REPLACE_MALLOC; // then the replaced malloc below counts
 
   void *allocate(std::size_t size)
   {
@@ -38,12 +51,12 @@ namespace modalrt_tool
   std::uint64_t counted_allocations() { return allocations.load(); }
   const char   *allocation_counting_method()
   {
-#if defined(__GLIBC__)
+#if MODALRT_REPLACE_MALLOC
     return "global operator new and malloc/calloc/realloc replaced in modal-rt, counted in the haptic thread "
            "from the first tick to the last";
 #else
-    return "global operator new replaced in modal-rt (malloc not covered on this C library), counted in the "
-           "haptic thread from the first tick to the last";
+    return "global operator new replaced in modal-rt (malloc not covered on this C library or under a "
+           "sanitizer), counted in the haptic thread from the first tick to the last";
 #endif
   }
 } // namespace modalrt_tool
@@ -65,7 +78,7 @@ void  operator delete[](void *p, std::size_t) noexcept { std::free(p); }
 void  operator delete(void *p, const std::nothrow_t &) noexcept { std::free(p); }
 void  operator delete[](void *p, const std::nothrow_t &) noexcept { std::free(p); }
 
-#if defined(__GLIBC__)
+#if MODALRT_REPLACE_MALLOC
 // glibc exports its allocator as __libc_*: the C allocator is wrapped the same way.
 extern "C" {
 void *__libc_malloc(std::size_t);

@@ -1,8 +1,8 @@
 #include "udp_device.h"
 
+#include <algorithm>
 #include <arpa/inet.h>
 #include <cerrno>
-#include <cmath>
 #include <cstring>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -13,19 +13,7 @@ namespace modalrt_tool
 {
   namespace
   {
-    // Little-endian fields (the kernel refuses big-endian machines too, so memcpy is the encoding).
-    template <typename T> T load(const unsigned char *p)
-    {
-      T value;
-      std::memcpy(&value, p, sizeof value);
-      return value;
-    }
-    template <typename T> void store(unsigned char *p, T value) { std::memcpy(p, &value, sizeof value); }
-
-    struct HipState
-    {
-      double position[3], velocity[3], force[3];
-    };
+    using udp::HipState;
 
     class UdpDevice final : public Device
     {
@@ -113,30 +101,8 @@ namespace modalrt_tool
         ++tick_;
         if (!has_peer_)
           return;
-        unsigned char *p = buffer_;
-        std::memcpy(p, "MRTC", 4);
-        store<std::uint16_t>(p + 4, udp::version);
-        store<std::uint16_t>(p + 6, std::uint16_t(settings_.hips));
-        store<std::uint32_t>(p + 8, sequence_);
-        store<std::uint32_t>(p + 12, silent_ ? udp::flag_silent : 0u);
-        store<std::uint64_t>(p + 16, tick_);
-        for (std::uint32_t h = 0; h < settings_.hips; ++h)
-          {
-            unsigned char  *q = p + udp::command_header + h * udp::command_per_hip;
-            const modalrt_hip_output &c = command_[h];
-            for (int k = 0; k < 3; ++k)
-              {
-                store<double>(q + 8 * k, silent_ ? 0.0 : c.force[k]);
-                store<double>(q + 24 + 8 * k, c.position[k]);
-                store<double>(q + 48 + 8 * k, c.velocity[k]);
-              }
-            store<std::uint32_t>(q + 72, c.in_contact);
-            store<std::uint32_t>(q + 76, c.active_vertex);
-            store<std::uint32_t>(q + 80, c.space);
-            store<std::uint32_t>(q + 84, 0u);
-          }
-        const std::size_t size = udp::command_header + settings_.hips * udp::command_per_hip;
-        if (sendto(socket_, p, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr *>(&peer_), sizeof peer_) ==
+        const std::size_t size = udp::encode_command(buffer_, settings_.hips, sequence_, silent_, tick_, command_.data());
+        if (sendto(socket_, buffer_, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr *>(&peer_), sizeof peer_) ==
             ssize_t(size))
           ++sent_;
         else
@@ -159,42 +125,23 @@ namespace modalrt_tool
             ++foreign_;
             return false;
           }
-        if (!well_formed(size))
+        std::uint32_t sequence = 0;
+        HipState      decoded[udp::max_hips];
+        if (!udp::decode_state(buffer_, size, settings_.hips, sequence, decoded))
           {
             ++bad_;
             return false;
           }
-        const std::uint32_t sequence = load<std::uint32_t>(buffer_ + 8);
-        if (has_peer_ && std::int32_t(sequence - sequence_) <= 0)
+        if (has_peer_ && !udp::is_newer(sequence, sequence_))
           {
             ++stale_;
             return false;
           }
-        for (std::uint32_t h = 0; h < settings_.hips; ++h)
-          {
-            const unsigned char *q = buffer_ + udp::state_header + h * udp::state_per_hip;
-            for (int k = 0; k < 3; ++k)
-              {
-                state_[h].position[k] = load<double>(q + 8 * k);
-                state_[h].velocity[k] = load<double>(q + 24 + 8 * k);
-                state_[h].force[k]    = load<double>(q + 48 + 8 * k);
-              }
-          }
+        std::copy_n(decoded, settings_.hips, state_.begin());
         sequence_ = sequence;
         peer_     = from;
         has_peer_ = true;
         ++accepted_;
-        return true;
-      }
-
-      bool well_formed(std::size_t size) const
-      {
-        if (size != udp::state_header + settings_.hips * udp::state_per_hip || std::memcmp(buffer_, "MRTS", 4) != 0 ||
-            load<std::uint16_t>(buffer_ + 4) != udp::version || load<std::uint16_t>(buffer_ + 6) != settings_.hips)
-          return false;
-        for (std::size_t k = 0; k < 9 * settings_.hips; ++k)
-          if (!std::isfinite(load<double>(buffer_ + udp::state_header + 8 * k)))
-            return false;
         return true;
       }
 

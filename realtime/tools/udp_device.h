@@ -12,6 +12,7 @@
 #pragma once
 
 #include "devices.h"
+#include "udp_packets.h"
 
 #include <cstdint>
 #include <memory>
@@ -19,18 +20,6 @@
 
 namespace modalrt_tool
 {
-  namespace udp
-  {
-    constexpr std::uint16_t version          = 1;
-    constexpr std::size_t   state_header     = 16; // "MRTS", u16 version, u16 hips, u32 sequence, u32 0
-    constexpr std::size_t   state_per_hip    = 72; // position[3], velocity[3], force[3]: f64
-    constexpr std::size_t   command_header   = 24; // "MRTC", u16 version, u16 hips, u32 sequence, u32 flags, u64 tick
-    constexpr std::size_t   command_per_hip  = 88; // force[3], position[3], velocity[3]: f64; contact, vertex, space, 0: u32
-    constexpr std::uint32_t flag_silent      = 1u; // no fresh state: the forces are zero
-    constexpr std::uint32_t max_hips         = 16;
-    constexpr std::size_t   max_packet       = command_header + max_hips * command_per_hip;
-  } // namespace udp
-
   struct UdpSettings
   {
     std::string   bind_address  = "127.0.0.1"; // loopback only unless asked otherwise

@@ -7,6 +7,7 @@
 //                              run it again only when the format or the synthetic scenes change)
 #include "basis_format.h"
 #include "basis_writer.h"
+#include "seed_file.h"
 #include "synthetic_scene.h"
 
 #include <cstdint>
@@ -19,6 +20,7 @@
 namespace
 {
   using Bytes = std::vector<unsigned char>;
+  using seed::save;
   namespace format = modalrt::format;
 
   template <typename T>
@@ -54,20 +56,6 @@ namespace
   std::size_t section_offset(const Bytes &bytes, std::uint32_t kind, std::uint32_t space = format::scene_wide)
   {
     return std::size_t(get<std::uint64_t>(bytes, table_entry(bytes, kind, space) + format::entry::offset));
-  }
-
-  bool save(const std::string &dir, const char *name, const Bytes &bytes)
-  {
-    const std::string path = dir + "/" + name;
-    std::FILE        *file = std::fopen(path.c_str(), "wb");
-    const bool        ok   = file && std::fwrite(bytes.data(), 1, bytes.size(), file) == bytes.size();
-    if (file && std::fclose(file) != 0)
-      return false;
-    if (ok)
-      std::printf("%-40s %6zu bytes\n", name, bytes.size());
-    else
-      std::fprintf(stderr, "make_seed_corpus: cannot write %s\n", path.c_str());
-    return ok;
   }
 
   // The smallest lattice that still has two spaces, candidates, validation cases and transfers.

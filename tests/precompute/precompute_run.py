@@ -1,7 +1,9 @@
 """Running modal-precompute from a test: a .prm text written into its own folder, the program run on
 it with that folder as its output, and the report read back."""
+import argparse
 import json
 import os
+import shutil
 import subprocess
 
 
@@ -15,3 +17,14 @@ def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
                           stderr=subprocess.PIPE, text=True)
     with open(os.path.join(folder, "report.json")) as f:
         return json.load(f), done.stderr
+
+
+def binary_and_fresh_workdir():
+    """The arguments of a precompute test: --binary and --workdir, the latter emptied and created."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--workdir", required=True)
+    args = parser.parse_args()
+    shutil.rmtree(args.workdir, ignore_errors=True)
+    os.makedirs(args.workdir)
+    return args

@@ -1,11 +1,12 @@
 #!/usr/bin/python3
 """Bad input to modal-precompute: each case must exit non-zero with one message naming the culprit,
 and leave the results already in the output folder untouched."""
-import argparse
 import os
 import shutil
 import subprocess
 import sys
+
+from precompute_run import binary_and_fresh_workdir
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -67,12 +68,7 @@ CASES = [
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
-    os.makedirs(args.workdir)
+    args = binary_and_fresh_workdir()
     shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
     with open(os.path.join(args.workdir, "inverted.msh"), "w") as f:
         f.write(INVERTED_MSH)

@@ -7,13 +7,12 @@ and its compliances obey u E L / F = const. Every run must give the same dimensi
 felt compliances to 1e-10 relative (the precompute works in SI whatever the input unit, and the
 factorization and eigensolve must not lose digits when K is 1e-6 or 1e8 times another), and the
 self-checks and the static correction must stay as good as at the nominal scale."""
-import argparse
 import math
 import os
 import shutil
 import sys
 
-from precompute_run import run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MODES = 8
@@ -113,12 +112,7 @@ def dimensionless(report, size_m, youngs_modulus, density):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
-    os.makedirs(args.workdir)
+    args = binary_and_fresh_workdir()
 
     # One mesh for every case (gmsh is not reproducible): meshed once from block.geo, then scaled.
     run_precompute(args.binary, os.path.join(args.workdir, "mesh"),

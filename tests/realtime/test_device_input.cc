@@ -26,14 +26,6 @@ namespace
     return q;
   }
 
-  bool finite(const modalrt_hip_output &o)
-  {
-    for (int d = 0; d < 3; ++d)
-      if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
-        return false;
-    return true;
-  }
-
   // Runs one tick with `inputs`; expects a rejection with `reason` and unchanged state and outputs.
   void expect_rejected(Run &run, const modalrt_hip_input *inputs, std::uint32_t count, std::uint32_t reason, bool impedance)
   {
@@ -50,7 +42,7 @@ namespace
     ENSURE(state(run.kernel) == before);
     for (std::uint32_t h = 0; h < std::min<std::uint32_t>(count, 2); ++h)
       {
-        ENSURE(finite(out[h]));
+        ENSURE(test::finite(out[h]));
         ENSURE(std::memcmp(&out[h], &run.last[h], sizeof out[h]) == 0);
       }
   }
@@ -108,7 +100,7 @@ namespace
     modalrt_hip_output out[2];
     const int status = impedance ? modalrt_kernel_tick_impedance(run.kernel, run.good, 2, out)
                                  : modalrt_kernel_tick_admittance(run.kernel, run.good, 2, out);
-    ENSURE(status == MODALRT_OK && finite(out[0]) && finite(out[1]) && out[0].in_contact == 1);
+    ENSURE(status == MODALRT_OK && test::finite(out[0]) && test::finite(out[1]) && out[0].in_contact == 1);
     modalrt_kernel_stats stats;
     modalrt_kernel_get_stats(run.kernel, &stats);
     ENSURE(stats.rejected_ticks == (impedance ? 5u : 7u) && stats.rejected_frames == 2);

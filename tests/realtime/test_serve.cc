@@ -1,16 +1,21 @@
 // modal-rt serve, the UDP bridge, on loopback with a synthetic basis. A client (this test) presses
-// the lattice's tip through the bridge, then a second sender, an old sequence number and malformed
-// packets arrive (ignored and counted), then the client falls silent: from the first tick without a
-// fresh state every command carries zero force and the SILENT flag. Packets are encoded here from
-// the layout documented in realtime/README.md, not with the tool's code. Nothing is asserted on timing.
+// the lattice's tip through the bridge; while pressing, its HIP teleports 1 m into the part (the
+// force stays within the device's limit), packets arrive out of order, twice, or with an infinite
+// position; then a second sender, an old sequence number and malformed packets arrive (all ignored
+// and counted), then the client falls silent: from the first tick without a fresh state every
+// command carries zero force and the SILENT flag, and the commands keep coming at the loop's rate.
+// Packets are encoded here from the layout documented in realtime/README.md, not with the tool's
+// code. The only timing asserted is that rate, within a factor of 2.
 #include "test_support.h"
 
+#include <algorithm>
 #include <arpa/inet.h>
 #include <chrono>
 #include <csignal>
 #include <cstring>
 #include <fcntl.h>
 #include <fstream>
+#include <limits>
 #include <netinet/in.h>
 #include <sstream>
 #include <sys/socket.h>
@@ -55,7 +60,7 @@ namespace
 
   // A state packet for one HIP: "MRTS", u16 version 1, u16 HIP count, u32 sequence, u32 0, then
   // position, velocity, force as f64 (little endian).
-  std::vector<unsigned char> state_packet(std::uint32_t sequence, const double position[3], double nan_at = 0)
+  std::vector<unsigned char> state_packet(std::uint32_t sequence, const double position[3])
   {
     std::vector<unsigned char> p(16 + 72, 0);
     std::memcpy(p.data(), "MRTS", 4);
@@ -64,13 +69,17 @@ namespace
     std::memcpy(&p[6], &hips, 2);
     std::memcpy(&p[8], &sequence, 4);
     std::memcpy(&p[16], position, 24);
-    if (nan_at != 0)
-      {
-        const double nan = std::nan("");
-        std::memcpy(&p[16 + 48], &nan, 8);
-      }
     return p;
   }
+
+  // The packet with its k-th number (0..8: position, velocity, force) replaced by `value`.
+  std::vector<unsigned char> with_number(std::vector<unsigned char> packet, int k, double value)
+  {
+    std::memcpy(&packet[16 + 8 * k], &value, 8);
+    return packet;
+  }
+
+  double norm(const double f[3]) { return std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]); }
 
   void send_to(int s, const sockaddr_in &to, const std::vector<unsigned char> &packet)
   {
@@ -152,18 +161,44 @@ int main()
       std::this_thread::sleep_for(std::chrono::microseconds(500));
       drain(client, replies);
     }
+  auto hold = [&](const double *at, int packets) {
+    for (int k = 0; k < packets; ++k)
+      {
+        send_to(client, server, state_packet(++sequence, at));
+        std::this_thread::sleep_for(std::chrono::microseconds(500));
+        drain(client, replies);
+      }
+  };
+
+  // Faults while pressing. The HIP teleports 1 m into the part: the force felt must stay within the
+  // device's limit from the first tick that sees it. Then, back on the surface, packets arrive out
+  // of order and twice (both stale: ignored and counted), and one with an infinite position (bad).
+  const double        deep[3] = {x[0], x[1], x[2] - 1.0};
+  const std::uint32_t teleport_first = sequence + 1;
+  hold(deep, 40);
+  const std::uint32_t teleport_last = sequence;
+  hold(x, 100);
+  send_to(client, server, state_packet(sequence + 2, x));
+  send_to(client, server, state_packet(sequence + 1, deep)); // older than the packet before it
+  send_to(client, server, state_packet(sequence + 2, deep)); // the same number again
+  sequence += 2;
+  send_to(client, server, with_number(state_packet(++sequence, x), 0, std::numeric_limits<double>::infinity()));
+  hold(x, 100);
   const std::uint32_t last = sequence;
 
   // Ignored and counted: another sender, an old sequence number, a short and a non-finite packet.
   send_to(stranger, server, state_packet(last + 100, x));
   send_to(client, server, state_packet(last - 5, x));
   send_to(client, server, std::vector<unsigned char>(10, 0));
-  send_to(client, server, state_packet(last + 1, x, 1.0));
+  send_to(client, server, with_number(state_packet(last + 1, x), 8, std::nan("")));
+  // The client falls silent (a device unplugged mid-press): the loop must keep its rate.
+  const auto silence_start = std::chrono::steady_clock::now();
   for (int k = 0; k < 400; ++k)
     {
       std::this_thread::sleep_for(std::chrono::microseconds(500));
       drain(client, replies);
     }
+  const double silence_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
   kill(bridge, SIGINT);
   int status = 0;
   waitpid(bridge, &status, 0);
@@ -186,11 +221,28 @@ int main()
   ENSURE(fresh && fresh->in_contact == 1 && fresh->force[2] > 0.0);
   ENSURE(first_silent && fresh && first_silent->tick == fresh->tick + 1);
   ENSURE(all_zero);
+  // Silent commands kept coming at the loop's rate (1 kHz; half of it allows for a loaded machine).
+  const std::size_t silent = std::size_t(std::count_if(replies.begin(), replies.end(), [](const Reply &r) { return r.flags & 1u; }));
+  ENSURE(double(silent) >= 0.5 * 1000.0 * silence_seconds);
+
+  // Teleported 1 m deep: every force finite and within the device's limit, the limit reached.
+  const double max_force = modalrt_device_default_def().max_force;
+  double       teleport_force = 0.0;
+  bool         teleport_seen = false, within_limit = true;
+  for (const Reply &r : replies)
+    {
+      within_limit = within_limit && std::isfinite(norm(r.force)) && norm(r.force) <= max_force * (1.0 + 1e-12);
+      if (r.sequence >= teleport_first && r.sequence <= teleport_last)
+        teleport_seen = true, teleport_force = std::max(teleport_force, norm(r.force));
+    }
+  ENSURE(teleport_seen && within_limit);
+  ENSURE_RELATIVE(teleport_force, max_force, 1e-12);
 
   const std::string stats = read_text("serve_out/stats.json");
   ENSURE(json_number(stats, "foreign_packets") == 1);
-  ENSURE(json_number(stats, "stale_packets") == 1);
-  ENSURE(json_number(stats, "bad_packets") == 2);
+  ENSURE(json_number(stats, "stale_packets") == 3);
+  ENSURE(json_number(stats, "bad_packets") == 3);
+  ENSURE(json_number(stats, "clamped_forces") > 0);
   ENSURE(json_number(stats, "states_accepted") >= 800);
   ENSURE(json_number(stats, "silent_ticks") > 0);
   ENSURE(json_number(stats, "allocations_after_start") == 0);

@@ -98,6 +98,15 @@ namespace test
     return in;
   }
 
+  // Every number of a HIP's output is finite.
+  inline bool finite(const modalrt_hip_output &o)
+  {
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
+        return false;
+    return true;
+  }
+
   inline double distance(const double *a, const double *b)
   {
     return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));

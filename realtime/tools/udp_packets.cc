@@ -1,0 +1,73 @@
+#include "udp_packets.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace modalrt_tool
+{
+  namespace udp
+  {
+    namespace
+    {
+      // Little-endian fields (the kernel refuses big-endian machines too, so memcpy is the encoding).
+      template <typename T> T load(const unsigned char *p)
+      {
+        T value;
+        std::memcpy(&value, p, sizeof value);
+        return value;
+      }
+      template <typename T> void store(unsigned char *p, T value) { std::memcpy(p, &value, sizeof value); }
+    } // namespace
+
+    bool decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
+                      HipState *states)
+    {
+      if (size != state_header + hips * state_per_hip || std::memcmp(packet, "MRTS", 4) != 0 ||
+          load<std::uint16_t>(packet + 4) != version || load<std::uint16_t>(packet + 6) != hips)
+        return false;
+      // Every number is checked before any is copied: a refused packet changes nothing.
+      for (std::size_t k = 0; k < 9 * hips; ++k)
+        if (!std::isfinite(load<double>(packet + state_header + 8 * k)))
+          return false;
+      for (std::uint32_t h = 0; h < hips; ++h)
+        {
+          const unsigned char *q = packet + state_header + h * state_per_hip;
+          for (int k = 0; k < 3; ++k)
+            {
+              states[h].position[k] = load<double>(q + 8 * k);
+              states[h].velocity[k] = load<double>(q + 24 + 8 * k);
+              states[h].force[k]    = load<double>(q + 48 + 8 * k);
+            }
+        }
+      sequence = load<std::uint32_t>(packet + 8);
+      return true;
+    }
+
+    std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, bool silent,
+                               std::uint64_t tick, const modalrt_hip_output *outputs)
+    {
+      std::memcpy(packet, "MRTC", 4);
+      store<std::uint16_t>(packet + 4, version);
+      store<std::uint16_t>(packet + 6, std::uint16_t(hips));
+      store<std::uint32_t>(packet + 8, sequence);
+      store<std::uint32_t>(packet + 12, silent ? flag_silent : 0u);
+      store<std::uint64_t>(packet + 16, tick);
+      for (std::uint32_t h = 0; h < hips; ++h)
+        {
+          unsigned char            *q = packet + command_header + h * command_per_hip;
+          const modalrt_hip_output &c = outputs[h];
+          for (int k = 0; k < 3; ++k)
+            {
+              store<double>(q + 8 * k, silent ? 0.0 : c.force[k]);
+              store<double>(q + 24 + 8 * k, c.position[k]);
+              store<double>(q + 48 + 8 * k, c.velocity[k]);
+            }
+          store<std::uint32_t>(q + 72, c.in_contact);
+          store<std::uint32_t>(q + 76, c.active_vertex);
+          store<std::uint32_t>(q + 80, c.space);
+          store<std::uint32_t>(q + 84, 0u);
+        }
+      return command_header + hips * command_per_hip;
+    }
+  } // namespace udp
+} // namespace modalrt_tool

@@ -1,0 +1,96 @@
+// libFuzzer harness of the state-packet decoder of `modal-rt serve` (realtime/tools/udp_packets.cc),
+// built by tests/fuzz/CMakeLists.txt with clang -fsanitize=fuzzer,address,undefined and run by
+// scripts/test-kernel-checks. Every datagram a peer sends reaches udp::decode_state, so it must never
+// read outside the datagram, and it must accept exactly the packets the layout of realtime/README.md
+// allows: the verdict is compared with an oracle written here from that layout, and an accepted
+// packet's numbers with its bytes.
+//
+// Each input is one datagram, decoded as the bridge would for the HIP count it declares (when that is
+// a count the bridge can be started with) and for one HIP, the default.
+#include "udp_packets.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+namespace
+{
+  namespace udp = modalrt_tool::udp;
+
+  // A broken promise of the decoder is a finding: report it and abort, so libFuzzer keeps the input.
+  void expect(bool condition, const char *what)
+  {
+    if (!condition)
+      {
+        std::fprintf(stderr, "fuzz_udp_packets: broken expectation: %s\n", what);
+        std::abort();
+      }
+  }
+
+  template <typename T> T get(const std::uint8_t *data, std::size_t offset)
+  {
+    T value;
+    std::memcpy(&value, data + offset, sizeof value);
+    return value;
+  }
+
+  // The layout, read independently of the decoder: "MRTS", u16 version 1, u16 HIP count, u32
+  // sequence, u32 (not checked), then 9 finite f64 per HIP.
+  bool well_formed(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
+  {
+    if (size != 16 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 4) != 1 ||
+        get<std::uint16_t>(data, 6) != hips)
+      return false;
+    for (std::size_t k = 0; k < 9 * std::size_t(hips); ++k)
+      if (!std::isfinite(get<double>(data, 16 + 8 * k)))
+        return false;
+    return true;
+  }
+
+  void decode_as(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
+  {
+    // Sentinels: a refused packet must leave the outputs as they were.
+    udp::HipState states[udp::max_hips];
+    std::memset(states, 0xA5, sizeof states);
+    std::uint32_t sequence = 0xDEADBEEF;
+    const bool    accepted = udp::decode_state(data, size, hips, sequence, states);
+    expect(accepted == well_formed(data, size, hips), "the verdict differs from the documented layout");
+    if (!accepted)
+      {
+        udp::HipState untouched[udp::max_hips];
+        std::memset(untouched, 0xA5, sizeof untouched);
+        expect(sequence == 0xDEADBEEF && std::memcmp(states, untouched, sizeof states) == 0,
+               "a refused packet changed the outputs");
+        return;
+      }
+    expect(sequence == get<std::uint32_t>(data, 8), "the sequence number is not the packet's");
+    for (std::uint32_t h = 0; h < hips; ++h)
+      for (int k = 0; k < 3; ++k)
+        {
+          const std::size_t at = 16 + 72 * std::size_t(h) + 8 * std::size_t(k);
+          expect(states[h].position[k] == get<double>(data, at) && states[h].velocity[k] == get<double>(data, at + 24) &&
+                   states[h].force[k] == get<double>(data, at + 48),
+                 "a decoded number is not the packet's");
+        }
+    // Serial-number order: a packet is never newer than itself, and of two different numbers at most
+    // one is newer than the other.
+    const std::uint32_t other = get<std::uint32_t>(data, 12);
+    expect(!udp::is_newer(sequence, sequence), "a sequence number is newer than itself");
+    expect(!(udp::is_newer(sequence, other) && udp::is_newer(other, sequence)), "two sequence numbers are each newer");
+  }
+} // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size)
+{
+  // libFuzzer's buffer is exactly `size` bytes: AddressSanitizer sees any read beyond the datagram.
+  decode_as(data, size, 1);
+  if (size >= 8)
+    {
+      const std::uint32_t declared = get<std::uint16_t>(data, 6);
+      if (declared > 1 && declared <= udp::max_hips)
+        decode_as(data, size, declared);
+    }
+  return 0;
+}
