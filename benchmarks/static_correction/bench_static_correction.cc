@@ -13,6 +13,7 @@
 // same either way. Each repetition solves the same candidates once per block size, in a rotating
 // order (interleaved against the machine's load); the CSV gives ms per candidate (median, min,
 // max over repetitions) and the one-by-one time over the blocked time of the same repetition.
+#include "../command_line.h"
 #include "../eigensolver/csr_file.h"
 
 #include "factorization.h"
@@ -25,7 +26,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,16 +34,15 @@ namespace
 {
   struct Options
   {
-    std::string               matrix;
-    std::vector<unsigned int> blocks      = {1, 3, 12, 48};
-    unsigned int              candidates  = 16;
-    int                       repetitions = 3;
+    std::string                matrix;
+    std::vector<std::uint32_t> blocks      = {1, 3, 12, 48};
+    unsigned int               candidates  = 16;
+    int                        repetitions = 3;
   };
 
   [[noreturn]] void usage()
   {
-    std::fprintf(stderr, "usage: bench-static-correction K.csr [--blocks 1,3,12,48] [--candidates N] [--repetitions N]\n");
-    std::exit(2);
+    modal_haptics_bench::usage("bench-static-correction K.csr [--blocks 1,3,12,48] [--candidates N] [--repetitions N]");
   }
 
   Options parse(int argc, char **argv)
@@ -59,12 +58,7 @@ namespace
             else if (k + 1 >= argc)
               usage();
             else if (arg == "--blocks")
-              {
-                o.blocks.clear();
-                std::istringstream list(argv[++k]);
-                for (std::string item; std::getline(list, item, ',');)
-                  o.blocks.push_back(std::stoul(item));
-              }
+              o.blocks = modal_haptics_bench::numbers(argv[++k]);
             else if (arg == "--candidates")
               o.candidates = std::stoul(argv[++k]);
             else if (arg == "--repetitions")
@@ -77,7 +71,7 @@ namespace
       {
         usage();
       }
-    if (o.matrix.empty() || o.candidates == 0 || o.repetitions < 1 ||
+    if (o.matrix.empty() || o.blocks.empty() || o.candidates == 0 || o.repetitions < 1 ||
         std::find(o.blocks.begin(), o.blocks.end(), 0u) != o.blocks.end())
       usage();
     return o;
