@@ -88,7 +88,7 @@ def main():
                   f"{r['display_reconstructions']} display reconstructions", flush=True)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w", newline="") as f:
-        f.write(f"# haptic_jitter.py: modal-rt run on {os.path.basename(args.basis)}, {args.session} looped, "
+        f.write(f"# haptic_jitter.py: modal-rt run on {os.path.basename(args.basis)}, {os.path.relpath(args.session, TOP)} looped, "
                 f"display thread at 60 Hz\n")
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
