@@ -4,44 +4,19 @@
 //
 //   mpirun -np N bench-slepc-peer K.csr M.csr NEV [TOL]
 // prints one line: ranks, n, nev, converged, seconds, first and last eigenvalue.
+#include "csr_file.h"
+
 #include <slepceps.h>
 
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <fstream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace
 {
-  struct Csr
-  {
-    std::int64_t              n = 0, nnz = 0;
-    std::vector<std::int64_t> row_start;
-    std::vector<std::int32_t> columns;
-    std::vector<double>       values;
-  };
-
-  Csr read_csr(const std::string &name)
-  {
-    std::ifstream in(name, std::ios::binary);
-    if (!in)
-      throw std::runtime_error("cannot read " + name);
-    Csr m;
-    in.read(reinterpret_cast<char *>(&m.n), 8);
-    in.read(reinterpret_cast<char *>(&m.nnz), 8);
-    m.row_start.resize(m.n + 1);
-    m.columns.resize(m.nnz);
-    m.values.resize(m.nnz);
-    in.read(reinterpret_cast<char *>(m.row_start.data()), 8 * (m.n + 1));
-    in.read(reinterpret_cast<char *>(m.columns.data()), 4 * m.nnz);
-    in.read(reinterpret_cast<char *>(m.values.data()), 8 * m.nnz);
-    if (!in)
-      throw std::runtime_error(name + " is truncated");
-    return m;
-  }
+  using modal_haptics_bench::Csr;
 
   Mat to_petsc(const Csr &m)
   {
@@ -84,7 +59,7 @@ int main(int argc, char **argv)
   const PetscReal tol = argc > 4 ? std::stod(argv[4]) : 1e-10;
   Mat K, M;
   {
-    const Csr k = read_csr(argv[1]), m = read_csr(argv[2]);
+    const Csr k = modal_haptics_bench::read_csr(argv[1]), m = modal_haptics_bench::read_csr(argv[2]);
     K = to_petsc(k);
     M = to_petsc(m);
   }

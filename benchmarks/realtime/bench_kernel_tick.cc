@@ -1,17 +1,15 @@
-// bench-kernel-tick: cost of one haptic tick and of one display reconstruction.
+// bench-kernel-tick: cost of one haptic tick (the display reconstruction: bench-display).
 //
-// Part 1 (CSV "tick"): per-tick latency percentiles over N ticks (default 10^6) for r in
+// CSV "tick" rows: per-tick latency percentiles over N ticks (default 10^6) for r in
 // {20, 50, 200, 1000}, 1 to 4 HIPs held in contact at candidate vertices, with and without the
 // static correction, for the admittance and the impedance step; a "hover" row where the HIPs hover
 // just above the surface, so that every tick runs the snap search; and a "landing" row timing only
 // the ticks where a contact starts and the modal space switches (row build, transfer, coupling).
-// Part 2 (CSV "display"): time to reconstruct the whole display surface u = Phi q from a snapshot,
-// against a plain memcpy of the same DISPLAY_MODES bytes measured in the same run.
 //
 // Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
 // the given .mrt file (its space 0 and, for the landing row, space 1).
-#include "synthetic_scene.h"
+#include "bench_support.h"
 
 #include <modalrt/modalrt.h>
 
@@ -78,14 +76,7 @@ namespace
     plate.modes          = r;
     plate.float64_modes  = false;
     plate.patch_radius   = 2.5 * plate.length / (plate.nx - 1); // about 20 vertices per patch
-    const auto     bytes = modalrt::write_basis(modalrt::make_analytic_plate(plate));
-    modalrt_basis *basis = nullptr;
-    if (modalrt_basis_load_memory(bytes.data(), bytes.size(), &basis) != MODALRT_OK)
-      {
-        std::fprintf(stderr, "bench-kernel-tick: %s\n", modalrt_last_error_message());
-        std::exit(1);
-      }
-    return basis;
+    return modalrt_bench::load_plate(plate, "bench-kernel-tick");
   }
 
   enum class Scenario
@@ -220,58 +211,6 @@ namespace
     return percentiles(ns);
   }
 
-  // Median over repetitions of `body`, in seconds.
-  template <typename Body>
-  double median_seconds(int repetitions, Body &&body)
-  {
-    std::vector<double> s;
-    for (int k = 0; k < repetitions; ++k)
-      {
-        const auto start = Clock::now();
-        body();
-        s.push_back(std::chrono::duration<double>(Clock::now() - start).count());
-      }
-    std::nth_element(s.begin(), s.begin() + long(s.size() / 2), s.end());
-    return s[s.size() / 2];
-  }
-
-  void display(const modalrt_basis *basis, std::uint32_t r)
-  {
-    modalrt_kernel_def def = modalrt_kernel_default_def();
-    modalrt_kernel    *k   = nullptr;
-    modalrt_kernel_create(basis, &def, &k);
-    const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
-    modalrt_kernel_contact_begin(k, 0, candidates[5]);
-    modalrt_hip_input in{};
-    std::memcpy(in.position, modalrt_basis_display_vertices(basis) + 3 * candidates[5], sizeof in.position);
-    in.force[2] = -1.0;
-    modalrt_hip_output out;
-    for (int n = 0; n < 100; ++n)
-      modalrt_kernel_tick_admittance(k, &in, 1, &out);
-    modalrt_snapshot *snapshot = nullptr;
-    modalrt_snapshot_create(k, &snapshot);
-    modalrt_kernel_snapshot_read(k, snapshot);
-
-    modalrt_basis_info info;
-    modalrt_basis_get_info(basis, &info);
-    const std::uint32_t nv    = info.display_vertex_count;
-    const std::size_t   bytes = std::size_t(3) * nv * r * info.mode_scalar_bytes;
-    std::vector<float>  positions(3 * std::size_t(nv));
-    std::vector<unsigned char> source(bytes, 1), target(bytes, 0);
-    const int repetitions = bytes > (64u << 20) ? 9 : 25;
-    const double reconstruct = median_seconds(repetitions, [&] {
-      modalrt_display_reconstruct(snapshot, 0, nv, MODALRT_DISPLAY_POSITIONS, positions.data());
-    });
-    const double copy = median_seconds(repetitions, [&] {
-      std::memcpy(target.data(), source.data(), bytes);
-      source[bytes / 2] ^= target[bytes / 3]; // keep the copy from being optimized away
-    });
-    std::printf("display,%u,%u,%zu,%.4f,%.4f,%.2f,%.2f,%.3f\n", r, nv, bytes, 1e3 * reconstruct, 1e3 * copy,
-                double(bytes) / reconstruct * 1e-9, double(bytes) / copy * 1e-9, copy / reconstruct);
-    modalrt_snapshot_destroy(snapshot);
-    modalrt_kernel_destroy(k);
-  }
-
   Options parse(int argc, char **argv)
   {
     Options o;
@@ -322,11 +261,9 @@ int main(int argc, char **argv)
     }
   std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns\n");
   std::vector<std::uint32_t> ns;
-  std::vector<modalrt_basis *> bases;
   for (std::uint32_t r : o.modes)
     {
       modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
-      bases.push_back(basis);
       for (Scenario scenario : {Scenario::admittance, Scenario::impedance, Scenario::hover})
         for (std::uint32_t hips = 1; hips <= 4; ++hips)
           for (bool corrected : {false, true})
@@ -342,12 +279,7 @@ int main(int argc, char **argv)
       std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(Scenario::landing), r, 1u, 1, p.p50, p.p99, p.p999,
                   p.max, p.mean);
       std::fflush(stdout);
-    }
-  std::printf("kind,r,vertices,mode_bytes,reconstruct_ms,memcpy_ms,reconstruct_GBps,memcpy_GBps,memcpy_time_over_reconstruct_time\n");
-  for (std::size_t k = 0; k < o.modes.size(); ++k)
-    {
-      display(bases[k], o.modes[k]);
-      modalrt_basis_destroy(bases[k]);
+      modalrt_basis_destroy(basis);
     }
   return 0;
 }

@@ -35,6 +35,17 @@ namespace modalrt
     ay = sy;
   }
 
+  // a . b summed in the type of the operands (float modes keep float sums, as dot_rows3 does).
+  template <typename Scalar>
+  inline Scalar dot_in_scalar(const Scalar *a, const Scalar *b, std::uint32_t n)
+  {
+    Scalar sum = 0;
+#pragma omp simd reduction(+ : sum)
+    for (std::uint32_t i = 0; i < n; ++i)
+      sum += a[i] * b[i];
+    return sum;
+  }
+
   // u[c] = sum_i block[c n + i] q[i], c = 0, 1, 2: a 3 x n row-major block times a vector, the three
   // rows in one pass so that q is loaded once.
   template <typename Scalar, typename Result>

@@ -410,8 +410,10 @@ namespace modalrt_tool
     std::vector<float> jitter(haptic.period_us.size());
     for (std::size_t k = 0; k < jitter.size(); ++k)
       jitter[k] = float(std::fabs(haptic.period_us[k] - 1e6 / rate));
-    r.jitter_p99 = percentile(jitter, 99.0);
-    r.jitter_max = percentile(jitter, 100.0);
+    r.jitter_p50  = percentile(jitter, 50.0);
+    r.jitter_p99  = percentile(jitter, 99.0);
+    r.jitter_p999 = percentile(jitter, 99.9);
+    r.jitter_max  = percentile(jitter, 100.0);
     return r;
   }
 
@@ -429,7 +431,8 @@ namespace modalrt_tool
       << ",\n  \"realtime_priority\": " << (h.realtime_priority ? "true" : "false")
       << ",\n  \"tick_latency_us\": {\"p50\": " << number(r.latency_p50) << ", \"p99\": " << number(r.latency_p99)
       << ", \"p99_9\": " << number(r.latency_p999) << ", \"max\": " << number(r.latency_max) << "}"
-      << ",\n  \"period_jitter_us\": {\"p99\": " << number(r.jitter_p99) << ", \"max\": " << number(r.jitter_max) << "}"
+      << ",\n  \"period_jitter_us\": {\"p50\": " << number(r.jitter_p50) << ", \"p99\": " << number(r.jitter_p99)
+      << ", \"p99_9\": " << number(r.jitter_p999) << ", \"max\": " << number(r.jitter_max) << "}"
       << ",\n  \"overruns\": " << h.overruns << ",\n  \"missed_periods\": " << h.missed_periods
       << ",\n  \"switches\": " << r.kernel.switch_count << ",\n  \"max_switch_jump_m\": " << number(r.kernel.max_switch_jump)
       << ",\n  \"rejected_inputs\": " << r.kernel.rejected_ticks << ",\n  \"rejected_frames\": " << r.kernel.rejected_frames

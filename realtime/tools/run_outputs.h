@@ -83,7 +83,7 @@ namespace modalrt_tool
     double              rate = 0.0, duration = 0.0;
     std::uint32_t       hips = 0;
     double              latency_p50 = 0, latency_p99 = 0, latency_p999 = 0, latency_max = 0; // [us]
-    double              jitter_p99 = 0, jitter_max = 0;                                      // [us]
+    double              jitter_p50 = 0, jitter_p99 = 0, jitter_p999 = 0, jitter_max = 0;     // [us]
     modalrt_kernel_stats kernel{};
     const HapticResult  *haptic  = nullptr;
     const DisplayResult *display = nullptr;
