@@ -11,6 +11,7 @@
 #include "modal_space.h"
 #include "scene_parameters.h"
 
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 #include <deal.II/base/timer.h>
 
@@ -39,10 +40,13 @@ namespace modal_haptics
     std::map<std::string, double> timings_s;
   };
 
+  // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
+  // distributed objects (distributed_space.h), process 0 meshes first and writes every file.
   class ModalPrecompute
   {
   public:
-    ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true);
+    ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true,
+                    bool distributed = false);
     void run();
 
   private:
@@ -55,6 +59,8 @@ namespace modal_haptics
     const SceneParameters          &scene;
     const dealii::ParameterHandler &prm;
     const bool                      verbose;
+    const bool                      distributed;
+    const bool                      writes_files; // the serial run, or process 0 of a distributed one
     dealii::TimerOutput             timer;
     PrecomputeResults               results;
   };
