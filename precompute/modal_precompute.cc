@@ -4,6 +4,7 @@
 #include "distributed_space.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/utilities.h>
 #include <deal.II/lac/full_matrix.h>
 
 #include <algorithm>
@@ -41,6 +42,7 @@ namespace modal_haptics
     make_meshes();
     plan_contacts();
     compute_modal_spaces();
+    record_peak_memory();
     // Every process holds the complete results of every space: process 0 alone finishes.
     if (!writes_files)
       return;
@@ -174,6 +176,19 @@ namespace modal_haptics
         for (const auto &[phase, seconds] : space.timings_s)
           results.timings_s[phase] += seconds;
         results.spaces.push_back(std::move(space));
+      }
+  }
+
+  // The peak resident memory (VmHWM) of the largest process: what a cluster node must hold per process.
+  void ModalPrecompute::record_peak_memory()
+  {
+    dealii::Utilities::System::MemoryStats memory;
+    dealii::Utilities::System::get_memory_stats(memory);
+    results.max_peak_memory_mb = memory.VmHWM / 1024.;
+    if (distributed)
+      {
+        results.n_processes        = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
+        results.max_peak_memory_mb = dealii::Utilities::MPI::max(results.max_peak_memory_mb, MPI_COMM_WORLD);
       }
   }
 

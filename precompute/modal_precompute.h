@@ -38,6 +38,8 @@ namespace modal_haptics
     std::vector<ModalSpaceResult> spaces;
     std::vector<TransferMatrix>   transfers;
     std::map<std::string, double> timings_s;
+    unsigned int                  n_processes = 1;           // MPI processes that computed the spaces
+    double                        max_peak_memory_mb = 0.;   // largest peak resident memory of one process
   };
 
   // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
@@ -53,6 +55,7 @@ namespace modal_haptics
     void make_meshes();
     void plan_contacts();
     void compute_modal_spaces();
+    void record_peak_memory();
     void compute_transfer_matrices();
     void export_results();
 
