@@ -69,24 +69,35 @@ namespace modal_haptics
       FactorizationStatistics               &stats;
     };
 
-    class DistributedModalSpace
+    class DistributedModalSpace : public space_parts::SpaceBase
     {
     public:
       DistributedModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
                             TimerOutput &timer, bool verbose, MPI_Comm comm);
-      ModalSpaceResult run();
 
     private:
+      void assemble() override
+      {
+        read_and_partition_mesh();
+        setup_system();
+        assemble_system();
+      }
+      void solve_eigenproblem() override;
+      void interpolate() override
+      {
+        interpolate_on_display_surface();
+        compute_participation_factors();
+      }
+      void compute_static_correction() override;
+      void validate() override;
+      void output_results() const override;
+
       void read_and_partition_mesh();
       void setup_system();
       void assemble_system();
-      void solve_eigenproblem();
       void interpolate_on_display_surface();
       void compute_participation_factors();
-      void compute_static_correction();
-      void validate();
       void validate_two_contacts();
-      void output_results() const;
 
       // The located point's cell if this process owns it.
       bool dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const;
@@ -99,22 +110,13 @@ namespace modal_haptics
       // Appends this process's part of u at the display vertices (3 nv, component-fastest) to 'out'.
       void append_local_display_values(const DistributedVector &u, std::vector<double> &out) const;
       void sum_over_processes(std::vector<double> &values) const;
-      void log(const std::string &message) const;
 
-      const SceneParameters &scene;
-      const DisplaySurface  &display;
-      const SpaceTask       &task;
-      TimerOutput           &timer;
-      const bool             verbose;
-      const MPI_Comm         comm;
+      const MPI_Comm comm;
 
       // Every process holds the whole mesh: it is partitioned from it, and locates the display and
       // patch points in it (docs/cluster.md). Only the distributed mesh carries DoFs.
       Triangulation<3>                             whole_mesh;
       parallel::fullydistributed::Triangulation<3> triangulation;
-      const FESystem<3>                            fe;
-      const MappingFE<3>                           mapping;
-      const QGaussSimplex<3>                       quadrature;
       DoFHandler<3>                                dof_handler;
       IndexSet                                     owned_dofs, relevant_dofs;
       AffineConstraints<double>                    constraints;
@@ -126,54 +128,15 @@ namespace modal_haptics
       std::map<unsigned int, space_parts::PatchLoad> patch_loads;               // this process's part
       std::vector<DistributedVector>               modes, ghosted_modes;        // kept, M-orthonormal
       std::vector<DistributedVector>               validation_fields;           // full - modal, ghosted
-      ModalSpaceResult                             result;
     };
 
     DistributedModalSpace::DistributedModalSpace(const SceneParameters &scene, const DisplaySurface &display,
                                                  const SpaceTask &task, TimerOutput &timer, const bool verbose,
                                                  const MPI_Comm comm)
-      : scene(scene)
-      , display(display)
-      , task(task)
-      , timer(timer)
-      , verbose(verbose)
+      : SpaceBase(scene, display, task, timer, verbose)
       , comm(comm)
       , triangulation(comm)
-      , fe(FE_SimplexP<3>(scene.element_degree), 3)
-      , mapping(FE_SimplexP<3>(1))
-      , quadrature(scene.element_degree + 1)
-    {
-      result.name   = task.name;
-      result.index  = task.index;
-      result.degree = scene.element_degree;
-    }
-
-    void DistributedModalSpace::log(const std::string &message) const
-    {
-      if (verbose && Utilities::MPI::this_mpi_process(comm) == 0)
-        std::cout << "[" << task.name << "] " << message << std::endl;
-    }
-
-    ModalSpaceResult DistributedModalSpace::run()
-    {
-      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
-        space_parts::run_phase(timer, result, name, work);
-      };
-      phase("assembly", [&] {
-        read_and_partition_mesh();
-        setup_system();
-        assemble_system();
-      });
-      phase("eigensolve", [&] { solve_eigenproblem(); });
-      phase("interpolation", [&] {
-        interpolate_on_display_surface();
-        compute_participation_factors();
-      });
-      phase("static_correction", [&] { compute_static_correction(); });
-      phase("validation", [&] { validate(); });
-      phase("vtu_output", [&] { output_results(); });
-      return std::move(result);
-    }
+    {}
 
     // The FACTS recipe: every process reads the serial mesh, partitions it (METIS, deterministic) and
     // builds its part of the fully distributed mesh; material and boundary ids carry over.
@@ -226,20 +189,11 @@ namespace modal_haptics
 
     void DistributedModalSpace::assemble_system()
     {
-      FEValues<3> fe_values(mapping, fe, quadrature,
-                            update_values | update_gradients | update_quadrature_points | update_JxW_values);
-      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-      FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
-      std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
-      space_parts::CellAssembler           assembler(scene.material, dofs_per_cell);
+      std::vector<DoFHandler<3>::active_cell_iterator> cells;
       for (const auto &[index, cell] : owned_cells)
-        {
-          fe_values.reinit(cell);
-          assembler.assemble(fe_values, cell_K, cell_M);
-          cell->get_dof_indices(dof_indices);
-          constraints.distribute_local_to_global(cell_K, dof_indices, stiffness_matrix);
-          constraints.distribute_local_to_global(cell_M, dof_indices, mass_matrix);
-        }
+        cells.push_back(cell);
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, cells, constraints,
+                                                              stiffness_matrix, mass_matrix);
       stiffness_matrix.compress(VectorOperation::add);
       mass_matrix.compress(VectorOperation::add);
 

@@ -67,26 +67,42 @@ namespace modal_haptics
       }
     };
 
-    class ModalSpace
+    class ModalSpace : public space_parts::SpaceBase
     {
     public:
-      ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                 TimerOutput &timer, bool verbose);
-      ModalSpaceResult run();
+      using SpaceBase::SpaceBase;
 
     private:
+      void assemble() override
+      {
+        read_mesh();
+        setup_system();
+        assemble_system();
+      }
+      void after_assembly() override
+      {
+        if (scene.output.export_matrices)
+          export_matrices();
+      }
+      void solve_eigenproblem() override;
+      void interpolate() override
+      {
+        interpolate_on_display_surface();
+        compute_participation_factors();
+      }
+      void compute_static_correction() override;
+      void validate() override;
+      void output_results() const override;
+      void finish() override { result.factorization = factorization->statistics(); }
+
       void read_mesh();
       void setup_system();
       void assemble_system();
-      void solve_eigenproblem();
       void select_modes();
       void interpolate_on_display_surface();
       void compute_participation_factors();
-      void compute_static_correction();
-      void validate();
       void validate_two_contacts();
       void export_matrices() const;
-      void output_results() const;
 
       const space_parts::PointLocator &locator() const;
       // The located point's cell with this space's DoFs (serial: every cell is ours).
@@ -97,18 +113,8 @@ namespace modal_haptics
       void add_patch_load(unsigned int vertex, double *three_columns) const;
       // u_c = W_v^T u for a DoF field u.
       std::array<double, 3> patch_average(unsigned int vertex, const double *field) const;
-      void log(const std::string &message) const;
-
-      const SceneParameters &scene;
-      const DisplaySurface  &display;
-      const SpaceTask       &task;
-      TimerOutput           &timer;
-      const bool             verbose;
 
       Triangulation<3>          triangulation;
-      const FESystem<3>         fe;
-      const MappingFE<3>        mapping;
-      const QGaussSimplex<3>    quadrature;
       DoFHandler<3>             dof_handler;
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
@@ -119,59 +125,9 @@ namespace modal_haptics
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
       // W_v of the loaded vertices (candidates, shared vertices).
       std::map<unsigned int, space_parts::PatchLoad> patch_loads;
-      ModalSpaceResult          result;
       std::vector<Vector<double>> validation_fields; // full - modal error fields for VTU
       std::vector<std::string>    validation_field_names;
     };
-
-    ModalSpace::ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                           TimerOutput &timer, const bool verbose)
-      : scene(scene)
-      , display(display)
-      , task(task)
-      , timer(timer)
-      , verbose(verbose)
-      , fe(FE_SimplexP<3>(scene.element_degree), 3)
-      , mapping(FE_SimplexP<3>(1))
-      , quadrature(scene.element_degree + 1)
-    {
-      result.name   = task.name;
-      result.index  = task.index;
-      result.degree = scene.element_degree;
-    }
-
-    void ModalSpace::log(const std::string &message) const
-    {
-      if (verbose)
-        std::cout << "[" << task.name << "] " << message << std::endl;
-    }
-
-    ModalSpaceResult ModalSpace::run()
-    {
-      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
-        space_parts::run_phase(timer, result, name, work);
-      };
-      phase("assembly", [&] {
-        read_mesh();
-        setup_system();
-        assemble_system();
-      });
-      if (scene.output.export_matrices)
-        export_matrices();
-      phase("eigensolve", [&] {
-        solve_eigenproblem();
-        select_modes();
-      });
-      phase("interpolation", [&] {
-        interpolate_on_display_surface();
-        compute_participation_factors();
-      });
-      phase("static_correction", [&] { compute_static_correction(); });
-      phase("validation", [&] { validate(); });
-      phase("vtu_output", [&] { output_results(); });
-      result.factorization = factorization->statistics();
-      return std::move(result);
-    }
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
     // user error (a hand-made or foreign .msh): refuse them before they turn into negative Jacobians.
@@ -211,20 +167,9 @@ namespace modal_haptics
     // same quadrature.
     void ModalSpace::assemble_system()
     {
-      FEValues<3> fe_values(mapping, fe, quadrature,
-                            update_values | update_gradients | update_quadrature_points | update_JxW_values);
-      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-      FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
-      std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
-      space_parts::CellAssembler           assembler(scene.material, dofs_per_cell);
-      for (const auto &cell : dof_handler.active_cell_iterators())
-        {
-          fe_values.reinit(cell);
-          assembler.assemble(fe_values, cell_K, cell_M);
-          cell->get_dof_indices(dof_indices);
-          constraints.distribute_local_to_global(cell_K, dof_indices, stiffness_matrix);
-          constraints.distribute_local_to_global(cell_M, dof_indices, mass_matrix);
-        }
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
+                                                              dof_handler.active_cell_iterators(), constraints,
+                                                              stiffness_matrix, mass_matrix);
 
       // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
       // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
@@ -267,6 +212,7 @@ namespace modal_haptics
             << "; spurious eigenvalues: none below infinity (" << result.n_spurious_rows
             << " constrained rows have M_ii = 0)";
       log(check.str());
+      select_modes();
     }
 
     void ModalSpace::select_modes()
@@ -595,13 +541,45 @@ namespace modal_haptics
   }
   namespace space_parts
   {
-    void run_phase(TimerOutput &timer, ModalSpaceResult &result, const std::string &name,
-                   const std::function<void()> &work)
+    SpaceBase::SpaceBase(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                         TimerOutput &timer, const bool verbose)
+      : scene(scene)
+      , display(display)
+      , task(task)
+      , timer(timer)
+      , verbose(verbose)
+      , fe(FE_SimplexP<3>(scene.element_degree), 3)
+      , mapping(FE_SimplexP<3>(1))
+      , quadrature(scene.element_degree + 1)
     {
-      TimerOutput::Scope scope(timer, name);
-      Timer              wall;
-      work();
-      result.timings_s[name] += wall.wall_time();
+      result.name   = task.name;
+      result.index  = task.index;
+      result.degree = scene.element_degree;
+    }
+
+    void SpaceBase::log(const std::string &message) const
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+    }
+
+    ModalSpaceResult SpaceBase::run()
+    {
+      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
+        TimerOutput::Scope scope(timer, name);
+        Timer              wall;
+        work();
+        result.timings_s[name] += wall.wall_time();
+      };
+      phase("assembly", [&] { assemble(); });
+      after_assembly();
+      phase("eigensolve", [&] { solve_eigenproblem(); });
+      phase("interpolation", [&] { interpolate(); });
+      phase("static_correction", [&] { compute_static_correction(); });
+      phase("validation", [&] { validate(); });
+      phase("vtu_output", [&] { output_results(); });
+      finish();
+      return std::move(result);
     }
 
     std::string mode_field_name(const unsigned int i, const double frequency_hz)

@@ -9,7 +9,10 @@
 
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_handler.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_system.h>
 #include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
 #include <deal.II/fe/mapping.h>
 #include <deal.II/grid/grid_tools_cache.h>
 #include <deal.II/grid/tria.h>
@@ -121,9 +124,6 @@ namespace modal_haptics
   {
     using DofWeights = std::vector<std::pair<dealii::types::global_dof_index, double>>;
 
-    // Runs one phase, timed twice: in the program's TimerOutput table, and per space for the report.
-    void run_phase(dealii::TimerOutput &timer, ModalSpaceResult &result, const std::string &name,
-                   const std::function<void()> &work);
     // W_v: the consistent nodal load of a unit patch traction, one sparse DoF list per direction.
     using PatchLoad = std::array<DofWeights, 3>;
 
@@ -161,6 +161,64 @@ namespace modal_haptics
       dealii::Tensor<1, 3>                      first_moment;
       dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
     };
+
+    // What a space is made of whatever the linear algebra: its inputs, its FE space, its result and
+    // the order of its phases, each timed twice (the program's TimerOutput table, and per space for
+    // the report).
+    class SpaceBase
+    {
+    public:
+      SpaceBase(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                dealii::TimerOutput &timer, bool verbose);
+      virtual ~SpaceBase() = default;
+      ModalSpaceResult run();
+
+    protected:
+      virtual void assemble() = 0; // mesh, DoFs, clamps, K and M
+      virtual void after_assembly() {}
+      virtual void solve_eigenproblem() = 0; // and mode selection
+      virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
+      virtual void compute_static_correction() = 0;
+      virtual void validate() = 0;
+      virtual void output_results() const = 0;
+      virtual void finish() {}
+      void log(const std::string &message) const;
+
+      const SceneParameters        &scene;
+      const DisplaySurface         &display;
+      const SpaceTask              &task;
+      dealii::TimerOutput          &timer;
+      const bool                    verbose;
+      const dealii::FESystem<3>     fe;
+      const dealii::MappingFE<3>    mapping;
+      const dealii::QGaussSimplex<3> quadrature;
+      ModalSpaceResult              result;
+    };
+
+    // K and M from the given DoF cells; returns the assembler with the cells' mass moments.
+    template <typename CellRange, typename MatrixType>
+    CellAssembler assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
+                                      const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
+                                      const CellRange &cells, const dealii::AffineConstraints<double> &constraints,
+                                      MatrixType &K, MatrixType &M)
+    {
+      dealii::FEValues<3> fe_values(mapping, fe, quadrature,
+                                    dealii::update_values | dealii::update_gradients |
+                                      dealii::update_quadrature_points | dealii::update_JxW_values);
+      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
+      dealii::FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
+      std::vector<dealii::types::global_dof_index> dof_indices(dofs_per_cell);
+      CellAssembler                                 assembler(scene.material, dofs_per_cell);
+      for (const auto &cell : cells)
+        {
+          fe_values.reinit(cell);
+          assembler.assemble(fe_values, cell_K, cell_M);
+          cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, K);
+          constraints.distribute_local_to_global(cell_M, dof_indices, M);
+        }
+      return assembler;
+    }
 
     // Applies the cut-off rule to the ascending computed eigenvalues: fills the result's computed and
     // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
