@@ -135,32 +135,4 @@ namespace modal_haptics
       }
     return solution;
   }
-
-  EigenSelfCheck check_eigenpairs(const dealii::SparseMatrix<double> &K,
-                                  const dealii::SparseMatrix<double> &M,
-                                  const EigenSolution                &solution)
-  {
-    EigenSelfCheck               check;
-    const auto                   &phi = solution.eigenvectors;
-    const unsigned int            r   = phi.size();
-    std::vector<dealii::Vector<double>> M_phi(r);
-    dealii::Vector<double>        K_phi;
-    for (unsigned int i = 0; i < r; ++i)
-      {
-        M_phi[i].reinit(phi[i].size());
-        M.vmult(M_phi[i], phi[i]);
-        K_phi.reinit(phi[i].size());
-        K.vmult(K_phi, phi[i]);
-        const double lambda = solution.eigenvalues[i];
-        const double scale  = std::abs(lambda) * M_phi[i].l2_norm();
-        K_phi.add(-lambda, M_phi[i]);
-        check.max_relative_residual =
-          std::max(check.max_relative_residual, K_phi.l2_norm() / (scale > 0. ? scale : 1.));
-      }
-    for (unsigned int i = 0; i < r; ++i)
-      for (unsigned int j = 0; j < r; ++j)
-        check.orthonormality_error =
-          std::max(check.orthonormality_error, std::abs(phi[i] * M_phi[j] - (i == j ? 1. : 0.)));
-    return check;
-  }
 } // namespace modal_haptics

@@ -7,6 +7,8 @@
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace modal_haptics
@@ -47,7 +49,30 @@ namespace modal_haptics
     double max_relative_residual  = 0.; // max ||K phi - lambda M phi|| / ||lambda M phi||
   };
 
-  EigenSelfCheck check_eigenpairs(const dealii::SparseMatrix<double> &K,
-                                  const dealii::SparseMatrix<double> &M,
-                                  const EigenSolution                &solution);
+  // For deal.II's serial and Trilinos' distributed matrices and vectors alike.
+  template <typename MatrixType, typename VectorType>
+  EigenSelfCheck check_eigenpairs(const MatrixType &K, const MatrixType &M, const std::vector<double> &eigenvalues,
+                                  const std::vector<VectorType> &phi)
+  {
+    EigenSelfCheck          check;
+    const unsigned int      r = phi.size();
+    std::vector<VectorType> M_phi(r);
+    VectorType              K_phi;
+    for (unsigned int i = 0; i < r; ++i)
+      {
+        M_phi[i].reinit(phi[i]);
+        M.vmult(M_phi[i], phi[i]);
+        K_phi.reinit(phi[i]);
+        K.vmult(K_phi, phi[i]);
+        const double lambda = eigenvalues[i];
+        const double scale  = std::abs(lambda) * M_phi[i].l2_norm();
+        K_phi.add(-lambda, M_phi[i]);
+        check.max_relative_residual = std::max(check.max_relative_residual, K_phi.l2_norm() / (scale > 0. ? scale : 1.));
+      }
+    for (unsigned int i = 0; i < r; ++i)
+      for (unsigned int j = 0; j < r; ++j)
+        check.orthonormality_error =
+          std::max(check.orthonormality_error, std::abs(phi[i] * M_phi[j] - (i == j ? 1. : 0.)));
+    return check;
+  }
 } // namespace modal_haptics

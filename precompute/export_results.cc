@@ -552,6 +552,10 @@ namespace modal_haptics
         .value("parameter_file", scene.parameter_file)
         .value("geometry", scene.meshing.geometry)
         .value("element_degree", scene.element_degree);
+      json.begin_object("processes")
+        .value("count", results.n_processes)
+        .value("max_peak_memory_mb", results.max_peak_memory_mb)
+        .end_object();
       json.begin_object("material")
         .value("youngs_modulus_pa", scene.material.youngs_modulus)
         .value("poissons_ratio", scene.material.poissons_ratio)

@@ -1,8 +1,10 @@
 #include "modal_precompute.h"
 
 #include "atomic_file.h"
+#include "distributed_space.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/utilities.h>
 #include <deal.II/lac/full_matrix.h>
 
 #include <algorithm>
@@ -17,24 +19,33 @@ namespace modal_haptics
   using dealii::TimerOutput;
 
   ModalPrecompute::ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm,
-                                   const bool verbose)
+                                   const bool verbose, const bool distributed)
     : scene(scene)
     , prm(prm)
     , verbose(verbose)
+    , distributed(distributed)
+    , writes_files(!distributed || dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) == 0)
     , timer(std::cout, verbose ? TimerOutput::summary : TimerOutput::never, TimerOutput::wall_times)
   {}
 
   void ModalPrecompute::run()
   {
     dealii::Timer total;
-    std::error_code error;
-    std::filesystem::create_directories(scene.output_directory, error);
-    AssertThrow(!error && std::filesystem::is_directory(scene.output_directory),
-                ExcMessage("Cannot create the output folder '" + scene.output_directory + "': " + error.message()));
+    if (writes_files)
+      {
+        std::error_code error;
+        std::filesystem::create_directories(scene.output_directory, error);
+        AssertThrow(!error && std::filesystem::is_directory(scene.output_directory),
+                    ExcMessage("Cannot create the output folder '" + scene.output_directory + "': " + error.message()));
+      }
 
     make_meshes();
     plan_contacts();
     compute_modal_spaces();
+    record_peak_memory();
+    // Every process holds the complete results of every space: process 0 alone finishes.
+    if (!writes_files)
+      return;
     compute_transfer_matrices();
     StagedFiles staged;
     export_results(staged);
@@ -50,7 +61,15 @@ namespace modal_haptics
     dealii::Timer      wall;
     try
       {
-        results.meshes = meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, verbose);
+        // Process 0 meshes (or finds the cached meshes); then the others read the same files from
+        // the cache, so that gmsh never writes one file from two processes. A failure on process 0
+        // aborts the run (main), so the barrier cannot hang.
+        if (writes_files)
+          results.meshes = meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, verbose);
+        if (distributed)
+          MPI_Barrier(MPI_COMM_WORLD);
+        if (!writes_files)
+          results.meshes = meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, false);
       }
     catch (const meshing::MeshingError &e)
       {
@@ -154,10 +173,25 @@ namespace modal_haptics
       {
         if (verbose)
           std::cout << "[space " << task.index + 1 << "/" << results.tasks.size() << "] " << task.name << std::endl;
-        ModalSpaceResult space = compute_modal_space(scene, results.display, task, timer, verbose);
+        ModalSpaceResult space =
+          distributed ? compute_modal_space_distributed(scene, results.display, task, timer, verbose, MPI_COMM_WORLD) :
+                        compute_modal_space(scene, results.display, task, timer, verbose);
         for (const auto &[phase, seconds] : space.timings_s)
           results.timings_s[phase] += seconds;
         results.spaces.push_back(std::move(space));
+      }
+  }
+
+  // The peak resident memory (VmHWM) of the largest process: what a cluster node must hold per process.
+  void ModalPrecompute::record_peak_memory()
+  {
+    dealii::Utilities::System::MemoryStats memory;
+    dealii::Utilities::System::get_memory_stats(memory);
+    results.max_peak_memory_mb = memory.VmHWM / 1024.;
+    if (distributed)
+      {
+        results.n_processes        = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
+        results.max_peak_memory_mb = dealii::Utilities::MPI::max(results.max_peak_memory_mb, MPI_COMM_WORLD);
       }
   }
 

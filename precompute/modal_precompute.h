@@ -11,6 +11,7 @@
 #include "modal_space.h"
 #include "scene_parameters.h"
 
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 #include <deal.II/base/timer.h>
 
@@ -37,14 +38,19 @@ namespace modal_haptics
     std::vector<ModalSpaceResult> spaces;
     std::vector<TransferMatrix>   transfers;
     std::map<std::string, double> timings_s;
+    unsigned int                  n_processes = 1;           // MPI processes that computed the spaces
+    double                        max_peak_memory_mb = 0.;   // largest peak resident memory of one process
   };
 
   class StagedFiles; // atomic_file.h
 
+  // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
+  // distributed objects (distributed_space.h), process 0 meshes first and writes every file.
   class ModalPrecompute
   {
   public:
-    ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true);
+    ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true,
+                    bool distributed = false);
     void run();
     const PrecomputeResults &get_results() const { return results; }
 
@@ -52,12 +58,15 @@ namespace modal_haptics
     void make_meshes();
     void plan_contacts();
     void compute_modal_spaces();
+    void record_peak_memory();
     void compute_transfer_matrices();
     void export_results(StagedFiles &staged);
 
     const SceneParameters          &scene;
     const dealii::ParameterHandler &prm;
     const bool                      verbose;
+    const bool                      distributed;
+    const bool                      writes_files; // the serial run, or process 0 of a distributed one
     dealii::TimerOutput             timer;
     PrecomputeResults               results;
   };

@@ -68,60 +68,54 @@ namespace modal_haptics
       }
     };
 
-    class ModalSpace
+    class ModalSpace : public space_parts::SpaceBase
     {
     public:
-      ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                 TimerOutput &timer, bool verbose);
-      ModalSpaceResult run();
+      using SpaceBase::SpaceBase;
 
     private:
+      void assemble() override
+      {
+        read_mesh();
+        setup_system();
+        assemble_system();
+      }
+      void after_assembly() override
+      {
+        if (scene.output.export_matrices)
+          export_matrices();
+      }
+      void solve_eigenproblem() override;
+      void interpolate() override
+      {
+        interpolate_on_display_surface();
+        compute_participation_factors();
+      }
+      void compute_static_correction() override;
+      void validate() override;
+      void output_results() const override;
+      void finish() override { result.factorization = factorization->statistics(); }
+
       void read_mesh();
       void setup_system();
       void assemble_system();
-      void solve_eigenproblem();
       void select_modes();
       void interpolate_on_display_surface();
       void compute_participation_factors();
-      void compute_static_correction();
-      void validate();
       void validate_two_contacts();
       void export_matrices() const;
-      void output_results() const;
 
-      struct LocatedPoint
-      {
-        DoFHandler<3>::active_cell_iterator cell;
-        Point<3>                            unit;             // in the reference tet
-        double                              distance_outside; // 0 inside, else the clipped barycentric
-      };
-      LocatedPoint locate(const meshing::Point3 &x) const;
-      // visit(dof, N_dof(x)) for the nonzero shape functions of one displacement component at x.
-      template <typename Visitor>
-      void for_each_shape_value(const LocatedPoint &point, unsigned int component, Visitor visit) const;
+      const space_parts::PointLocator &locator() const;
+      // The located point's cell with this space's DoFs (serial: every cell is ours).
+      bool dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const;
       void build_patch_load(unsigned int vertex);
 
       // Patch load W_v e_c for c = 0, 1, 2 as three DoF vectors, stored one after the other.
       void add_patch_load(unsigned int vertex, double *three_columns) const;
       // u_c = W_v^T u for a DoF field u.
       std::array<double, 3> patch_average(unsigned int vertex, const double *field) const;
-      std::array<double, 3> modal_patch_response(unsigned int candidate, unsigned int direction) const;
-      // Area-weighted l2 error of the modal display field against full_field (3 per display vertex)
-      // with the first k modes, k = 1..r, relative to full_field: how the drawn field converges with r.
-      std::vector<double> display_error_by_mode_count(const std::vector<double> &full_field,
-                                                      const std::vector<double> &modal_coefficient) const;
-      void log(const std::string &message) const;
-
-      const SceneParameters &scene;
-      const DisplaySurface  &display;
-      const SpaceTask       &task;
-      TimerOutput           &timer;
-      const bool             verbose;
 
       Triangulation<3>          triangulation;
-      const FESystem<3>         fe;
-      const MappingFE<3>        mapping;
-      const QGaussSimplex<3>    quadrature;
       DoFHandler<3>             dof_handler;
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
@@ -129,99 +123,18 @@ namespace modal_haptics
       std::unique_ptr<Factorization> factorization;
       EigenSolution             eigen;
       DisplayInterpolation      interpolation;
-      mutable std::unique_ptr<GridTools::Cache<3>> cell_locator; // built on first use
-      // W_v of the loaded vertices (candidates, shared vertices): per direction (dof, weight) pairs.
-      std::map<unsigned int, std::array<std::vector<std::pair<types::global_dof_index, double>>, 3>> patch_loads;
-      ModalSpaceResult          result;
+      mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
+      // W_v of the loaded vertices (candidates, shared vertices).
+      std::map<unsigned int, space_parts::PatchLoad> patch_loads;
       std::vector<Vector<double>> validation_fields; // full - modal error fields for VTU
       std::vector<std::string>    validation_field_names;
     };
-
-    ModalSpace::ModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                           TimerOutput &timer, const bool verbose)
-      : scene(scene)
-      , display(display)
-      , task(task)
-      , timer(timer)
-      , verbose(verbose)
-      , fe(FE_SimplexP<3>(scene.element_degree), 3)
-      , mapping(FE_SimplexP<3>(1))
-      , quadrature(scene.element_degree + 1)
-    {
-      result.name   = task.name;
-      result.index  = task.index;
-      result.degree = scene.element_degree;
-    }
-
-    void ModalSpace::log(const std::string &message) const
-    {
-      if (verbose)
-        std::cout << "[" << task.name << "] " << message << std::endl;
-    }
-
-    ModalSpaceResult ModalSpace::run()
-    {
-      // Each phase is timed twice: in the program's TimerOutput table, and per space for the report.
-      const auto phase = [&](const std::string &name, const auto &work) {
-        TimerOutput::Scope scope(timer, name);
-        Timer              wall;
-        work();
-        result.timings_s[name] += wall.wall_time();
-      };
-      phase("assembly", [&] {
-        read_mesh();
-        setup_system();
-        assemble_system();
-      });
-      if (scene.output.export_matrices)
-        export_matrices();
-      phase("eigensolve", [&] {
-        solve_eigenproblem();
-        select_modes();
-      });
-      phase("interpolation", [&] {
-        interpolate_on_display_surface();
-        compute_participation_factors();
-      });
-      phase("static_correction", [&] { compute_static_correction(); });
-      phase("validation", [&] { validate(); });
-      phase("vtu_output", [&] { output_results(); });
-      result.factorization = factorization->statistics();
-      return std::move(result);
-    }
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
     // user error (a hand-made or foreign .msh): refuse them before they turn into negative Jacobians.
     void ModalSpace::read_mesh()
     {
-      GridIn<3> grid_in;
-      grid_in.attach_triangulation(triangulation);
-      std::ifstream input(task.msh_file);
-      AssertThrow(input, ExcMessage("Cannot read mesh file '" + task.msh_file + "'."));
-      grid_in.read_msh(input);
-      GridTools::scale(scene.length_unit, triangulation);
-
-      const double length_scale = std::pow(GridTools::volume(triangulation, mapping), 1. / 3.);
-      for (const auto &cell : triangulation.active_cell_iterators())
-        {
-          const Tensor<1, 3> a = cell->vertex(1) - cell->vertex(0), b = cell->vertex(2) - cell->vertex(0),
-                             c = cell->vertex(3) - cell->vertex(0);
-          const double signed_volume = (a * cross_product_3d(b, c)) / 6.;
-          AssertThrow(signed_volume > 1e-14 * std::pow(length_scale, 3),
-                      ExcMessage("Mesh '" + task.msh_file + "': tetrahedron " + std::to_string(cell->index()) +
-                                 " at " + [&] { std::ostringstream s; s << cell->center(); return s.str(); }() +
-                                 " is " + (signed_volume < 0 ? "inverted" : "degenerate") + " (signed volume " +
-                                 std::to_string(signed_volume) + " m^3)."));
-        }
-
-      result.n_vertices = triangulation.n_vertices();
-      result.n_cells    = triangulation.n_active_cells();
-      for (const auto &v : triangulation.get_vertices())
-        for (unsigned int d = 0; d < 3; ++d)
-          result.mesh_vertices.push_back(v[d]);
-      for (const auto &cell : triangulation.active_cell_iterators())
-        for (unsigned int i = 0; i < 4; ++i)
-          result.mesh_tets.push_back(cell->vertex_index(i));
+      space_parts::read_mesh(scene, task, triangulation, result);
     }
 
     // Homogeneous Dirichlet conditions on the named clamp groups. A group that is missing from the
@@ -233,29 +146,8 @@ namespace modal_haptics
       dof_handler.distribute_dofs(fe);
       result.n_dofs = dof_handler.n_dofs();
 
-      std::set<types::boundary_id> present_ids;
-      for (const auto &face : triangulation.active_face_iterators())
-        if (face->at_boundary())
-          present_ids.insert(face->boundary_id());
-
       constraints.clear();
-      for (const std::string &group : scene.clamp_groups)
-        {
-          const auto it = task.physical_surfaces.find(group);
-          std::string known;
-          for (const auto &[name, tag] : task.physical_surfaces)
-            known += " '" + name + "'";
-          AssertThrow(it != task.physical_surfaces.end(),
-                      ExcMessage("Clamp group '" + group + "' (parameter 'Geometry/Clamp groups') is not a physical "
-                                 "surface of mesh '" + task.msh_file + "'; it has:" + known + "."));
-          AssertThrow(present_ids.count(it->second) == 1,
-                      ExcMessage("Clamp group '" + group + "' of mesh '" + task.msh_file + "' has no boundary face."));
-          VectorTools::interpolate_boundary_values(mapping, dof_handler, it->second,
-                                                   Functions::ZeroFunction<3>(3), constraints);
-        }
-      AssertThrow(!scene.clamp_groups.empty() && constraints.n_constraints() > 0,
-                  ExcMessage("The part is not clamped ('Geometry/Clamp groups' is empty): a free-floating part "
-                             "needs the free-floating option, which is not available yet."));
+      space_parts::add_clamp_constraints(scene, task, triangulation, mapping, dof_handler, constraints);
       constraints.close();
       result.n_clamped_dofs = constraints.n_constraints();
       for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
@@ -276,59 +168,9 @@ namespace modal_haptics
     // same quadrature.
     void ModalSpace::assemble_system()
     {
-      const auto  &mat    = scene.material;
-      const double mu     = mat.youngs_modulus / (2. * (1. + mat.poissons_ratio));
-      const double lambda = mat.youngs_modulus * mat.poissons_ratio /
-                            ((1. + mat.poissons_ratio) * (1. - 2. * mat.poissons_ratio));
-
-      FEValues<3> fe_values(mapping, fe, quadrature,
-                            update_values | update_gradients | update_quadrature_points | update_JxW_values);
-      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-      FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
-      std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
-      const FEValuesExtractors::Vector     displacement(0);
-      std::vector<SymmetricTensor<2, 3>>   strain(dofs_per_cell);
-      std::vector<double>                  divergence(dofs_per_cell);
-      std::vector<Tensor<1, 3>>            value(dofs_per_cell);
-
-      double mass = 0.;
-      Tensor<1, 3> first_moment;
-      Tensor<2, 3> second_moment; // integral of rho x x^T
-      for (const auto &cell : dof_handler.active_cell_iterators())
-        {
-          fe_values.reinit(cell);
-          cell_K = 0.;
-          cell_M = 0.;
-          for (const unsigned int q : fe_values.quadrature_point_indices())
-            {
-              const double JxW = fe_values.JxW(q);
-              for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                {
-                  strain[i]     = fe_values[displacement].symmetric_gradient(i, q);
-                  divergence[i] = fe_values[displacement].divergence(i, q);
-                  value[i]      = fe_values[displacement].value(i, q);
-                }
-              for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                for (unsigned int j = 0; j <= i; ++j)
-                  {
-                    cell_K(i, j) += (lambda * divergence[i] * divergence[j] + 2. * mu * (strain[i] * strain[j])) * JxW;
-                    cell_M(i, j) += mat.density * (value[i] * value[j]) * JxW;
-                  }
-              const Point<3> &x = fe_values.quadrature_point(q);
-              mass += mat.density * JxW;
-              first_moment += mat.density * JxW * x;
-              second_moment += mat.density * JxW * outer_product(x, x);
-            }
-          for (unsigned int i = 0; i < dofs_per_cell; ++i)
-            for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
-              {
-                cell_K(i, j) = cell_K(j, i);
-                cell_M(i, j) = cell_M(j, i);
-              }
-          cell->get_dof_indices(dof_indices);
-          constraints.distribute_local_to_global(cell_K, dof_indices, stiffness_matrix);
-          constraints.distribute_local_to_global(cell_M, dof_indices, mass_matrix);
-        }
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
+                                                              dof_handler.active_cell_iterators(), constraints,
+                                                              stiffness_matrix, mass_matrix);
 
       // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
       // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
@@ -336,16 +178,7 @@ namespace modal_haptics
       for (const auto i : result.clamped_dofs)
         mass_matrix.set(i, i, 0.);
       result.n_spurious_rows = result.clamped_dofs.size();
-
-      result.mass = mass;
-      const Tensor<1, 3> c = first_moment / mass;
-      for (unsigned int d = 0; d < 3; ++d)
-        result.centre_of_mass[d] = c[d];
-      // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
-      const Tensor<2, 3> S = second_moment - mass * outer_product(c, c);
-      for (unsigned int a = 0; a < 3; ++a)
-        for (unsigned int b = 0; b < 3; ++b)
-          result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
+      assembler.set_mass_properties(result);
     }
 
     void ModalSpace::solve_eigenproblem()
@@ -371,114 +204,46 @@ namespace modal_haptics
                                                              "ARPACK dsaupd mode 3 (shift-invert)";
       result.n_operator_applications = eigen.n_operator_applications;
       result.arpack_seconds          = eigen.arpack_seconds;
-      result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen);
-      for (const double lambda : eigen.eigenvalues)
-        result.computed_frequencies_hz.push_back(std::sqrt(std::max(lambda, 0.)) / two_pi);
+      result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen.eigenvalues, eigen.eigenvectors);
       std::ostringstream check;
       check << eigen.eigenvalues.size() << " modes in " << eigen.n_operator_applications << " solves, "
-            << eigen.arpack_seconds << " s; f1 = " << result.computed_frequencies_hz.front()
+            << eigen.arpack_seconds << " s; f1 = " << std::sqrt(std::max(eigen.eigenvalues.front(), 0.)) / two_pi
             << " Hz; max |Phi^T M Phi - I| = " << result.self_check.orthonormality_error
             << ", max ||K phi - lambda M phi|| / ||lambda M phi|| = " << result.self_check.max_relative_residual
             << "; spurious eigenvalues: none below infinity (" << result.n_spurious_rows
             << " constrained rows have M_ii = 0)";
       log(check.str());
+      select_modes();
     }
 
-    // The cut-off rule drops modes above its frequency, but never below the floor count; the report
-    // says which modes went and why.
     void ModalSpace::select_modes()
     {
-      result.cut_off_hz = scene.modes.cut_off_frequency();
       std::vector<Vector<double>> kept;
-      for (unsigned int i = 0; i < eigen.eigenvalues.size(); ++i)
-        {
-          const double f = result.computed_frequencies_hz[i];
-          if (f > result.cut_off_hz && kept.size() >= scene.modes.minimum_count)
-            {
-              std::ostringstream reason;
-              reason << "above the cut-off " << result.cut_off_hz << " Hz ("
-                     << (scene.modes.cut_off_rule == CutOffRule::display ? "half the display rate" : "half the haptic rate")
-                     << ")";
-              result.dropped_modes.push_back({i, f, reason.str()});
-              continue;
-            }
-          result.eigenvalues.push_back(eigen.eigenvalues[i]);
-          result.frequencies_hz.push_back(f);
-          result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigen.eigenvalues[i], 0.))));
-          kept.push_back(std::move(eigen.eigenvectors[i]));
-        }
+      for (const unsigned int i : space_parts::select_modes(scene, eigen.eigenvalues, result))
+        kept.push_back(std::move(eigen.eigenvectors[i]));
       eigen.eigenvectors = std::move(kept);
       log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
           std::to_string(result.dropped_modes.size()));
     }
 
-    // A point is located in the space's mesh: the tet with the largest smallest barycentric
-    // coordinate among the nearest bounding boxes, so that a point slightly outside a coarse mesh's
-    // chordal facets is projected onto the closest cell (negative coordinates clipped).
-    ModalSpace::LocatedPoint ModalSpace::locate(const meshing::Point3 &x) const
+    const space_parts::PointLocator &ModalSpace::locator() const
     {
-      if (!cell_locator)
-        cell_locator = std::make_unique<GridTools::Cache<3>>(triangulation, mapping);
-      const Point<3> p(x[0], x[1], x[2]);
-      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
-      cell_locator->get_cell_bounding_boxes_rtree().query(boost::geometry::index::nearest(p, 12),
-                                                          std::back_inserter(near));
-      double                                 best_min = -1e300;
-      Triangulation<3>::active_cell_iterator best_cell;
-      std::array<double, 4>                  best_bary{};
-      for (const auto &[box, cell] : near)
-        {
-          Tensor<2, 3> J;
-          for (unsigned int d = 0; d < 3; ++d)
-            for (unsigned int e = 0; e < 3; ++e)
-              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
-          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
-          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
-          const double                m    = *std::min_element(bary.begin(), bary.end());
-          if (m > best_min)
-            best_min = m, best_cell = cell, best_bary = bary;
-        }
-      double sum = 0.;
-      for (double &b : best_bary)
-        sum += (b = std::max(b, 0.));
-      for (double &b : best_bary)
-        b /= sum;
-      return {DoFHandler<3>::active_cell_iterator(&triangulation, best_cell->level(), best_cell->index(), &dof_handler),
-              Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
+      if (!point_locator)
+        point_locator = std::make_unique<space_parts::PointLocator>(triangulation, mapping);
+      return *point_locator;
     }
 
-    template <typename Visitor>
-    void ModalSpace::for_each_shape_value(const LocatedPoint &point, const unsigned int component, Visitor visit) const
+    bool ModalSpace::dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const
     {
-      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
-      point.cell->get_dof_indices(dof_indices);
-      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
-        if (fe.system_to_component_index(i).first == component)
-          {
-            const double w = fe.shape_value(i, point.unit);
-            if (w != 0.)
-              visit(dof_indices[i], w);
-          }
+      cell = DoFHandler<3>::active_cell_iterator(&triangulation, point.cell->level(), point.cell->index(), &dof_handler);
+      return true;
     }
 
-    // W_v as three sparse DoF vectors: the consistent nodal load of the patch traction (see
-    // patch_quadrature), one column per force direction. Its transpose is the patch average.
     void ModalSpace::build_patch_load(const unsigned int vertex)
     {
-      if (patch_loads.count(vertex))
-        return;
-      std::array<std::map<types::global_dof_index, double>, 3> columns;
-      for (const auto &point : patch_quadrature(display, vertex))
-        {
-          const auto located = locate(point.x);
-          for (unsigned int c = 0; c < 3; ++c)
-            for_each_shape_value(located, c, [&](const types::global_dof_index dof, const double w) {
-              columns[c][dof] += point.weight * w;
-            });
-        }
-      auto &load = patch_loads[vertex];
-      for (unsigned int c = 0; c < 3; ++c)
-        load[c].assign(columns[c].begin(), columns[c].end());
+      if (!patch_loads.count(vertex))
+        patch_loads[vertex] = space_parts::make_patch_load(display, vertex, locator(),
+                                                           [&](const auto &point, auto &cell) { return dof_cell(point, cell); });
     }
 
     // Each display vertex is located in the space's mesh and the FE basis is evaluated there.
@@ -486,16 +251,22 @@ namespace modal_haptics
     {
       interpolation.row_start.assign(1, 0);
       double max_outside = 0.;
+      space_parts::DofWeights row;
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
         {
-          const auto located = locate(display.vertices[v]);
+          const auto located = locator().locate(display.vertices[v]);
           max_outside        = std::max(max_outside, located.distance_outside);
+          DoFHandler<3>::active_cell_iterator cell;
+          dof_cell(located, cell);
           for (unsigned int c = 0; c < 3; ++c)
             {
-              for_each_shape_value(located, c, [&](const types::global_dof_index dof, const double w) {
-                interpolation.dofs.push_back(dof);
-                interpolation.weights.push_back(w);
-              });
+              row.clear();
+              space_parts::add_shape_values(cell, located.unit, c, 1., row);
+              for (const auto &[dof, w] : row)
+                {
+                  interpolation.dofs.push_back(dof);
+                  interpolation.weights.push_back(w);
+                }
               interpolation.row_start.push_back(interpolation.dofs.size());
             }
         }
@@ -583,40 +354,20 @@ namespace modal_haptics
       return u;
     }
 
-    std::array<double, 3> ModalSpace::modal_patch_response(const unsigned int candidate, const unsigned int direction) const
-    {
-      const unsigned int r = result.eigenvalues.size();
-      const double      *B = &result.candidate_modes[std::size_t(candidate) * 3 * r];
-      std::array<double, 3> u{};
-      for (unsigned int i = 0; i < r; ++i)
-        {
-          const double q = B[direction * r + i] / result.eigenvalues[i];
-          for (unsigned int c = 0; c < 3; ++c)
-            u[c] += B[c * r + i] * q;
-        }
-      return u;
-    }
-
     // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
     // solves K^-1 W_v reuse the eigensolve's factorization, a block of candidates at a time; the
     // cross terms W_a^T K^-1 W_b are read off the same block.
     void ModalSpace::compute_static_correction()
     {
-      const unsigned int r  = result.eigenvalues.size();
-      const std::size_t  n  = dof_handler.n_dofs();
-      result.candidates     = task.candidates;
-      const unsigned int nc = result.candidates.size();
+      const unsigned int r     = result.eigenvalues.size();
+      const std::size_t  n     = dof_handler.n_dofs();
+      const auto         loads = space_parts::plan_static_correction(scene, task, result);
+      const unsigned int nc    = result.candidates.size();
       Timer              timer;
-      // The shared vertices (compared across spaces) are solved in the same blocks.
-      std::vector<unsigned int> loads = result.candidates;
-      for (const unsigned int v : task.shared_vertices)
-        if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
-          loads.push_back(v);
       for (const unsigned int v : loads)
         build_patch_load(v);
 
       // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
-      result.candidate_modes.assign(3 * std::size_t(nc) * r, 0.);
       for (unsigned int a = 0; a < nc; ++a)
         for (unsigned int i = 0; i < r; ++i)
           {
@@ -624,11 +375,6 @@ namespace modal_haptics
             for (unsigned int c = 0; c < 3; ++c)
               result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = b[c];
           }
-      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
-      const bool store_cross = scene.contact.cross_compliance && nc > 0;
-      if (store_cross)
-        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
-
       const unsigned int  block = 16;
       std::vector<double> X;
       for (unsigned int first = 0; first < loads.size(); first += block)
@@ -640,55 +386,16 @@ namespace modal_haptics
           factorization->solve_block(X.data(), 3 * count);
 
           for (unsigned int b = 0; b < count; ++b)
-            {
-              const unsigned int load = first + b;
-              // Full compliance at the load itself.
-              std::array<double, 9> G{};
-              for (unsigned int d = 0; d < 3; ++d)
-                {
-                  const auto u = patch_average(loads[load], &X[(3 * b + d) * n]);
-                  for (unsigned int c = 0; c < 3; ++c)
-                    G[3 * c + d] = u[c];
-                }
-              if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), loads[load]))
-                result.full_compliance[loads[load]] = G;
-              if (load >= nc)
-                continue;
-              for (unsigned int d = 0; d < 3; ++d)
-                {
-                  const auto u_modal = modal_patch_response(load, d);
-                  for (unsigned int c = 0; c < 3; ++c)
-                    result.candidate_compliance[9 * std::size_t(load) + 3 * c + d] = G[3 * c + d] - u_modal[c];
-                }
-              if (!store_cross)
-                continue;
-              const unsigned int stride = 3 * nc;
-              const double *Bb = &result.candidate_modes[std::size_t(load) * 3 * r];
-              for (unsigned int a = 0; a < nc; ++a)
-                {
-                  const double *Ba = &result.candidate_modes[std::size_t(a) * 3 * r];
-                  for (unsigned int d = 0; d < 3; ++d)
-                    {
-                      const auto u = patch_average(result.candidates[a], &X[(3 * b + d) * n]);
-                      for (unsigned int c = 0; c < 3; ++c)
-                        {
-                          double modal = 0.;
-                          for (unsigned int i = 0; i < r; ++i)
-                            modal += Ba[c * r + i] * Bb[d * r + i] / result.eigenvalues[i];
-                          result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
-                        }
-                    }
-                }
-            }
+            space_parts::record_static_response(result, task, first + b, loads[first + b],
+                                                [&](const unsigned int vertex, const unsigned int d) {
+                                                  return patch_average(vertex, &X[(3 * b + d) * n]);
+                                                });
           if (verbose && (first / block) % 8 == 7)
             log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
                 " loads, " + std::to_string(timer.wall_time()) + " s");
         }
       result.correction_seconds_per_candidate = loads.empty() ? 0. : timer.wall_time() / loads.size();
-      std::ostringstream line;
-      line << "static correction: " << nc << " candidates (" << loads.size() - nc << " shared vertices), "
-           << result.correction_seconds_per_candidate * 1e3 << " ms per load";
-      log(line.str());
+      log(space_parts::static_correction_summary(result, loads.size()));
     }
 
     // Full static FE for sampled candidates and the three directions, against the modal answer and
@@ -704,9 +411,6 @@ namespace modal_haptics
 
       for (const unsigned int vertex : task.validation_vertices)
         {
-          const auto candidate_it = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex);
-          Assert(candidate_it != result.candidates.end() && *candidate_it == vertex, ExcInternalError());
-          const unsigned int candidate = candidate_it - result.candidates.begin();
           std::fill(load.begin(), load.end(), 0.);
           add_patch_load(vertex, load.data());
           for (unsigned int direction = 0; direction < 3; ++direction)
@@ -721,61 +425,23 @@ namespace modal_haptics
               residual -= f;
               vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
 
-              std::vector<double> modal_coefficient(r);
+              std::vector<double> modal_coefficients(r);
               u_modal = 0.;
               for (unsigned int i = 0; i < r; ++i)
                 {
-                  modal_coefficient[i] = (eigen.eigenvectors[i] * f) / result.eigenvalues[i];
-                  u_modal.add(modal_coefficient[i], eigen.eigenvectors[i]);
+                  modal_coefficients[i] = (eigen.eigenvectors[i] * f) / result.eigenvalues[i];
+                  u_modal.add(modal_coefficients[i], eigen.eigenvectors[i]);
                 }
 
-              const auto uc_full  = patch_average(vertex, u.data());
-              const auto uc_modal = patch_average(vertex, u_modal.data());
-              vc.full_response    = uc_full;
-              double full_norm = 0., modal_err = 0., corrected_err = 0.;
-              for (unsigned int c = 0; c < 3; ++c)
+              std::vector<double> display_full(3 * nv), display_modal(3 * nv);
+              for (unsigned int row = 0; row < 3 * nv; ++row)
                 {
-                  const double corrected = uc_modal[c] + result.candidate_compliance[9 * std::size_t(candidate) + 3 * c + direction];
-                  full_norm += uc_full[c] * uc_full[c];
-                  modal_err += std::pow(uc_modal[c] - uc_full[c], 2);
-                  corrected_err += std::pow(corrected - uc_full[c], 2);
+                  display_full[row]  = interpolation.row_dot(row, u.data());
+                  display_modal[row] = interpolation.row_dot(row, u_modal.data());
                 }
-              vc.contact_rel_error_modal     = std::sqrt(modal_err / full_norm);
-              vc.contact_rel_error_corrected = std::sqrt(corrected_err / full_norm);
-
-              // Display field: modal vs full; the correction field K^-1 W e - Phi Lambda^-1 B^T e
-              // added back (untruncated) gives the full field up to round-off.
-              // Display field: modal vs full. The correction field d = full - modal is local; kept
-              // only where |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected
-              // field misses the dropped part.
-              std::vector<double> error2(nv, 0.), full2(nv, 0.), full_field(3 * nv);
-              for (unsigned int v = 0; v < nv; ++v)
-                for (unsigned int c = 0; c < 3; ++c)
-                  {
-                    const double full  = interpolation.row_dot(3 * v + c, u.data());
-                    const double modal = interpolation.row_dot(3 * v + c, u_modal.data());
-                    full_field[3 * v + c] = full;
-                    full2[v] += full * full;
-                    error2[v] += (modal - full) * (modal - full);
-                  }
-              vc.field_rel_error_by_modes = display_error_by_mode_count(full_field, modal_coefficient);
-              const double max_error = std::sqrt(*std::max_element(error2.begin(), error2.end()));
-              const double max_full  = std::sqrt(*std::max_element(full2.begin(), full2.end()));
-              const double keep      = scene.contact.correction_field_tolerance * max_error;
-              double l2_full = 0., l2_err = 0., l2_corr = 0.;
-              vc.correction_field_vertices = 0;
-              for (unsigned int v = 0; v < nv; ++v)
-                {
-                  l2_full += full2[v] * display.vertex_area[v];
-                  l2_err += error2[v] * display.vertex_area[v];
-                  if (std::sqrt(error2[v]) >= keep)
-                    ++vc.correction_field_vertices;
-                  else
-                    l2_corr += error2[v] * display.vertex_area[v];
-                }
-              vc.field_rel_error_modal     = std::sqrt(l2_err / l2_full);
-              vc.field_max_error_modal     = max_error / max_full;
-              vc.field_rel_error_corrected = std::sqrt(l2_corr / l2_full);
+              space_parts::set_validation_errors(vc, result, display, scene.contact.correction_field_tolerance,
+                                                 patch_average(vertex, u.data()), patch_average(vertex, u_modal.data()),
+                                                 display_full, display_modal, modal_coefficients);
 
               difference = u;
               difference -= u_modal;
@@ -783,42 +449,12 @@ namespace modal_haptics
                 std::sqrt(stiffness_matrix.matrix_norm_square(difference) / stiffness_matrix.matrix_norm_square(u));
 
               validation_fields.push_back(difference);
-              validation_field_names.push_back("validation_error_v" + std::to_string(vertex) + "_" + "xyz"[direction]);
+              validation_field_names.push_back(space_parts::validation_field_name(vc));
               result.validation.push_back(vc);
             }
         }
       validate_two_contacts();
-      double worst_modal = 0., worst_corrected = 0.;
-      for (const auto &vc : result.validation)
-        {
-          worst_modal     = std::max(worst_modal, vc.contact_rel_error_modal);
-          worst_corrected = std::max(worst_corrected, vc.contact_rel_error_corrected);
-        }
-      std::ostringstream line;
-      line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
-           << worst_modal << ", corrected up to " << worst_corrected;
-      log(line.str());
-    }
-
-    std::vector<double> ModalSpace::display_error_by_mode_count(const std::vector<double> &full_field,
-                                                                const std::vector<double> &modal_coefficient) const
-    {
-      const unsigned int r = modal_coefficient.size();
-      std::vector<double> remainder = full_field, errors;
-      double              full_norm = 0.;
-      for (std::size_t row = 0; row < full_field.size(); ++row)
-        full_norm += display.vertex_area[row / 3] * full_field[row] * full_field[row];
-      for (unsigned int k = 0; k < r; ++k)
-        {
-          double error = 0.;
-          for (std::size_t row = 0; row < remainder.size(); ++row)
-            {
-              remainder[row] -= modal_coefficient[k] * result.display_modes[row * r + k];
-              error += display.vertex_area[row / 3] * remainder[row] * remainder[row];
-            }
-          errors.push_back(std::sqrt(error / full_norm));
-        }
-      return errors;
+      log(space_parts::validation_summary(result));
     }
 
     // K and M for the benchmark's peers (scipy, SLEPc) in a plain binary CSR: int64 n, int64 nnz,
@@ -859,50 +495,20 @@ namespace modal_haptics
     {
       if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
         return;
-      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
       const std::size_t  n = dof_handler.n_dofs();
       const std::array<unsigned int, 2> vertices = {task.validation_vertices.front(), task.validation_vertices.back()};
-      const std::array<std::array<double, 3>, 2> forces = {{{0., 0., 1.}, {0., 1., 0.}}};
-      std::array<unsigned int, 2> index{};
       std::vector<double>         load(3 * n, 0.), f(n, 0.);
       for (unsigned int h = 0; h < 2; ++h)
         {
-          index[h] = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertices[h]) -
-                     result.candidates.begin();
           std::fill(load.begin(), load.end(), 0.);
           add_patch_load(vertices[h], load.data());
           for (unsigned int d = 0; d < 3; ++d)
             for (std::size_t i = 0; i < n; ++i)
-              f[i] += forces[h][d] * load[d * n + i];
+              f[i] += space_parts::two_contact_forces[h][d] * load[d * n + i];
         }
       factorization->solve_block(f.data(), 1);
-
-      std::vector<double> modal_force(r, 0.); // sum_h B_h^T F_h
-      for (unsigned int h = 0; h < 2; ++h)
-        for (unsigned int c = 0; c < 3; ++c)
-          for (unsigned int i = 0; i < r; ++i)
-            modal_force[i] += result.candidate_modes[(std::size_t(index[h]) * 3 + c) * r + i] * forces[h][c];
-      double worst = 0.;
-      for (unsigned int h = 0; h < 2; ++h)
-        {
-          const auto full = patch_average(vertices[h], f.data());
-          double     error = 0., norm = 0.;
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              double predicted = 0.;
-              for (unsigned int i = 0; i < r; ++i)
-                predicted += result.candidate_modes[(std::size_t(index[h]) * 3 + c) * r + i] * modal_force[i] /
-                             result.eigenvalues[i];
-              for (unsigned int g = 0; g < 2; ++g)
-                for (unsigned int d = 0; d < 3; ++d)
-                  predicted += result.cross_compliance[std::size_t(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] *
-                               forces[g][d];
-              error += std::pow(predicted - full[c], 2);
-              norm += full[c] * full[c];
-            }
-          worst = std::max(worst, std::sqrt(error / norm));
-        }
-      result.two_contact_rel_error_corrected = worst;
+      result.two_contact_rel_error_corrected = space_parts::two_contact_error(
+        result, vertices, {{patch_average(vertices[0], f.data()), patch_average(vertices[1], f.data())}});
     }
 
     // Mode shapes (frequency in the field name) and the validation error fields, for ParaView.
@@ -917,10 +523,8 @@ namespace modal_haptics
       const unsigned int n_vtu = std::min<unsigned int>(scene.output.vtu_modes, eigen.eigenvectors.size());
       for (unsigned int i = 0; i < n_vtu; ++i)
         {
-          std::ostringstream name;
-          name << "mode_" << std::setw(2) << std::setfill('0') << i + 1 << "_" << std::fixed << std::setprecision(1)
-               << result.frequencies_hz[i] << "Hz";
-          data_out.add_data_vector(eigen.eigenvectors[i], std::vector<std::string>(3, name.str()),
+          data_out.add_data_vector(eigen.eigenvectors[i],
+                                   std::vector<std::string>(3, space_parts::mode_field_name(i, result.frequencies_hz[i])),
                                    DataOut<3>::type_dof_data, vector_field);
         }
       for (unsigned int k = 0; k < validation_fields.size(); ++k)
@@ -940,6 +544,504 @@ namespace modal_haptics
     ModalSpace space(scene, display, task, timer, verbose);
     return space.run();
   }
+  namespace space_parts
+  {
+    SpaceBase::SpaceBase(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                         TimerOutput &timer, const bool verbose)
+      : scene(scene)
+      , display(display)
+      , task(task)
+      , timer(timer)
+      , verbose(verbose)
+      , fe(FE_SimplexP<3>(scene.element_degree), 3)
+      , mapping(FE_SimplexP<3>(1))
+      , quadrature(scene.element_degree + 1)
+    {
+      result.name   = task.name;
+      result.index  = task.index;
+      result.degree = scene.element_degree;
+    }
+
+    void SpaceBase::log(const std::string &message) const
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+    }
+
+    ModalSpaceResult SpaceBase::run()
+    {
+      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
+        TimerOutput::Scope scope(timer, name);
+        Timer              wall;
+        work();
+        result.timings_s[name] += wall.wall_time();
+      };
+      phase("assembly", [&] { assemble(); });
+      after_assembly();
+      phase("eigensolve", [&] { solve_eigenproblem(); });
+      phase("interpolation", [&] { interpolate(); });
+      phase("static_correction", [&] { compute_static_correction(); });
+      phase("validation", [&] { validate(); });
+      phase("vtu_output", [&] { output_results(); });
+      finish();
+      return std::move(result);
+    }
+
+    std::string mode_field_name(const unsigned int i, const double frequency_hz)
+    {
+      std::ostringstream name;
+      name << "mode_" << std::setw(2) << std::setfill('0') << i + 1 << "_" << std::fixed << std::setprecision(1)
+           << frequency_hz << "Hz";
+      return name.str();
+    }
+
+    std::string validation_field_name(const ValidationCase &vc)
+    {
+      return "validation_error_v" + std::to_string(vc.vertex) + "_" + "xyz"[vc.direction];
+    }
+
+    void read_mesh(const SceneParameters &scene, const SpaceTask &task, Triangulation<3> &mesh, ModalSpaceResult &result)
+    {
+      GridIn<3> grid_in;
+      grid_in.attach_triangulation(mesh);
+      std::ifstream input(task.msh_file);
+      AssertThrow(input, ExcMessage("Cannot read mesh file '" + task.msh_file + "'."));
+      grid_in.read_msh(input);
+      GridTools::scale(scene.length_unit, mesh);
+
+      const double length_scale = std::pow(GridTools::volume(mesh, MappingFE<3>(FE_SimplexP<3>(1))), 1. / 3.);
+      for (const auto &cell : mesh.active_cell_iterators())
+        {
+          const Tensor<1, 3> a = cell->vertex(1) - cell->vertex(0), b = cell->vertex(2) - cell->vertex(0),
+                             c = cell->vertex(3) - cell->vertex(0);
+          const double signed_volume = (a * cross_product_3d(b, c)) / 6.;
+          AssertThrow(signed_volume > 1e-14 * std::pow(length_scale, 3),
+                      ExcMessage("Mesh '" + task.msh_file + "': tetrahedron " + std::to_string(cell->index()) +
+                                 " at " + [&] { std::ostringstream s; s << cell->center(); return s.str(); }() +
+                                 " is " + (signed_volume < 0 ? "inverted" : "degenerate") + " (signed volume " +
+                                 std::to_string(signed_volume) + " m^3)."));
+        }
+
+      result.n_vertices = mesh.n_vertices();
+      result.n_cells    = mesh.n_active_cells();
+      for (const auto &v : mesh.get_vertices())
+        for (unsigned int d = 0; d < 3; ++d)
+          result.mesh_vertices.push_back(v[d]);
+      for (const auto &cell : mesh.active_cell_iterators())
+        for (unsigned int i = 0; i < 4; ++i)
+          result.mesh_tets.push_back(cell->vertex_index(i));
+    }
+
+    // A group that is missing from the mesh, or present but with no face, is a user error: silently
+    // clamping nothing would give a free-floating part.
+    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Triangulation<3> &whole_mesh,
+                               const Mapping<3> &mapping, const DoFHandler<3> &dof_handler,
+                               AffineConstraints<double> &constraints)
+    {
+      AssertThrow(!scene.clamp_groups.empty(),
+                  ExcMessage("The part is not clamped ('Geometry/Clamp groups' is empty): a free-floating part "
+                             "needs the free-floating option, which is not available yet."));
+      std::set<types::boundary_id> present_ids;
+      for (const auto &face : whole_mesh.active_face_iterators())
+        if (face->at_boundary())
+          present_ids.insert(face->boundary_id());
+      for (const std::string &group : scene.clamp_groups)
+        {
+          const auto it = task.physical_surfaces.find(group);
+          std::string known;
+          for (const auto &[name, tag] : task.physical_surfaces)
+            known += " '" + name + "'";
+          AssertThrow(it != task.physical_surfaces.end(),
+                      ExcMessage("Clamp group '" + group + "' (parameter 'Geometry/Clamp groups') is not a physical "
+                                 "surface of mesh '" + task.msh_file + "'; it has:" + known + "."));
+          AssertThrow(present_ids.count(it->second) == 1,
+                      ExcMessage("Clamp group '" + group + "' of mesh '" + task.msh_file + "' has no boundary face."));
+          VectorTools::interpolate_boundary_values(mapping, dof_handler, it->second,
+                                                   Functions::ZeroFunction<3>(3), constraints);
+        }
+    }
+
+    CellAssembler::CellAssembler(const MaterialParameters &material, const unsigned int dofs_per_cell)
+      : material(material)
+      , mu(material.youngs_modulus / (2. * (1. + material.poissons_ratio)))
+      , lambda(material.youngs_modulus * material.poissons_ratio /
+               ((1. + material.poissons_ratio) * (1. - 2. * material.poissons_ratio)))
+      , strain(dofs_per_cell)
+      , divergence(dofs_per_cell)
+      , value(dofs_per_cell)
+    {}
+
+    void CellAssembler::assemble(const FEValues<3> &fe_values, FullMatrix<double> &cell_K, FullMatrix<double> &cell_M)
+    {
+      const FEValuesExtractors::Vector displacement(0);
+      const unsigned int               dofs_per_cell = strain.size();
+      cell_K = 0.;
+      cell_M = 0.;
+      for (const unsigned int q : fe_values.quadrature_point_indices())
+        {
+          const double JxW = fe_values.JxW(q);
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            {
+              strain[i]     = fe_values[displacement].symmetric_gradient(i, q);
+              divergence[i] = fe_values[displacement].divergence(i, q);
+              value[i]      = fe_values[displacement].value(i, q);
+            }
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            for (unsigned int j = 0; j <= i; ++j)
+              {
+                cell_K(i, j) += (lambda * divergence[i] * divergence[j] + 2. * mu * (strain[i] * strain[j])) * JxW;
+                cell_M(i, j) += material.density * (value[i] * value[j]) * JxW;
+              }
+          const Point<3> &x = fe_values.quadrature_point(q);
+          mass += material.density * JxW;
+          first_moment += material.density * JxW * x;
+          second_moment += material.density * JxW * outer_product(x, x);
+        }
+      for (unsigned int i = 0; i < dofs_per_cell; ++i)
+        for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+          {
+            cell_K(i, j) = cell_K(j, i);
+            cell_M(i, j) = cell_M(j, i);
+          }
+    }
+
+    void CellAssembler::set_mass_properties(ModalSpaceResult &result, const std::function<double(double)> &reduce) const
+    {
+      Tensor<1, 3> first;
+      Tensor<2, 3> second;
+      for (unsigned int a = 0; a < 3; ++a)
+        {
+          first[a] = reduce(first_moment[a]);
+          for (unsigned int b = 0; b < 3; ++b)
+            second[a][b] = reduce(second_moment[a][b]);
+        }
+      result.mass = reduce(mass);
+      const Tensor<1, 3> c = first / result.mass;
+      for (unsigned int d = 0; d < 3; ++d)
+        result.centre_of_mass[d] = c[d];
+      // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
+      const Tensor<2, 3> S = second - result.mass * outer_product(c, c);
+      for (unsigned int a = 0; a < 3; ++a)
+        for (unsigned int b = 0; b < 3; ++b)
+          result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
+    }
+
+    // The cut-off rule drops modes above its frequency, but never below the floor count; the report
+    // says which modes went and why.
+    std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
+                                           ModalSpaceResult &result)
+    {
+      result.computed_frequencies_hz.clear();
+      for (const double lambda : eigenvalues)
+        result.computed_frequencies_hz.push_back(std::sqrt(std::max(lambda, 0.)) / two_pi);
+      result.cut_off_hz = scene.modes.cut_off_frequency();
+      std::vector<unsigned int> kept;
+      for (unsigned int i = 0; i < eigenvalues.size(); ++i)
+        {
+          const double f = result.computed_frequencies_hz[i];
+          if (f > result.cut_off_hz && kept.size() >= scene.modes.minimum_count)
+            {
+              std::ostringstream reason;
+              reason << "above the cut-off " << result.cut_off_hz << " Hz ("
+                     << (scene.modes.cut_off_rule == CutOffRule::display ? "half the display rate" : "half the haptic rate")
+                     << ")";
+              result.dropped_modes.push_back({i, f, reason.str()});
+              continue;
+            }
+          result.eigenvalues.push_back(eigenvalues[i]);
+          result.frequencies_hz.push_back(f);
+          result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigenvalues[i], 0.))));
+          kept.push_back(i);
+        }
+      return kept;
+    }
+
+    PointLocator::PointLocator(const Triangulation<3> &mesh, const Mapping<3> &mapping)
+      : cache(mesh, mapping)
+    {}
+
+    LocatedPoint PointLocator::locate(const meshing::Point3 &x) const
+    {
+      const Point<3> p(x[0], x[1], x[2]);
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_cell_bounding_boxes_rtree().query(boost::geometry::index::nearest(p, 12), std::back_inserter(near));
+      double                                 best_min = -1e300;
+      Triangulation<3>::active_cell_iterator best_cell;
+      std::array<double, 4>                  best_bary{};
+      for (const auto &[box, cell] : near)
+        {
+          Tensor<2, 3> J;
+          for (unsigned int d = 0; d < 3; ++d)
+            for (unsigned int e = 0; e < 3; ++e)
+              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
+          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+          const double                m    = *std::min_element(bary.begin(), bary.end());
+          if (m > best_min)
+            best_min = m, best_cell = cell, best_bary = bary;
+        }
+      double sum = 0.;
+      for (double &b : best_bary)
+        sum += (b = std::max(b, 0.));
+      for (double &b : best_bary)
+        b /= sum;
+      return {best_cell, Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
+    }
+
+    void add_shape_values(const DoFHandler<3>::active_cell_iterator &cell, const Point<3> &unit,
+                          const unsigned int component, const double factor, DofWeights &out)
+    {
+      const auto                          &fe = cell->get_fe();
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      cell->get_dof_indices(dof_indices);
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        if (fe.system_to_component_index(i).first == component)
+          {
+            const double w = fe.shape_value(i, unit);
+            if (w != 0.)
+              out.emplace_back(dof_indices[i], factor * w);
+          }
+    }
+
+    // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
+    PatchLoad make_patch_load(const DisplaySurface &display, const unsigned int vertex, const PointLocator &locator,
+                              const std::function<bool(const LocatedPoint &, DoFHandler<3>::active_cell_iterator &)> &dof_cell)
+    {
+      std::array<std::map<types::global_dof_index, double>, 3> columns;
+      DofWeights                                               values;
+      for (const auto &point : patch_quadrature(display, vertex))
+        {
+          const auto                          located = locator.locate(point.x);
+          DoFHandler<3>::active_cell_iterator cell;
+          if (!dof_cell(located, cell))
+            continue;
+          const Point<3> &unit = located.unit;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              values.clear();
+              add_shape_values(cell, unit, c, point.weight, values);
+              for (const auto &[dof, w] : values)
+                columns[c][dof] += w;
+            }
+        }
+      PatchLoad load;
+      for (unsigned int c = 0; c < 3; ++c)
+        load[c].assign(columns[c].begin(), columns[c].end());
+      return load;
+    }
+
+    std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, const unsigned int candidate,
+                                               const unsigned int direction)
+    {
+      const unsigned int r = result.eigenvalues.size();
+      const double      *B = &result.candidate_modes[std::size_t(candidate) * 3 * r];
+      std::array<double, 3> u{};
+      for (unsigned int i = 0; i < r; ++i)
+        {
+          const double q = B[direction * r + i] / result.eigenvalues[i];
+          for (unsigned int c = 0; c < 3; ++c)
+            u[c] += B[c * r + i] * q;
+        }
+      return u;
+    }
+
+    // The shared vertices (compared across spaces) are solved with the candidates.
+    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                     ModalSpaceResult &result)
+    {
+      result.candidates     = task.candidates;
+      const unsigned int nc = result.candidates.size();
+      std::vector<unsigned int> loads = result.candidates;
+      for (const unsigned int v : task.shared_vertices)
+        if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
+          loads.push_back(v);
+      result.candidate_modes.assign(3 * std::size_t(nc) * result.eigenvalues.size(), 0.);
+      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
+      if (scene.contact.cross_compliance && nc > 0)
+        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
+      return loads;
+    }
+
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const unsigned int load,
+                                const unsigned int load_vertex,
+                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged)
+    {
+      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      // Full compliance at the load itself.
+      std::array<double, 9> G{};
+      for (unsigned int d = 0; d < 3; ++d)
+        {
+          const auto u = averaged(load_vertex, d);
+          for (unsigned int c = 0; c < 3; ++c)
+            G[3 * c + d] = u[c];
+        }
+      if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), load_vertex))
+        result.full_compliance[load_vertex] = G;
+      if (load >= nc)
+        return;
+      for (unsigned int d = 0; d < 3; ++d)
+        {
+          const auto u_modal = modal_patch_response(result, load, d);
+          for (unsigned int c = 0; c < 3; ++c)
+            result.candidate_compliance[9 * std::size_t(load) + 3 * c + d] = G[3 * c + d] - u_modal[c];
+        }
+      if (result.cross_compliance.empty())
+        return;
+      const unsigned int stride = 3 * nc;
+      const double      *Bb     = &result.candidate_modes[std::size_t(load) * 3 * r];
+      for (unsigned int a = 0; a < nc; ++a)
+        {
+          const double *Ba = &result.candidate_modes[std::size_t(a) * 3 * r];
+          for (unsigned int d = 0; d < 3; ++d)
+            {
+              const auto u = averaged(result.candidates[a], d);
+              for (unsigned int c = 0; c < 3; ++c)
+                {
+                  double modal = 0.;
+                  for (unsigned int i = 0; i < r; ++i)
+                    modal += Ba[c * r + i] * Bb[d * r + i] / result.eigenvalues[i];
+                  result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
+                }
+            }
+        }
+    }
+
+    std::string static_correction_summary(const ModalSpaceResult &result, const std::size_t n_loads)
+    {
+      const unsigned int nc = result.candidates.size();
+      std::ostringstream line;
+      line << "static correction: " << nc << " candidates (" << n_loads - nc << " shared vertices), "
+           << result.correction_seconds_per_candidate * 1e3 << " ms per load";
+      return line.str();
+    }
+
+    // Display field: modal vs full. The correction field d = full - modal is local; kept only where
+    // |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected field misses the
+    // dropped part.
+    // Area-weighted l2 error of the modal display field against full_field (3 per display vertex)
+    // with the first k modes, k = 1..r, relative to full_field: how the drawn field converges with r.
+    std::vector<double> display_error_by_mode_count(const ModalSpaceResult &result, const DisplaySurface &display,
+                                                    const std::vector<double> &full_field,
+                                                    const std::vector<double> &modal_coefficient)
+    {
+      const unsigned int  r = modal_coefficient.size();
+      std::vector<double> remainder = full_field, errors;
+      double              full_norm = 0.;
+      for (std::size_t row = 0; row < full_field.size(); ++row)
+        full_norm += display.vertex_area[row / 3] * full_field[row] * full_field[row];
+      for (unsigned int k = 0; k < r; ++k)
+        {
+          double error = 0.;
+          for (std::size_t row = 0; row < remainder.size(); ++row)
+            {
+              remainder[row] -= modal_coefficient[k] * result.display_modes[row * r + k];
+              error += display.vertex_area[row / 3] * remainder[row] * remainder[row];
+            }
+          errors.push_back(std::sqrt(error / full_norm));
+        }
+      return errors;
+    }
+
+    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const DisplaySurface &display,
+                               const double correction_field_tolerance, const std::array<double, 3> &uc_full,
+                               const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
+                               const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients)
+    {
+      const auto candidate_it = std::lower_bound(result.candidates.begin(), result.candidates.end(), vc.vertex);
+      Assert(candidate_it != result.candidates.end() && *candidate_it == vc.vertex, ExcInternalError());
+      const std::size_t candidate = candidate_it - result.candidates.begin();
+      vc.full_response = uc_full;
+      double full_norm = 0., modal_err = 0., corrected_err = 0.;
+      for (unsigned int c = 0; c < 3; ++c)
+        {
+          const double corrected = uc_modal[c] + result.candidate_compliance[9 * candidate + 3 * c + vc.direction];
+          full_norm += uc_full[c] * uc_full[c];
+          modal_err += std::pow(uc_modal[c] - uc_full[c], 2);
+          corrected_err += std::pow(corrected - uc_full[c], 2);
+        }
+      vc.contact_rel_error_modal     = std::sqrt(modal_err / full_norm);
+      vc.contact_rel_error_corrected = std::sqrt(corrected_err / full_norm);
+
+      const unsigned int  nv = display.n_vertices();
+      std::vector<double> error2(nv, 0.), full2(nv, 0.);
+      for (unsigned int v = 0; v < nv; ++v)
+        for (unsigned int c = 0; c < 3; ++c)
+          {
+            const double full  = display_full[3 * v + c];
+            const double modal = display_modal[3 * v + c];
+            full2[v] += full * full;
+            error2[v] += (modal - full) * (modal - full);
+          }
+      const double max_error = std::sqrt(*std::max_element(error2.begin(), error2.end()));
+      const double max_full  = std::sqrt(*std::max_element(full2.begin(), full2.end()));
+      const double keep      = correction_field_tolerance * max_error;
+      double l2_full = 0., l2_err = 0., l2_corr = 0.;
+      vc.correction_field_vertices = 0;
+      for (unsigned int v = 0; v < nv; ++v)
+        {
+          l2_full += full2[v] * display.vertex_area[v];
+          l2_err += error2[v] * display.vertex_area[v];
+          if (std::sqrt(error2[v]) >= keep)
+            ++vc.correction_field_vertices;
+          else
+            l2_corr += error2[v] * display.vertex_area[v];
+        }
+      vc.field_rel_error_modal     = std::sqrt(l2_err / l2_full);
+      vc.field_max_error_modal     = max_error / max_full;
+      vc.field_rel_error_corrected = std::sqrt(l2_corr / l2_full);
+      vc.field_rel_error_by_modes  = display_error_by_mode_count(result, display, display_full, modal_coefficients);
+    }
+
+    // The kernel's formula: u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
+    double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
+                             const std::array<std::array<double, 3>, 2> &full_responses)
+    {
+      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      const auto        &forces = two_contact_forces;
+      std::array<std::size_t, 2> index{};
+      for (unsigned int h = 0; h < 2; ++h)
+        index[h] = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertices[h]) -
+                   result.candidates.begin();
+      std::vector<double> modal_force(r, 0.); // sum_h B_h^T F_h
+      for (unsigned int h = 0; h < 2; ++h)
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int i = 0; i < r; ++i)
+            modal_force[i] += result.candidate_modes[(index[h] * 3 + c) * r + i] * forces[h][c];
+      double worst = 0.;
+      for (unsigned int h = 0; h < 2; ++h)
+        {
+          const auto &full  = full_responses[h];
+          double      error = 0., norm = 0.;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              double predicted = 0.;
+              for (unsigned int i = 0; i < r; ++i)
+                predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] / result.eigenvalues[i];
+              for (unsigned int g = 0; g < 2; ++g)
+                for (unsigned int d = 0; d < 3; ++d)
+                  predicted += result.cross_compliance[(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] * forces[g][d];
+              error += std::pow(predicted - full[c], 2);
+              norm += full[c] * full[c];
+            }
+          worst = std::max(worst, std::sqrt(error / norm));
+        }
+      return worst;
+    }
+
+    std::string validation_summary(const ModalSpaceResult &result)
+    {
+      double worst_modal = 0., worst_corrected = 0.;
+      for (const auto &vc : result.validation)
+        {
+          worst_modal     = std::max(worst_modal, vc.contact_rel_error_modal);
+          worst_corrected = std::max(worst_corrected, vc.contact_rel_error_corrected);
+        }
+      std::ostringstream line;
+      line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
+           << worst_modal << ", corrected up to " << worst_corrected;
+      return line.str();
+    }
+  } // namespace space_parts
 
   namespace
   {

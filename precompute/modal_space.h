@@ -8,6 +8,19 @@
 #include "scene_parameters.h"
 
 #include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/full_matrix.h>
+
+#include <functional>
+#include <memory>
 
 #include <array>
 #include <map>
@@ -110,4 +123,179 @@ namespace modal_haptics
                                        const SpaceTask       &task,
                                        dealii::TimerOutput   &timer,
                                        bool                   verbose);
+
+  // The steps a space takes whatever the linear algebra: used by the serial space (CHOLMOD,
+  // modal_space.cc) and the distributed one (Trilinos + MUMPS, distributed_space.cc), so that both
+  // compute the same quantities the same way.
+  namespace space_parts
+  {
+    using DofWeights = std::vector<std::pair<dealii::types::global_dof_index, double>>;
+
+    // W_v: the consistent nodal load of a unit patch traction, one sparse DoF list per direction.
+    using PatchLoad = std::array<DofWeights, 3>;
+
+    // Reads the space's mesh (geometry units -> m), refuses inverted or degenerate tets and fills
+    // the result's mesh fields.
+    void read_mesh(const SceneParameters &scene, const SpaceTask &task, dealii::Triangulation<3> &mesh,
+                   ModalSpaceResult &result);
+
+    // Homogeneous Dirichlet conditions on the clamp groups, checked against the whole (serial) mesh:
+    // a missing group or one without a face is a user error. The caller closes the constraints.
+    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task,
+                               const dealii::Triangulation<3> &whole_mesh, const dealii::Mapping<3> &mapping,
+                               const dealii::DoFHandler<3> &dof_handler,
+                               dealii::AffineConstraints<double> &constraints);
+
+    // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), accumulating the
+    // rigid-body mass moments of the cells it sees.
+    class CellAssembler
+    {
+    public:
+      CellAssembler(const MaterialParameters &material, unsigned int dofs_per_cell);
+      void assemble(const dealii::FEValues<3> &fe_values, dealii::FullMatrix<double> &cell_K,
+                    dealii::FullMatrix<double> &cell_M);
+      // Mass, centre of mass and inertia from the moments, summed over 'reduce' (identity when serial).
+      void set_mass_properties(ModalSpaceResult &result,
+                               const std::function<double(double)> &reduce = [](double x) { return x; }) const;
+
+    private:
+      const MaterialParameters                  material;
+      const double                              mu, lambda;
+      std::vector<dealii::SymmetricTensor<2, 3>> strain;
+      std::vector<double>                       divergence;
+      std::vector<dealii::Tensor<1, 3>>         value;
+      double                                    mass = 0.;
+      dealii::Tensor<1, 3>                      first_moment;
+      dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
+    };
+
+    // What a space is made of whatever the linear algebra: its inputs, its FE space, its result and
+    // the order of its phases, each timed twice (the program's TimerOutput table, and per space for
+    // the report).
+    class SpaceBase
+    {
+    public:
+      SpaceBase(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                dealii::TimerOutput &timer, bool verbose);
+      virtual ~SpaceBase() = default;
+      ModalSpaceResult run();
+
+    protected:
+      virtual void assemble() = 0; // mesh, DoFs, clamps, K and M
+      virtual void after_assembly() {}
+      virtual void solve_eigenproblem() = 0; // and mode selection
+      virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
+      virtual void compute_static_correction() = 0;
+      virtual void validate() = 0;
+      virtual void output_results() const = 0;
+      virtual void finish() {}
+      void log(const std::string &message) const;
+
+      const SceneParameters        &scene;
+      const DisplaySurface         &display;
+      const SpaceTask              &task;
+      dealii::TimerOutput          &timer;
+      const bool                    verbose;
+      const dealii::FESystem<3>     fe;
+      const dealii::MappingFE<3>    mapping;
+      const dealii::QGaussSimplex<3> quadrature;
+      ModalSpaceResult              result;
+    };
+
+    // K and M from the given DoF cells; returns the assembler with the cells' mass moments.
+    template <typename CellRange, typename MatrixType>
+    CellAssembler assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
+                                      const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
+                                      const CellRange &cells, const dealii::AffineConstraints<double> &constraints,
+                                      MatrixType &K, MatrixType &M)
+    {
+      dealii::FEValues<3> fe_values(mapping, fe, quadrature,
+                                    dealii::update_values | dealii::update_gradients |
+                                      dealii::update_quadrature_points | dealii::update_JxW_values);
+      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
+      dealii::FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
+      std::vector<dealii::types::global_dof_index> dof_indices(dofs_per_cell);
+      CellAssembler                                 assembler(scene.material, dofs_per_cell);
+      for (const auto &cell : cells)
+        {
+          fe_values.reinit(cell);
+          assembler.assemble(fe_values, cell_K, cell_M);
+          cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, K);
+          constraints.distribute_local_to_global(cell_M, dof_indices, M);
+        }
+      return assembler;
+    }
+
+    // Applies the cut-off rule to the ascending computed eigenvalues: fills the result's computed and
+    // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
+    std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
+                                           ModalSpaceResult &result);
+
+    // A point of the display surface located in a (whole, serial) mesh: the tet with the largest
+    // smallest barycentric coordinate among the nearest bounding boxes, so that a point slightly
+    // outside a coarse mesh's chordal facets is projected onto the closest cell.
+    struct LocatedPoint
+    {
+      dealii::Triangulation<3>::active_cell_iterator cell;
+      dealii::Point<3>                               unit;             // in the reference tet
+      double                                         distance_outside; // 0 inside, else the clipped barycentric
+    };
+    class PointLocator
+    {
+    public:
+      PointLocator(const dealii::Triangulation<3> &mesh, const dealii::Mapping<3> &mapping);
+      LocatedPoint locate(const meshing::Point3 &x) const;
+
+    private:
+      dealii::GridTools::Cache<3> cache;
+    };
+
+    // Appends factor * N_i(unit) for the nonzero shape functions of one displacement component of a cell.
+    void add_shape_values(const dealii::DoFHandler<3>::active_cell_iterator &cell, const dealii::Point<3> &unit,
+                          unsigned int component, double factor, DofWeights &out);
+
+    // W_v from the patch quadrature; dof_cell maps a located point to the DoF cell that evaluates it,
+    // or returns false when another process owns that cell (the point then adds nothing here).
+    PatchLoad make_patch_load(const DisplaySurface &display, unsigned int vertex, const PointLocator &locator,
+                              const std::function<bool(const LocatedPoint &, dealii::DoFHandler<3>::active_cell_iterator &)> &dof_cell);
+
+    // B_v Lambda^-1 B_v^T e_direction at a candidate.
+    std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,
+                                               unsigned int direction);
+
+    // The loads of the static correction, candidates first, then the shared vertices that are not
+    // candidates; sizes the result's candidate blocks and compliances (cross compliance if asked).
+    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                     ModalSpaceResult &result);
+
+    // Records what the solve K^-1 W_v e_d of load number 'load' (vertex v) gives: the full compliance
+    // at shared vertices, the candidate's residual compliance, and the cross compliance with every
+    // candidate. averaged(vertex, d) = W_vertex^T K^-1 W_v e_d. Needs the candidate blocks B.
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, unsigned int load,
+                                unsigned int load_vertex,
+                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged);
+    std::string static_correction_summary(const ModalSpaceResult &result, std::size_t n_loads);
+
+    // The validation errors of one case from the patch averages (uc) and the fields at the display
+    // vertices (3 nv each, component-fastest) of the full and the modal solution, the latter the sum
+    // of modal_coefficients[i] times mode i.
+    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const DisplaySurface &display,
+                               double correction_field_tolerance, const std::array<double, 3> &uc_full,
+                               const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
+                               const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients);
+
+    // The two-hand check: the first and last validated candidates pushed at once with 'forces'; the
+    // kernel's formula with the cross compliance against the full answers at both (patch averages).
+    constexpr std::array<std::array<double, 3>, 2> two_contact_forces = {{{{0., 0., 1.}}, {{0., 1., 0.}}}};
+    double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
+                             const std::array<std::array<double, 3>, 2> &full_responses);
+
+    // One summary line of the validation for the log.
+    std::string validation_summary(const ModalSpaceResult &result);
+
+    // VTU field names: mode i (0-based) with its frequency, and a validation case's error field.
+    std::string mode_field_name(unsigned int i, double frequency_hz);
+    std::string validation_field_name(const ValidationCase &vc);
+  } // namespace space_parts
 } // namespace modal_haptics

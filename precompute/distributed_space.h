@@ -1,0 +1,20 @@
+// One modal space computed by every process of an MPI communicator: a fully distributed mesh,
+// Trilinos matrices, MUMPS (Trilinos Amesos) for the shift-invert factorization and PARPACK for the
+// eigensolve. It runs the same phases as compute_modal_space (modal_space.h) and returns the same
+// ModalSpaceResult, complete on every process: what the serial exporters need is evaluated where a
+// process owns the cell and summed over the processes (docs/cluster.md says what that costs).
+#pragma once
+
+#include "modal_space.h"
+
+#include <deal.II/base/mpi.h>
+
+namespace modal_haptics
+{
+  ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
+                                                   const DisplaySurface  &display,
+                                                   const SpaceTask       &task,
+                                                   dealii::TimerOutput   &timer,
+                                                   bool                   verbose,
+                                                   MPI_Comm               comm);
+} // namespace modal_haptics

@@ -1,0 +1,132 @@
+#!/usr/bin/python3
+"""The distributed precompute gives the serial results (issue 7): the small scene run with
+`mpirun -np 1 ... --distributed` and `mpirun -np 2 ...`, and with the serial CHOLMOD path, on the
+same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reproducible).
+
+* eigenvalues: np = 1 vs np = 2 and distributed vs serial, relative 1e-9;
+* mode subspaces: largest principal angle between the kept modes at the mesh vertices <= 1e-7;
+* validation: every error the report gives equal to 6 significant digits (what the log prints), the
+  corrected contact error <= 1e-8 in every run;
+* a bad .prm and a bad clamp group under mpirun -np 2 exit non-zero with the message, no hang.
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SCENE = "small_block"
+VALIDATION_FIELDS = ["contact_rel_error_modal", "field_rel_error_modal", "field_max_error_modal",
+                     "field_rel_error_corrected", "correction_field_vertices", "energy_rel_error_modal"]
+
+
+def mpi_command(mpirun, n):
+    """mpirun with the flags this machine needs: root (CI containers) and fewer cores than processes."""
+    command = [mpirun, "-np", str(n)]
+    if (os.cpu_count() or 1) < n:
+        command.append("--oversubscribe")
+    return command
+
+
+def mpi_environment():
+    env = dict(os.environ)
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    # Waiting processes yield the core instead of spinning: the CI machine is shared.
+    env.setdefault("OMPI_MCA_mpi_yield_when_idle", "1")
+    return env
+
+
+def run(command, folder, meshes_from=None, timeout=300):
+    os.makedirs(folder, exist_ok=True)
+    if meshes_from:
+        for name in os.listdir(meshes_from):
+            if name.endswith((".msh", ".key")):
+                shutil.copy(os.path.join(meshes_from, name), folder)
+    prm = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
+    open(os.path.join(folder, "scene.prm"), "w").write(prm)
+    subprocess.run(command + [os.path.join(folder, "scene.prm"), "--output-dir", folder, "--quiet"],
+                   check=True, env=mpi_environment(), timeout=timeout)
+    report = json.load(open(os.path.join(folder, "report.json")))
+    with h5py.File(os.path.join(folder, SCENE + ".h5"), "r") as h5:
+        modes = {s["name"]: h5[f"spaces/{s['name']}/modes_at_vertices"][:] for s in report["spaces"]}
+    return report, modes
+
+
+def largest_principal_angle(a, b):
+    """Between the column spaces of a and b: sin = ||(I - Qa Qa^T) Qb||_2 (accurate for tiny angles)."""
+    qa, _ = np.linalg.qr(a)
+    qb, _ = np.linalg.qr(b)
+    return float(np.arcsin(min(1.0, np.linalg.norm(qb - qa @ (qa.T @ qb), 2))))
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--mpirun", default="mpirun")
+    parser.add_argument("--workdir", required=True)
+    args = parser.parse_args()
+    shutil.rmtree(args.workdir, ignore_errors=True)
+    failures = []
+
+    def expect(condition, what):
+        print(("ok      " if condition else "FAILED  ") + what, flush=True)
+        if not condition:
+            failures.append(what)
+
+    np1_dir = os.path.join(args.workdir, "np1")
+    np1, np1_modes = run(mpi_command(args.mpirun, 1) + [args.binary, "--distributed"], np1_dir)
+    np2, np2_modes = run(mpi_command(args.mpirun, 2) + [args.binary], os.path.join(args.workdir, "np2"), np1_dir)
+    serial, serial_modes = run([args.binary], os.path.join(args.workdir, "serial"), np1_dir)
+    for name in [SCENE + ".h5", SCENE + ".mrt", "report.json", "modes_left.vtu"]:
+        expect(os.path.getsize(os.path.join(args.workdir, "np2", name)) > 0, f"np = 2 wrote {name}")
+
+    for label, other, other_modes in [("np=2", np2, np2_modes), ("serial", serial, serial_modes)]:
+        for ours, theirs in zip(np1["spaces"], other["spaces"]):
+            name = ours["name"]
+            a = np.array(ours["computed_frequencies_hz"]) ** 2
+            b = np.array(theirs["computed_frequencies_hz"]) ** 2
+            difference = float(np.max(np.abs(a - b) / b))
+            expect(difference <= 1e-9, f"{name}: eigenvalues np=1 vs {label} agree to {difference:.1e} <= 1e-9")
+            r = np1_modes[name].shape[0]
+            angle = largest_principal_angle(np1_modes[name].reshape(r, -1).T, other_modes[name].reshape(r, -1).T)
+            expect(angle <= 1e-7, f"{name}: largest principal angle np=1 vs {label} {angle:.1e} <= 1e-7")
+            expect(len(ours["validation"]) == len(theirs["validation"]) >= 3, f"{name}: same validation cases")
+            for x, y in zip(ours["validation"], theirs["validation"]):
+                case = f"{name} vertex {x['vertex']} {x['direction']}"
+                shown = [(f, f"{x[f]:.6g}", f"{y[f]:.6g}") for f in VALIDATION_FIELDS] + \
+                        [(f"full response {c}", f"{p:.6g}", f"{q:.6g}") for c, (p, q) in
+                         enumerate(zip(x["full_contact_response_m_per_n"], y["full_contact_response_m_per_n"]))]
+                differing = [f"{f}: {p} vs {q}" for f, p, q in shown if p != q]
+                expect(not differing and (x["vertex"], x["direction"]) == (y["vertex"], y["direction"]),
+                       f"{case}: validation np=1 vs {label} equal to 6 digits {differing or ''}")
+                expect(max(x["contact_rel_error_corrected"], y["contact_rel_error_corrected"]) <= 1e-8,
+                       f"{case}: corrected contact error {y['contact_rel_error_corrected']:.1e} <= 1e-8 ({label})")
+
+    # Errors under mpirun: a parse error (every process) and a run-time error (inside the space).
+    bad_dir = os.path.join(args.workdir, "bad")
+    os.makedirs(bad_dir, exist_ok=True)
+    base = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
+    for case, extra, word in [("unknown parameter", "subsection Material\n  set Colour = red\nend\n", "Colour"),
+                              ("missing clamp group", "subsection Geometry\n  set Clamp groups = bolts\nend\n", "bolts")]:
+        prm = os.path.join(bad_dir, case.replace(" ", "_") + ".prm")
+        open(prm, "w").write(base + extra)
+        try:
+            done = subprocess.run(mpi_command(args.mpirun, 2) + [args.binary, prm, "--output-dir", bad_dir, "--quiet"],
+                                  capture_output=True, text=True, env=mpi_environment(), timeout=120)
+            expect(done.returncode != 0 and word in done.stderr,
+                   f"{case} under mpirun -np 2: exit {done.returncode}, message names '{word}'")
+        except subprocess.TimeoutExpired:
+            expect(False, f"{case} under mpirun -np 2: no hang")
+
+    print(f"{0 if failures else 1} passed, {1 if failures else 0} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
