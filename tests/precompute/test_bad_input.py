@@ -62,6 +62,8 @@ CASES = [
     ("E <= 0", scene_with(section("Material", "set Young's modulus = 0")), ["Young's modulus"]),
     ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
     ("part with no clamp", scene_with(section("Geometry", "set Clamp groups =")), ["free-floating"]),
+    ("eigensolver that cannot converge", scene_with(section("Modes", "set Tolerance = 1e-16")),
+     ["did not converge", "of 8 modes", "Tolerance"]),
     ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
     ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["subsection", "missing_subsection_end.prm"]),
 ]
