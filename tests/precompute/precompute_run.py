@@ -6,6 +6,8 @@ import os
 import shutil
 import subprocess
 
+import numpy as np
+
 
 def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
     """Returns (report.json as a dict, what the program wrote to stderr); raises if it fails."""
@@ -28,3 +30,10 @@ def binary_and_fresh_workdir():
     shutil.rmtree(args.workdir, ignore_errors=True)
     os.makedirs(args.workdir)
     return args
+
+
+def largest_principal_angle(a, b):
+    """Between the column spaces of a and b: sin = ||(I - Qa Qa^T) Qb||_2 (accurate for tiny angles)."""
+    qa, _ = np.linalg.qr(a)
+    qb, _ = np.linalg.qr(b)
+    return float(np.arcsin(min(1.0, np.linalg.norm(qb - qa @ (qa.T @ qb), 2))))

@@ -18,6 +18,7 @@ import sys
 
 import h5py
 import numpy as np
+from precompute_run import largest_principal_angle
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = "small_block"
@@ -56,13 +57,6 @@ def run(command, folder, meshes_from=None, timeout=300):
     with h5py.File(os.path.join(folder, SCENE + ".h5"), "r") as h5:
         modes = {s["name"]: h5[f"spaces/{s['name']}/modes_at_vertices"][:] for s in report["spaces"]}
     return report, modes
-
-
-def largest_principal_angle(a, b):
-    """Between the column spaces of a and b: sin = ||(I - Qa Qa^T) Qb||_2 (accurate for tiny angles)."""
-    qa, _ = np.linalg.qr(a)
-    qb, _ = np.linalg.qr(b)
-    return float(np.arcsin(min(1.0, np.linalg.norm(qb - qa @ (qa.T @ qb), 2))))
 
 
 def main():
