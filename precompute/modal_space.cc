@@ -753,6 +753,13 @@ namespace modal_haptics
           result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigenvalues[i], 0.))));
           kept.push_back(i);
         }
+      // A space without modes cannot move: the user asked for something else.
+      AssertThrow(!kept.empty(),
+                  ExcMessage("Space '" + result.name + "': the cut-off " + std::to_string(result.cut_off_hz) +
+                             " Hz ('Modes/Cut-off rule') lies below its first frequency " +
+                             std::to_string(result.computed_frequencies_hz.front()) +
+                             " Hz, so no mode would be kept. Choose another rule or rate, or set "
+                             "'Modes/Minimum number of modes' to at least 1."));
       return kept;
     }
 

@@ -61,6 +61,16 @@ CASES = [
     ("clamp group that does not exist", scene_with(section("Geometry", "set Clamp groups = bolts")), ["bolts"]),
     ("E <= 0", scene_with(section("Material", "set Young's modulus = 0")), ["Young's modulus"]),
     ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
+    ("nu <= -1", scene_with(section("Material", "set Poisson's ratio = -1")), ["Poisson's ratio"]),
+    ("density <= 0", scene_with(section("Material", "set Density = 0")), ["Density"]),
+    ("r = 0", scene_with(section("Modes", "set Maximum number of modes = 0", "set Minimum number of modes = 0")),
+     ["Maximum number of modes"]),
+    ("cut-off below the first frequency",
+     scene_with(section("Modes", "set Cut-off rule = display", "set Minimum number of modes = 0")), ["Cut-off"]),
+    ("VOI outside the part", scene_with(section("Scenario 1", "set Name = far_away", "set Box lower corner = 500, 500, 500",
+                                                "set Box upper corner = 510, 510, 510", "set Fine size = 1")),
+     ["far_away"]),
+    ("STEP that gmsh cannot read", scene_with(section("Geometry", "set Source = broken.step")), ["broken.step"]),
     ("part with no clamp", scene_with(section("Geometry", "set Clamp groups =")), ["free-floating"]),
     ("eigensolver that cannot converge", scene_with(section("Modes", "set Tolerance = 1e-16")),
      ["did not converge", "of 8 modes", "Tolerance"]),
@@ -74,6 +84,8 @@ def main():
     shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
     with open(os.path.join(args.workdir, "inverted.msh"), "w") as f:
         f.write(INVERTED_MSH)
+    with open(os.path.join(args.workdir, "broken.step"), "w") as f:
+        f.write("ISO-10303-21;\nHEADER;\nthis is not a part\nEND-ISO-10303-21;\n")
     results = os.path.join(args.workdir, "results")
     os.makedirs(results)
     earlier = {"report.json": '{"earlier": true}\n', "cantilever.mrt": "earlier basis\n"}
