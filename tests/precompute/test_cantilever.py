@@ -17,16 +17,16 @@ The square section has two equal bending planes, so the modes come in pairs: mod
 bending frequency, modes 3-4 the second. Both must be within 1 %, and so must the compliance felt at
 the centre of the end face (patch radius 4 mm) in y and z.
 """
-import argparse
 import json
 import math
 import os
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 import scipy.linalg
+
+from precompute_run import binary_and_fresh_workdir
 
 E, NU, RHO = 2e11, 0.3, 7850.0
 L, A_SIDE = 0.2, 0.01
@@ -75,12 +75,8 @@ def check(name, value, reference, tolerance):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
+    args = binary_and_fresh_workdir()
     here = os.path.dirname(os.path.abspath(__file__))
-    shutil.rmtree(args.workdir, ignore_errors=True)
     subprocess.run([args.binary, os.path.join(here, "cantilever.prm"), "--output-dir", args.workdir], check=True)
     with open(os.path.join(args.workdir, "report.json")) as f:
         report = json.load(f)

@@ -10,13 +10,12 @@ nu -> 0.5 (volumetric locking), so the P1 beam turns far too stiff. Asserted:
 * P1 is worse than P2 at every nu, its error grows with nu, and at nu = 0.499 it is above 20 %
   (the figure is printed: it is what docs/accuracy.md quotes);
 * modal-precompute warns when P1 is used at nu >= 0.45, and not for P2."""
-import argparse
 import os
 import shutil
 import sys
 
 import test_cantilever as cantilever
-from precompute_run import run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 POISSON_RATIOS = [0.45, 0.49, 0.499]
@@ -64,11 +63,7 @@ def first_frequency(binary, folder, prm_text):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
+    args = binary_and_fresh_workdir()
 
     # One mesh for all runs, so that P1 and P2 differ by the element only.
     run_precompute(args.binary, os.path.join(args.workdir, "mesh"), scene(os.path.join(HERE, "cantilever.geo"), 2, 0.3))

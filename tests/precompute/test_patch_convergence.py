@@ -6,12 +6,10 @@ A 40 x 40 x 10 mm block clamped at its bottom is pressed in z at the centre of i
 is a ball of radius 6 mm around that point, meshed with 2, 1 and 0.5 mm. For each patch radius the
 full static FE compliance u_c,z / F_z is read from report.json (validation at that point), and every
 run's corrected contact error must be <= 1e-8 (rho = 0 and rho > 0)."""
-import argparse
 import os
-import shutil
 import sys
 
-from precompute_run import run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FINE_SIZES = [2.0, 1.0, 0.5]
@@ -71,11 +69,7 @@ def felt_compliance(binary, workdir, fine_size, patch_radius):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
+    args = binary_and_fresh_workdir()
     ok = True
     last_change = {}
     for rho in [1.5, 0.0]:

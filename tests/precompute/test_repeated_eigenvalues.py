@@ -12,7 +12,6 @@ exists; the frequencies agree to 1e-9; every cluster of nearly equal frequencies
 < 1e-3) spans the same subspace in both runs (largest principal angle <= 1e-6), whatever the single
 vectors do (their largest difference is printed); the static correction stays exact (<= 1e-8) and
 the display field's modal-only error is the same in both runs (it depends on the subspace only)."""
-import argparse
 import os
 import shutil
 import sys
@@ -20,7 +19,7 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import largest_principal_angle, run_precompute
+from precompute_run import binary_and_fresh_workdir, largest_principal_angle, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CLUSTER_GAP = 1e-3
@@ -73,11 +72,7 @@ def clusters(frequencies):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
+    args = binary_and_fresh_workdir()
     krylov_folder, arpack_folder = (os.path.join(args.workdir, name) for name in ("block-krylov", "arpack"))
     krylov, krylov_modes = solve(args.binary, krylov_folder, "block-krylov")
     # The same mesh for ARPACK: the mesh cache is reused when its inputs did not change.

@@ -10,7 +10,6 @@
 * transfer: the normal equations of a space onto itself give the identity; a field that lies in
   both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error.
 """
-import argparse
 import json
 import os
 import shutil
@@ -19,6 +18,8 @@ import sys
 
 import h5py
 import numpy as np
+
+from precompute_run import binary_and_fresh_workdir
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -29,11 +30,7 @@ def transfer(phi_to, phi_from, area):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
+    args = binary_and_fresh_workdir()
     subprocess.run([args.binary, os.path.join(HERE, "small_scene.prm"), "--output-dir", args.workdir], check=True)
     report = json.load(open(os.path.join(args.workdir, "report.json")))
     failures = []

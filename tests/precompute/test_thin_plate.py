@@ -5,13 +5,11 @@ f = lambda^2 / (2 pi a^2) sqrt(D / (rho h)), lambda^2 = 3.4917 for the first ben
 for the first torsion mode). Asserted: the shift-invert eigensolve converges on the thin, strongly
 anisotropic mesh, its modes are M-orthonormal to 1e-8 with small residuals, and the two frequencies
 lie within 5 % of the plate theory (printed: docs/accuracy.md quotes them)."""
-import argparse
 import math
 import os
-import shutil
 import sys
 
-from precompute_run import run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU, RHO = 2e11, 0.3, 7850.
@@ -56,11 +54,7 @@ def plate_frequency(lambda2):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--binary", required=True)
-    parser.add_argument("--workdir", required=True)
-    args = parser.parse_args()
-    shutil.rmtree(args.workdir, ignore_errors=True)
+    args = binary_and_fresh_workdir()
     report, _ = run_precompute(args.binary, args.workdir, SCENE)
     space = report["spaces"][0]
     frequencies = space["frequencies_hz"]
