@@ -162,6 +162,9 @@ namespace modal_haptics
         if (cell->is_locally_owned())
           owned_cells[cell->id().get_coarse_cell_id()] = cell;
 
+      AssertThrow(!scene.free_floating(),
+                  ExcMessage("A free-floating part (no 'Geometry/Clamp groups') runs on the serial path only: "
+                             "run modal-precompute without mpirun or --distributed."));
       constraints.clear();
       constraints.reinit(relevant_dofs);
       space_parts::add_clamp_constraints(scene, task, whole_mesh, mapping, dof_handler, constraints);

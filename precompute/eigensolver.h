@@ -49,10 +49,12 @@ namespace modal_haptics
     double max_relative_residual  = 0.; // max ||K phi - lambda M phi|| / ||lambda M phi||
   };
 
-  // For deal.II's serial and Trilinos' distributed matrices and vectors alike.
+  // For deal.II's serial and Trilinos' distributed matrices and vectors alike. A residual is relative
+  // to max(|lambda|, lambda_floor) ||M phi||: rigid-body modes (lambda = 0) are measured against the
+  // first elastic eigenvalue.
   template <typename MatrixType, typename VectorType>
   EigenSelfCheck check_eigenpairs(const MatrixType &K, const MatrixType &M, const std::vector<double> &eigenvalues,
-                                  const std::vector<VectorType> &phi)
+                                  const std::vector<VectorType> &phi, const double lambda_floor = 0.)
   {
     EigenSelfCheck          check;
     const unsigned int      r = phi.size();
@@ -65,7 +67,7 @@ namespace modal_haptics
         K_phi.reinit(phi[i]);
         K.vmult(K_phi, phi[i]);
         const double lambda = eigenvalues[i];
-        const double scale  = std::abs(lambda) * M_phi[i].l2_norm();
+        const double scale  = std::max(std::abs(lambda), lambda_floor) * M_phi[i].l2_norm();
         K_phi.add(-lambda, M_phi[i]);
         check.max_relative_residual = std::max(check.max_relative_residual, K_phi.l2_norm() / (scale > 0. ? scale : 1.));
       }

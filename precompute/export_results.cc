@@ -479,6 +479,11 @@ namespace modal_haptics
       for (const auto &dm : s.dropped_modes)
         json.begin_object().value("index", dm.index).value("frequency_hz", dm.frequency).value("reason", dm.reason).end_object();
       json.end_array();
+      json.begin_object("rigid_body_modes")
+        .value("count", s.n_rigid_body_modes)
+        .array("computed_frequencies_hz", s.rigid_computed_frequencies_hz)
+        .value("subspace_distance", s.rigid_subspace_sine)
+        .end_object();
       json.value("orthonormality_error", s.self_check.orthonormality_error)
         .value("max_relative_residual", s.self_check.max_relative_residual)
         .value("spurious_eigenvalues",
@@ -500,6 +505,7 @@ namespace modal_haptics
         .value("n_candidates", nc)
         .value("cross_compliance", !s.cross_compliance.empty())
         .value("seconds_per_candidate", s.correction_seconds_per_candidate)
+        .value("refinement_steps", s.static_solve_iterations)
         .value("bytes_per_candidate", bytes_per_candidate)
         .end_object();
       json.value("mass_kg", s.mass)

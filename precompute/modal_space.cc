@@ -33,6 +33,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <limits>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -100,6 +101,11 @@ namespace modal_haptics
       void setup_system();
       void assemble_system();
       void select_modes();
+      void identify_rigid_body_modes();
+      std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
+      void relieve_load(double *load) const;
+      void remove_rigid_motion(double *field) const;
+      void solve_static(double *columns, unsigned int n_rhs);
       void interpolate_on_display_surface();
       void compute_participation_factors();
       void validate_two_contacts();
@@ -120,8 +126,11 @@ namespace modal_haptics
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
       SparseMatrix<double>      stiffness_matrix, mass_matrix;
-      std::unique_ptr<Factorization> factorization;
+      std::unique_ptr<Factorization> factorization; // of K - shift M
+      double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
+      // A free-floating part: the rigid-body motions, M-orthonormal, and M times each.
+      std::vector<Vector<double>> rigid_modes, mass_times_rigid;
       DisplayInterpolation      interpolation;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
       // W_v of the loaded vertices (candidates, shared vertices).
@@ -183,7 +192,7 @@ namespace modal_haptics
 
     void ModalSpace::solve_eigenproblem()
     {
-      const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       log("factorizing K (" + std::string(scene.modes.eigen_operator == EigenOperator::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
       factorization = scene.modes.eigen_operator == EigenOperator::cholmod ?
                         make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift) :
@@ -204,7 +213,11 @@ namespace modal_haptics
                                                              "ARPACK dsaupd mode 3 (shift-invert)";
       result.n_operator_applications = eigen.n_operator_applications;
       result.arpack_seconds          = eigen.arpack_seconds;
-      result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen.eigenvalues, eigen.eigenvectors);
+      identify_rigid_body_modes();
+      // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first
+      // elastic eigenvalue.
+      result.self_check = check_eigenpairs(stiffness_matrix, mass_matrix, eigen.eigenvalues, eigen.eigenvectors,
+                                           eigen.eigenvalues[result.n_rigid_body_modes]);
       std::ostringstream check;
       check << eigen.eigenvalues.size() << " modes in " << eigen.n_operator_applications << " solves, "
             << eigen.arpack_seconds << " s; f1 = " << std::sqrt(std::max(eigen.eigenvalues.front(), 0.)) / two_pi
@@ -224,6 +237,144 @@ namespace modal_haptics
       eigen.eigenvectors = std::move(kept);
       log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
           std::to_string(result.dropped_modes.size()));
+    }
+
+    // A free part's six lowest computed modes must span its rigid-body motions (more zero-energy modes
+    // mean a mesh in pieces or a mechanism). They are then replaced by the exact motions (lambda = 0,
+    // M-orthonormal) and the elastic modes are made exactly M-orthogonal to them, so that no rigid
+    // drift hides in an elastic mode and the kernel's omega = 0 modes are pure rigid motion.
+    void ModalSpace::identify_rigid_body_modes()
+    {
+      if (!scene.free_floating())
+        return;
+      const Point<3> centre(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
+      rigid_modes.clear();
+      mass_times_rigid.clear();
+      for (auto &motion : rigid_body_motions(centre))
+        {
+          for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt twice in the M inner product
+            remove_rigid_motion(motion.begin());
+          motion /= std::sqrt(mass_matrix.matrix_norm_square(motion));
+          Vector<double> M_motion(motion.size());
+          mass_matrix.vmult(M_motion, motion);
+          rigid_modes.push_back(std::move(motion));
+          mass_times_rigid.push_back(std::move(M_motion));
+        }
+
+      auto &lambda = eigen.eigenvalues;
+      auto &phi    = eigen.eigenvectors;
+      const unsigned int n_rigid = rigid_modes.size();
+      double outside = 0., largest_rigid = 0.;
+      std::ostringstream found;
+      for (unsigned int i = 0; i < n_rigid; ++i)
+        {
+          Vector<double> elastic_part = phi[i];
+          remove_rigid_motion(elastic_part.begin());
+          outside += mass_matrix.matrix_norm_square(elastic_part);
+          largest_rigid = std::max(largest_rigid, std::abs(lambda[i]));
+          result.rigid_computed_frequencies_hz.push_back(std::copysign(std::sqrt(std::abs(lambda[i])), lambda[i]) / two_pi);
+          found << ' ' << result.rigid_computed_frequencies_hz.back();
+        }
+      result.rigid_subspace_sine = std::sqrt(outside);
+      const double first_elastic_hz = std::sqrt(std::max(lambda[n_rigid], 0.)) / two_pi;
+      AssertThrow(result.rigid_subspace_sine < 1e-6 && largest_rigid < 1e-6 * lambda[n_rigid],
+                  ExcMessage("Space '" + task.name + "' is free-floating, but its six lowest modes (" + found.str() +
+                             " Hz; the seventh at " + std::to_string(first_elastic_hz) + " Hz) are not its rigid-body "
+                             "motions (M-distance " + std::to_string(result.rigid_subspace_sine) + "). A mesh in "
+                             "several pieces or a mechanism has more zero-energy modes: check the geometry, or clamp "
+                             "the part ('Geometry/Clamp groups')."));
+      for (unsigned int i = 0; i < phi.size(); ++i)
+        if (i < n_rigid)
+          phi[i] = rigid_modes[i], lambda[i] = 0.;
+        else
+          {
+            remove_rigid_motion(phi[i].begin());
+            phi[i] /= std::sqrt(mass_matrix.matrix_norm_square(phi[i]));
+          }
+      result.n_rigid_body_modes = n_rigid;
+      std::ostringstream line;
+      line << "free-floating: the six lowest modes are rigid-body motions (computed" << found.str()
+           << " Hz, M-distance from the exact rigid span " << result.rigid_subspace_sine
+           << "), replaced by the exact motions at 0 Hz; first elastic mode " << first_elastic_hz << " Hz";
+      log(line.str());
+    }
+
+    // x -= sum_k to_k (from_k . x): the two projections below, which are each other's transposes.
+    void subtract_components(double *x, const std::size_t n, const std::vector<Vector<double>> &from,
+                             const std::vector<Vector<double>> &to)
+    {
+      for (unsigned int k = 0; k < from.size(); ++k)
+        {
+          const double share = std::inner_product(x, x + n, from[k].begin(), 0.);
+          for (std::size_t j = 0; j < n; ++j)
+            x[j] -= share * to[k][j];
+        }
+    }
+
+    // Inertia relief: the load's resultant force and moment accelerate the free part (load M R R^T f),
+    // what remains, f - M R R^T f, is in equilibrium and deforms it.
+    void ModalSpace::relieve_load(double *load) const
+    {
+      subtract_components(load, dof_handler.n_dofs(), rigid_modes, mass_times_rigid);
+    }
+
+    // The field's component M-orthogonal to the rigid-body motions found so far.
+    void ModalSpace::remove_rigid_motion(double *field) const
+    {
+      subtract_components(field, dof_handler.n_dofs(), mass_times_rigid, rigid_modes);
+    }
+
+    // K u = f in place for n_rhs columns, with the factorization of A = K - shift M. Without a shift
+    // that is one solve. With one, the solve is refined, u += A^-1 (f - K u), which shrinks each
+    // elastic mode's error by |shift| / |lambda - shift| per step. A free part's loads are relieved
+    // first and its solutions kept M-orthogonal to the rigid-body motions: the inertia-relief answer.
+    void ModalSpace::solve_static(double *columns, const unsigned int n_rhs)
+    {
+      const std::size_t n = dof_handler.n_dofs();
+      for (unsigned int b = 0; b < n_rhs; ++b)
+        relieve_load(columns + b * n);
+      if (shift == 0.)
+        {
+          factorization->solve_block(columns, n_rhs);
+          return;
+        }
+      const std::vector<double> load(columns, columns + n * n_rhs);
+      std::vector<double>       correction(load);
+      std::fill(columns, columns + n * n_rhs, 0.);
+      Vector<double> u(n), K_u(n);
+      double         previous = std::numeric_limits<double>::infinity();
+      for (unsigned int step = 1;; ++step)
+        {
+          factorization->solve_block(correction.data(), n_rhs);
+          double worst = 0.;
+          for (unsigned int b = 0; b < n_rhs; ++b)
+            {
+              double *x = columns + b * n, *residual = &correction[b * n];
+              const double *f = &load[b * n];
+              for (std::size_t j = 0; j < n; ++j)
+                x[j] += residual[j];
+              remove_rigid_motion(x);
+              std::copy(x, x + n, u.begin());
+              stiffness_matrix.vmult(K_u, u);
+              double residual_norm = 0., load_norm = 0.;
+              for (std::size_t j = 0; j < n; ++j)
+                {
+                  residual[j] = f[j] - K_u[j];
+                  residual_norm += residual[j] * residual[j];
+                  load_norm += f[j] * f[j];
+                }
+              worst = std::max(worst, load_norm > 0. ? std::sqrt(residual_norm / load_norm) : 0.);
+            }
+          result.static_solve_iterations = std::max(result.static_solve_iterations, step);
+          if (worst <= 1e-12 || (worst >= 0.5 * previous && worst <= 1e-9))
+            return; // converged, or at the rounding floor
+          AssertThrow(worst < previous && step < 200,
+                      ExcMessage("Space '" + task.name + "': the static solves do not converge with 'Modes/Shift' = " +
+                                 std::to_string(scene.modes.shift) + " Hz (relative residual " + std::to_string(worst) +
+                                 " after " + std::to_string(step) + " refinements): choose a shift of smaller magnitude, "
+                                 "well below the first elastic frequency."));
+          previous = worst;
+        }
     }
 
     const space_parts::PointLocator &ModalSpace::locator() const
@@ -299,12 +450,26 @@ namespace modal_haptics
     // frame acceleration drives each mode.
     void ModalSpace::compute_participation_factors()
     {
-      std::vector<Point<3>> support(dof_handler.n_dofs());
-      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
       const Point<3> c(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
       const unsigned int r = eigen.eigenvectors.size();
       result.participation.assign(std::size_t(r) * 6, 0.);
-      Vector<double> rigid(dof_handler.n_dofs()), M_rigid(dof_handler.n_dofs());
+      Vector<double> M_rigid(dof_handler.n_dofs());
+      const auto     motions = rigid_body_motions(c);
+      for (unsigned int k = 0; k < 6; ++k)
+        {
+          mass_matrix.vmult(M_rigid, motions[k]);
+          for (unsigned int i = 0; i < r; ++i)
+            result.participation[std::size_t(i) * 6 + k] = eigen.eigenvectors[i] * M_rigid;
+        }
+    }
+
+    // Translations along x, y, z, then rotations about the axes through 'centre', as DoF fields: the
+    // FE space holds them exactly (they are linear). Clamped DoFs keep their motion: M's clamped rows
+    // are zero, so they add nothing to M-products.
+    std::array<Vector<double>, 6> ModalSpace::rigid_body_motions(const Point<3> &centre) const
+    {
+      std::vector<Point<3>> support(dof_handler.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
       std::vector<unsigned int>            component(dof_handler.n_dofs());
       std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
       for (const auto &cell : dof_handler.active_cell_iterators())
@@ -313,26 +478,25 @@ namespace modal_haptics
           for (unsigned int i = 0; i < dofs.size(); ++i)
             component[dofs[i]] = fe.system_to_component_index(i).first;
         }
+      std::array<Vector<double>, 6> motions;
       for (unsigned int k = 0; k < 6; ++k)
         {
+          motions[k].reinit(dof_handler.n_dofs());
           for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
             {
-              const Tensor<1, 3> x = support[i] - c;
-              Tensor<1, 3>       u;
+              Tensor<1, 3> u;
               if (k < 3)
                 u[k] = 1.;
               else
                 {
                   Tensor<1, 3> axis;
                   axis[k - 3] = 1.;
-                  u = cross_product_3d(axis, x);
+                  u = cross_product_3d(axis, support[i] - centre);
                 }
-              rigid[i] = u[component[i]];
+              motions[k][i] = u[component[i]];
             }
-          mass_matrix.vmult(M_rigid, rigid);
-          for (unsigned int i = 0; i < r; ++i)
-            result.participation[std::size_t(i) * 6 + k] = eigen.eigenvectors[i] * M_rigid;
         }
+      return motions;
     }
 
     void ModalSpace::add_patch_load(const unsigned int vertex, double *three_columns) const
@@ -356,7 +520,8 @@ namespace modal_haptics
 
     // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
     // solves K^-1 W_v reuse the eigensolve's factorization, a block of candidates at a time; the
-    // cross terms W_a^T K^-1 W_b are read off the same block.
+    // cross terms W_a^T K^-1 W_b are read off the same block. For a free part K^-1 is the
+    // inertia-relief flexibility and Lambda^-1 leaves out the rigid-body modes (static_gain).
     void ModalSpace::compute_static_correction()
     {
       const unsigned int r     = result.eigenvalues.size();
@@ -383,7 +548,7 @@ namespace modal_haptics
           X.assign(3 * count * n, 0.);
           for (unsigned int b = 0; b < count; ++b)
             add_patch_load(loads[first + b], &X[3 * b * n]);
-          factorization->solve_block(X.data(), 3 * count);
+          solve_static(X.data(), 3 * count);
 
           for (unsigned int b = 0; b < count; ++b)
             space_parts::record_static_response(result, task, first + b, loads[first + b],
@@ -419,8 +584,9 @@ namespace modal_haptics
               vc.vertex    = vertex;
               vc.direction = direction;
               std::copy(load.begin() + direction * n, load.begin() + (direction + 1) * n, f.begin());
+              relieve_load(f.begin()); // a free part: the equilibrated share of the load
               u = f;
-              factorization->solve_block(u.data(), 1);
+              solve_static(u.data(), 1);
               stiffness_matrix.vmult(residual, u);
               residual -= f;
               vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
@@ -429,7 +595,7 @@ namespace modal_haptics
               u_modal = 0.;
               for (unsigned int i = 0; i < r; ++i)
                 {
-                  modal_coefficients[i] = (eigen.eigenvectors[i] * f) / result.eigenvalues[i];
+                  modal_coefficients[i] = (eigen.eigenvectors[i] * f) * static_gain(result.eigenvalues[i]);
                   u_modal.add(modal_coefficients[i], eigen.eigenvectors[i]);
                 }
 
@@ -506,7 +672,7 @@ namespace modal_haptics
             for (std::size_t i = 0; i < n; ++i)
               f[i] += space_parts::two_contact_forces[h][d] * load[d * n + i];
         }
-      factorization->solve_block(f.data(), 1);
+      solve_static(f.data(), 1);
       result.two_contact_rel_error_corrected = space_parts::two_contact_error(
         result, vertices, {{patch_average(vertices[0], f.data()), patch_average(vertices[1], f.data())}});
     }
@@ -633,14 +799,11 @@ namespace modal_haptics
     }
 
     // A group that is missing from the mesh, or present but with no face, is a user error: silently
-    // clamping nothing would give a free-floating part.
+    // clamping nothing would give a free-floating part. No group at all is a free-floating part.
     void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Triangulation<3> &whole_mesh,
                                const Mapping<3> &mapping, const DoFHandler<3> &dof_handler,
                                AffineConstraints<double> &constraints)
     {
-      AssertThrow(!scene.clamp_groups.empty(),
-                  ExcMessage("The part is not clamped ('Geometry/Clamp groups' is empty): a free-floating part "
-                             "needs the free-floating option, which is not available yet."));
       std::set<types::boundary_id> present_ids;
       for (const auto &face : whole_mesh.active_face_iterators())
         if (face->at_boundary())
@@ -845,7 +1008,7 @@ namespace modal_haptics
       std::array<double, 3> u{};
       for (unsigned int i = 0; i < r; ++i)
         {
-          const double q = B[direction * r + i] / result.eigenvalues[i];
+          const double q = B[direction * r + i] * static_gain(result.eigenvalues[i]);
           for (unsigned int c = 0; c < 3; ++c)
             u[c] += B[c * r + i] * q;
         }
@@ -906,7 +1069,7 @@ namespace modal_haptics
                 {
                   double modal = 0.;
                   for (unsigned int i = 0; i < r; ++i)
-                    modal += Ba[c * r + i] * Bb[d * r + i] / result.eigenvalues[i];
+                    modal += Ba[c * r + i] * Bb[d * r + i] * static_gain(result.eigenvalues[i]);
                   result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
                 }
             }
@@ -1023,7 +1186,7 @@ namespace modal_haptics
             {
               double predicted = 0.;
               for (unsigned int i = 0; i < r; ++i)
-                predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] / result.eigenvalues[i];
+                predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] * static_gain(result.eigenvalues[i]);
               for (unsigned int g = 0; g < 2; ++g)
                 for (unsigned int d = 0; d < 3; ++d)
                   predicted += result.cross_compliance[(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] * forces[g][d];
@@ -1060,7 +1223,7 @@ namespace modal_haptics
       for (std::size_t p = 0; p < rows.size(); ++p)
         for (std::size_t q = 0; q < rows.size(); ++q)
           for (unsigned int i = r_kept; i < r; ++i)
-            target[p * rows.size() + q] += B[rows[p] * r + i] * B[rows[q] * r + i] / eigenvalues[i];
+            target[p * rows.size() + q] += B[rows[p] * r + i] * B[rows[q] * r + i] * static_gain(eigenvalues[i]);
     }
 
     // Keeps the first r_kept of every block of r values.

@@ -89,6 +89,12 @@ namespace modal_haptics
     std::vector<ValidationCase> validation;
     double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
 
+    // A free-floating part (no clamp groups): its six lowest modes are the rigid-body motions.
+    unsigned int        n_rigid_body_modes = 0;
+    std::vector<double> rigid_computed_frequencies_hz; // what the eigensolver found, signed sqrt(lambda) / 2 pi
+    double              rigid_subspace_sine = 0.;      // >= sin of the largest angle, computed vs exact rigid span
+    unsigned int        static_solve_iterations = 1;   // most refinement steps one static solve took
+
     FactorizationStatistics factorization;
     std::string             eigensolver_method;
     unsigned int            n_operator_applications = 0;
@@ -96,6 +102,11 @@ namespace modal_haptics
     double                  correction_seconds_per_candidate = 0.;
     std::map<std::string, double> timings_s;     // assembly, eigensolve, static_correction, validation
   };
+
+  // The static gain 1 / lambda of a mode, and 0 for a rigid-body mode (lambda = 0): the static
+  // answers of a free-floating part are those of inertia relief (the load's resultant accelerates the
+  // part, the rest deforms it), to which rigid-body modes contribute no deflection.
+  inline double static_gain(const double lambda) { return lambda > 0. ? 1. / lambda : 0.; }
 
   // What a space must compute beyond its modes: chosen scene-wide, before any space is solved.
   struct SpaceTask

@@ -265,7 +265,7 @@ namespace modal_haptics
     for (unsigned int i = 0; i < 3; ++i)
       for (unsigned int j = 0; j < 3; ++j)
         for (unsigned int k = 0; k < r; ++k)
-          G[3 * i + j] += B[i * r_all + k] * B[j * r_all + k] / space.eigenvalues[k];
+          G[3 * i + j] += B[i * r_all + k] * B[j * r_all + k] * static_gain(space.eigenvalues[k]);
     return G;
   }
 

@@ -71,7 +71,10 @@ namespace modal_haptics
                           "(0.001: the geometry is in mm). Units: m.");
         prm.declare_entry("Clamp groups", "clamp", Patterns::List(Patterns::Anything()),
                           "Names of the physical surfaces that are clamped (zero displacement). The "
-                          "built-in panel names the top faces of its screw bosses 'clamp'. Units: none.");
+                          "built-in panel names the top faces of its screw bosses 'clamp'. Empty: the part is "
+                          "free-floating: its six lowest modes are the rigid-body motions (frequency 0), which "
+                          "needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
+                          "Units: none.");
         prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
                           "For STEP/BREP input (which carries no names): boundary faces inside any of these "
                           "boxes form the physical surface 'clamp'. Format 'x0,y0,z0,x1,y1,z1; ...'. "
@@ -182,7 +185,10 @@ namespace modal_haptics
         prm.declare_entry("Haptic rate", "1000", Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
         prm.declare_entry("Shift", "0", Patterns::Double(),
                           "Shift of the shift-invert transformation, as a frequency; must lie below the first "
-                          "frequency. Units: Hz.");
+                          "frequency, and below zero for a free-floating part (no clamp groups), where a "
+                          "magnitude of about a tenth of the first elastic frequency is best: the static solves "
+                          "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
+                          "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
         prm.declare_entry("Tolerance", "1e-10", Patterns::Double(1e-16, 1e-2),
                           "ARPACK's relative tolerance on the Ritz values. Units: none.");
         prm.declare_entry("Eigensolver", "block-krylov", Patterns::Selection("block-krylov|arpack"),
@@ -288,9 +294,6 @@ namespace modal_haptics
       scene.meshing.geometry = source;
       scene.length_unit      = prm.get_double("Length unit");
       scene.clamp_groups     = dealii::Utilities::split_string_list(prm.get("Clamp groups"), ',');
-      AssertThrow(!scene.clamp_groups.empty(),
-                  ExcMessage("'Geometry/Clamp groups' is empty: the part is not clamped. A free-floating part "
-                             "needs the free-floating option (rigid-body modes), which is not available yet."));
       for (const auto &box_text : dealii::Utilities::split_string_list(prm.get("Clamp boxes"), ';'))
         {
           const auto v = parse_doubles(box_text);
@@ -412,6 +415,14 @@ namespace modal_haptics
       modes.eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
       modes.block_krylov   = prm.get("Eigensolver") == "block-krylov";
       modes.block_size     = prm.get_integer("Block size");
+      AssertThrow(!scene.free_floating() || modes.shift < 0.,
+                  ExcMessage("The part is free-floating ('Geometry/Clamp groups' is empty), so K is singular: set "
+                             "'Modes/Shift' below zero (e.g. -0.1 times the first elastic frequency), not " +
+                             prm.get("Shift") + " Hz."));
+      AssertThrow(!scene.free_floating() || modes.maximum_count > 6,
+                  ExcMessage("The part is free-floating: its six lowest modes are rigid-body motions, so "
+                             "'Modes/Maximum number of modes' = " + std::to_string(modes.maximum_count) +
+                             " leaves no elastic mode; ask for at least 7."));
       prm.leave_subsection();
 
       prm.enter_subsection("Damping");

@@ -91,7 +91,8 @@ namespace modal_haptics
     meshing::MeshingSettings                meshing;
     std::vector<meshing::VolumeOfInterest>  volumes_of_interest;
     double       length_unit   = 1e-3; // metres per geometry unit
-    std::vector<std::string> clamp_groups = {"clamp"};
+    std::vector<std::string> clamp_groups = {"clamp"}; // empty: a free-floating part
+    bool free_floating() const { return clamp_groups.empty(); }
     unsigned int element_degree = 2;
 
     MaterialParameters material;

@@ -1,4 +1,4 @@
-// The dot products of the hot loops (tick rows B q, display blocks Phi_v q).
+// The dot products of the hot loops (tick rows B q, display blocks Phi_v q), and a small dense solve.
 //
 // A plain `sum += a[i] * b[i]` loop is a chain of dependent additions that compilers may not
 // reorder without -ffast-math, so it runs at one addition per add-latency (4 cycles). The
@@ -7,7 +7,9 @@
 // the partial sums is fixed by the build, so results are reproducible run to run.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <utility>
 
 namespace modalrt
 {
@@ -83,5 +85,41 @@ namespace modalrt
       }
     u[0] = u0, u[1] = u1, u[2] = u2;
     w[0] = w0, w[1] = w1, w[2] = w2;
+  }
+
+  // A x = b for a small dense n x n row-major A, by Gaussian elimination with partial pivoting; A is
+  // destroyed and the solution is written over b. False (b partly eliminated) on a vanishing pivot.
+  inline bool solve_in_place(double *A, double *b, std::uint32_t n) noexcept
+  {
+    for (std::uint32_t k = 0; k < n; ++k)
+      {
+        std::uint32_t pivot = k;
+        for (std::uint32_t i = k + 1; i < n; ++i)
+          if (std::fabs(A[i * n + k]) > std::fabs(A[pivot * n + k]))
+            pivot = i;
+        if (!(std::fabs(A[pivot * n + k]) > 1e-300))
+          return false;
+        if (pivot != k)
+          {
+            for (std::uint32_t j = 0; j < n; ++j)
+              std::swap(A[k * n + j], A[pivot * n + j]);
+            std::swap(b[k], b[pivot]);
+          }
+        for (std::uint32_t i = k + 1; i < n; ++i)
+          {
+            const double factor = A[i * n + k] / A[k * n + k];
+            for (std::uint32_t j = k; j < n; ++j)
+              A[i * n + j] -= factor * A[k * n + j];
+            b[i] -= factor * b[k];
+          }
+      }
+    for (std::uint32_t k = n; k-- > 0;)
+      {
+        double sum = b[k];
+        for (std::uint32_t j = k + 1; j < n; ++j)
+          sum -= A[k * n + j] * b[j];
+        b[k] = sum / A[k * n + k];
+      }
+    return true;
   }
 } // namespace modalrt

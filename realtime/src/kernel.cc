@@ -267,43 +267,10 @@ void modalrt_kernel::update_corrections() noexcept
     }
 }
 
-// Gaussian elimination with partial pivoting on system_ (n x n), right-hand side rhs_ (solution
-// written over it). A vanishing pivot (not met with a passive coupling) falls back to the
-// explicit coupling force, which is the right-hand side itself.
-bool modalrt_kernel::solve_coupling(std::uint32_t n) noexcept
-{
-  double *A = system_.data(), *b = rhs_.data();
-  for (std::uint32_t k = 0; k < n; ++k)
-    {
-      std::uint32_t pivot = k;
-      for (std::uint32_t i = k + 1; i < n; ++i)
-        if (std::fabs(A[i * n + k]) > std::fabs(A[pivot * n + k]))
-          pivot = i;
-      if (!(std::fabs(A[pivot * n + k]) > 1e-300))
-        return false;
-      if (pivot != k)
-        {
-          for (std::uint32_t j = 0; j < n; ++j)
-            std::swap(A[k * n + j], A[pivot * n + j]);
-          std::swap(b[k], b[pivot]);
-        }
-      for (std::uint32_t i = k + 1; i < n; ++i)
-        {
-          const double factor = A[i * n + k] / A[k * n + k];
-          for (std::uint32_t j = k; j < n; ++j)
-            A[i * n + j] -= factor * A[k * n + j];
-          b[i] -= factor * b[k];
-        }
-    }
-  for (std::uint32_t k = n; k-- > 0;)
-    {
-      double sum = b[k];
-      for (std::uint32_t j = k + 1; j < n; ++j)
-        sum -= A[k * n + j] * b[j];
-      b[k] = sum / A[k * n + k];
-    }
-  return true;
-}
+// The coupling system_ (n x n) with right-hand side rhs_ (solution written over it). A vanishing
+// pivot (not met with a passive coupling) falls back to the explicit coupling force, which is the
+// right-hand side itself.
+bool modalrt_kernel::solve_coupling(std::uint32_t n) noexcept { return solve_in_place(system_.data(), rhs_.data(), n); }
 
 void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept
 {

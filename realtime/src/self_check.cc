@@ -2,11 +2,16 @@
 // Each case is a unit force at a display vertex; the kernel is put at the exact static equilibrium
 // under it (so no time is spent waiting for slow, lightly damped modes to settle), runs one
 // admittance tick from there (a fixed point of the exact integrator, so the tick keeps it) and
-// reports the felt displacement u_c, which must equal W_v^T K^-1 W_v e_dir.
+// reports the felt displacement u_c, which must equal W_v^T K^-1 W_v e_dir. A free-floating space
+// (rigid-body modes, omega = 0) has no static equilibrium under a force: there the case runs in the
+// frame that follows the part's rigid acceleration (inertia relief), where the elastic state is
+// static and must equal the precompute's inertia-relief answer.
 #include "self_check.h"
 
+#include "dense.h"
 #include "error.h"
 #include "kernel.h"
+#include "vector3.h"
 
 #include <cmath>
 
@@ -25,8 +30,45 @@ namespace modalrt
       double extent             = 1.0;
       for (int d = 0; d < 3; ++d)
         extent = std::max({extent, std::fabs(basis.bounds_min[d]), std::fabs(basis.bounds_max[d])});
-      def.workspace_radius = 2.0 * extent;
+      def.workspace_radius       = 2.0 * extent;
+      def.max_frame_acceleration = HUGE_VAL; // a unit force may accelerate a light free part a lot
       return def;
+    }
+
+    // The frame acceleration under which the rigid-body modes (lambda = 0) of the space feel no net
+    // modal force from the force F at a candidate: with the frame's modal force -Gamma a (moving_frame.cc),
+    // Gamma_R a = B_R^T F for the rows R of those modes. Identity frame when the space has none.
+    modalrt_frame_state inertia_relief_frame(const modalrt_basis &basis, const ModalSpace &s, int candidate,
+                                             const double force[3])
+    {
+      modalrt_frame_state frame = modalrt_frame_state_identity();
+      const std::uint32_t r = s.mode_count;
+      std::uint32_t       n_rigid = 0;
+      while (n_rigid < r && s.eigenvalues[n_rigid] == 0.0)
+        ++n_rigid;
+      if (n_rigid == 0)
+        return frame;
+      if (n_rigid != 6 || candidate < 0 || s.participation.empty())
+        fail(MODALRT_ERROR_STATE, cat("a space with ", n_rigid, " rigid-body modes can only be verified at a candidate "
+                                      "with six rigid-body modes and participation factors"));
+      const double *B = &s.candidate_modes[3 * std::size_t(r) * std::size_t(candidate)];
+      double        A[36], body_acceleration[6];
+      for (std::uint32_t i = 0; i < 6; ++i)
+        {
+          body_acceleration[i] = B[i] * force[0] + B[r + i] * force[1] + B[2 * r + i] * force[2];
+          std::copy_n(&s.participation[6 * std::size_t(i)], 6, &A[6 * i]);
+        }
+      if (!solve_in_place(A, body_acceleration, 6))
+        fail(MODALRT_ERROR_STATE, "the rigid-body modes' participation factors are singular");
+      // The frame takes its origin's acceleration: a_origin = a_com - alpha x c.
+      double alpha_c[3];
+      cross3(&body_acceleration[3], &basis.scene_scalars[2], alpha_c);
+      for (int d = 0; d < 3; ++d)
+        {
+          frame.linear_acceleration[d]  = body_acceleration[d] - alpha_c[d];
+          frame.angular_acceleration[d] = body_acceleration[3 + d];
+        }
+      return frame;
     }
   } // namespace
 
@@ -47,7 +89,8 @@ namespace modalrt
     std::copy_n(&basis.vertices[3 * std::size_t(vertex)], 3, input.position);
     input.force[direction] = 1.0;
     modalrt_hip_output output{};
-    if (kernel.contact_begin(0, vertex) != MODALRT_OK || kernel.settle(&input, 1) != MODALRT_OK ||
+    if (kernel.set_frame(inertia_relief_frame(basis, s, s.candidate_index(vertex), input.force)) != MODALRT_OK ||
+        kernel.contact_begin(0, vertex) != MODALRT_OK || kernel.settle(&input, 1) != MODALRT_OK ||
         kernel.tick(&input, 1, &output, false) != MODALRT_OK)
       fail(MODALRT_ERROR_STATE, cat("the kernel refused validation case ", index));
 

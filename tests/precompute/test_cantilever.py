@@ -43,8 +43,9 @@ def shear_coefficient(nu):
     return 10 * (1 + nu) / (12 + 11 * nu)
 
 
-def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2):
-    """Cantilever Timoshenko beam, linear elements with one-point (reduced) shear integration."""
+def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2, clamped=True):
+    """Timoshenko beam, clamped at x = 0 or free-free (its two rigid-body modes skipped), linear
+    elements with one-point (reduced) shear integration."""
     G, KAPPA = shear_modulus(nu), shear_coefficient(nu)
     h = L / n_elements
     n = 2 * (n_elements + 1)
@@ -59,8 +60,10 @@ def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2):
         K[np.ix_(dofs, dofs)] += bending + shear
         M[np.ix_(dofs[0::2], dofs[0::2])] += RHO * AREA * lumped
         M[np.ix_(dofs[1::2], dofs[1::2])] += RHO * I * lumped
-    free = slice(2, n)  # clamp w and theta at x = 0
-    lam = scipy.linalg.eigh(K[free, free], M[free, free], eigvals_only=True, subset_by_index=[0, n_modes - 1])
+    free = slice(2, n) if clamped else slice(0, n)  # clamped: w and theta fixed at x = 0
+    first = 0 if clamped else 2
+    lam = scipy.linalg.eigh(K[free, free], M[free, free], eigvals_only=True,
+                            subset_by_index=[first, first + n_modes - 1])
     return np.sqrt(lam) / (2 * math.pi)
 
 
