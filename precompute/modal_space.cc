@@ -366,13 +366,18 @@ namespace modal_haptics
               worst = std::max(worst, load_norm > 0. ? std::sqrt(residual_norm / load_norm) : 0.);
             }
           result.static_solve_iterations = std::max(result.static_solve_iterations, step);
-          if (worst <= 1e-12 || (worst >= 0.5 * previous && worst <= 1e-9))
-            return; // converged, or at the rounding floor
-          AssertThrow(worst < previous && step < 200,
+          if (worst <= 1e-12)
+            return;
+          // No longer shrinking: the rounding floor (a direct solve of K itself reaches about 1e-9
+          // on a slender part), or no convergence at all.
+          const bool stalled = worst >= 0.5 * previous;
+          AssertThrow((!stalled || worst <= 1e-6) && step < 200,
                       ExcMessage("Space '" + task.name + "': the static solves do not converge with 'Modes/Shift' = " +
-                                 std::to_string(scene.modes.shift) + " Hz (relative residual " + std::to_string(worst) +
+                                 std::to_string(scene.modes.shift) + " Hz (relative residual " + [&] { std::ostringstream r; r << worst; return r.str(); }() +
                                  " after " + std::to_string(step) + " refinements): choose a shift of smaller magnitude, "
                                  "well below the first elastic frequency."));
+          if (stalled)
+            return;
           previous = worst;
         }
     }
