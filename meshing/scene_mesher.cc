@@ -518,8 +518,8 @@ namespace modal_haptics::meshing
     {
     public:
       SceneMesher(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &vois,
-                  const std::string &output_directory, const bool verbose)
-        : settings(settings), vois(vois), directory(output_directory), verbose(verbose),
+                  const std::string &output_directory, const bool verbose, const bool reuse_only)
+        : settings(settings), vois(vois), directory(output_directory), verbose(verbose), reuse_only(reuse_only),
           kind(input_kind(settings.geometry))
       {}
 
@@ -547,6 +547,7 @@ namespace modal_haptics::meshing
       const std::vector<VolumeOfInterest> &vois;
       const std::string                     directory;
       const bool                            verbose;
+      const bool                            reuse_only;     // a mesh not in the cache is an error
       const InputKind                       kind;
       std::string                           inputs;         // what every mesh of the scene depends on
       bool                                  model_loaded = false;
@@ -609,6 +610,14 @@ namespace modal_haptics::meshing
         statistics        = content.statistics;
         statistics.reused = true;
         return true;
+      }
+
+      // With reuse_only, a mesh that would have to be made is an error naming it.
+      void require_meshing_allowed(const std::string &msh) const
+      {
+        if (reuse_only)
+          throw MeshingError("'" + msh + "' is missing or was made from other inputs, and this run only reuses "
+                             "meshes");
       }
 
       static ScenarioMesh scenario_result(const std::string &name, const std::string &msh, const MeshStatistics &s)
@@ -825,6 +834,7 @@ namespace modal_haptics::meshing
             report(name, statistics);
             return scenario_result(name, msh, statistics);
           }
+        require_meshing_allowed(msh);
         // The old key must go first: a crash after the new mesh is in place must not leave a key
         // that vouches for it with other inputs.
         std::error_code ignored;
@@ -881,6 +891,7 @@ namespace modal_haptics::meshing
             report("global", statistics);
             return scenario_result("global", msh, statistics);
           }
+        require_meshing_allowed(msh);
         std::error_code ignored;
         fs::remove(key_file, ignored);
         const auto start = std::chrono::steady_clock::now();
@@ -916,6 +927,7 @@ namespace modal_haptics::meshing
           surface = read_display_surface(msh);
         else
           {
+            require_meshing_allowed(msh);
             std::error_code ignored;
             fs::remove(key_file, ignored);
             call_gmsh("writing the display surface '" + msh + "'",
@@ -993,10 +1005,10 @@ namespace modal_haptics::meshing
   }
 
   SceneMeshes mesh_scene(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,
-                         const std::string &output_directory, const bool verbose)
+                         const std::string &output_directory, const bool verbose, const bool reuse_only)
   {
     // Plain input errors are reported before gmsh is even started.
-    SceneMesher mesher(settings, volumes_of_interest, output_directory, verbose);
+    SceneMesher mesher(settings, volumes_of_interest, output_directory, verbose, reuse_only);
     GmshSession session(verbose);
     return mesher.run();
   }

@@ -127,10 +127,13 @@ namespace modal_haptics::meshing
   // mesh_<name>.key. Writes each file to a temporary name first, then renames.
   // Throws MeshingError on user errors: missing/unreadable geometry, a geometry gmsh cannot mesh,
   // a VOI that does not intersect the part, tets below min_quality (inverted or degenerate).
+  // With reuse_only, every mesh must be in the cache (a run that must not mesh: gmsh is not
+  // bit-reproducible, so jobs that share meshes must not make their own); else MeshingError.
   SceneMeshes mesh_scene(const MeshingSettings &settings,
                          const std::vector<VolumeOfInterest> &volumes_of_interest,
                          const std::string &output_directory,
-                         bool verbose = true);
+                         bool verbose = true,
+                         bool reuse_only = false);
 
   // Reads the $PhysicalNames of a MSH file: dimension -> (name -> tag).
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file);

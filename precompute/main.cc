@@ -2,7 +2,10 @@
 //
 //   modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--distributed]
 //   mpirun -np N modal-precompute SCENE.prm ...     (N > 1 implies --distributed; docs/cluster.md)
+//   modal-precompute SCENE.prm --mesh-only | --list-scenarios | --scenario NAME | --merge   (scenarios
+//   as separate jobs, docs/cluster.md)
 #include "modal_precompute.h"
+#include "partial_result.h"
 #include "scene_parameters.h"
 
 #include <deal.II/base/hdf5.h>
@@ -27,7 +30,23 @@ namespace
            "  --validate     parse and check every parameter, then exit\n"
            "  --output-dir   where results go (default: results/<scene name>)\n"
            "  --quiet        no progress lines\n"
-           "  --distributed  the MPI path (Trilinos, MUMPS, PARPACK) even on one process; implied by N > 1\n";
+           "  --distributed  the MPI path (Trilinos, MUMPS, PARPACK) even on one process; implied by N > 1\n"
+           "\n"
+           "Scenarios as separate jobs (docs/cluster.md): mesh once, one job per scenario (each serial or under\n"
+           "mpirun), then merge; the merged files equal those of one whole-scene run.\n"
+           "       modal-precompute SCENE.prm --list-scenarios\n"
+           "       modal-precompute SCENE.prm --mesh-only [--output-dir DIR]\n"
+           "  [mpirun -np N] modal-precompute SCENE.prm --scenario NAME [--partial-dir P] [--output-dir DIR]\n"
+           "       modal-precompute SCENE.prm --merge [--partial-dir P] [--output-dir DIR]\n"
+           "  --list-scenarios  print the scene's scenario names, one per line (global first), then exit\n"
+           "  --mesh-only       make (or find up to date) every mesh of the scene in the output folder, then exit\n"
+           "  --scenario NAME   compute only scenario NAME's modal space, from the meshes in the output folder\n"
+           "                    (it never meshes: run --mesh-only first), into P/NAME.partial and P/modes_NAME.vtu\n"
+           "  --merge           check the partial results in P (every scenario exactly once, the same parameters\n"
+           "                    and meshes), compute the transfer matrices and write the .h5, .mrt, report.json,\n"
+           "                    .pvd/.vtu and used_parameters.prm into the output folder, all renamed into place\n"
+           "                    together; one process\n"
+           "  --partial-dir P   the folder of the partial results (default: <output folder>/partial)\n";
   }
 
   void print_error(const std::string &what)
@@ -81,11 +100,19 @@ int main(int argc, char **argv)
   // A file that reaches the size limit (RLIMIT_FSIZE, a quota) would kill the program with SIGXFSZ
   // and no word of why; ignored, the write fails with EFBIG and the program says which file.
   std::signal(SIGXFSZ, SIG_IGN);
-  std::string parameter_file, output_directory;
-  bool        validate_only = false, verbose = true;
+  std::string parameter_file, output_directory, scenario, partial_directory;
+  bool        validate_only = false, verbose = true, list_scenarios = false, mesh_only = false, merge = false;
   const unsigned int n_processes = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
   const unsigned int process     = dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD);
   bool               distributed = n_processes > 1;
+  const auto         usage_error = [&](const std::string &what) {
+    if (process == 0)
+      {
+        print_error(what);
+        print_usage(std::cerr);
+      }
+    return 2;
+  };
   for (int i = 1; i < argc; ++i)
     {
       const std::string arg = argv[i];
@@ -95,8 +122,18 @@ int main(int argc, char **argv)
         verbose = false;
       else if (arg == "--distributed")
         distributed = true;
+      else if (arg == "--list-scenarios")
+        list_scenarios = true;
+      else if (arg == "--mesh-only")
+        mesh_only = true;
+      else if (arg == "--merge")
+        merge = true;
       else if (arg == "--output-dir" && i + 1 < argc)
         output_directory = argv[++i];
+      else if (arg == "--scenario" && i + 1 < argc)
+        scenario = argv[++i];
+      else if (arg == "--partial-dir" && i + 1 < argc)
+        partial_directory = argv[++i];
       else if ((arg == "--help" || arg == "-h") && process == 0)
         {
           print_usage(std::cout);
@@ -111,14 +148,7 @@ int main(int argc, char **argv)
       else if (arg == "--help" || arg == "-h")
         return 0;
       else
-        {
-          if (process == 0)
-            {
-              print_error("unknown or incomplete argument '" + arg + "'");
-              print_usage(std::cerr);
-            }
-          return 2;
-        }
+        return usage_error("unknown or incomplete argument '" + arg + "'");
     }
   if (parameter_file.empty())
     {
@@ -126,6 +156,13 @@ int main(int argc, char **argv)
         print_usage(std::cerr);
       return 2;
     }
+  if (validate_only + list_scenarios + mesh_only + !scenario.empty() + merge > 1)
+    return usage_error("--validate, --list-scenarios, --mesh-only, --scenario and --merge exclude each other");
+  if (!partial_directory.empty() && scenario.empty() && !merge)
+    return usage_error("--partial-dir goes with --scenario or --merge");
+  if (merge && n_processes > 1)
+    return usage_error("--merge computes no modal space: run it on one process, without mpirun -np " +
+                       std::to_string(n_processes));
   if (distributed)
     use_one_blas_thread_unless_set();
 
@@ -149,6 +186,18 @@ int main(int argc, char **argv)
         print_error(parse_error);
       return 1;
     }
+  if (list_scenarios)
+    {
+      if (process == 0)
+        {
+          std::cout << "global\n";
+          for (const auto &voi : scene.volumes_of_interest)
+            std::cout << voi.name << "\n";
+        }
+      return 0;
+    }
+  if (partial_directory.empty())
+    partial_directory = scene.output_directory + "/partial";
   if (validate_only)
     {
       if (process == 0)
@@ -162,9 +211,20 @@ int main(int argc, char **argv)
   try
     {
       ModalPrecompute precompute(scene, prm, verbose && process == 0, distributed);
-      precompute.run();
+      if (mesh_only)
+        precompute.mesh_only();
+      else if (!scenario.empty())
+        precompute.run_scenario(scenario, partial_directory);
+      else if (merge)
+        precompute.merge(partial_directory);
+      else
+        precompute.run();
       if (process == 0)
-        std::cout << "results in " << scene.output_directory << "/" << std::endl;
+        std::cout << (mesh_only  ? "meshes in " + scene.output_directory + "/" :
+                      merge      ? "merged " + partial_directory + "/ into " + scene.output_directory + "/" :
+                      !scenario.empty() ? "partial result in " + partial_result_file(partial_directory, scenario) :
+                                          "results in " + scene.output_directory + "/")
+                  << std::endl;
     }
   catch (const std::exception &e)
     {

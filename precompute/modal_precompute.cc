@@ -2,6 +2,7 @@
 
 #include "atomic_file.h"
 #include "distributed_space.h"
+#include "partial_result.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -28,34 +30,199 @@ namespace modal_haptics
     , timer(std::cout, verbose ? TimerOutput::summary : TimerOutput::never, TimerOutput::wall_times)
   {}
 
+  void ModalPrecompute::create_output_directory() const
+  {
+    if (!writes_files)
+      return;
+    std::error_code error;
+    std::filesystem::create_directories(scene.output_directory, error);
+    AssertThrow(!error && std::filesystem::is_directory(scene.output_directory),
+                ExcMessage("Cannot create the output folder '" + scene.output_directory + "': " + error.message()));
+  }
+
   void ModalPrecompute::run()
   {
     dealii::Timer total;
-    if (writes_files)
-      {
-        std::error_code error;
-        std::filesystem::create_directories(scene.output_directory, error);
-        AssertThrow(!error && std::filesystem::is_directory(scene.output_directory),
-                    ExcMessage("Cannot create the output folder '" + scene.output_directory + "': " + error.message()));
-      }
-
+    create_output_directory();
     make_meshes();
-    plan_contacts();
-    compute_modal_spaces();
+    plan_contacts(scene.output_directory);
+    for (const auto &task : results.tasks)
+      compute_modal_space(task);
     record_peak_memory();
     // Every process holds the complete results of every space: process 0 alone finishes.
     if (!writes_files)
       return;
+    write_results(total.wall_time());
+  }
+
+  void ModalPrecompute::mesh_only()
+  {
+    create_output_directory();
+    make_meshes();
+  }
+
+  // One scenario from the meshes already in the output folder: jobs that ran gmsh each would not
+  // share one display surface (gmsh is not bit-reproducible), so a missing mesh is an error.
+  void ModalPrecompute::run_scenario(const std::string &name, const std::string &partial_directory)
+  {
+    dealii::Timer total;
+    make_meshes(true);
+    plan_contacts(partial_directory);
+    const SpaceTask &task = task_of_scenario(name);
+    if (writes_files)
+      {
+        std::error_code error;
+        std::filesystem::create_directories(partial_directory, error);
+        AssertThrow(!error && std::filesystem::is_directory(partial_directory),
+                    ExcMessage("Cannot create the partial results folder '" + partial_directory + "': " +
+                               error.message()));
+      }
+    if (distributed) // all processes write the VTU into that folder
+      MPI_Barrier(MPI_COMM_WORLD);
+    compute_modal_space(task);
+    record_peak_memory();
+    if (!writes_files)
+      return;
+    PartialResult partial;
+    partial.scene_name       = scene.scene_name;
+    partial.parameters       = parameters_text();
+    partial.display_checksum = display_surface_checksum(results.meshes.display_surface);
+    partial.mesh_checksum    = file_checksum(task.msh_file);
+    partial.n_processes      = results.n_processes;
+    partial.peak_memory_mb   = results.max_peak_memory_mb;
+    partial.seconds          = total.wall_time();
+    partial.space            = std::move(results.spaces.front());
+    write_partial_result(partial_result_file(partial_directory, name), partial);
+  }
+
+  // The partial results of every scenario, checked, then the files run() writes.
+  void ModalPrecompute::merge(const std::string &partial_directory)
+  {
+    dealii::Timer total;
+    create_output_directory();
+    make_meshes(true);
+    plan_contacts(partial_directory);
+    double job_seconds = 0.;
+    read_partial_results(partial_directory, job_seconds);
+    write_results(job_seconds + total.wall_time());
+  }
+
+  // The transfer matrices and every file of the scene, renamed into place together. The report is
+  // written last: it gives the size of every other file and the total time.
+  void ModalPrecompute::write_results(const double earlier_seconds)
+  {
+    dealii::Timer wall;
     compute_transfer_matrices();
     StagedFiles staged;
     export_results(staged);
-    // The report is written last: it gives the size of every other file and the total time.
-    results.timings_s["total"] = total.wall_time();
+    results.timings_s["total"] = earlier_seconds + wall.wall_time();
     write_report(scene.output_directory + "/report.json", scene, results, staged);
     staged.commit();
   }
 
-  void ModalPrecompute::make_meshes()
+  std::string ModalPrecompute::parameters_text() const
+  {
+    std::ostringstream text;
+    prm.print_parameters(text, dealii::ParameterHandler::ShortText);
+    return text.str();
+  }
+
+  const SpaceTask &ModalPrecompute::task_of_scenario(const std::string &name) const
+  {
+    std::string names;
+    for (const auto &task : results.tasks)
+      {
+        if (task.name == name)
+          return task;
+        names += (names.empty() ? "" : ", ") + task.name;
+      }
+    AssertThrow(false, ExcMessage("Scene '" + scene.scene_name + "' (" + scene.parameter_file + ") has no scenario '" +
+                                  name + "'; its scenarios are: " + names + "."));
+    return results.tasks.front();
+  }
+
+  namespace
+  {
+    // The first line where two parameter listings differ, for the message that refuses a merge.
+    std::string first_difference(const std::string &ours, const std::string &theirs)
+    {
+      std::istringstream a(ours), b(theirs);
+      std::string        line_a, line_b;
+      while (true)
+        {
+          const bool more_a = bool(std::getline(a, line_a)), more_b = bool(std::getline(b, line_b));
+          if (!more_a && !more_b)
+            return "";
+          if (!more_a || !more_b || line_a != line_b)
+            return "'" + (more_b ? line_b : std::string("(nothing)")) + "' where the scene has '" +
+                   (more_a ? line_a : std::string("(nothing)")) + "'";
+        }
+    }
+  } // namespace
+
+  // Every *.partial file of the folder: each must be of this scene, its parameters and its meshes,
+  // and every scenario must be there exactly once.
+  void ModalPrecompute::read_partial_results(const std::string &partial_directory, double &job_seconds)
+  {
+    TimerOutput::Scope scope(timer, "reading partial results");
+    AssertThrow(std::filesystem::is_directory(partial_directory),
+                ExcMessage("The partial results folder '" + partial_directory + "' does not exist."));
+    std::vector<std::string> files;
+    for (const auto &entry : std::filesystem::directory_iterator(partial_directory))
+      if (entry.path().extension() == ".partial")
+        files.push_back(entry.path().string());
+    std::sort(files.begin(), files.end());
+
+    const std::string                 parameters = parameters_text();
+    const std::uint32_t               display    = display_surface_checksum(results.meshes.display_surface);
+    std::vector<std::string>          file_of_space(results.tasks.size());
+    std::vector<PartialResult>        partials(results.tasks.size());
+    for (const auto &file : files)
+      {
+        PartialResult partial = read_partial_result(file);
+        AssertThrow(partial.scene_name == scene.scene_name,
+                    ExcMessage("'" + file + "' is a partial result of scene '" + partial.scene_name + "', not of '" +
+                               scene.scene_name + "' (" + scene.parameter_file + ")."));
+        const std::string difference = first_difference(parameters, partial.parameters);
+        AssertThrow(difference.empty(),
+                    ExcMessage("'" + file + "' was computed from other parameters than " + scene.parameter_file +
+                               ": it has " + difference + ". Run its scenario again."));
+        const SpaceTask &task = task_of_scenario(partial.space.name);
+        AssertThrow(file_of_space[task.index].empty(),
+                    ExcMessage("Scenario '" + task.name + "' is in two partial results, '" + file_of_space[task.index] +
+                               "' and '" + file + "'; remove one."));
+        AssertThrow(partial.display_checksum == display && partial.mesh_checksum == file_checksum(task.msh_file),
+                    ExcMessage("'" + file + "' was computed on other meshes than those now in '" +
+                               scene.output_directory + "' (" + task.msh_file +
+                               ", display_surface.msh): the scene was meshed again since. Run its scenario again."));
+        AssertThrow(std::filesystem::exists(task.vtu_file),
+                    ExcMessage("'" + task.vtu_file + "', written with '" + file + "', is missing."));
+        file_of_space[task.index] = file;
+        partials[task.index]      = std::move(partial);
+      }
+    std::string missing;
+    for (const auto &task : results.tasks)
+      if (file_of_space[task.index].empty())
+        missing += (missing.empty() ? "'" : ", '") + task.name + "'";
+    AssertThrow(missing.empty(),
+                ExcMessage("No partial result in '" + partial_directory + "' for scenario(s) " + missing + " of scene '" +
+                           scene.scene_name + "': run modal-precompute " + scene.parameter_file +
+                           " --scenario NAME --partial-dir " + partial_directory + " for each."));
+
+    results.n_processes        = 0;
+    results.max_peak_memory_mb = 0.;
+    for (auto &partial : partials)
+      {
+        results.n_processes        = std::max(results.n_processes, partial.n_processes);
+        results.max_peak_memory_mb = std::max(results.max_peak_memory_mb, partial.peak_memory_mb);
+        job_seconds += partial.seconds;
+        for (const auto &[phase, seconds] : partial.space.timings_s)
+          results.timings_s[phase] += seconds;
+        results.spaces.push_back(std::move(partial.space));
+      }
+  }
+
+  void ModalPrecompute::make_meshes(const bool reuse_only)
   {
     TimerOutput::Scope scope(timer, "meshing");
     dealii::Timer      wall;
@@ -65,14 +232,19 @@ namespace modal_haptics
         // the cache, so that gmsh never writes one file from two processes. A failure on process 0
         // aborts the run (main), so the barrier cannot hang.
         if (writes_files)
-          results.meshes = meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, verbose);
+          results.meshes =
+            meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, verbose, reuse_only);
         if (distributed)
           MPI_Barrier(MPI_COMM_WORLD);
         if (!writes_files)
-          results.meshes = meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, false);
+          results.meshes =
+            meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, false, reuse_only);
       }
     catch (const meshing::MeshingError &e)
       {
+        AssertThrow(!reuse_only, ExcMessage(std::string(e.what()) + ". Mesh the scene first with 'modal-precompute " +
+                                            scene.parameter_file + " --mesh-only' (with the same --output-dir): the "
+                                            "scenario jobs must share one set of meshes, gmsh is not bit-reproducible."));
         AssertThrow(false, ExcMessage(std::string("Meshing failed: ") + e.what()));
       }
     results.display = make_display_surface(results.meshes.display_surface, scene.volumes_of_interest,
@@ -116,7 +288,7 @@ namespace modal_haptics
 
   // A VOI space's candidates are the display vertices inside its VOI; the global space's are every
   // n-th vertex outside all VOIs (none by default): "model only what a scene requires".
-  void ModalPrecompute::plan_contacts()
+  void ModalPrecompute::plan_contacts(const std::string &vtu_directory)
   {
     const auto &display = results.display;
     std::vector<unsigned int> shared;
@@ -128,7 +300,7 @@ namespace modal_haptics
         task.index             = s;
         task.msh_file          = mesh.msh_file;
         task.physical_surfaces = mesh.physical_surfaces;
-        task.vtu_file          = scene.output_directory + "/modes_" + mesh.name + ".vtu";
+        task.vtu_file          = vtu_directory + "/modes_" + mesh.name + ".vtu";
         std::vector<unsigned int> in_region;
         unsigned int              seen = 0;
         for (unsigned int v = 0; v < display.n_vertices(); ++v)
@@ -167,19 +339,16 @@ namespace modal_haptics
       task.shared_vertices = shared;
   }
 
-  void ModalPrecompute::compute_modal_spaces()
+  void ModalPrecompute::compute_modal_space(const SpaceTask &task)
   {
-    for (const auto &task : results.tasks)
-      {
-        if (verbose)
-          std::cout << "[space " << task.index + 1 << "/" << results.tasks.size() << "] " << task.name << std::endl;
-        ModalSpaceResult space =
-          distributed ? compute_modal_space_distributed(scene, results.display, task, timer, verbose, MPI_COMM_WORLD) :
-                        compute_modal_space(scene, results.display, task, timer, verbose);
-        for (const auto &[phase, seconds] : space.timings_s)
-          results.timings_s[phase] += seconds;
-        results.spaces.push_back(std::move(space));
-      }
+    if (verbose)
+      std::cout << "[space " << task.index + 1 << "/" << results.tasks.size() << "] " << task.name << std::endl;
+    ModalSpaceResult space =
+      distributed ? compute_modal_space_distributed(scene, results.display, task, timer, verbose, MPI_COMM_WORLD) :
+                    modal_haptics::compute_modal_space(scene, results.display, task, timer, verbose);
+    for (const auto &[phase, seconds] : space.timings_s)
+      results.timings_s[phase] += seconds;
+    results.spaces.push_back(std::move(space));
   }
 
   // The peak resident memory (VmHWM) of the largest process: what a cluster node must hold per process.
@@ -271,11 +440,22 @@ namespace modal_haptics
     staged.write(scene.output_directory + "/used_parameters.prm",
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
     for (const auto &task : results.tasks)
-      staged.write(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
+      {
+        // A space computed by a job of its own wrote its VTU beside its partial result: copied in
+        // with the other files.
+        const std::string vtu = scene.output_directory + "/modes_" + task.name + ".vtu";
+        if (task.vtu_file != vtu)
+          staged.write(vtu, [&](std::ostream &out) {
+            std::ifstream in(task.vtu_file, std::ios::binary);
+            AssertThrow(in, ExcMessage("Cannot read '" + task.vtu_file + "'."));
+            out << in.rdbuf();
+          }, std::ios::binary);
+        staged.write(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
         out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n"
             << "    <DataSet timestep=\"0\" group=\"\" part=\"0\" file=\"modes_" << task.name << ".vtu\"/>\n"
             << "  </Collection>\n</VTKFile>\n";
-      });
+        });
+      }
     results.timings_s["export"] = wall.wall_time();
   }
 } // namespace modal_haptics

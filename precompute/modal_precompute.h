@@ -2,7 +2,7 @@
 //
 //   make_meshes()                 gmsh: one graded mesh per scenario + the display surface
 //   plan_contacts()               which display vertices get a static correction and a validation
-//   compute_modal_spaces()        per space: assemble, eigensolve, select, correct, validate
+//   compute_modal_space()         per space: assemble, eigensolve, select, correct, validate
 //   compute_transfer_matrices()   the state carried across a switch between spaces
 //   export_results()              .h5, .mrt, report.json, used_parameters.prm
 #pragma once
@@ -46,21 +46,34 @@ namespace modal_haptics
 
   // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
   // distributed objects (distributed_space.h), process 0 meshes first and writes every file.
+  //
+  // A scene can also be computed as separate jobs (docs/cluster.md): mesh_only() makes the meshes
+  // once, run_scenario() computes one scenario's space from them into a partial result
+  // (partial_result.h), merge() checks the partial results of every scenario and writes the files
+  // run() would write.
   class ModalPrecompute
   {
   public:
     ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true,
                     bool distributed = false);
     void run();
+    void mesh_only();
+    void run_scenario(const std::string &name, const std::string &partial_directory);
+    void merge(const std::string &partial_directory);
     const PrecomputeResults &get_results() const { return results; }
 
   private:
-    void make_meshes();
-    void plan_contacts();
-    void compute_modal_spaces();
+    void create_output_directory() const;
+    void make_meshes(bool reuse_only = false);
+    void plan_contacts(const std::string &vtu_directory);
+    const SpaceTask &task_of_scenario(const std::string &name) const;
+    void compute_modal_space(const SpaceTask &task);
     void record_peak_memory();
+    void read_partial_results(const std::string &partial_directory, double &job_seconds);
+    void write_results(double earlier_seconds);
     void compute_transfer_matrices();
     void export_results(StagedFiles &staged);
+    std::string parameters_text() const;
 
     const SceneParameters          &scene;
     const dealii::ParameterHandler &prm;

@@ -21,11 +21,14 @@ def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
         return json.load(f), done.stderr
 
 
-def binary_and_fresh_workdir():
-    """The arguments of a precompute test: --binary and --workdir, the latter emptied and created."""
+def binary_and_fresh_workdir(mpirun_help=None):
+    """The arguments of a precompute test: --binary and --workdir, the latter emptied and created
+    (and an optional --mpirun, when mpirun_help says what the test does with it)."""
     parser = argparse.ArgumentParser()
     parser.add_argument("--binary", required=True)
     parser.add_argument("--workdir", required=True)
+    if mpirun_help:
+        parser.add_argument("--mpirun", help=mpirun_help)
     args = parser.parse_args()
     shutil.rmtree(args.workdir, ignore_errors=True)
     os.makedirs(args.workdir)

@@ -1,0 +1,156 @@
+#!/usr/bin/python3
+"""On paper (docs/cluster.md): what the measured per-phase scaling predicts for 10 M and 100 M DoFs.
+
+Reads the measured CSVs of benchmarks/results/<host>/ (scaling.csv: the distributed precompute,
+93k and 223k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k),
+fits growth exponents t ~ n^e from them, and extrapolates each phase with the exponent theory
+gives (stated beside the measured one) to the target sizes on a stated number of processes with a
+stated parallel efficiency. Prints markdown tables.
+  extrapolate.py [--results benchmarks/results/debian12-2core] [--efficiency 0.25]
+"""
+import argparse
+import csv
+import math
+import os
+import re
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TARGETS = [(10e6, 256), (100e6, 2048)]  # (DoFs, MPI processes): 8 and 64 nodes of 32 cores
+PHASES = ["assembly", "eigensolve", "interpolation", "static_correction", "validation"]
+
+
+def exponent(points):
+    """Least-squares slope of log t against log n."""
+    xs = [math.log(n) for n, _ in points]
+    ys = [math.log(t) for _, t in points]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+
+
+def read_scaling(path):
+    rows = {}
+    for row in csv.DictReader(open(path)):
+        rows[(int(row["processes"]), int(row["n_dofs"]))] = {k: float(v) for k, v in row.items() if v and "min_max" not in k}
+    return rows
+
+
+def read_cholmod(results):
+    """(n, factorize s, seconds per solve) of the CHOLMOD rows of the eigensolver benchmark: the
+    factorization is the same in both CHOLMOD rows (the faster of the two is taken, timings are
+    noisy), one solve from the ARPACK row (one vector per solve, as PARPACK solves)."""
+    factorize, per_solve = {}, {}
+    for name in sorted(os.listdir(results)):
+        if name.startswith("eigensolver_") and name.endswith(".csv"):
+            for row in csv.DictReader(open(os.path.join(results, name))):
+                if "CHOLMOD" not in row["solver"]:
+                    continue
+                n = int(row["n_dofs"])
+                seconds = float(re.search(r"factorize ([\d.]+) s", row["phases"]).group(1))
+                factorize[n] = min(seconds, factorize.get(n, seconds))
+                if row["solver"].startswith("ARPACK"):
+                    solves, total = re.search(r"(\d+) solves ([\d.]+) s", row["phases"]).groups()
+                    per_solve[n] = float(total) / int(solves)
+    return sorted((n, factorize[n], per_solve[n]) for n in per_solve)
+
+
+def human(seconds):
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--results", default=os.path.join(HERE, "..", "results", "debian12-2core"))
+    parser.add_argument("--efficiency", type=float, default=0.25,
+                        help="assumed parallel efficiency of the sparse direct factorization and solves")
+    args = parser.parse_args()
+    rows = read_scaling(os.path.join(args.results, "scaling.csv"))
+    sizes = {p: sorted(n for q, n in rows if q == p) for p in (1, 2)}
+    n0 = sizes[1][-1]  # the largest measured size: the anchor
+    base = rows[(1, n0)]
+
+    print("### Measured growth exponents (t ~ n^e)\n")
+    print("| phase | e, np = 1 | e, np = 2 | at 223k, np = 1 | theory used |")
+    print("|---|---|---|---|---|")
+    theory = {"assembly": (1.0, "n (local cell integrals)"),
+              "interpolation": (1.0, "n (point location in the mesh, modes at vertices)"),
+              "static_correction": (4 / 3, "n^(4/3) per load: a solve reads the factor"),
+              "validation": (4 / 3, "n^(4/3) per load")}
+    for phase in PHASES:
+        e = {p: exponent([(n, rows[(p, n)][f"{phase}_s"]) for n in sizes[p]]) for p in (1, 2)}
+        note = theory.get(phase, (None, "factorization n^2 + solves n^(4/3), below"))[1]
+        if phase == "validation":
+            note = "not exercised: the benchmark has 0 validation samples (times are bookkeeping, < 1 ms)"
+        print(f"| {phase} | {e[1]:.2f} | {e[2]:.2f} | {base[f'{phase}_s']:.2f} s | {note} |")
+
+    cholmod = read_cholmod(args.results)
+    e_factor = exponent([(n, f) for n, f, _ in cholmod])
+    e_solve = exponent([(n, s) for n, _, s in cholmod])
+    e_factor_top = exponent([(n, f) for n, f, _ in cholmod[-2:]])
+    e_solve_top = exponent([(n, s) for n, _, s in cholmod[-2:]])
+    print(f"\nSerial CHOLMOD inside the eigensolve ({', '.join(str(n) for n, _, _ in cholmod)} DoFs): factorization "
+          f"e = {e_factor:.2f} (largest two sizes {e_factor_top:.2f}; theory 2), one solve e = {e_solve:.2f} "
+          f"({e_solve_top:.2f}; theory 4/3).")
+
+    # Memory per process = D / np + R: D is what the processes share out (matrices, the factor, the
+    # Lanczos vectors), R what each holds in full (the whole mesh, the gathered modes, the libraries).
+    split = {}
+    for n1, n2 in zip(sizes[1], sizes[2]):
+        m1, m2 = rows[(1, n1)]["max_peak_memory_mb"], rows[(2, n2)]["max_peak_memory_mb"]
+        split[n1] = (2 * (m1 - m2), 2 * m2 - m1)
+    e_d = exponent([(n, d) for n, (d, _) in split.items()])
+    e_r = exponent([(n, r) for n, (_, r) in split.items()])
+    d0, r0 = split[n0]
+    print(f"\nMemory per process = D/np + R from np = 1 and 2: at {sizes[1][0]}: D = {split[sizes[1][0]][0]:.0f} MB, "
+          f"R = {split[sizes[1][0]][1]:.0f} MB; at {n0}: D = {d0:.0f} MB, R = {r0:.0f} MB; "
+          f"e(D) = {e_d:.2f} (theory: factor fill n^(4/3)), e(R) = {e_r:.2f} (theory: n, the replicated mesh and modes).")
+
+    # The eigensolve at the anchor split as the serial CHOLMOD run splits it (factorization vs solves).
+    n_c, factor_c, solve_c = cholmod[-1]
+    solves = 111
+    factor_share = factor_c / (factor_c + solves * solve_c)
+    eig = base["eigensolve_s"]
+    factor0, solves0 = eig * factor_share, eig * (1 - factor_share)
+    print(f"\nThe distributed eigensolve at {n0} ({eig:.1f} s, np = 1) split as CHOLMOD's at {n_c}: factorization "
+          f"{100 * factor_share:.0f} %, {solves} solves {100 * (1 - factor_share):.0f} %.")
+
+    E = args.efficiency
+    print(f"\n### Predicted wall time and memory (parallel efficiency {E:g} assumed for the direct solver, 1 for "
+          "assembly and interpolation)\n")
+    print("| phase | " + " | ".join(f"{n / 1e6:.0f} M DoFs, {p} processes" for n, p in TARGETS) + " |")
+    print("|---|" + "---|" * len(TARGETS))
+    predictions = {}
+    for label, work, e, eff in [("assembly", base["assembly_s"], 1.0, 1.0),
+                                ("eigensolve: factorization (n^2)", factor0, 2.0, E),
+                                (f"eigensolve: {solves} solves (n^(4/3) each)", solves0, 4 / 3, E),
+                                ("static correction (n^(4/3) per load)", base["static_correction_s"], 4 / 3, E),
+                                ("interpolation", base["interpolation_s"], 1.0, 1.0)]:
+        values = [work * (n / n0) ** e / (p * eff) for n, p in TARGETS]
+        predictions[label] = values
+        print(f"| {label} | " + " | ".join(human(v) for v in values) + " |")
+    totals = [sum(v[k] for v in predictions.values()) for k in range(len(TARGETS))]
+    print("| **total** | " + " | ".join(f"**{human(t)}**" for t in totals) + " |")
+    # The same with each phase's measured np = 1 exponent instead of theory's (the eigensolve as one).
+    measured = [sum(base[f"{phase}_s"] * (n / n0) ** exponent([(m, rows[(1, m)][f"{phase}_s"]) for m in sizes[1]]) /
+                    (p * (1.0 if phase in ("assembly", "interpolation") else E)) for phase in PHASES[:4])
+                for n, p in TARGETS]
+    print("| total with the measured np = 1 exponents | " + " | ".join(human(t) for t in measured) + " |")
+    for what, e_used in [("per process now (D/np + R)", None), ("per process without the replicated R", 0)]:
+        cells = []
+        for n, p in TARGETS:
+            d = d0 * (n / n0) ** (4 / 3) / p
+            r = r0 * (n / n0) if e_used is None else 0.
+            cells.append(f"{(d + r) / 1024:.0f} GB")
+        print(f"| memory {what} | " + " | ".join(cells) + " |")
+    for n, p in TARGETS:
+        total_factor_tb = d0 * (n / n0) ** (4 / 3) / 1024 ** 2
+        print(f"\nAt {n / 1e6:.0f} M DoFs the shared part D (mostly MUMPS's LU factor) totals {total_factor_tb:.1f} TB; "
+              f"the factorization is {100 * predictions['eigensolve: factorization (n^2)'][TARGETS.index((n, p))] / totals[TARGETS.index((n, p))]:.0f} % "
+              "of the predicted time.")
+
+
+if __name__ == "__main__":
+    main()
