@@ -233,7 +233,9 @@ typedef struct modalrt_verify_report
 
 /* Drives one kernel per space with each stored unit force (contact at the case's vertex, modal state
  * settled to its exact static equilibrium, then one admittance tick) and compares u_c to the
- * reference. `index` counts cases over all spaces in file order. */
+ * reference. A space with rigid-body modes (lambda = 0, a free-floating part) runs in the frame that
+ * follows the part's rigid acceleration under the force (inertia relief). `index` counts cases over
+ * all spaces in file order. */
 MODALRT_API int modalrt_basis_verify_case(const modalrt_basis *basis, uint32_t index, modalrt_verify_case *result);
 /* All cases; returns MODALRT_ERROR_VERIFY_FAILED if the max error exceeds the tolerance. */
 MODALRT_API int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *report);
