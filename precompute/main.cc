@@ -2,6 +2,7 @@
 //
 //   modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--distributed]
 //   mpirun -np N modal-precompute SCENE.prm ...     (N > 1 implies --distributed; docs/cluster.md)
+#include "factorization.h"
 #include "modal_precompute.h"
 #include "scene_parameters.h"
 
@@ -9,7 +10,6 @@
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 
-#include <dlfcn.h>
 
 #include <csignal>
 #include <cstdlib>
@@ -69,8 +69,7 @@ namespace
     if (std::getenv("OPENBLAS_NUM_THREADS") != nullptr)
       return;
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
-    if (auto *set_threads = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads")))
-      set_threads(1);
+    modal_haptics::set_openblas_threads(1);
   }
 } // namespace
 

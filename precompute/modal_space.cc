@@ -204,6 +204,8 @@ namespace modal_haptics
                                                              "ARPACK dsaupd mode 3 (shift-invert)";
       result.n_operator_applications = eigen.n_operator_applications;
       result.arpack_seconds          = eigen.arpack_seconds;
+      result.mass_product_seconds      = eigen.mass_product_seconds;
+      result.orthogonalization_seconds = eigen.orthogonalization_seconds;
       result.self_check              = check_eigenpairs(stiffness_matrix, mass_matrix, eigen.eigenvalues, eigen.eigenvectors);
       std::ostringstream check;
       check << eigen.eigenvalues.size() << " modes in " << eigen.n_operator_applications << " solves, "
