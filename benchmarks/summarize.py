@@ -14,13 +14,21 @@ def rows(path):
 
 
 def eigensolver(path):
-    table = rows(path)
-    header, data = table[0], [dict(zip(table[0], r)) for r in table[1:]]
-    for size in sorted({r["n_dofs"] for r in data}, key=int):
+    data = records(path)
+    for size in sorted({r["n_dofs"] for r in data if r["n_dofs"]}, key=int):
         print(f"eigensolve, {int(size):,} DoFs, 50 modes:")
         for r in (r for r in data if r["n_dofs"] == size):
+            ranks = f"{r['ranks']} rank{'s' if r['ranks'] != '1' else ''}"
+            if not r.get("seconds"):
+                print(f"  {'-':>8}    {'-':>6}       {r['solver']} ({ranks}): {r.get('note', '')}")
+                continue
+            spread = f" [{float(r['seconds_min']):.1f}-{float(r['seconds_max']):.1f}]" if r.get("seconds_min") else ""
+            memory = f", peak {float(r['peak_rss_mb_per_process']) / 1024:.1f} GB" if r.get("peak_rss_mb_per_process") else ""
             print(f"  {float(r['seconds']):8.1f} s  {float(r['ratio_to_ours']):6.2f}x ours  "
-                  f"{r['solver']} ({r['ranks']} rank{'s' if r['ranks'] != '1' else ''})")
+                  f"{r['solver']} ({ranks}){spread}{memory}")
+    for r in data:
+        if r["solver"].startswith("machine:"):
+            print(f"  {r['solver']}: {float(r['rate']):.1f} {r['rate_unit']}")
 
 
 def records(path):

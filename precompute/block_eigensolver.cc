@@ -10,11 +10,17 @@
 // Method: V is an M-orthonormal basis, W = OP V its images (OP = (K - sigma M)^-1 M), so that the
 // Rayleigh-Ritz projection of OP onto span V is H = V^T M W = (M V)^T W, exact for any basis. The
 // basis grows a block at a time (the M-orthogonalized images of the newest block, classical
-// Gram-Schmidt twice); when full, the wanted Ritz vectors are kept (a thick restart: V Z, W Z and
-// M V Z need no new solve) and the residuals of the unconverged ones seed the next block.
+// Gram-Schmidt twice, then Cholesky QR twice); when full, the wanted Ritz vectors are kept (a
+// thick restart: V Z, W Z and M V Z need no new solve) and the residuals of the unconverged ones
+// seed the next block.
+//
+// Cost: every dense operation is a GEMM on the contiguous column-major bases, and M is applied to
+// a whole block at once (one pass over M for all columns, M X of the newest block reused as the
+// right-hand side of its solve): one M product per solved vector plus the residuals' per cycle.
 #include "eigensolver.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/timer.h>
 
 #include <algorithm>
@@ -47,6 +53,65 @@ namespace modal_haptics
       dgemm_(&ta, &tb, &m, &n, &k, &alpha, A, &lda, B, &ldb, &beta, C, &ldc);
     }
 
+    // M in compressed rows, applied to a block of columns at once (one pass over M for all of
+    // them; deal.II's vmult reads M once per column), rows split over the threads.
+    class BlockMass
+    {
+    public:
+      explicit BlockMass(const dealii::SparseMatrix<double> &M)
+        : n(M.m())
+      {
+        row_start.reserve(n + 1);
+        column.reserve(M.n_nonzero_elements());
+        value.reserve(M.n_nonzero_elements());
+        row_start.push_back(0);
+        for (std::size_t row = 0; row < n; ++row)
+          {
+            for (auto it = M.begin(row); it != M.end(row); ++it)
+              if (it->value() != 0.)
+                {
+                  column.push_back(it->column());
+                  value.push_back(it->value());
+                }
+            row_start.push_back(column.size());
+          }
+      }
+
+      // dst = M src for count columns of length n (column-major; dst must not alias src).
+      void multiply(const double *src, double *dst, const int count) const
+      {
+        constexpr int chunk = 8;
+        dealii::parallel::apply_to_subranges(
+          std::size_t(0), n,
+          [&](const std::size_t begin, const std::size_t end) {
+            for (int first = 0; first < count; first += chunk)
+              {
+                const int c_end = std::min(count, first + chunk);
+                for (std::size_t row = begin; row < end; ++row)
+                  {
+                    double sum[chunk] = {};
+                    for (std::size_t k = row_start[row]; k < row_start[row + 1]; ++k)
+                      {
+                        const double       a = value[k];
+                        const std::size_t j = column[k];
+                        for (int c = first; c < c_end; ++c)
+                          sum[c - first] += a * src[std::size_t(c) * n + j];
+                      }
+                    for (int c = first; c < c_end; ++c)
+                      dst[std::size_t(c) * n + row] = sum[c - first];
+                  }
+              }
+          },
+          4096);
+      }
+
+    private:
+      const std::size_t         n;
+      std::vector<std::size_t>  row_start;
+      std::vector<unsigned int> column;
+      std::vector<double>       value;
+    };
+
     class BlockKrylov
     {
     public:
@@ -72,14 +137,19 @@ namespace modal_haptics
 
       EigenSolution solve(const double shift)
       {
-        dealii::Timer timer;
+        dealii::Timer     timer;
+        const BlasThreads one_blas_thread(1); // memory-bound GEMMs on the basis (factorization.h)
         std::vector<double> seed(std::size_t(n) * block);
         std::mt19937_64 random(20261122);
         std::uniform_real_distribution<double> uniform(-1., 1.);
         for (double &x : seed)
           x = uniform(random);
         // Start from OP applied to a random block: it lies in the range of OP (zero on clamped rows).
-        apply_operator(seed.data(), seed.data(), block);
+        {
+          std::vector<double> Mseed(seed.size());
+          multiply_by_mass(seed.data(), Mseed.data(), block);
+          solve_images(Mseed.data(), seed.data(), block);
+        }
         int size = append_block(seed.data(), block, 0);
 
         EigenSolution solution;
@@ -116,7 +186,9 @@ namespace modal_haptics
             gemm('N', 'N', n, 1, size, 1., V.data(), n, &Z[std::size_t(i) * size], size, 0., phi.data(), n);
             solution.eigenvectors.push_back(std::move(phi));
           }
-        solution.arpack_seconds = timer.wall_time();
+        solution.arpack_seconds            = timer.wall_time();
+        solution.mass_product_seconds      = mass_seconds;
+        solution.orthogonalization_seconds = orthogonalization_seconds;
         return solution;
       }
 
@@ -138,25 +210,19 @@ namespace modal_haptics
         return message.str();
       }
 
-      // dst = (K - sigma M)^-1 M src for count columns (dst may alias src).
-      void apply_operator(const double *src, double *dst, const int count)
+      // dst = (K - sigma M)^-1 Msrc for count columns, Msrc = M src already computed.
+      void solve_images(const double *Msrc, double *dst, const int count)
       {
-        std::vector<double> Msrc(std::size_t(n) * count);
-        multiply_by_mass(src, Msrc.data(), count);
-        inverse.solve_block(Msrc.data(), count);
-        std::copy(Msrc.begin(), Msrc.end(), dst);
+        std::copy(Msrc, Msrc + std::size_t(n) * count, dst);
+        inverse.solve_block(dst, count);
         solved += count;
       }
 
-      void multiply_by_mass(const double *src, double *dst, const int count) const
+      void multiply_by_mass(const double *src, double *dst, const int count)
       {
-        dealii::Vector<double> x(n), y(n);
-        for (int c = 0; c < count; ++c)
-          {
-            std::copy(src + std::size_t(c) * n, src + std::size_t(c + 1) * n, x.begin());
-            M.vmult(y, x);
-            std::copy(y.begin(), y.end(), dst + std::size_t(c) * n);
-          }
+        dealii::Timer timer;
+        M.multiply(src, dst, count);
+        mass_seconds += timer.wall_time();
       }
 
       // M-orthogonalizes X (n x count) against the first 'size' basis vectors and within itself,
@@ -164,33 +230,36 @@ namespace modal_haptics
       // block collapsed: the Krylov space is exhausted).
       int append_block(double *X, const int count, const int size)
       {
+        dealii::Timer       timer;
+        double              mass_before = mass_seconds;
         std::vector<double> C(std::size_t(std::max(size, 1)) * count), MX(std::size_t(n) * count), G(count * count);
-        // Two passes of classical Gram-Schmidt and Cholesky QR; M X is computed once and then
-        // updated with the same dense operations as X (M V is stored for that).
+        // Two passes of classical Gram-Schmidt against the basis (each reads M V and V once), then
+        // M X once (a block product) and two passes of Cholesky QR in the M inner product within
+        // the block (X^T M X = R^T R, X <- X R^-1, M X <- M X R^-1: only the block is touched).
+        for (int pass = 0; pass < 2 && size > 0; ++pass)
+          {
+            gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C.data(), size);
+            gemm('N', 'N', n, count, size, -1., V.data(), n, C.data(), size, 1., X, n);
+          }
+        multiply_by_mass(X, MX.data(), count);
         for (int pass = 0; pass < 2; ++pass)
           {
-            if (size > 0)
-              {
-                gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C.data(), size);
-                gemm('N', 'N', n, count, size, -1., V.data(), n, C.data(), size, 1., X, n);
-                if (pass > 0)
-                  gemm('N', 'N', n, count, size, -1., MV.data(), n, C.data(), size, 1., MX.data(), n);
-              }
-            if (pass == 0)
-              multiply_by_mass(X, MX.data(), count);
-            // Cholesky QR in the M inner product: X^T M X = R^T R, X <- X R^-1.
             gemm('T', 'N', count, count, n, 1., X, n, MX.data(), n, 0., G.data(), count);
             int info = 0;
             dpotrf_("U", &count, G.data(), &count, &info);
             if (info != 0)
-              return 0;
+              {
+                orthogonalization_seconds += timer.wall_time() - (mass_seconds - mass_before);
+                return 0;
+              }
             const double one = 1.;
             dtrsm_("R", "U", "N", "N", &n, &count, &one, G.data(), &count, X, &n);
             dtrsm_("R", "U", "N", "N", &n, &count, &one, G.data(), &count, MX.data(), &n);
           }
         std::copy(X, X + std::size_t(n) * count, V.begin() + std::size_t(size) * n);
         std::copy(MX.begin(), MX.end(), MV.begin() + std::size_t(size) * n);
-        apply_operator(X, &W[std::size_t(size) * n], count);
+        orthogonalization_seconds += timer.wall_time() - (mass_seconds - mass_before);
+        solve_images(MX.data(), &W[std::size_t(size) * n], count);
         return count;
       }
 
@@ -222,7 +291,7 @@ namespace modal_haptics
 
       // Residuals r_i = W z_i - theta_i V z_i of the OP eigenproblem, in the M norm, relative to theta_i.
       std::vector<double> residual_norms(const int size, const std::vector<double> &theta, const std::vector<double> &Z,
-                                         const int count, std::vector<double> &R) const
+                                         const int count, std::vector<double> &R)
       {
         R.assign(std::size_t(n) * count, 0.);
         gemm('N', 'N', n, count, size, 1., W.data(), n, Z.data(), size, 0., R.data(), n);
@@ -271,7 +340,7 @@ namespace modal_haptics
         return keep + append_block(seed.data(), seeds, keep);
       }
 
-      const dealii::SparseMatrix<double> &M;
+      const BlockMass                     M;
       Factorization                      &inverse;
       const int                           n, nev, block;
       const double                        tolerance;
@@ -280,6 +349,7 @@ namespace modal_haptics
       unsigned int                        solved   = 0;
       int                                 first_unconverged = 0;
       std::vector<double>                 V, MV, W, residuals;
+      double                              mass_seconds = 0., orthogonalization_seconds = 0.;
     };
   } // namespace
 

@@ -499,6 +499,8 @@ namespace modal_haptics
         .value("operator_applications", s.n_operator_applications)
         .value("solved_vectors", s.factorization.n_solved_vectors)
         .value("solve_s", s.factorization.solve_seconds)
+        .value("mass_products_s", s.mass_product_seconds)
+        .value("orthogonalization_s", s.orthogonalization_seconds)
         .end_object();
       const std::size_t bytes_per_candidate = 8 * (3 * r + 9) + 4 + (s.cross_compliance.empty() ? 0 : 8 * 9 * nc);
       json.begin_object("static_correction")

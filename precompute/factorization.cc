@@ -5,6 +5,7 @@
 #include <deal.II/lac/sparse_direct.h>
 
 #include <cholmod.h>
+#include <dlfcn.h>
 
 #include <algorithm>
 #include <cstring>
@@ -13,6 +14,27 @@
 namespace modal_haptics
 {
   using dealii::ExcMessage;
+
+  int set_openblas_threads(const int threads)
+  {
+    auto *set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+    auto *get = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+    if (set == nullptr || get == nullptr)
+      return 0;
+    const int previous = get();
+    set(threads);
+    return previous;
+  }
+
+  BlasThreads::BlasThreads(const int threads)
+    : previous(set_openblas_threads(threads))
+  {}
+
+  BlasThreads::~BlasThreads()
+  {
+    if (previous > 0)
+      set_openblas_threads(previous);
+  }
 
   void Factorization::vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src)
   {
@@ -72,8 +94,9 @@ namespace modal_haptics
 
       void solve_block(double *columns, const unsigned int n_rhs) override
       {
-        dealii::Timer  timer;
-        const size_t   n = factor->n;
+        dealii::Timer     timer;
+        const BlasThreads one_blas_thread(1);
+        const size_t      n = factor->n;
         cholmod_dense *B = cholmod_l_allocate_dense(n, n_rhs, n, CHOLMOD_REAL, &common);
         std::memcpy(B->x, columns, sizeof(double) * n * n_rhs);
         cholmod_dense *X = cholmod_l_solve(CHOLMOD_A, factor, B, &common);

@@ -4,6 +4,7 @@
 //   mpirun -np N modal-precompute SCENE.prm ...     (N > 1 implies --distributed; docs/cluster.md)
 //   modal-precompute SCENE.prm --mesh-only | --list-scenarios | --scenario NAME | --merge   (scenarios
 //   as separate jobs, docs/cluster.md)
+#include "factorization.h"
 #include "modal_precompute.h"
 #include "partial_result.h"
 #include "scene_parameters.h"
@@ -12,7 +13,6 @@
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
 
-#include <dlfcn.h>
 
 #include <csignal>
 #include <cstdlib>
@@ -88,8 +88,7 @@ namespace
     if (std::getenv("OPENBLAS_NUM_THREADS") != nullptr)
       return;
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
-    if (auto *set_threads = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads")))
-      set_threads(1);
+    modal_haptics::set_openblas_threads(1);
   }
 } // namespace
 

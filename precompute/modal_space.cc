@@ -213,6 +213,8 @@ namespace modal_haptics
                                                              "ARPACK dsaupd mode 3 (shift-invert)";
       result.n_operator_applications = eigen.n_operator_applications;
       result.arpack_seconds          = eigen.arpack_seconds;
+      result.mass_product_seconds      = eigen.mass_product_seconds;
+      result.orthogonalization_seconds = eigen.orthogonalization_seconds;
       identify_rigid_body_modes();
       // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first
       // elastic eigenvalue.

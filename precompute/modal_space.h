@@ -99,6 +99,8 @@ namespace modal_haptics
     std::string             eigensolver_method;
     unsigned int            n_operator_applications = 0;
     double                  arpack_seconds = 0.; // the Lanczos iteration with its solves, after the factorization
+    double                  mass_product_seconds = 0.;      // block Krylov: products with M, in arpack_seconds
+    double                  orthogonalization_seconds = 0.; // block Krylov: Gram-Schmidt, in arpack_seconds
     double                  correction_seconds_per_candidate = 0.;
     std::map<std::string, double> timings_s;     // assembly, eigensolve, static_correction, validation
   };

@@ -62,6 +62,7 @@ namespace boost::serialization
     ar &s.participation &s.mass &s.centre_of_mass &s.inertia &s.validation &s.two_contact_rel_error_corrected;
     ar &s.n_rigid_body_modes &s.rigid_computed_frequencies_hz &s.rigid_subspace_sine &s.static_solve_iterations;
     ar &s.factorization &s.eigensolver_method &s.n_operator_applications &s.arpack_seconds;
+    ar &s.mass_product_seconds &s.orthogonalization_seconds;
     ar &s.correction_seconds_per_candidate &s.timings_s;
   }
 

@@ -1,22 +1,34 @@
 #!/usr/bin/python3
 """The eigensolver benchmark: 50 lowest modes of the FACTS plate (facts_plate.geo, linear tets,
-graded around one rib) at several sizes; our default path (ARPACK + CHOLMOD) against deal.II's
-UMFPACK under the same ARPACK driver, SLEPc Krylov-Schur + MUMPS Cholesky on 1 and 2 ranks, and
-scipy's eigsh (ARPACK + SuperLU), all on the same K and M, in one run. Writes a CSV with the ratios.
+graded around one rib) at several sizes; our default path (block Krylov + CHOLMOD) against ARPACK
+over the same CHOLMOD factorization, deal.II's UMFPACK under ARPACK, SLEPc Krylov-Schur + MUMPS
+Cholesky on 1 and 2 ranks, and scipy's eigsh (ARPACK + SuperLU), all on the same K and M, in one
+run: the solvers are interleaved, every repetition runs each of them once, the CSV quotes the
+median with min and max, the peak resident memory (GNU time) and the machine's limits measured in
+the same run (bench-machine-limits: OpenBLAS DGEMM rate, memory read bandwidth).
 
-  run_benchmark.py --build build --out benchmarks/results/<host>/eigensolver.csv [--sizes 1.0,0.5] [--skip-slow]
+  run_benchmark.py --build build --out benchmarks/results/<host>/eigensolver.csv \
+      [--sizes 0.72,0.345,0.213] [--repetitions 3] [--slow-peer-limit 300000] [--slow-peer-repetitions 1]
+
+Slow peers: ARPACK + UMFPACK and scipy (single-threaded LU, time growing about as n^1.6-2 from
+18k to 222k DoFs: 7.8 -> 300 s and 4.7 -> 757 s, peak 7.5 and 9.8 GB at 254k in FACTS.md) run
+only up to --slow-peer-limit DoFs and --slow-peer-repetitions times; above that the CSV has a
+'skipped' row saying why.
 """
 import argparse
 import csv
 import json
 import os
 import re
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 NEV = 50
+TIME = ["/usr/bin/time", "-f", "maxrss_kb=%M"]  # GNU time: peak resident set of the process
 
 
 def scene(fine_size, operator, eigensolver):
@@ -57,33 +69,78 @@ end
 """
 
 
+def peak_rss_mb(stderr):
+    """Every 'maxrss_kb=' line GNU time wrote (one per process): (largest, sum) in MB."""
+    kb = [int(v) for v in re.findall(r"maxrss_kb=(\d+)", stderr)]
+    return (max(kb) / 1024., sum(kb) / 1024.) if kb else (float("nan"), float("nan"))
+
+
+MEMORY_RESERVE_MB = 0  # --memory-reserve-mb: keep at least this much of the machine's memory available
+
+
+def available_mb():
+    return int(re.search(r"MemAvailable:\s+(\d+)", open("/proc/meminfo").read()).group(1)) / 1024.
+
+
+def run(command, env_extra=None):
+    """Runs one solver; with --memory-reserve-mb a watchdog kills it (its whole process group) when the
+    machine's available memory falls below the reserve: a clean failure recorded in the CSV instead
+    of the kernel's OOM killer picking a process on a shared machine."""
+    env = dict(os.environ, **(env_extra or {}))
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        process = subprocess.Popen(command, stdout=out, stderr=err, text=True, env=env, start_new_session=True)
+        killed = None
+        while process.poll() is None:
+            if MEMORY_RESERVE_MB > 0 and available_mb() < MEMORY_RESERVE_MB:
+                killed = f"killed: the machine's available memory fell below {MEMORY_RESERVE_MB} MB"
+                os.killpg(process.pid, 9)
+                process.wait()
+                break
+            time.sleep(0.25)
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
+    if killed or process.returncode != 0:
+        raise RuntimeError(killed or f"{' '.join(command)} failed ({process.returncode}):\n{stdout[-3000:]}\n{stderr[-3000:]}")
+    return subprocess.CompletedProcess(command, 0, stdout, stderr)
+
+
 def run_ours(build, folder, fine_size, operator, eigensolver):
     os.makedirs(folder, exist_ok=True)
     prm = os.path.join(folder, f"facts_plate_{operator}_{eigensolver}.prm")
     open(prm, "w").write(scene(fine_size, operator, eigensolver))
-    subprocess.run([os.path.join(build, "bin", "modal-precompute"), prm, "--output-dir", folder, "--quiet"], check=True)
+    out = run(TIME + [os.path.join(build, "bin", "modal-precompute"), prm, "--output-dir", folder, "--quiet"])
     report = json.load(open(os.path.join(folder, "report.json")))
     rib = [s for s in report["spaces"] if s["name"] == "rib"][0]
     e = rib["eigensolver"]
     lam = [(2 * 3.141592653589793 * f) ** 2 for f in rib["computed_frequencies_hz"]]
-    return dict(n=rib["n_dofs"], seconds=e["analyze_s"] + e["factorize_s"] + e["arpack_s"],
-                phases=f"analyze {e['analyze_s']:.2f} s, factorize {e['factorize_s']:.2f} s, "
-                       f"{e['operator_applications']} solves {e['solve_s']:.2f} s, lanczos total {e['arpack_s']:.2f} s",
-                lambda_first=lam[0], lambda_last=lam[-1], factor_flops=e["factor_flops"], factorize_s=e["factorize_s"])
-
-
-def parse_peer(output):
-    line = [l for l in output.splitlines() if "seconds=" in l][-1]
-    return {k: float(v) for k, v in re.findall(r"(\w+)=([-+0-9.e]+)", line)}
+    largest, total = peak_rss_mb(out.stderr)
+    phases = dict(analyze=e["analyze_s"], factorize=e["factorize_s"], solves=e["solve_s"],
+                  mass_products=e.get("mass_products_s", 0.), orthogonalization=e.get("orthogonalization_s", 0.),
+                  krylov_total=e["arpack_s"])
+    phases["rest"] = phases["krylov_total"] - phases["solves"] - phases["mass_products"] - phases["orthogonalization"]
+    return dict(n=rib["n_dofs"], seconds=e["analyze_s"] + e["factorize_s"] + e["arpack_s"], phases=phases,
+                solved=e["solved_vectors"], lambda_first=lam[0], lambda_last=lam[-1], factor_flops=e["factor_flops"],
+                factor_nonzeros=e["factor_nonzeros"], peak_mb=largest, peak_total_mb=total)
 
 
 def run_peer(command, env_extra):
-    env = dict(os.environ, **env_extra)
-    start = time.perf_counter()
-    out = subprocess.run(command, check=True, capture_output=True, text=True, env=env)
-    peer = parse_peer(out.stdout)
-    peer["wall"] = time.perf_counter() - start
+    out = run(command, env_extra)
+    line = [l for l in out.stdout.splitlines() if "seconds=" in l][-1]
+    peer = {k: float(v) for k, v in re.findall(r"(\w+)=([-+0-9.e]+)", line)}
+    peer["peak_mb"], peer["peak_total_mb"] = peak_rss_mb(out.stderr)
     return peer
+
+
+def machine_limits(build):
+    """OpenBLAS DGEMM rate on 1 and 2 threads and the memory read bandwidth, now."""
+    result = {}
+    for threads in (1, 2):
+        out = run([os.path.join(build, "bin", "bench-machine-limits")], {"OPENBLAS_NUM_THREADS": str(threads)})
+        values = {k: float(v) for k, v in re.findall(r"(\w+)=([-+0-9.e]+)", out.stdout)}
+        result[f"dgemm_gflops_{threads}"] = values["dgemm_gflops"]
+        result["read_gbs_1"], result["read_gbs_2"] = values["read_gbs_1"], values["read_gbs_2"]
+    return result
 
 
 def main():
@@ -91,55 +148,134 @@ def main():
     parser.add_argument("--build", default="build")
     parser.add_argument("--out", required=True)
     parser.add_argument("--work", default="/tmp/modal-haptics-bench-eigensolver")
-    parser.add_argument("--sizes", default="1.0,0.5", help="VOI fine sizes in mm (1.0 ~ 18k DoFs, 0.5 ~ 93k, 0.36 ~ 222k)")
-    parser.add_argument("--skip-slow", action="store_true", help="run UMFPACK and scipy only on the smallest size")
+    parser.add_argument("--sizes", default="0.72,0.345,0.213",
+                        help="VOI fine sizes in mm (1.0 ~ 18k DoFs, 0.72 ~ 40k, 0.5 ~ 93k, 0.36 ~ 222k, 0.345 ~ 250k, "
+                             "0.213 ~ 1M)")
+    parser.add_argument("--repetitions", type=int, default=3, help="interleaved repetitions of the fast solvers")
+    parser.add_argument("--slow-peer-limit", type=int, default=300000,
+                        help="ARPACK + UMFPACK and scipy run only up to this many DoFs (see the module doc)")
+    parser.add_argument("--slow-peer-repetitions", type=int, default=1)
+    parser.add_argument("--skip-arpack-above", type=int, default=2000000,
+                        help="ARPACK + CHOLMOD runs only up to this many DoFs")
+    parser.add_argument("--memory-reserve-mb", type=float, default=0.,
+                        help="kill a solver when the machine's available memory falls below this (0: never); see run")
     args = parser.parse_args()
-    rows = []
+    global MEMORY_RESERVE_MB
+    MEMORY_RESERVE_MB = args.memory_reserve_mb
     mpirun = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np"]
     one_thread = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    sizes = [float(s) for s in args.sizes.split(",")]
-    for size_index, fine in enumerate(sizes):
+    rows = []
+    limits = machine_limits(args.build)
+    print(f"machine: DGEMM {limits['dgemm_gflops_1']:.1f} GFLOP/s on 1 thread, {limits['dgemm_gflops_2']:.1f} on 2; "
+          f"read {limits['read_gbs_1']:.1f} GB/s on 1 thread, {limits['read_gbs_2']:.1f} on 2", flush=True)
+    for fine in (float(s) for s in args.sizes.split(",")):
         folder = os.path.join(args.work, f"fine_{fine}")
-        ours = run_ours(args.build, folder, fine, "cholmod", "block-krylov")
-        n = ours["n"]
-        print(f"[{fine} mm, {n} DoFs] ours: {ours['seconds']:.1f} s ({ours['phases']})", flush=True)
-        rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ours: block Krylov + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
-                         ranks=1, seconds=ours["seconds"], lambda_first=ours["lambda_first"],
-                         lambda_last=ours["lambda_last"], phases=ours["phases"]))
-        arpack = run_ours(args.build, folder, fine, "cholmod", "arpack")
-        print(f"  ARPACK + CHOLMOD: {arpack['seconds']:.1f} s ({arpack['phases']})", flush=True)
-        rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ARPACK + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
-                         ranks=1, seconds=arpack["seconds"], lambda_first=arpack["lambda_first"],
-                         lambda_last=arpack["lambda_last"], phases=arpack["phases"]))
         K, M = os.path.join(folder, "rib_K.csr"), os.path.join(folder, "rib_M.csr")
-        slow_ok = not args.skip_slow or size_index == 0
-        for ranks in [1, 2]:
-            p = run_peer(mpirun + [str(ranks), os.path.join(args.build, "bin", "bench-slepc-peer"), K, M, str(NEV)], one_thread)
-            print(f"  SLEPc + MUMPS, {ranks} rank(s): {p['seconds']:.1f} s", flush=True)
-            rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
-                             ranks=ranks, seconds=p["seconds"], lambda_first=p["lambda_first"], lambda_last=p["lambda_last"], phases=""))
-        if slow_ok:
-            umf = run_ours(args.build, folder, fine, "umfpack", "arpack")
-            print(f"  ARPACK + UMFPACK: {umf['seconds']:.1f} s", flush=True)
-            rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="ARPACK + deal.II SparseDirectUMFPACK (OpenBLAS)", ranks=1,
-                             seconds=umf["seconds"], lambda_first=umf["lambda_first"], lambda_last=umf["lambda_last"],
-                             phases=umf["phases"]))
-            p = run_peer(["/usr/bin/python3", os.path.join(HERE, "scipy_peer.py"), K, M, str(NEV)], {})
-            print(f"  scipy eigsh: {p['seconds']:.1f} s", flush=True)
-            rows.append(dict(fine_size_mm=fine, n_dofs=n, solver="scipy eigsh sigma=0 (ARPACK + SuperLU)", ranks=1,
-                             seconds=p["seconds"], lambda_first=p["lambda_first"], lambda_last=p["lambda_last"], phases=""))
-    for row in rows:
-        reference = [r for r in rows if r["n_dofs"] == row["n_dofs"] and r["solver"].startswith("ours")][0]
-        row["ratio_to_ours"] = row["seconds"] / reference["seconds"]
-        row["lambda_last_rel_diff"] = abs(row["lambda_last"] - reference["lambda_last"]) / reference["lambda_last"]
+        names = {"ours": "ours: block Krylov + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
+                 "arpack": "ARPACK + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
+                 "slepc1": "SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
+                 "slepc2": "SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
+                 "umfpack": "ARPACK + deal.II SparseDirectUMFPACK (OpenBLAS)",
+                 "scipy": "scipy eigsh sigma=0 (ARPACK + SuperLU)"}
+        ranks = dict(ours=1, arpack=1, slepc1=1, slepc2=2, umfpack=1, scipy=1)
+        runners = {
+            "ours": lambda: run_ours(args.build, folder, fine, "cholmod", "block-krylov"),
+            "arpack": lambda: run_ours(args.build, folder, fine, "cholmod", "arpack"),
+            "slepc1": lambda: run_peer(mpirun + ["1"] + TIME + [os.path.join(args.build, "bin", "bench-slepc-peer"), K, M,
+                                                                str(NEV)], one_thread),
+            "slepc2": lambda: run_peer(mpirun + ["2"] + TIME + [os.path.join(args.build, "bin", "bench-slepc-peer"), K, M,
+                                                                str(NEV)], one_thread),
+            "umfpack": lambda: run_ours(args.build, folder, fine, "umfpack", "arpack"),
+            "scipy": lambda: run_peer(TIME + ["/usr/bin/python3", os.path.join(HERE, "scipy_peer.py"), K, M, str(NEV)], {}),
+        }
+        results = {key: [] for key in runners}
+        n = None
+        skipped = {}
+        for repetition in range(args.repetitions):
+            for key, runner in runners.items():
+                if key in skipped:
+                    continue
+                if n is not None and key in ("umfpack", "scipy"):
+                    if n > args.slow_peer_limit:
+                        skipped[key] = (f"skipped above --slow-peer-limit {args.slow_peer_limit} DoFs: single-threaded "
+                                        "LU whose time grows about as n^1.6-2 (see the smaller sizes' rows)")
+                        continue
+                    if repetition >= args.slow_peer_repetitions:
+                        continue
+                if n is not None and key == "arpack" and n > args.skip_arpack_above:
+                    skipped[key] = f"skipped above --skip-arpack-above {args.skip_arpack_above} DoFs"
+                    continue
+                try:
+                    r = runner()
+                except RuntimeError as error:
+                    print(f"  {names[key]}, {ranks[key]} rank(s): FAILED\n{error}", flush=True)
+                    r = dict(failed=str(error).splitlines()[0][:200])
+                results[key].append(r)
+                if key == "ours" and n is None:
+                    n = r["n"]
+                if "failed" not in r:
+                    print(f"[{fine} mm, {n} DoFs, repetition {repetition + 1}] {names[key]}, {ranks[key]} rank(s): "
+                          f"{r['seconds']:.1f} s, peak {r['peak_mb']:.0f} MB"
+                          + (f" ({', '.join(f'{k} {v:.2f} s' for k, v in r['phases'].items())}, {r['solved']} solved)"
+                             if "phases" in r else ""), flush=True)
+        reference = None
+        for key in runners:
+            good = [r for r in results[key] if "failed" not in r]
+            failures = [r["failed"] for r in results[key] if "failed" in r]
+            if not good:
+                if key in skipped or failures:
+                    rows.append(dict(fine_size_mm=fine, n_dofs=n, solver=names[key], ranks=ranks[key], repetitions=0,
+                                     note=skipped.get(key, "failed: " + "; ".join(failures))))
+                continue
+            seconds = [r["seconds"] for r in good]
+            row = dict(fine_size_mm=fine, n_dofs=n, solver=names[key], ranks=ranks[key], repetitions=len(good),
+                       seconds=statistics.median(seconds), seconds_min=min(seconds), seconds_max=max(seconds),
+                       peak_rss_mb_per_process=max(r["peak_mb"] for r in good),
+                       peak_rss_mb_all_ranks=max(r["peak_total_mb"] for r in good),
+                       lambda_first=good[0]["lambda_first"], lambda_last=good[0]["lambda_last"],
+                       note=("failed in %d of %d repetitions: %s" % (len(failures), len(results[key]), failures[0])
+                             if failures else ""))
+            if "phases" in good[0]:
+                row["phases_median_s"] = "; ".join(f"{p} {statistics.median(r['phases'][p] for r in good):.2f}"
+                                                   for p in good[0]["phases"])
+                row["solved_vectors"] = good[0]["solved"]
+                row["factor_nonzeros"] = good[0]["factor_nonzeros"]
+                row["factor_gflops"] = good[0]["factor_flops"] / 1e9 / statistics.median(r["phases"]["factorize"]
+                                                                                         for r in good)
+            if key == "ours":
+                reference = row
+            rows.append(row)
+        for row in rows:
+            if row["n_dofs"] == n and "seconds" in row and reference is not None:
+                row["ratio_to_ours"] = row["seconds"] / reference["seconds"]
+                row["lambda_last_rel_diff"] = abs(row["lambda_last"] - reference["lambda_last"]) / reference["lambda_last"]
+    after = machine_limits(args.build)
+    for key, value in limits.items():
+        unit = "GFLOP/s" if key.startswith("dgemm") else "GB/s"
+        what = (f"machine: OpenBLAS DGEMM n=4000, {key[-1]} thread(s)" if key.startswith("dgemm")
+                else f"machine: memory read bandwidth, {key[-1]} thread(s)")
+        rows.append(dict(solver=what, rate=value, rate_after=after[key], rate_unit=unit,
+                         note="measured before (rate) and after (rate_after) the solvers"))
+    fields = ["fine_size_mm", "n_dofs", "solver", "ranks", "repetitions", "seconds", "seconds_min", "seconds_max",
+              "ratio_to_ours", "peak_rss_mb_per_process", "peak_rss_mb_all_ranks", "lambda_first", "lambda_last",
+              "lambda_last_rel_diff", "phases_median_s", "solved_vectors", "factor_nonzeros", "factor_gflops", "rate",
+              "rate_after", "rate_unit", "note"]
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+    with tempfile.NamedTemporaryFile("w", newline="", dir=os.path.dirname(os.path.abspath(args.out)), delete=False) as f:
+        f.write(f"# load average at the end: {' '.join(open('/proc/loadavg').read().split()[:3])}\n")
+        writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    print(f"\n{'DoFs':>8} {'ranks':>5} {'seconds':>9} {'x ours':>7}  solver")
+    os.replace(f.name, args.out)
+    print(f"\n{'DoFs':>8} {'ranks':>5} {'median s':>9} {'x ours':>7} {'peak MB':>8}  solver")
     for r in rows:
-        print(f"{r['n_dofs']:8d} {r['ranks']:5d} {r['seconds']:9.2f} {r['ratio_to_ours']:7.2f}  {r['solver']}")
+        if "seconds" in r:
+            print(f"{r['n_dofs']:8d} {r['ranks']:5d} {r['seconds']:9.2f} {r.get('ratio_to_ours', float('nan')):7.2f} "
+                  f"{r['peak_rss_mb_per_process']:8.0f}  {r['solver']}")
+        elif "n_dofs" in r:
+            print(f"{r['n_dofs']:8d} {r['ranks']:5d} {'-':>9} {'-':>7} {'-':>8}  {r['solver']}: {r['note']}")
+        else:
+            print(f"{r['rate']:.1f} / {r['rate_after']:.1f} {r['rate_unit']}  {r['solver']}")
     print(f"written {args.out}")
 
 

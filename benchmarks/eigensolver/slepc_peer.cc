@@ -2,7 +2,7 @@
 // relative convergence test, on K and M exported by modal-precompute (binary CSR, see README.md).
 // Runs on any number of MPI ranks: every rank reads the file and keeps its block of rows.
 //
-//   mpirun -np N bench-slepc-peer K.csr M.csr NEV [TOL]
+//   mpirun -np N bench-slepc-peer K.csr M.csr NEV [TOL [PETSc/SLEPc options]]
 // prints one line: ranks, n, nev, converged, seconds, first and last eigenvalue.
 #include "csr_file.h"
 
@@ -85,9 +85,24 @@ int main(int argc, char **argv)
   KSPGetPC(ksp, &pc);
   PCSetType(pc, PCCHOLESKY);
   PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  // MUMPS sizes its real workspace from the analysis' estimate plus ICNTL(14) percent (default 20).
+  // On 2 ranks the numerical pivoting of some runs outgrew it (INFOG(1) = -9, "workspace too
+  // small") and the peer failed; 100 % extra (the estimate doubled) unless the command line sets
+  // it (-st_mat_mumps_icntl_14 N).
+  const char *prefix = nullptr;
+  KSPGetOptionsPrefix(ksp, &prefix);
+  const std::string icntl14 = std::string("-") + (prefix != nullptr ? prefix : "") + "mat_mumps_icntl_14";
+  PetscBool         icntl14_given = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, icntl14.c_str(), &icntl14_given);
+  if (!icntl14_given)
+    PetscOptionsSetValue(nullptr, icntl14.c_str(), "100");
   EPSSetFromOptions(eps);
   EPSSolve(eps);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Mat      factor;
+  PetscInt workspace_percent = -1;
+  PCFactorGetMatrix(pc, &factor);
+  MatMumpsGetIcntl(factor, 14, &workspace_percent);
   PetscInt converged;
   EPSGetConverged(eps, &converged);
   PetscScalar first = 0., last = 0.;
@@ -98,8 +113,9 @@ int main(int argc, char **argv)
     }
   PetscInt n, unused;
   MatGetSize(K, &n, &unused);
-  PetscPrintf(PETSC_COMM_WORLD, "slepc ranks=%d n=%d nev=%d converged=%d seconds=%.3f lambda_first=%.12e lambda_last=%.12e\n",
-              ranks, int(n), int(nev), int(converged), seconds, double(first), double(last));
+  PetscPrintf(PETSC_COMM_WORLD,
+              "slepc ranks=%d n=%d nev=%d converged=%d icntl14=%d seconds=%.3f lambda_first=%.12e lambda_last=%.12e\n",
+              ranks, int(n), int(nev), int(converged), int(workspace_percent), seconds, double(first), double(last));
   EPSDestroy(&eps);
   MatDestroy(&K);
   MatDestroy(&M);
