@@ -43,12 +43,13 @@ namespace modal_haptics
     plan_contacts();
     compute_modal_spaces();
     record_peak_memory();
-    // Every process holds the complete results of every space: process 0 alone finishes.
-    if (!writes_files)
-      return;
+    // Every process holds what the parallel .h5 needs (its own rows of the per-vertex data, and the
+    // rest in full); process 0 alone writes the other files.
     compute_transfer_matrices();
     StagedFiles staged;
     export_results(staged);
+    if (!writes_files)
+      return;
     // The report is written last: it gives the size of every other file and the total time.
     results.timings_s["total"] = total.wall_time();
     write_report(scene.output_directory + "/report.json", scene, results, staged);
@@ -266,7 +267,12 @@ namespace modal_haptics
     TimerOutput::Scope scope(timer, "export");
     dealii::Timer      wall;
     const std::string  base = scene.output_directory + "/" + scene.scene_name;
-    write_hdf5_file(base + ".h5", scene, results, staged);
+    if (distributed)
+      write_hdf5_file_parallel(base + ".h5", scene, results, &staged, MPI_COMM_WORLD);
+    else
+      write_hdf5_file(base + ".h5", scene, results, staged);
+    if (!writes_files)
+      return;
     write_basis_file(base + ".mrt", scene, results, staged);
     staged.write(scene.output_directory + "/used_parameters.prm",
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
