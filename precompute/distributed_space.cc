@@ -26,6 +26,7 @@
 #include <cmath>
 #include <complex>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -99,8 +100,11 @@ namespace modal_haptics
       void compute_participation_factors();
       void validate_two_contacts();
 
-      // The located point's cell if this process owns it.
-      bool dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const;
+      // Collective: every point is evaluated by one process, the one whose own cells hold it best (the
+      // serial locator's rule, space_parts::PointLocator, ties to the lowest rank); the others get an
+      // invalid cell. 'max_outside', if given, is the farthest a point lies outside the mesh.
+      std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
+                                                                  double *max_outside = nullptr) const;
       // sum_d factor_d W_v e_d as a distributed vector; each process adds its cells' part.
       DistributedVector patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
       DistributedVector ghosted(const DistributedVector &owned) const;
@@ -113,17 +117,18 @@ namespace modal_haptics
 
       const MPI_Comm comm;
 
-      // Every process holds the whole mesh: it is partitioned from it, and locates the display and
-      // patch points in it (docs/cluster.md). Only the distributed mesh carries DoFs.
-      Triangulation<3>                             whole_mesh;
+      // Every process reads the whole mesh to partition it, then keeps only its share: the whole mesh
+      // is gone before the matrices exist (docs/cluster.md).
       parallel::fullydistributed::Triangulation<3> triangulation;
+      std::vector<unsigned int>                    whole_mesh_vertex;  // by local vertex index, of own and ghost cells
+      std::vector<std::array<types::global_dof_index, 3>> owned_vertex_dofs; // of result.owned_rows->vertices
       DoFHandler<3>                                dof_handler;
       IndexSet                                     owned_dofs, relevant_dofs;
       AffineConstraints<double>                    constraints;
       TrilinosWrappers::SparseMatrix               stiffness_matrix, mass_matrix, shifted_matrix;
       std::unique_ptr<MumpsInverse>                inverse;
-      std::map<unsigned int, DoFHandler<3>::active_cell_iterator> owned_cells; // by whole-mesh cell index
-      std::unique_ptr<space_parts::PointLocator>   locator;
+      std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
+      std::unique_ptr<space_parts::PointLocator>   locator; // in the owned cells
       std::vector<std::pair<unsigned int, space_parts::DofWeights>> display_rows; // (3v + c, weights), owned cells
       std::map<unsigned int, space_parts::PatchLoad> patch_loads;               // this process's part
       std::vector<DistributedVector>               modes, ghosted_modes;        // kept, M-orthonormal
@@ -139,14 +144,40 @@ namespace modal_haptics
     {}
 
     // The FACTS recipe: every process reads the serial mesh, partitions it (METIS, deterministic) and
-    // builds its part of the fully distributed mesh; material and boundary ids carry over.
+    // builds its part of the fully distributed mesh; material and boundary ids carry over. A coarse
+    // cell keeps its whole-mesh index as its id: what this process needs of the whole mesh (the
+    // whole-mesh numbers of its vertices, its tets for the HDF5 file) is taken from it here, and the
+    // whole mesh is freed.
     void DistributedModalSpace::read_and_partition_mesh()
     {
-      space_parts::read_mesh(scene, task, whole_mesh, result);
-      GridTools::partition_triangulation(Utilities::MPI::n_mpi_processes(comm), whole_mesh);
-      triangulation.create_triangulation(
-        TriangulationDescription::Utilities::create_description_from_triangulation(whole_mesh, comm));
-      locator = std::make_unique<space_parts::PointLocator>(whole_mesh, mapping);
+      {
+        Triangulation<3> whole_mesh;
+        space_parts::read_mesh(scene, task, whole_mesh, result);
+        GridTools::partition_triangulation(Utilities::MPI::n_mpi_processes(comm), whole_mesh);
+        triangulation.create_triangulation(
+          TriangulationDescription::Utilities::create_description_from_triangulation(whole_mesh, comm));
+        result.owned_rows.emplace();
+        std::vector<unsigned int> tets;
+        whole_mesh_vertex.assign(triangulation.n_vertices(), numbers::invalid_unsigned_int);
+        for (const auto &cell : triangulation.active_cell_iterators())
+          if (!cell->is_artificial())
+            {
+              const unsigned int index = cell->id().get_coarse_cell_id();
+              const Triangulation<3>::active_cell_iterator whole_cell(&whole_mesh, 0, index);
+              for (unsigned int v = 0; v < 4; ++v)
+                whole_mesh_vertex[cell->vertex_index(v)] = whole_cell->vertex_index(v);
+              if (cell->is_locally_owned())
+                {
+                  result.owned_rows->tets.push_back(index);
+                  for (unsigned int v = 0; v < 4; ++v)
+                    tets.push_back(whole_cell->vertex_index(v));
+                }
+            }
+        result.mesh_tets = std::move(tets);
+        result.mesh_vertices.clear();
+        result.mesh_vertices.shrink_to_fit();
+      }
+      locator = std::make_unique<space_parts::PointLocator>(triangulation, mapping);
     }
 
     void DistributedModalSpace::setup_system()
@@ -157,17 +188,33 @@ namespace modal_haptics
       owned_dofs    = dof_handler.locally_owned_dofs();
       DoFTools::extract_locally_relevant_dofs(dof_handler, relevant_dofs);
 
-      // A coarse cell keeps its serial index as its id: the link between the two meshes.
       for (const auto &cell : dof_handler.active_cell_iterators())
         if (cell->is_locally_owned())
-          owned_cells[cell->id().get_coarse_cell_id()] = cell;
+          owned_cells.push_back(cell);
+
+      // The vertices whose DoFs this process owns are its rows of the mesh vertices and the modes
+      // there, in whole-mesh order.
+      std::map<unsigned int, std::pair<Point<3>, std::array<types::global_dof_index, 3>>> owned_vertices;
+      for (const auto &cell : owned_cells)
+        for (unsigned int v = 0; v < 4; ++v)
+          if (owned_dofs.is_element(cell->vertex_dof_index(v, 0)))
+            owned_vertices[whole_mesh_vertex[cell->vertex_index(v)]] = {
+              cell->vertex(v), {{cell->vertex_dof_index(v, 0), cell->vertex_dof_index(v, 1), cell->vertex_dof_index(v, 2)}}};
+      whole_mesh_vertex = std::vector<unsigned int>();
+      for (const auto &[index, vertex] : owned_vertices)
+        {
+          result.owned_rows->vertices.push_back(index);
+          for (unsigned int d = 0; d < 3; ++d)
+            result.mesh_vertices.push_back(vertex.first[d]);
+          owned_vertex_dofs.push_back(vertex.second);
+        }
 
       AssertThrow(!scene.free_floating(),
                   ExcMessage("A free-floating part (no 'Geometry/Clamp groups') runs on the serial path only: "
                              "run modal-precompute without mpirun or --distributed."));
       constraints.clear();
       constraints.reinit(relevant_dofs);
-      space_parts::add_clamp_constraints(scene, task, whole_mesh, mapping, dof_handler, constraints);
+      space_parts::add_clamp_constraints(scene, task, mapping, dof_handler, constraints, comm);
       constraints.close();
       std::vector<unsigned int> clamped;
       for (const auto i : owned_dofs)
@@ -192,10 +239,7 @@ namespace modal_haptics
 
     void DistributedModalSpace::assemble_system()
     {
-      std::vector<DoFHandler<3>::active_cell_iterator> cells;
-      for (const auto &[index, cell] : owned_cells)
-        cells.push_back(cell);
-      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, cells, constraints,
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells, constraints,
                                                               stiffness_matrix, mass_matrix);
       stiffness_matrix.compress(VectorOperation::add);
       mass_matrix.compress(VectorOperation::add);
@@ -216,6 +260,9 @@ namespace modal_haptics
     void DistributedModalSpace::solve_eigenproblem()
     {
       const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      log(std::string("Modes/Eigensolver (") + (scene.modes.block_krylov ? "block-krylov" : "arpack") +
+          ") and Modes/Operator (" + (scene.modes.eigen_operator == EigenOperator::cholmod ? "cholmod" : "umfpack") +
+          ") choose the serial solvers; the distributed path uses PARPACK over MUMPS");
       log("factorizing K with MUMPS (Trilinos Amesos_Mumps)");
       if (shift != 0.)
         {
@@ -270,6 +317,12 @@ namespace modal_haptics
           vectors[i] /= std::sqrt(mass_matrix.matrix_norm_square(vectors[i]));
           eigenvectors.push_back(std::move(vectors[i]));
         }
+      // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
+      // mode below the shift says that the shift lies above the first eigenfrequency.
+      AssertThrow(eigenvalues.front() > shift,
+                  ExcMessage("'Modes/Shift' (" + std::to_string(scene.modes.shift) + " Hz) lies above the first "
+                             "eigenfrequency (" + std::to_string(std::sqrt(std::max(eigenvalues.front(), 0.)) / two_pi) +
+                             " Hz): K - shift*M is not positive definite. Choose a shift below the first frequency."));
       result.self_check = check_eigenpairs(stiffness_matrix, mass_matrix, eigenvalues, eigenvectors);
       for (const unsigned int i : space_parts::select_modes(scene, eigenvalues, result))
         {
@@ -285,14 +338,64 @@ namespace modal_haptics
       log(line.str());
     }
 
-    bool DistributedModalSpace::dof_cell(const space_parts::LocatedPoint   &point,
-                                         DoFHandler<3>::active_cell_iterator &cell) const
+    std::vector<space_parts::EvaluationPoint>
+    DistributedModalSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
     {
-      const auto it = owned_cells.find(point.cell->index());
-      if (it == owned_cells.end())
-        return false;
-      cell = it->second;
-      return true;
+      struct Claim // MPI_DOUBLE_INT
+      {
+        double closeness; // minus the distance outside the owned cells
+        int    rank;
+      };
+      // The serial locator tries the cells of the n nearest boxes of the whole mesh: the n nearest
+      // over all processes are those within the n-th smallest distance of every process's n nearest.
+      constexpr unsigned int n    = space_parts::PointLocator::n_nearest;
+      const int              rank = Utilities::MPI::this_mpi_process(comm);
+      std::vector<double>    distances(points.size() * n);
+      for (std::size_t k = 0; k < points.size(); ++k)
+        {
+          const auto nearest = locator->nearest_box_distances(points[k]);
+          std::copy(nearest.begin(), nearest.end(), distances.begin() + k * n);
+        }
+      // An all-reduce that keeps the n smallest of two ascending lists of n: O(points) per process.
+      MPI_Datatype list;
+      MPI_Type_contiguous(n, MPI_DOUBLE, &list);
+      MPI_Type_commit(&list);
+      MPI_Op keep_smallest;
+      MPI_Op_create(
+        [](void *in, void *inout, int *count, MPI_Datatype *) {
+          auto *a = static_cast<double *>(in), *b = static_cast<double *>(inout);
+          std::array<double, 2 * n> both;
+          for (int k = 0; k < *count; ++k, a += n, b += n)
+            {
+              std::merge(a, a + n, b, b + n, both.begin());
+              std::copy(both.begin(), both.begin() + n, b);
+            }
+        },
+        /*commute*/ 1, &keep_smallest);
+      int ierr = MPI_Allreduce(MPI_IN_PLACE, distances.data(), points.size(), list, keep_smallest, comm);
+      MPI_Op_free(&keep_smallest);
+      MPI_Type_free(&list);
+      AssertThrowMPI(ierr);
+      std::vector<space_parts::LocatedPoint>  located;
+      std::vector<Claim>                      claims;
+      for (std::size_t k = 0; k < points.size(); ++k)
+        {
+          located.push_back(locator->locate(points[k], distances[k * n + n - 1]));
+          claims.push_back({std::max(-located.back().distance_outside, std::numeric_limits<double>::lowest()), rank});
+        }
+      ierr = MPI_Allreduce(MPI_IN_PLACE, claims.data(), claims.size(), MPI_DOUBLE_INT, MPI_MAXLOC, comm);
+      AssertThrowMPI(ierr);
+      std::vector<space_parts::EvaluationPoint> evaluated(points.size());
+      for (std::size_t k = 0; k < points.size(); ++k)
+        {
+          if (max_outside)
+            *max_outside = std::max(*max_outside, -claims[k].closeness);
+          if (claims[k].rank == rank)
+            evaluated[k] = {DoFHandler<3>::active_cell_iterator(&triangulation, located[k].cell->level(),
+                                                                located[k].cell->index(), &dof_handler),
+                            located[k].unit};
+        }
+      return evaluated;
     }
 
     DistributedVector DistributedModalSpace::ghosted(const DistributedVector &owned) const
@@ -347,23 +450,19 @@ namespace modal_haptics
       Utilities::MPI::sum(local, comm, values);
     }
 
-    // Each display vertex is located in the whole mesh; the process owning its cell evaluates the
-    // modes there, the others add zero.
+    // The process that evaluates a display vertex (evaluation_points) interpolates the modes there,
+    // the others add zero.
     void DistributedModalSpace::interpolate_on_display_surface()
     {
-      double max_outside = 0.;
+      double     max_outside = 0.;
+      const auto evaluated   = evaluation_points(display.vertices, &max_outside);
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
-        {
-          const auto located = locator->locate(display.vertices[v]);
-          max_outside        = std::max(max_outside, located.distance_outside);
-          DoFHandler<3>::active_cell_iterator cell;
-          if (dof_cell(located, cell))
-            for (unsigned int c = 0; c < 3; ++c)
-              {
-                display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
-                space_parts::add_shape_values(cell, located.unit, c, 1., display_rows.back().second);
-              }
-        }
+        if (evaluated[v].cell.state() == IteratorState::valid)
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
+              space_parts::add_shape_values(evaluated[v].cell, evaluated[v].unit, c, 1., display_rows.back().second);
+            }
 
       const unsigned int  r  = modes.size();
       const unsigned int  nv = display.n_vertices();
@@ -376,22 +475,13 @@ namespace modal_haptics
         for (unsigned int i = 0; i < r; ++i)
           result.display_modes[std::size_t(row) * r + i] = by_mode[std::size_t(i) * 3 * nv + row];
 
-      // Modes at the mesh vertices for the HDF5 file, written by the owner of the vertex DoF.
-      result.modes_at_vertices.assign(std::size_t(r) * result.n_vertices * 3, 0.);
-      for (const auto &[index, cell] : owned_cells)
-        {
-          const Triangulation<3>::active_cell_iterator serial_cell(&whole_mesh, 0, index);
-          for (unsigned int vtx = 0; vtx < 4; ++vtx)
-            for (unsigned int c = 0; c < 3; ++c)
-              {
-                const auto dof = cell->vertex_dof_index(vtx, c);
-                if (owned_dofs.is_element(dof))
-                  for (unsigned int i = 0; i < r; ++i)
-                    result.modes_at_vertices[(std::size_t(i) * result.n_vertices + serial_cell->vertex_index(vtx)) * 3 + c] =
-                      modes[i][dof];
-              }
-        }
-      sum_over_processes(result.modes_at_vertices);
+      // Modes at this process's rows of the mesh vertices, for the parallel HDF5 file.
+      const std::size_t n_rows = owned_vertex_dofs.size();
+      result.modes_at_vertices.resize(std::size_t(r) * n_rows * 3);
+      for (unsigned int i = 0; i < r; ++i)
+        for (std::size_t k = 0; k < n_rows; ++k)
+          for (unsigned int c = 0; c < 3; ++c)
+            result.modes_at_vertices[(std::size_t(i) * n_rows + k) * 3 + c] = modes[i][owned_vertex_dofs[k][c]];
       std::ostringstream line;
       line << "display surface: " << nv << " vertices located, farthest outside the mesh by " << max_outside
            << " (barycentric)";
@@ -405,7 +495,7 @@ namespace modal_haptics
       DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
       std::map<types::global_dof_index, unsigned int> component;
       std::vector<types::global_dof_index>            dofs(fe.n_dofs_per_cell());
-      for (const auto &[index, cell] : owned_cells)
+      for (const auto &cell : owned_cells)
         {
           cell->get_dof_indices(dofs);
           for (unsigned int i = 0; i < dofs.size(); ++i)
@@ -447,8 +537,9 @@ namespace modal_haptics
       const unsigned int nc    = result.candidates.size();
       Timer              wall;
       for (const unsigned int v : loads)
-        patch_loads[v] = space_parts::make_patch_load(display, v, *locator,
-                                                      [&](const auto &point, auto &cell) { return dof_cell(point, cell); });
+        patch_loads[v] = space_parts::make_patch_load(display, v, [&](const std::vector<meshing::Point3> &points) {
+          return evaluation_points(points);
+        });
 
       for (unsigned int a = 0; a < nc; ++a)
         for (unsigned int i = 0; i < r; ++i)

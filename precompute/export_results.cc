@@ -4,6 +4,7 @@
 #include "modal_precompute.h"
 
 #include <deal.II/base/hdf5.h>
+#include <deal.II/base/mpi.h>
 
 #include <array>
 #include <cmath>
@@ -22,17 +23,68 @@ namespace modal_haptics
   // ---------------------------------------------------------------------------------------------
   namespace
   {
+    // Who writes what. A serial file: this process writes everything. A parallel file (every call
+    // collective, on every process of the communicator): process 0 writes the datasets every process
+    // holds in full, the others take part with empty selections, and each process writes its own rows
+    // of the per-vertex and per-tet datasets (ModalSpaceResult::owned_rows).
+    struct Writers
+    {
+      bool writes_whole_arrays = true;
+    };
+
     template <typename T>
     void write_array(const dealii::HDF5::Group &group, const std::string &name, const std::vector<T> &data,
-                     std::vector<hsize_t> dimensions)
+                     std::vector<hsize_t> dimensions, const Writers &writers = {})
     {
       std::size_t size = 1;
       for (const auto d : dimensions)
         size *= d;
       AssertThrow(size == data.size(), dealii::ExcInternalError());
       auto dataset = group.create_dataset<T>(name, dimensions);
-      if (!data.empty())
+      if (data.empty())
+        return;
+      if (writers.writes_whole_arrays)
         dataset.write(data);
+      else
+        dataset.template write_none<T>();
+    }
+
+    // A dataset of shape (blocks, n, width), or (n, width) for blocks = 0, of which this process
+    // holds the rows 'rows' of n (all of them if 'rows' is null), block by block. Each block is one
+    // collective write of the rows' elements (an HDF5 point selection), so the coordinates never
+    // take more than three times a block of this process's rows.
+    template <typename T>
+    void write_rows(const dealii::HDF5::Group &group, const std::string &name, const std::vector<T> &data,
+                    const hsize_t blocks, const hsize_t n, const hsize_t width, const std::vector<unsigned int> *rows)
+    {
+      if (rows == nullptr)
+        {
+          write_array(group, name, data, blocks == 0 ? std::vector<hsize_t>{n, width} : std::vector<hsize_t>{blocks, n, width});
+          return;
+        }
+      auto dataset = group.create_dataset<T>(name, blocks == 0 ? std::vector<hsize_t>{n, width} :
+                                                                 std::vector<hsize_t>{blocks, n, width});
+      const std::size_t block_size = rows->size() * width;
+      std::vector<hsize_t> coordinates;
+      for (hsize_t b = 0; b < std::max<hsize_t>(blocks, 1); ++b)
+        {
+          if (block_size == 0)
+            {
+              dataset.template write_none<T>();
+              continue;
+            }
+          coordinates.clear();
+          for (const unsigned int row : *rows)
+            for (hsize_t c = 0; c < width; ++c)
+              {
+                if (blocks > 0)
+                  coordinates.push_back(b);
+                coordinates.push_back(row);
+                coordinates.push_back(c);
+              }
+          dataset.write_selection(std::vector<T>(data.begin() + b * block_size, data.begin() + (b + 1) * block_size),
+                                  coordinates);
+        }
     }
 
     std::vector<double> flatten(const std::vector<meshing::Point3> &points)
@@ -52,7 +104,7 @@ namespace modal_haptics
       return flat;
     }
 
-    void write_space(dealii::HDF5::Group &spaces, const ModalSpaceResult &s, const unsigned int nv)
+    void write_space(dealii::HDF5::Group &spaces, const ModalSpaceResult &s, const unsigned int nv, const Writers &w)
     {
       auto g = spaces.create_group(s.name);
       const hsize_t r = s.eigenvalues.size(), nc = s.candidates.size(), nval = s.validation.size();
@@ -60,22 +112,24 @@ namespace modal_haptics
       g.set_attribute("degree", s.degree);
       g.set_attribute("n_dofs", s.n_dofs);
       g.set_attribute("mass_kg", s.mass);
-      write_array(g, "mesh_vertices", s.mesh_vertices, {s.n_vertices, 3});
-      write_array(g, "mesh_tets", s.mesh_tets, {s.n_cells, 4});
-      write_array(g, "clamped_dofs", s.clamped_dofs, {s.clamped_dofs.size()});
-      write_array(g, "eigenvalues", s.eigenvalues, {r});
-      write_array(g, "frequencies_hz", s.frequencies_hz, {r});
-      write_array(g, "damping_ratios", s.damping_ratios, {r});
-      write_array(g, "modes_at_vertices", s.modes_at_vertices, {r, s.n_vertices, 3});
-      write_array(g, "display_modes", s.display_modes, {nv, 3, r});
-      write_array(g, "candidate_vertices", s.candidates, {nc});
-      write_array(g, "candidate_modes", s.candidate_modes, {nc, 3, r});
-      write_array(g, "candidate_compliance", s.candidate_compliance, {nc, 3, 3});
+      const auto *vertex_rows = s.owned_rows ? &s.owned_rows->vertices : nullptr;
+      write_rows(g, "mesh_vertices", s.mesh_vertices, 0, s.n_vertices, 3, vertex_rows);
+      write_rows(g, "mesh_tets", s.mesh_tets, 0, s.n_cells, 4, s.owned_rows ? &s.owned_rows->tets : nullptr);
+      write_array(g, "clamped_dofs", s.clamped_dofs, {s.clamped_dofs.size()}, w);
+      write_array(g, "eigenvalues", s.eigenvalues, {r}, w);
+      write_array(g, "frequencies_hz", s.frequencies_hz, {r}, w);
+      write_array(g, "damping_ratios", s.damping_ratios, {r}, w);
+      // r = 0 cannot happen (select_modes keeps at least one), so the blocks are the modes.
+      write_rows(g, "modes_at_vertices", s.modes_at_vertices, r, s.n_vertices, 3, vertex_rows);
+      write_array(g, "display_modes", s.display_modes, {nv, 3, r}, w);
+      write_array(g, "candidate_vertices", s.candidates, {nc}, w);
+      write_array(g, "candidate_modes", s.candidate_modes, {nc, 3, r}, w);
+      write_array(g, "candidate_compliance", s.candidate_compliance, {nc, 3, 3}, w);
       const hsize_t n_cross = s.cross_compliance.empty() ? 0 : 3 * nc;
-      write_array(g, "cross_compliance", s.cross_compliance, {n_cross, n_cross});
-      write_array(g, "participation", s.participation, {r, 6});
-      write_array(g, "centre_of_mass", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()), {3});
-      write_array(g, "inertia", std::vector<double>(s.inertia.begin(), s.inertia.end()), {3, 3});
+      write_array(g, "cross_compliance", s.cross_compliance, {n_cross, n_cross}, w);
+      write_array(g, "participation", s.participation, {r, 6}, w);
+      write_array(g, "centre_of_mass", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()), {3}, w);
+      write_array(g, "inertia", std::vector<double>(s.inertia.begin(), s.inertia.end()), {3, 3}, w);
       std::vector<unsigned int> cases;
       std::vector<double>       response;
       for (const auto &vc : s.validation)
@@ -84,8 +138,8 @@ namespace modal_haptics
           cases.push_back(vc.direction);
           response.insert(response.end(), vc.full_response.begin(), vc.full_response.end());
         }
-      write_array(g, "validation_cases", cases, {nval, 2});
-      write_array(g, "validation_response", response, {nval, 3});
+      write_array(g, "validation_cases", cases, {nval, 2}, w);
+      write_array(g, "validation_response", response, {nval, 3}, w);
     }
   } // namespace
 
@@ -106,12 +160,12 @@ namespace modal_haptics
     }
   } // namespace
 
-  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
-                       StagedFiles &staged)
+  namespace
   {
-    const std::string temporary = staged.stage(filename);
+    // Everything but the file: the same calls on every process of a parallel file.
+    void write_hdf5_contents(dealii::HDF5::File &file, const SceneParameters &scene, const PrecomputeResults &results,
+                             const Writers &w)
     {
-      dealii::HDF5::File file(temporary, dealii::HDF5::File::FileAccessMode::create);
       file.set_attribute("scene", scene.scene_name);
       file.set_attribute("format_version", std::string("1.0"));
       file.set_attribute("units", std::string("SI: m, kg, s, N, Pa"));
@@ -123,31 +177,62 @@ namespace modal_haptics
       const auto &d       = results.display;
       auto        display = file.create_group("display_surface");
       display.set_attribute("patch_radius_m", d.patch_radius);
-      write_array(display, "vertices", flatten(d.vertices), {d.n_vertices(), 3});
-      write_array(display, "triangles", flatten(d.triangles), {d.triangles.size(), 3});
-      write_array(display, "region", d.region, {d.n_vertices()});
-      write_array(display, "vertex_area", d.vertex_area, {d.n_vertices()});
-      write_array(display, "patch_offsets", d.patch_offsets, {d.patch_offsets.size()});
-      write_array(display, "patch_vertices", d.patch_vertices, {d.patch_vertices.size()});
-      write_array(display, "patch_weights", d.patch_weights, {d.patch_weights.size()});
+      write_array(display, "vertices", flatten(d.vertices), {d.n_vertices(), 3}, w);
+      write_array(display, "triangles", flatten(d.triangles), {d.triangles.size(), 3}, w);
+      write_array(display, "region", d.region, {d.n_vertices()}, w);
+      write_array(display, "vertex_area", d.vertex_area, {d.n_vertices()}, w);
+      write_array(display, "patch_offsets", d.patch_offsets, {d.patch_offsets.size()}, w);
+      write_array(display, "patch_vertices", d.patch_vertices, {d.patch_vertices.size()}, w);
+      write_array(display, "patch_weights", d.patch_weights, {d.patch_weights.size()}, w);
 
       auto spaces = file.create_group("spaces");
       for (const auto &s : results.spaces)
-        write_space(spaces, s, d.n_vertices());
+        write_space(spaces, s, d.n_vertices(), w);
       auto transfer = file.create_group("transfer");
       for (const auto &t : results.transfers)
         write_array(transfer, results.spaces[t.to].name + "__from__" + results.spaces[t.from].name, t.values,
-                    {t.rows, t.columns});
+                    {t.rows, t.columns}, w);
     }
-    close_leaked_string_types();
+
     // HDF5 writes much of the file when it closes it, and deal.II's File cannot report a failure there
     // (its destructor drops H5Fclose's status). A file HDF5 still holds now is one it failed to
     // finish; one it can open again is whole (it refuses a file shorter than the end it recorded).
-    const bool  closed = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) == 0;
-    const hid_t check  = closed ? H5Fopen(temporary.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT) : -1;
-    AssertThrow(check >= 0, dealii::ExcMessage("Writing '" + filename + "' failed: HDF5 could not complete the "
-                                               "file (disk full?); the previous file is kept."));
-    H5Fclose(check);
+    void check_hdf5_file_complete(const std::string &filename, const std::string &temporary)
+    {
+      close_leaked_string_types();
+      const bool  closed = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) == 0;
+      const hid_t check  = closed ? H5Fopen(temporary.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT) : -1;
+      AssertThrow(check >= 0, dealii::ExcMessage("Writing '" + filename + "' failed: HDF5 could not complete the "
+                                                 "file (disk full?); the previous file is kept."));
+      H5Fclose(check);
+    }
+  } // namespace
+
+  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
+                       StagedFiles &staged)
+  {
+    const std::string temporary = staged.stage(filename);
+    {
+      dealii::HDF5::File file(temporary, dealii::HDF5::File::FileAccessMode::create);
+      write_hdf5_contents(file, scene, results, Writers{});
+    }
+    check_hdf5_file_complete(filename, temporary);
+  }
+
+  void write_hdf5_file_parallel(const std::string &filename, const SceneParameters &scene,
+                                const PrecomputeResults &results, StagedFiles *staged, const MPI_Comm comm)
+  {
+    const bool  first     = dealii::Utilities::MPI::this_mpi_process(comm) == 0;
+    std::string temporary = first ? staged->stage(filename) : std::string();
+    temporary             = dealii::Utilities::MPI::broadcast(comm, temporary, 0);
+    {
+      // No exception may leave this block: deal.II aborts if one is thrown while parallel HDF5
+      // objects are alive, and leaves a corrupt file (FACTS).
+      dealii::HDF5::File file(temporary, dealii::HDF5::File::FileAccessMode::create, comm);
+      write_hdf5_contents(file, scene, results, Writers{first});
+    }
+    if (first)
+      check_hdf5_file_complete(filename, temporary);
   }
 
   // ---------------------------------------------------------------------------------------------

@@ -30,6 +30,44 @@ namespace modal_haptics
     , timer(std::cout, verbose ? TimerOutput::summary : TimerOutput::never, TimerOutput::wall_times)
   {}
 
+  namespace
+  {
+    // A distributed space keeps only each process's own rows of the per-vertex and per-tet data
+    // (ModalSpaceResult::owned_rows). A partial result is one file, written by process 0: it gets
+    // every row, in mesh order.
+    void gather_rows_on_root(ModalSpaceResult &space, const MPI_Comm comm)
+    {
+      if (!space.owned_rows)
+        return;
+      const auto vertices    = dealii::Utilities::MPI::gather(comm, space.owned_rows->vertices);
+      const auto coordinates = dealii::Utilities::MPI::gather(comm, space.mesh_vertices);
+      const auto modes       = dealii::Utilities::MPI::gather(comm, space.modes_at_vertices);
+      const auto tets        = dealii::Utilities::MPI::gather(comm, space.owned_rows->tets);
+      const auto tet_rows    = dealii::Utilities::MPI::gather(comm, space.mesh_tets);
+      space.owned_rows.reset();
+      if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
+        return;
+      const std::size_t r = space.eigenvalues.size(), nv = space.n_vertices;
+      space.mesh_vertices.assign(3 * nv, 0.);
+      space.modes_at_vertices.assign(r * nv * 3, 0.);
+      space.mesh_tets.assign(4 * std::size_t(space.n_cells), 0);
+      for (std::size_t p = 0; p < vertices.size(); ++p)
+        {
+          const std::size_t owned = vertices[p].size();
+          for (std::size_t k = 0; k < owned; ++k)
+            for (unsigned int c = 0; c < 3; ++c)
+              {
+                const std::size_t v = vertices[p][k];
+                space.mesh_vertices[3 * v + c] = coordinates[p][3 * k + c];
+                for (std::size_t i = 0; i < r; ++i)
+                  space.modes_at_vertices[(i * nv + v) * 3 + c] = modes[p][(i * owned + k) * 3 + c];
+              }
+          for (std::size_t k = 0; k < tets[p].size(); ++k)
+            std::copy_n(&tet_rows[p][4 * k], 4, &space.mesh_tets[4 * std::size_t(tets[p][k])]);
+        }
+    }
+  } // namespace
+
   void ModalPrecompute::create_output_directory() const
   {
     if (!writes_files)
@@ -49,9 +87,8 @@ namespace modal_haptics
     for (const auto &task : results.tasks)
       compute_modal_space(task);
     record_peak_memory();
-    // Every process holds the complete results of every space: process 0 alone finishes.
-    if (!writes_files)
-      return;
+    // Every process writes its own rows of the .h5 (parallel HDF5 in a distributed run); process 0
+    // alone writes the other files.
     write_results(total.wall_time());
   }
 
@@ -81,6 +118,8 @@ namespace modal_haptics
       MPI_Barrier(MPI_COMM_WORLD);
     compute_modal_space(task);
     record_peak_memory();
+    if (distributed)
+      gather_rows_on_root(results.spaces.front(), MPI_COMM_WORLD);
     if (!writes_files)
       return;
     PartialResult partial;
@@ -115,6 +154,8 @@ namespace modal_haptics
     compute_transfer_matrices();
     StagedFiles staged;
     export_results(staged);
+    if (!writes_files)
+      return;
     results.timings_s["total"] = earlier_seconds + wall.wall_time();
     write_report(scene.output_directory + "/report.json", scene, results, staged);
     staged.commit();
@@ -435,7 +476,12 @@ namespace modal_haptics
     TimerOutput::Scope scope(timer, "export");
     dealii::Timer      wall;
     const std::string  base = scene.output_directory + "/" + scene.scene_name;
-    write_hdf5_file(base + ".h5", scene, results, staged);
+    if (distributed)
+      write_hdf5_file_parallel(base + ".h5", scene, results, &staged, MPI_COMM_WORLD);
+    else
+      write_hdf5_file(base + ".h5", scene, results, staged);
+    if (!writes_files)
+      return;
     write_basis_file(base + ".mrt", scene, results, staged);
     staged.write(scene.output_directory + "/used_parameters.prm",
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });

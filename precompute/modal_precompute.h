@@ -95,6 +95,11 @@ namespace modal_haptics
   // complete to a temporary file, renamed over `filename` when the run commits its results.
   void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                        StagedFiles &staged);
+  // The same file written by every process of 'comm' together with parallel HDF5: each writes its
+  // own rows of the per-vertex and per-tet datasets, process 0 the rest and stages the file ('staged'
+  // is used on process 0 only).
+  void write_hdf5_file_parallel(const std::string &filename, const SceneParameters &scene,
+                                const PrecomputeResults &results, StagedFiles *staged, MPI_Comm comm);
   void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                         StagedFiles &staged);
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,

@@ -31,6 +31,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <limits>
@@ -156,7 +157,7 @@ namespace modal_haptics
       result.n_dofs = dof_handler.n_dofs();
 
       constraints.clear();
-      space_parts::add_clamp_constraints(scene, task, triangulation, mapping, dof_handler, constraints);
+      space_parts::add_clamp_constraints(scene, task, mapping, dof_handler, constraints);
       constraints.close();
       result.n_clamped_dofs = constraints.n_constraints();
       for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
@@ -400,8 +401,17 @@ namespace modal_haptics
     void ModalSpace::build_patch_load(const unsigned int vertex)
     {
       if (!patch_loads.count(vertex))
-        patch_loads[vertex] = space_parts::make_patch_load(display, vertex, locator(),
-                                                           [&](const auto &point, auto &cell) { return dof_cell(point, cell); });
+        patch_loads[vertex] = space_parts::make_patch_load(display, vertex, [&](const std::vector<meshing::Point3> &points) {
+          std::vector<space_parts::EvaluationPoint> evaluated;
+          for (const auto &x : points)
+            {
+              const auto located = locator().locate(x);
+              evaluated.emplace_back();
+              dof_cell(located, evaluated.back().cell);
+              evaluated.back().unit = located.unit;
+            }
+          return evaluated;
+        });
     }
 
     // Each display vertex is located in the space's mesh and the FE basis is evaluated there.
@@ -807,14 +817,20 @@ namespace modal_haptics
 
     // A group that is missing from the mesh, or present but with no face, is a user error: silently
     // clamping nothing would give a free-floating part. No group at all is a free-floating part.
-    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Triangulation<3> &whole_mesh,
-                               const Mapping<3> &mapping, const DoFHandler<3> &dof_handler,
-                               AffineConstraints<double> &constraints)
+    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Mapping<3> &mapping,
+                               const DoFHandler<3> &dof_handler, AffineConstraints<double> &constraints,
+                               const MPI_Comm comm)
     {
-      std::set<types::boundary_id> present_ids;
-      for (const auto &face : whole_mesh.active_face_iterators())
-        if (face->at_boundary())
-          present_ids.insert(face->boundary_id());
+      std::vector<types::boundary_id> owned_ids;
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        if (cell->is_locally_owned())
+          for (const auto face : cell->face_indices())
+            if (cell->face(face)->at_boundary())
+              owned_ids.push_back(cell->face(face)->boundary_id());
+      std::sort(owned_ids.begin(), owned_ids.end());
+      owned_ids.erase(std::unique(owned_ids.begin(), owned_ids.end()), owned_ids.end());
+      const auto                         all_ids = Utilities::MPI::compute_set_union(owned_ids, comm);
+      const std::set<types::boundary_id> present_ids(all_ids.begin(), all_ids.end());
       for (const std::string &group : scene.clamp_groups)
         {
           const auto it = task.physical_surfaces.find(group);
@@ -937,11 +953,60 @@ namespace modal_haptics
       : cache(mesh, mapping)
     {}
 
-    LocatedPoint PointLocator::locate(const meshing::Point3 &x) const
+    namespace
+    {
+      double squared_distance(const BoundingBox<3> &box, const Point<3> &p)
+      {
+        double d2 = 0.;
+        for (unsigned int d = 0; d < 3; ++d)
+          d2 += std::pow(std::max({box.lower_bound(d) - p[d], 0., p[d] - box.upper_bound(d)}), 2);
+        return d2;
+      }
+    } // namespace
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::nearest_boxes(const meshing::Point3 &x) const
+    {
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::nearest(Point<3>(x[0], x[1], x[2]), n_nearest), std::back_inserter(near));
+      return near;
+    }
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::candidate_boxes(const meshing::Point3 &x) const
+    {
+      // Every box that holds the point, then the nearest: a point of a fine mesh lies in the boxes of
+      // more tets than the nearest few, and its own tet must be among those tried.
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::intersects(Point<3>(x[0], x[1], x[2])), std::back_inserter(near));
+      for (const auto &box_cell : nearest_boxes(x))
+        if (std::none_of(near.begin(), near.end(), [&](const auto &other) { return other.second == box_cell.second; }))
+          near.push_back(box_cell);
+      return near;
+    }
+
+    std::array<double, PointLocator::n_nearest> PointLocator::nearest_box_distances(const meshing::Point3 &x) const
+    {
+      std::array<double, n_nearest> distances;
+      distances.fill(std::numeric_limits<double>::infinity());
+      const auto near = nearest_boxes(x);
+      for (std::size_t k = 0; k < near.size(); ++k)
+        distances[k] = squared_distance(near[k].first, Point<3>(x[0], x[1], x[2]));
+      std::sort(distances.begin(), distances.end());
+      return distances;
+    }
+
+    LocatedPoint PointLocator::locate(const meshing::Point3 &x, const double within) const
     {
       const Point<3> p(x[0], x[1], x[2]);
-      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
-      cache.get_cell_bounding_boxes_rtree().query(boost::geometry::index::nearest(p, 12), std::back_inserter(near));
+      auto           near = candidate_boxes(x);
+      near.erase(std::remove_if(near.begin(), near.end(),
+                                [&](const auto &box_cell) { return squared_distance(box_cell.first, p) > within; }),
+                 near.end());
+      if (near.empty())
+        return {Triangulation<3>::active_cell_iterator(), Point<3>(), std::numeric_limits<double>::infinity()};
       double                                 best_min = -1e300;
       Triangulation<3>::active_cell_iterator best_cell;
       std::array<double, 4>                  best_bary{};
@@ -981,22 +1046,24 @@ namespace modal_haptics
     }
 
     // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
-    PatchLoad make_patch_load(const DisplaySurface &display, const unsigned int vertex, const PointLocator &locator,
-                              const std::function<bool(const LocatedPoint &, DoFHandler<3>::active_cell_iterator &)> &dof_cell)
+    PatchLoad make_patch_load(const DisplaySurface &display, const unsigned int vertex, const PointEvaluator &evaluate)
     {
       std::array<std::map<types::global_dof_index, double>, 3> columns;
       DofWeights                                               values;
-      for (const auto &point : patch_quadrature(display, vertex))
+      const auto                                               quadrature = patch_quadrature(display, vertex);
+      std::vector<meshing::Point3>                             points;
+      for (const auto &point : quadrature)
+        points.push_back(point.x);
+      const auto evaluated = evaluate(points);
+      for (std::size_t k = 0; k < quadrature.size(); ++k)
         {
-          const auto                          located = locator.locate(point.x);
-          DoFHandler<3>::active_cell_iterator cell;
-          if (!dof_cell(located, cell))
+          const auto &[cell, unit] = evaluated[k];
+          if (cell.state() != IteratorState::valid)
             continue;
-          const Point<3> &unit = located.unit;
           for (unsigned int c = 0; c < 3; ++c)
             {
               values.clear();
-              add_shape_values(cell, unit, c, point.weight, values);
+              add_shape_values(cell, unit, c, quadrature[k].weight, values);
               for (const auto &[dof, w] : values)
                 columns[c][dof] += w;
             }
@@ -1254,7 +1321,7 @@ namespace modal_haptics
     for (auto *list : {&kept.eigenvalues, &kept.frequencies_hz, &kept.damping_ratios})
       list->resize(r_kept);
     kept.participation.resize(std::size_t(r_kept) * 6);
-    kept.modes_at_vertices.resize(std::size_t(r_kept) * space.n_vertices * 3);
+    kept.modes_at_vertices.resize(std::size_t(r_kept) * space.n_vertex_rows() * 3);
     kept.display_modes   = keep_leading(space.display_modes, r, r_kept);
     kept.candidate_modes = keep_leading(space.candidate_modes, r, r_kept);
 

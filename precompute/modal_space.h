@@ -7,6 +7,7 @@
 #include "eigensolver.h"
 #include "scene_parameters.h"
 
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/base/quadrature_lib.h>
@@ -20,7 +21,10 @@
 #include <deal.II/lac/full_matrix.h>
 
 #include <functional>
+#include <limits>
 #include <memory>
+#include <optional>
+#include <set>
 
 #include <array>
 #include <map>
@@ -64,6 +68,16 @@ namespace modal_haptics
     std::vector<unsigned int> mesh_tets;     // 4 per tet
     std::vector<unsigned int> clamped_dofs;
 
+    // A distributed run keeps only its own rows of the whole mesh (docs/cluster.md): mesh_vertices
+    // and modes_at_vertices then hold the vertices listed here, in this order, and mesh_tets the
+    // tets listed here; the parallel HDF5 writer puts every row in its place in the file.
+    struct OwnedRows
+    {
+      std::vector<unsigned int> vertices, tets; // indices in the whole mesh
+    };
+    std::optional<OwnedRows> owned_rows; // empty: every row, in mesh order (the serial run)
+    std::size_t n_vertex_rows() const { return owned_rows ? owned_rows->vertices.size() : n_vertices; }
+
     std::vector<double>      computed_frequencies_hz; // every computed mode
     std::vector<double>      eigenvalues;             // the kept modes [rad^2/s^2]
     std::vector<double>      frequencies_hz;
@@ -73,7 +87,7 @@ namespace modal_haptics
     EigenSelfCheck           self_check;
     unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
 
-    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)]
+    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)] (r x owned vertices x 3, see owned_rows)
     std::vector<double> display_modes;     // (3 nv) x r row-major: (3v + c) r + i
 
     std::vector<unsigned int> candidates;
@@ -152,12 +166,12 @@ namespace modal_haptics
     void read_mesh(const SceneParameters &scene, const SpaceTask &task, dealii::Triangulation<3> &mesh,
                    ModalSpaceResult &result);
 
-    // Homogeneous Dirichlet conditions on the clamp groups, checked against the whole (serial) mesh:
-    // a missing group or one without a face is a user error. The caller closes the constraints.
-    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task,
-                               const dealii::Triangulation<3> &whole_mesh, const dealii::Mapping<3> &mapping,
-                               const dealii::DoFHandler<3> &dof_handler,
-                               dealii::AffineConstraints<double> &constraints);
+    // Homogeneous Dirichlet conditions on the clamp groups, checked against the whole mesh (the
+    // boundary ids of the cells this process owns, united over 'comm'): a missing group or one
+    // without a face is a user error. The caller closes the constraints.
+    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const dealii::Mapping<3> &mapping,
+                               const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
+                               MPI_Comm comm = MPI_COMM_SELF);
 
     // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), accumulating the
     // rigid-body mass moments of the cells it sees.
@@ -245,9 +259,11 @@ namespace modal_haptics
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
                                            ModalSpaceResult &result);
 
-    // A point of the display surface located in a (whole, serial) mesh: the tet with the largest
-    // smallest barycentric coordinate among the nearest bounding boxes, so that a point slightly
-    // outside a coarse mesh's chordal facets is projected onto the closest cell.
+    // A point of the display surface located in the cells of a mesh that this process owns (all of a
+    // serial mesh): the tet with the largest smallest barycentric coordinate among those whose
+    // bounding boxes hold the point or are the nearest, so that a point slightly outside a coarse
+    // mesh's chordal facets is projected onto the closest cell. Without an owned cell: an invalid
+    // cell, infinitely far outside.
     struct LocatedPoint
     {
       dealii::Triangulation<3>::active_cell_iterator cell;
@@ -257,10 +273,23 @@ namespace modal_haptics
     class PointLocator
     {
     public:
+      static constexpr unsigned int n_nearest = 12; // bounding boxes tried
+
       PointLocator(const dealii::Triangulation<3> &mesh, const dealii::Mapping<3> &mapping);
-      LocatedPoint locate(const meshing::Point3 &x) const;
+      // Among the cells whose boxes hold x or are its n_nearest nearest, these within 'within' (a
+      // squared distance [m^2]): a distributed mesh locates a point on every process among the boxes
+      // nearest over all processes, so that it tries the serial locator's cells.
+      LocatedPoint locate(const meshing::Point3 &x,
+                          double within = std::numeric_limits<double>::infinity()) const;
+      // The squared distances [m^2] to the n_nearest nearest boxes, ascending (infinity for missing ones).
+      std::array<double, n_nearest> nearest_box_distances(const meshing::Point3 &x) const;
 
     private:
+      std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
+      nearest_boxes(const meshing::Point3 &x) const;
+      std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
+      candidate_boxes(const meshing::Point3 &x) const;
+
       dealii::GridTools::Cache<3> cache;
     };
 
@@ -268,10 +297,17 @@ namespace modal_haptics
     void add_shape_values(const dealii::DoFHandler<3>::active_cell_iterator &cell, const dealii::Point<3> &unit,
                           unsigned int component, double factor, DofWeights &out);
 
-    // W_v from the patch quadrature; dof_cell maps a located point to the DoF cell that evaluates it,
-    // or returns false when another process owns that cell (the point then adds nothing here).
-    PatchLoad make_patch_load(const DisplaySurface &display, unsigned int vertex, const PointLocator &locator,
-                              const std::function<bool(const LocatedPoint &, dealii::DoFHandler<3>::active_cell_iterator &)> &dof_cell);
+    // Where a point is evaluated: its DoF cell and its coordinates in the reference tet; an invalid
+    // cell when another process evaluates it. A PointEvaluator places a list of points.
+    struct EvaluationPoint
+    {
+      dealii::DoFHandler<3>::active_cell_iterator cell;
+      dealii::Point<3>                            unit;
+    };
+    using PointEvaluator = std::function<std::vector<EvaluationPoint>(const std::vector<meshing::Point3> &)>;
+
+    // W_v from the patch quadrature; points another process evaluates add nothing here.
+    PatchLoad make_patch_load(const DisplaySurface &display, unsigned int vertex, const PointEvaluator &evaluate);
 
     // B_v Lambda^-1 B_v^T e_direction at a candidate.
     std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,
