@@ -204,11 +204,26 @@ namespace modal_haptics
            << f.factorize_seconds << " s";
       log(line.str());
 
-      eigen = scene.modes.block_krylov ?
-                solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
-                                         scene.modes.block_size, scene.modes.tolerance, verbose) :
-                solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
-                                   scene.modes.maximum_count, scene.modes.tolerance, verbose);
+      try
+        {
+          eigen = scene.modes.block_krylov ?
+                    solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
+                                             scene.modes.block_size, scene.modes.tolerance, verbose) :
+                    solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+                                       scene.modes.maximum_count, scene.modes.tolerance, verbose);
+        }
+      catch (const ExceptionBase &e)
+        {
+          // A free part's rigid-body modes are the shifted inverse's largest eigenvalues, 1 / |shift|:
+          // with a tiny shift they dwarf the elastic ones and the block solver stalls (ARPACK does not).
+          if (!scene.free_floating())
+            throw;
+          std::ostringstream message;
+          e.print_info(message);
+          AssertThrow(false, ExcMessage(message.str() + " The part is free-floating: a shift of larger magnitude "
+                                        "(about a tenth of the first elastic frequency) or 'Modes/Eigensolver = "
+                                        "arpack' converges where a shift close to 0 does not."));
+        }
       result.eigensolver_method = scene.modes.block_krylov ?
                                     "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
                                                              "ARPACK dsaupd mode 3 (shift-invert)";
