@@ -124,6 +124,12 @@ def run_ours(build, folder, fine_size, operator, eigensolver):
                 factor_nonzeros=e["factor_nonzeros"], peak_mb=largest, peak_total_mb=total)
 
 
+def csr_size(path):
+    """n of a binary CSR matrix file (README.md: int64 n first)."""
+    with open(path, "rb") as f:
+        return int.from_bytes(f.read(8), "little", signed=True)
+
+
 def run_peer(command, env_extra):
     out = run(command, env_extra)
     line = [l for l in out.stdout.splitlines() if "seconds=" in l][-1]
@@ -157,6 +163,9 @@ def main():
     parser.add_argument("--slow-peer-repetitions", type=int, default=1)
     parser.add_argument("--skip-arpack-above", type=int, default=2000000,
                         help="ARPACK + CHOLMOD runs only up to this many DoFs")
+    parser.add_argument("--solvers", default="ours,arpack,slepc1,slepc2,umfpack,scipy",
+                        help="which solvers run (ours is always first: it exports K and M); the others get a "
+                             "'skipped: not in --solvers' row")
     parser.add_argument("--memory-reserve-mb", type=float, default=0.,
                         help="kill a solver when the machine's available memory falls below this (0: never); see run")
     args = parser.parse_args()
@@ -195,6 +204,9 @@ def main():
             for key, runner in runners.items():
                 if key in skipped:
                     continue
+                if key != "ours" and key not in args.solvers.split(","):
+                    skipped[key] = "skipped: not in --solvers for this run"
+                    continue
                 if n is not None and key in ("umfpack", "scipy"):
                     if n > args.slow_peer_limit:
                         skipped[key] = (f"skipped above --slow-peer-limit {args.slow_peer_limit} DoFs: single-threaded "
@@ -212,7 +224,8 @@ def main():
                     r = dict(failed=str(error).splitlines()[0][:200])
                 results[key].append(r)
                 if key == "ours" and n is None:
-                    n = r["n"]
+                    # The size from our run, or (it failed) from the K it exported in an earlier run.
+                    n = r["n"] if "n" in r else (csr_size(K) if os.path.exists(K) else None)
                 if "failed" not in r:
                     print(f"[{fine} mm, {n} DoFs, repetition {repetition + 1}] {names[key]}, {ranks[key]} rank(s): "
                           f"{r['seconds']:.1f} s, peak {r['peak_mb']:.0f} MB"
@@ -240,8 +253,9 @@ def main():
                                                    for p in good[0]["phases"])
                 row["solved_vectors"] = good[0]["solved"]
                 row["factor_nonzeros"] = good[0]["factor_nonzeros"]
-                row["factor_gflops"] = good[0]["factor_flops"] / 1e9 / statistics.median(r["phases"]["factorize"]
-                                                                                         for r in good)
+                if good[0]["factor_flops"] > 0:  # CHOLMOD counts them, UMFPACK through deal.II does not
+                    row["factor_gflops"] = good[0]["factor_flops"] / 1e9 / statistics.median(r["phases"]["factorize"]
+                                                                                             for r in good)
             if key == "ours":
                 reference = row
             rows.append(row)
@@ -273,7 +287,7 @@ def main():
             print(f"{r['n_dofs']:8d} {r['ranks']:5d} {r['seconds']:9.2f} {r.get('ratio_to_ours', float('nan')):7.2f} "
                   f"{r['peak_rss_mb_per_process']:8.0f}  {r['solver']}")
         elif "n_dofs" in r:
-            print(f"{r['n_dofs']:8d} {r['ranks']:5d} {'-':>9} {'-':>7} {'-':>8}  {r['solver']}: {r['note']}")
+            print(f"{str(r['n_dofs']):>8} {r['ranks']:5d} {'-':>9} {'-':>7} {'-':>8}  {r['solver']}: {r['note']}")
         else:
             print(f"{r['rate']:.1f} / {r['rate_after']:.1f} {r['rate_unit']}  {r['solver']}")
     print(f"written {args.out}")
