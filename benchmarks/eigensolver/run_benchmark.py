@@ -9,11 +9,16 @@ the same run (bench-machine-limits: OpenBLAS DGEMM rate, memory read bandwidth).
 
   run_benchmark.py --build build --out benchmarks/results/<host>/eigensolver.csv \
       [--sizes 0.72,0.345,0.213] [--repetitions 3] [--slow-peer-limit 300000] [--slow-peer-repetitions 1]
+      [--large-from 500000]
 
 Slow peers: ARPACK + UMFPACK and scipy (single-threaded LU, time growing about as n^1.6-2 from
 18k to 222k DoFs: 7.8 -> 300 s and 4.7 -> 757 s, peak 7.5 and 9.8 GB at 254k in FACTS.md) run
 only up to --slow-peer-limit DoFs and --slow-peer-repetitions times; above that the CSV has a
 'skipped' row saying why.
+Large sizes (above --large-from, default 500k DoFs: the ~1M one): only ours and the goal's peer, SLEPc
+on 2 ranks, run, once (about 14 minutes together at 1M). ARPACK + CHOLMOD shares our factorization (its
+ratio is known from the smaller sizes), SLEPc on 1 rank would hold the whole MUMPS factor (~19 GB
+beside 24 GiB), and three repetitions of the pair would take over 40 minutes.
 """
 import argparse
 import csv
@@ -161,6 +166,8 @@ def main():
     parser.add_argument("--slow-peer-limit", type=int, default=300000,
                         help="ARPACK + UMFPACK and scipy run only up to this many DoFs (see the module doc)")
     parser.add_argument("--slow-peer-repetitions", type=int, default=1)
+    parser.add_argument("--large-from", type=int, default=500000,
+                        help="above this many DoFs only ours and SLEPc on 2 ranks run, once (see the module doc)")
     parser.add_argument("--skip-arpack-above", type=int, default=2000000,
                         help="ARPACK + CHOLMOD runs only up to this many DoFs")
     parser.add_argument("--solvers", default="ours,arpack,slepc1,slepc2,umfpack,scipy",
@@ -213,6 +220,13 @@ def main():
                                         "LU whose time grows about as n^1.6-2 (see the smaller sizes' rows)")
                         continue
                     if repetition >= args.slow_peer_repetitions:
+                        continue
+                if n is not None and n > args.large_from:
+                    if key not in ("ours", "slepc2"):
+                        skipped[key] = (f"skipped above --large-from {args.large_from} DoFs: only ours and the goal's "
+                                        "peer (SLEPc on 2 ranks) run there, once")
+                        continue
+                    if repetition >= 1:
                         continue
                 if n is not None and key == "arpack" and n > args.skip_arpack_above:
                     skipped[key] = f"skipped above --skip-arpack-above {args.skip_arpack_above} DoFs"
