@@ -2,7 +2,7 @@
 """On paper (docs/cluster.md): what the measured per-phase scaling predicts for 10 M and 100 M DoFs.
 
 Reads the measured CSVs of benchmarks/results/<host>/ (scaling.csv: the distributed precompute,
-93k and 223k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k),
+93k, 223k and 446k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k),
 fits growth exponents t ~ n^e from them, and extrapolates each phase with the exponent theory
 gives (stated beside the measured one) to the target sizes on a stated number of processes with a
 stated parallel efficiency. Prints markdown tables.
@@ -37,12 +37,15 @@ def read_scaling(path):
 def read_cholmod(results):
     """(n, factorize s, seconds per solve) of the CHOLMOD rows of the eigensolver benchmark: the
     factorization is the same in both CHOLMOD rows (the faster of the two is taken, timings are
-    noisy), one solve from the ARPACK row (one vector per solve, as PARPACK solves)."""
+    noisy), one solve from the ARPACK row (one vector per solve, as PARPACK solves). Only the CSVs
+    of one run of one code (eigensolver_18k_93k.csv and eigensolver_222k.csv, with a 'phases'
+    column): the later ones (comment lines, 'phases_median_s') were measured with another code,
+    under another load."""
     factorize, per_solve = {}, {}
     for name in sorted(os.listdir(results)):
         if name.startswith("eigensolver_") and name.endswith(".csv"):
-            for row in csv.DictReader(open(os.path.join(results, name))):
-                if "CHOLMOD" not in row["solver"]:
+            for row in csv.DictReader(line for line in open(os.path.join(results, name)) if not line.startswith("#")):
+                if "phases" not in row or "CHOLMOD" not in row["solver"]:
                     continue
                 n = int(row["n_dofs"])
                 seconds = float(re.search(r"factorize ([\d.]+) s", row["phases"]).group(1))
@@ -73,7 +76,7 @@ def main():
     base = rows[(1, n0)]
 
     print("### Measured growth exponents (t ~ n^e)\n")
-    print("| phase | e, np = 1 | e, np = 2 | at 223k, np = 1 | theory used |")
+    print(f"| phase | e, np = 1 | e, np = 2 | at {n0 // 1000}k, np = 1 | theory used |")
     print("|---|---|---|---|---|")
     theory = {"assembly": (1.0, "n (local cell integrals)"),
               "interpolation": (1.0, "n (point location in the mesh, modes at vertices)"),
