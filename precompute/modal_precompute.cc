@@ -68,14 +68,22 @@ namespace modal_haptics
     }
   } // namespace
 
+  namespace
+  {
+    // 'what' names the folder in the message: "output folder", "partial results folder".
+    void create_folder(const std::string &folder, const std::string &what)
+    {
+      std::error_code error;
+      std::filesystem::create_directories(folder, error);
+      AssertThrow(!error && std::filesystem::is_directory(folder),
+                  ExcMessage("Cannot create the " + what + " '" + folder + "': " + error.message()));
+    }
+  } // namespace
+
   void ModalPrecompute::create_output_directory() const
   {
-    if (!writes_files)
-      return;
-    std::error_code error;
-    std::filesystem::create_directories(scene.output_directory, error);
-    AssertThrow(!error && std::filesystem::is_directory(scene.output_directory),
-                ExcMessage("Cannot create the output folder '" + scene.output_directory + "': " + error.message()));
+    if (writes_files)
+      create_folder(scene.output_directory, "output folder");
   }
 
   void ModalPrecompute::run()
@@ -107,13 +115,7 @@ namespace modal_haptics
     plan_contacts(partial_directory);
     const SpaceTask &task = task_of_scenario(name);
     if (writes_files)
-      {
-        std::error_code error;
-        std::filesystem::create_directories(partial_directory, error);
-        AssertThrow(!error && std::filesystem::is_directory(partial_directory),
-                    ExcMessage("Cannot create the partial results folder '" + partial_directory + "': " +
-                               error.message()));
-      }
+      create_folder(partial_directory, "partial results folder");
     if (distributed) // all processes write the VTU into that folder
       MPI_Barrier(MPI_COMM_WORLD);
     compute_modal_space(task);

@@ -34,7 +34,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <limits>
 #include <numeric>
 #include <set>
 #include <sstream>
