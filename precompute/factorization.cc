@@ -1,5 +1,7 @@
 #include "factorization.h"
 
+#include "supernodal_solve.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/sparse_direct.h>
@@ -8,7 +10,6 @@
 #include <dlfcn.h>
 
 #include <algorithm>
-#include <cstring>
 #include <string>
 #include <thread>
 
@@ -50,6 +51,13 @@ namespace modal_haptics
       "clamp groups: a free-floating part needs a negative 'Modes/Shift'), or 'Modes/Shift' lies above the "
       "first eigenfrequency.";
 
+    // One per hardware thread, at most 8: beyond that the top of the tree, solved by one thread,
+    // grows while the subtrees shrink.
+    unsigned int solve_threads()
+    {
+      return std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
+    }
+
     class CholmodFactorization : public Factorization
     {
     public:
@@ -58,7 +66,6 @@ namespace modal_haptics
                            const double shift)
       {
         cholmod_l_start(&common);
-        cholmod_l_start(&helper_common);
         // One ordering, METIS nested dissection: the fill-reducing ordering that pays on 3D meshes.
         common.nmethods           = 1;
         common.method[0].ordering = CHOLMOD_METIS;
@@ -84,61 +91,29 @@ namespace modal_haptics
           {
             cholmod_l_free_factor(&factor, &common);
             cholmod_l_finish(&common);
-            cholmod_l_finish(&helper_common);
           }
         AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
+        triangular_solves = std::make_unique<SupernodalSolve>(*factor, solve_threads());
       }
 
       ~CholmodFactorization() override
       {
         cholmod_l_free_factor(&factor, &common);
         cholmod_l_finish(&common);
-        cholmod_l_finish(&helper_common);
       }
 
-      // A block of two or more columns is split in two halves solved at once on two threads, each
-      // with its own cholmod_common and one BLAS thread: per supernode the solve is a small
-      // TRSM/GEMM whose latency, not the memory bandwidth, bounds it, so two threads reading the
-      // same factor nearly double the rate where a second BLAS thread inside one solve does not
-      // (250k DoFs, quiet machine, 4 columns: 0.27-0.29 s in halves, 0.29-0.34 s with 2 BLAS
-      // threads, 0.37 s with 1; docs/performance.md).
+      // The triangular solves run on SupernodalSolve (subtrees of the elimination tree on parallel
+      // threads, one BLAS thread each: supernodal_solve.h says why not cholmod_solve).
       void solve_block(double *columns, const unsigned int n_rhs) override
       {
         dealii::Timer     timer;
         const BlasThreads one_blas_thread(1);
-        const unsigned int first_half = split_solves ? n_rhs / 2 : 0;
-        bool               second_ok  = true;
-        std::thread        second_half;
-        if (first_half > 0)
-          second_half = std::thread([&] {
-            second_ok = solve_columns(helper_common, columns + std::size_t(factor->n) * first_half, n_rhs - first_half);
-          });
-        const bool first_ok = solve_columns(common, columns, first_half > 0 ? first_half : n_rhs);
-        if (second_half.joinable())
-          second_half.join();
-        AssertThrow(first_ok && second_ok, ExcMessage("CHOLMOD's solve failed (out of memory?)."));
+        triangular_solves->solve(columns, n_rhs);
         stats.solve_seconds += timer.wall_time();
         stats.n_solved_vectors += n_rhs;
       }
 
     private:
-      // Solves A X = B in place for count columns with the factor (read-only: two threads may share it).
-      bool solve_columns(cholmod_common &c, double *columns, const unsigned int count)
-      {
-        const size_t   n = factor->n;
-        cholmod_dense *B = cholmod_l_allocate_dense(n, count, n, CHOLMOD_REAL, &c);
-        if (B == nullptr)
-          return false;
-        std::memcpy(B->x, columns, sizeof(double) * n * count);
-        cholmod_dense *X = cholmod_l_solve(CHOLMOD_A, factor, B, &c);
-        const bool solved = X != nullptr;
-        if (solved)
-          std::memcpy(columns, X->x, sizeof(double) * n * count);
-        cholmod_l_free_dense(&X, &c);
-        cholmod_l_free_dense(&B, &c);
-        return solved;
-      }
-
       // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
       // form holds the rows i <= j, which by symmetry are the entries of deal.II's CSR row j with
       // column <= j. M has K's sparsity pattern, so its entries are walked in step.
@@ -175,10 +150,9 @@ namespace modal_haptics
         return A;
       }
 
-      cholmod_common  common;
-      cholmod_common  helper_common; // the second thread's, in solve_block
-      const bool      split_solves = std::thread::hardware_concurrency() >= 2;
-      cholmod_factor *factor = nullptr;
+      cholmod_common                   common;
+      cholmod_factor                  *factor = nullptr;
+      std::unique_ptr<SupernodalSolve> triangular_solves;
     };
 
     class UmfpackFactorization : public Factorization

@@ -1,0 +1,247 @@
+#include "supernodal_solve.h"
+
+#include <algorithm>
+#include <functional>
+#include <stdexcept>
+#include <thread>
+
+extern "C"
+{
+  void dgemm_(const char *, const char *, const int *, const int *, const int *, const double *, const double *,
+              const int *, const double *, const int *, const double *, double *, const int *);
+  void dtrsm_(const char *, const char *, const char *, const char *, const int *, const int *, const double *,
+              const double *, const int *, double *, const int *);
+}
+
+namespace modal_haptics
+{
+  namespace
+  {
+    // Runs work(t) for t = 0 .. threads - 1, t = 0 on the calling thread.
+    void run_on_threads(const unsigned int threads, const std::function<void(unsigned int)> &work)
+    {
+      std::vector<std::thread> helpers;
+      for (unsigned int t = 1; t < threads; ++t)
+        helpers.emplace_back(work, t);
+      work(0);
+      for (auto &helper : helpers)
+        helper.join();
+    }
+  } // namespace
+
+  SupernodalSolve::SupernodalSolve(const cholmod_factor &factor, const unsigned int threads)
+    : n(factor.n)
+    , n_supernodes(factor.nsuper)
+    , max_rows_below(factor.maxesize)
+    , first_column(static_cast<const Index *>(factor.super))
+    , row_start(static_cast<const Index *>(factor.pi))
+    , value_start(static_cast<const Index *>(factor.px))
+    , rows(static_cast<const Index *>(factor.s))
+    , permutation(static_cast<const Index *>(factor.Perm))
+    , values(static_cast<const double *>(factor.x))
+  {
+    if (!factor.is_super || !factor.is_ll || factor.xtype != CHOLMOD_REAL || factor.itype != CHOLMOD_LONG)
+      throw std::invalid_argument("SupernodalSolve needs a real supernodal L L^T factor from cholmod_l_factorize.");
+    assign_subtrees(std::max(1u, threads));
+  }
+
+  // Splits the elimination tree of the supernodes into subtrees for the threads, weighed by their
+  // entries of L (what a solve reads). The subtrees of the roots are packed onto the threads
+  // (largest first, each onto the least loaded thread); then, again and again, the heaviest
+  // subtree is cut off its root, which joins the top (solved by one thread, after the subtrees),
+  // and its children's subtrees are packed instead. A solve then costs about top + the most
+  // loaded thread: the cut that minimizes it is kept; cutting stops once the top alone costs
+  // more than that best (a chain-like tree has no parallelism to give).
+  void SupernodalSolve::assign_subtrees(const unsigned int threads)
+  {
+    std::vector<Index>  supernode_of_column(n), parent(n_supernodes, -1);
+    std::vector<double> entries(n_supernodes), subtree_entries(n_supernodes);
+    std::vector<std::vector<Index>> children(n_supernodes);
+    std::vector<Index>  candidates; // roots of the subtrees outside the top
+    for (Index s = 0; s < n_supernodes; ++s)
+      for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+        supernode_of_column[c] = s;
+    for (Index s = 0; s < n_supernodes; ++s)
+      {
+        const Index n_columns = first_column[s + 1] - first_column[s], n_rows = row_start[s + 1] - row_start[s];
+        entries[s] = double(n_rows) * n_columns;
+        total_entries += entries[s];
+        if (n_rows > n_columns)
+          {
+            parent[s] = supernode_of_column[rows[row_start[s] + n_columns]];
+            children[parent[s]].push_back(s);
+          }
+        else
+          candidates.push_back(s);
+      }
+    // A parent comes after its children (elimination tree): one ascending pass sums the subtrees.
+    subtree_entries = entries;
+    for (Index s = 0; s < n_supernodes; ++s)
+      if (parent[s] >= 0)
+        subtree_entries[parent[s]] += subtree_entries[s];
+
+    const auto heavier = [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; };
+    const auto largest_load = [&](std::vector<Index> &roots) {
+      std::sort(roots.begin(), roots.end(), heavier);
+      std::vector<double> load(threads, 0.);
+      for (const Index s : roots)
+        *std::min_element(load.begin(), load.end()) += subtree_entries[s];
+      return *std::max_element(load.begin(), load.end());
+    };
+    std::vector<Index> cuts; // the supernodes cut, in order
+    std::size_t        best_n_cuts = 0;
+    double             top = 0., best_cost = largest_load(candidates);
+    while (threads > 1 && !candidates.empty() && !children[candidates.front()].empty() && top < best_cost)
+      {
+        const Index heaviest = candidates.front();
+        candidates.erase(candidates.begin());
+        candidates.insert(candidates.end(), children[heaviest].begin(), children[heaviest].end());
+        cuts.push_back(heaviest);
+        top += entries[heaviest];
+        const double cost = top + largest_load(candidates);
+        if (cost < best_cost)
+          {
+            best_cost   = cost;
+            best_n_cuts = cuts.size();
+          }
+      }
+
+    // The best cut again: the top, the roots of the subtrees and their threads.
+    std::vector<bool> in_top(n_supernodes, false);
+    for (std::size_t i = 0; i < best_n_cuts; ++i)
+      {
+        in_top[cuts[i]] = true;
+        top_entries += entries[cuts[i]];
+      }
+    std::vector<Index> roots;
+    for (Index s = 0; s < n_supernodes; ++s)
+      if (!in_top[s] && (parent[s] < 0 || in_top[parent[s]]))
+        roots.push_back(s);
+    std::sort(roots.begin(), roots.end(), heavier);
+    std::vector<double> load(threads, 0.);
+    std::vector<int>    thread_of(n_supernodes, -1);
+    for (const Index s : roots)
+      {
+        const auto lightest = std::min_element(load.begin(), load.end()) - load.begin();
+        load[lightest] += subtree_entries[s];
+        thread_of[s] = int(lightest);
+      }
+    largest_thread_entries = *std::max_element(load.begin(), load.end());
+
+    // Every other supernode outside the top belongs to the thread of its subtree's root.
+    for (Index s = n_supernodes - 1; s >= 0; --s)
+      if (!in_top[s] && thread_of[s] < 0)
+        thread_of[s] = thread_of[parent[s]];
+    subtrees_of_thread.assign(threads, {});
+    top_position.assign(n, -1);
+    for (Index s = 0; s < n_supernodes; ++s)
+      if (in_top[s])
+        {
+          top_supernodes.push_back(s);
+          for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+            top_position[c] = n_top_columns++;
+        }
+      else
+        subtrees_of_thread[thread_of[s]].push_back(s);
+  }
+
+  // One supernode's block of L: its columns' diagonal triangle L11 (n_columns x n_columns, at L)
+  // above L21 (below x n_columns, at L + n_columns; rows_below are their rows), column-major with
+  // leading dimension n_rows; 'own' is X at its columns (leading dimension ld = n).
+  struct SupernodalSolve::Block
+  {
+    Block(const SupernodalSolve &solve, const Index supernode, double *X)
+      : n_columns(solve.first_column[supernode + 1] - solve.first_column[supernode])
+      , n_rows(solve.row_start[supernode + 1] - solve.row_start[supernode])
+      , below(n_rows - n_columns)
+      , ld(int(solve.n))
+      , L(solve.values + solve.value_start[supernode])
+      , rows_below(solve.rows + solve.row_start[supernode] + n_columns)
+      , own(X + solve.first_column[supernode])
+    {}
+
+    const int     n_columns, n_rows, below, ld;
+    const double *L;
+    const Index  *rows_below;
+    double       *own;
+  };
+
+  void SupernodalSolve::forward(const Index supernode, double *X, const int n_rhs, double *workspace,
+                                double *top_updates) const
+  {
+    const Block  b(*this, supernode, X);
+    const double one = 1., zero = 0.;
+    dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, b.own, &b.ld);
+    if (b.below == 0)
+      return;
+    // workspace = L21 y_own, then scattered onto the rows below (ancestors' columns).
+    dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, b.own, &b.ld, &zero,
+           workspace, &b.below);
+    for (int c = 0; c < n_rhs; ++c)
+      for (int i = 0; i < b.below; ++i)
+        {
+          const Index  row    = b.rows_below[i];
+          const double update = workspace[i + std::size_t(c) * b.below];
+          const Index  top    = top_updates != nullptr ? top_position[row] : -1;
+          if (top >= 0)
+            top_updates[top + std::size_t(c) * n_top_columns] += update;
+          else
+            X[row + std::size_t(c) * n] -= update;
+        }
+  }
+
+  void SupernodalSolve::backward(const Index supernode, double *X, const int n_rhs, double *workspace) const
+  {
+    const Block  b(*this, supernode, X);
+    const double one = 1., minus_one = -1.;
+    if (b.below > 0)
+      {
+        // x_own -= L21^T x_below, x_below gathered into the workspace.
+        for (int c = 0; c < n_rhs; ++c)
+          for (int i = 0; i < b.below; ++i)
+            workspace[i + std::size_t(c) * b.below] = X[b.rows_below[i] + std::size_t(c) * n];
+        dgemm_("T", "N", &b.n_columns, &n_rhs, &b.below, &minus_one, b.L + b.n_columns, &b.n_rows, workspace, &b.below,
+               &one, b.own, &b.ld);
+      }
+    dtrsm_("L", "L", "T", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, b.own, &b.ld);
+  }
+
+  void SupernodalSolve::solve(double *columns, const unsigned int n_rhs) const
+  {
+    if (n_rhs == 0 || n == 0)
+      return;
+    const unsigned int  threads = n_threads();
+    const std::size_t   column_length = n;
+    std::vector<double> X(column_length * n_rhs);
+    for (std::size_t c = 0; c < n_rhs; ++c)
+      for (Index i = 0; i < n; ++i)
+        X[i + c * n] = columns[permutation[i] + c * n];
+    std::vector<std::vector<double>> workspace(threads, std::vector<double>(std::max<Index>(max_rows_below, 1) * n_rhs));
+    std::vector<std::vector<double>> top_updates(threads, std::vector<double>(std::size_t(n_top_columns) * n_rhs, 0.));
+
+    // L y = P b: the subtrees at once (their updates to the top kept apart), then the top.
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (const Index s : subtrees_of_thread[t])
+        forward(s, X.data(), n_rhs, workspace[t].data(), top_updates[t].data());
+    });
+    for (const Index s : top_supernodes)
+      for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+        for (std::size_t c = 0; c < n_rhs; ++c)
+          for (unsigned int t = 0; t < threads; ++t)
+            X[column + c * n] -= top_updates[t][top_position[column] + c * n_top_columns];
+    for (const Index s : top_supernodes)
+      forward(s, X.data(), n_rhs, workspace[0].data(), nullptr);
+
+    // L^T z = y: the top, then the subtrees at once (each reads only its own rows and the top's).
+    for (auto s = top_supernodes.rbegin(); s != top_supernodes.rend(); ++s)
+      backward(*s, X.data(), n_rhs, workspace[0].data());
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (auto s = subtrees_of_thread[t].rbegin(); s != subtrees_of_thread[t].rend(); ++s)
+        backward(*s, X.data(), n_rhs, workspace[t].data());
+    });
+
+    for (std::size_t c = 0; c < n_rhs; ++c)
+      for (Index i = 0; i < n; ++i)
+        columns[permutation[i] + c * n] = X[i + c * n];
+  }
+} // namespace modal_haptics

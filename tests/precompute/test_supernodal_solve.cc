@@ -1,0 +1,180 @@
+// SupernodalSolve (precompute/supernodal_solve.h) against cholmod_solve on the same factor: every
+// thread count splits the elimination tree differently (1 to 7 threads, more than the machine has
+// is fine: they only run slower), every answer must be CHOLMOD's to rounding. Matrices: a
+// plate-like vector Laplacian (a tree with deep, wide subtrees, like the parts' stiffness), a
+// diagonal matrix (a forest of single supernodes), a tridiagonal one (METIS makes its path a
+// balanced tree; in the natural order it is a chain, with no parallelism to find) and a 1 x 1
+// matrix; a simplicial factor is refused.
+#include "supernodal_solve.h"
+
+#include <cholmod.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace
+{
+  using Index = SuiteSparse_long;
+  int failures = 0;
+
+  void check(const bool ok, const std::string &what)
+  {
+    std::printf("%s: %s\n", ok ? "ok" : "FAILED", what.c_str());
+    failures += !ok;
+  }
+
+  // The upper triangle (CHOLMOD's stype 1) of a symmetric matrix: column(j) lists (row, value) in
+  // ascending rows; the rows i <= j are kept.
+  cholmod_sparse *upper_triangle(const Index n, const std::function<std::vector<std::pair<Index, double>>(Index)> &column,
+                                 cholmod_common &common)
+  {
+    std::vector<Index>  start{0}, row;
+    std::vector<double> value;
+    for (Index j = 0; j < n; ++j)
+      {
+        for (const auto &[i, v] : column(j))
+          if (i <= j)
+            {
+              row.push_back(i);
+              value.push_back(v);
+            }
+        start.push_back(row.size());
+      }
+    cholmod_sparse *A = cholmod_l_allocate_sparse(n, n, row.size(), 0, 1, 1, CHOLMOD_REAL, &common);
+    std::copy(start.begin(), start.end(), static_cast<Index *>(A->p));
+    std::copy(row.begin(), row.end(), static_cast<Index *>(A->i));
+    std::copy(value.begin(), value.end(), static_cast<double *>(A->x));
+    return A;
+  }
+
+  // A plate-like grid of nx x ny x nz points, 3 unknowns per point:
+  // (7-point Laplacian) x [[2,1,0],[1,2,1],[0,1,2]] + I (SPD).
+  cholmod_sparse *vector_laplacian(const Index nx, const Index ny, const Index nz, cholmod_common &common)
+  {
+    const Index points = nx * ny * nz;
+    return upper_triangle(3 * points, [&](const Index j) {
+      const Index p = j / 3, a = j % 3, x = p % nx, y = (p / nx) % ny, z = p / (nx * ny);
+      std::vector<std::pair<Index, double>> entries;
+      const auto coupling = [](const Index a, const Index b) { return a == b ? 2. : (std::abs(a - b) == 1 ? 1. : 0.); };
+      const auto add_point = [&](const Index q, const double laplacian) {
+        for (Index b = 0; b < 3; ++b)
+          if (coupling(a, b) != 0.)
+            entries.emplace_back(3 * q + b, laplacian * coupling(a, b) + (q == p && a == b ? 1. : 0.));
+      };
+      add_point(p, 6.);
+      const Index step[3] = {1, nx, nx * ny}, coordinate[3] = {x, y, z}, size[3] = {nx, ny, nz};
+      for (int d = 0; d < 3; ++d)
+        {
+          if (coordinate[d] > 0)
+            add_point(p - step[d], -1.);
+          if (coordinate[d] + 1 < size[d])
+            add_point(p + step[d], -1.);
+        }
+      std::sort(entries.begin(), entries.end());
+      return entries;
+    }, common);
+  }
+
+  cholmod_factor *factorize(cholmod_sparse *A, cholmod_common &common, const int supernodal,
+                            const int ordering = CHOLMOD_METIS)
+  {
+    common.nmethods           = 1;
+    common.method[0].ordering = ordering;
+    common.supernodal         = supernodal;
+    cholmod_factor *L         = cholmod_l_analyze(A, &common);
+    cholmod_l_factorize(A, L, &common);
+    if (common.status != CHOLMOD_OK)
+      throw std::runtime_error("CHOLMOD failed on a test matrix");
+    return L;
+  }
+
+  // Every thread count and a few block widths: max |ours - CHOLMOD| / max |CHOLMOD|. With
+  // 'parallel', the split must also promise a gain from 2 threads on: the top plus the most loaded
+  // thread at most 3/4 of the factor.
+  void compare_with_cholmod(const std::string &name, cholmod_sparse *A, cholmod_common &common, const bool parallel,
+                            const int ordering = CHOLMOD_METIS)
+  {
+    cholmod_factor *L = factorize(A, common, CHOLMOD_SUPERNODAL, ordering);
+    const Index     n = L->n;
+    for (const unsigned int n_rhs : {1u, 4u, 13u})
+      {
+        cholmod_dense *B = cholmod_l_allocate_dense(n, n_rhs, n, CHOLMOD_REAL, &common);
+        auto          *b = static_cast<double *>(B->x);
+        for (Index i = 0; i < n * Index(n_rhs); ++i)
+          b[i] = std::sin(0.37 * double(i) + 1.);
+        cholmod_dense *X    = cholmod_l_solve(CHOLMOD_A, L, B, &common);
+        const auto    *x    = static_cast<const double *>(X->x);
+        const double   xmax = std::abs(*std::max_element(x, x + n * n_rhs, [](double p, double q) { return std::abs(p) < std::abs(q); }));
+        for (const unsigned int threads : {1u, 2u, 3u, 4u, 7u})
+          {
+            const modal_haptics::SupernodalSolve solver(*L, threads);
+            std::vector<double> ours(b, b + n * n_rhs);
+            solver.solve(ours.data(), n_rhs);
+            double difference = 0.;
+            for (Index i = 0; i < n * Index(n_rhs); ++i)
+              difference = std::max(difference, std::abs(ours[i] - x[i]));
+            const double predicted = solver.top_share() + solver.largest_thread_share();
+            char         line[240];
+            std::snprintf(line, sizeof line,
+                          "%s, n = %ld, %u right-hand sides, %u threads (top %.1f %% of L, largest thread %.1f %%): %.1e of max |x|",
+                          name.c_str(), long(n), n_rhs, threads, 100. * solver.top_share(),
+                          100. * solver.largest_thread_share(), difference / xmax);
+            check(difference <= 1e-12 * xmax && (!parallel || threads == 1 || predicted <= 0.75), line);
+          }
+        cholmod_l_free_dense(&X, &common);
+        cholmod_l_free_dense(&B, &common);
+      }
+    cholmod_l_free_factor(&L, &common);
+  }
+} // namespace
+
+int main()
+{
+  cholmod_common common;
+  cholmod_l_start(&common);
+
+  cholmod_sparse *laplacian = vector_laplacian(48, 24, 6, common);
+  compare_with_cholmod("plate-like vector Laplacian", laplacian, common, true);
+
+  cholmod_sparse *diagonal = upper_triangle(1000, [](Index j) {
+    return std::vector<std::pair<Index, double>>{{j, 1. + j % 7}};
+  }, common);
+  compare_with_cholmod("diagonal", diagonal, common, true);
+
+  cholmod_sparse *chain = upper_triangle(5000, [](Index j) {
+    std::vector<std::pair<Index, double>> entries;
+    if (j > 0)
+      entries.emplace_back(j - 1, -1.);
+    entries.emplace_back(j, 2.5);
+    return entries;
+  }, common);
+  compare_with_cholmod("tridiagonal", chain, common, true);
+  compare_with_cholmod("tridiagonal in the natural order", chain, common, false, CHOLMOD_NATURAL);
+
+  cholmod_sparse *one = upper_triangle(1, [](Index) { return std::vector<std::pair<Index, double>>{{0, 4.}}; }, common);
+  compare_with_cholmod("1 x 1", one, common, false);
+
+  cholmod_factor *simplicial = factorize(laplacian, common, CHOLMOD_SIMPLICIAL);
+  bool refused = false;
+  try
+    {
+      modal_haptics::SupernodalSolve solver(*simplicial, 2);
+    }
+  catch (const std::invalid_argument &)
+    {
+      refused = true;
+    }
+  check(refused, "a simplicial factor is refused");
+  cholmod_l_free_factor(&simplicial, &common);
+
+  for (cholmod_sparse *A : {laplacian, diagonal, chain, one})
+    cholmod_l_free_sparse(&A, &common);
+  cholmod_l_finish(&common);
+  std::printf("%d failure(s)\n", failures);
+  return failures == 0 ? 0 : 1;
+}
