@@ -23,11 +23,10 @@ namespace modal_haptics
 
   // OpenBLAS' thread count, set for a scope and restored after it (no-op with another BLAS: the
   // functions are looked up at run time; the system BLAS is whatever Debian's alternatives pick).
-  // For the memory-bound BLAS work (the supernodal triangular solves: one small block per
-  // supernode; the Krylov basis' skinny GEMMs): one thread already reaches the machine's read
-  // bandwidth (bench-machine-limits), a second only adds synchronization, and loses badly when the
-  // other core is busy (250k DoFs, loaded machine: a 4-column solve 0.73-0.80 s on 1 thread,
-  // 0.86-1.69 s on 2). The factorization (compute-bound) keeps every thread.
+  // The triangular solves set one: their threads are their own (supernodal_solve.h), and BLAS
+  // threads inside a supernode's small block only add synchronization (250k DoFs, loaded machine:
+  // a 4-column solve 0.73-0.80 s on 1 thread, 0.86-1.69 s on 2). The factorization and the Krylov
+  // basis' GEMMs keep every thread.
   class BlasThreads
   {
   public:
