@@ -3,6 +3,7 @@
 #include "supernodal_solve.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/multithread_info.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/sparse_direct.h>
 
@@ -11,7 +12,6 @@
 
 #include <algorithm>
 #include <string>
-#include <thread>
 
 namespace modal_haptics
 {
@@ -51,11 +51,11 @@ namespace modal_haptics
       "clamp groups: a free-floating part needs a negative 'Modes/Shift'), or 'Modes/Shift' lies above the "
       "first eigenfrequency.";
 
-    // One per hardware thread, at most 8: beyond that the top of the tree, solved by one thread,
-    // grows while the subtrees shrink.
+    // deal.II's thread count (the cores, or DEAL_II_NUM_THREADS), at most 8: beyond that the top of
+    // the tree, solved by one thread, grows while the subtrees shrink.
     unsigned int solve_threads()
     {
-      return std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
+      return std::clamp(dealii::MultithreadInfo::n_threads(), 1u, 8u);
     }
 
     class CholmodFactorization : public Factorization

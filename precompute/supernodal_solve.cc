@@ -17,15 +17,27 @@ namespace modal_haptics
 {
   namespace
   {
-    // Runs work(t) for t = 0 .. threads - 1, t = 0 on the calling thread.
+    // Runs work(t) for t = 0 .. threads - 1, t = 0 on the calling thread. If a thread cannot be
+    // started, the ones running are joined before the error goes on.
     void run_on_threads(const unsigned int threads, const std::function<void(unsigned int)> &work)
     {
       std::vector<std::thread> helpers;
-      for (unsigned int t = 1; t < threads; ++t)
-        helpers.emplace_back(work, t);
+      const auto join_all = [&] {
+        for (auto &helper : helpers)
+          helper.join();
+      };
+      try
+        {
+          for (unsigned int t = 1; t < threads; ++t)
+            helpers.emplace_back(work, t);
+        }
+      catch (...)
+        {
+          join_all();
+          throw;
+        }
       work(0);
-      for (auto &helper : helpers)
-        helper.join();
+      join_all();
     }
   } // namespace
 
