@@ -77,30 +77,42 @@ namespace modal_haptics
         cholmod_sparse *A = copy_upper_triangle(K, M, shift);
         dealii::Timer timer;
         factor = cholmod_l_analyze(A, &common);
-        AssertThrow(factor != nullptr && common.status == CHOLMOD_OK,
-                    ExcMessage("CHOLMOD's analysis failed (status " + std::to_string(common.status) + ")."));
-        stats.analyze_seconds = timer.wall_time();
-        timer.restart();
-        cholmod_l_factorize(A, factor, &common);
-        stats.factorize_seconds = timer.wall_time();
-        const bool positive_definite = common.status == CHOLMOD_OK && factor->minor == factor->n;
-        stats.factor_nonzeros = common.lnz;
-        stats.factor_flops    = common.fl;
+        const int  analysis_status = common.status;
+        const bool analyzed        = factor != nullptr && analysis_status == CHOLMOD_OK;
+        stats.analyze_seconds      = timer.wall_time();
+        int  factorization_status  = CHOLMOD_OK;
+        bool positive_definite     = false;
+        if (analyzed)
+          {
+            timer.restart();
+            cholmod_l_factorize(A, factor, &common);
+            stats.factorize_seconds = timer.wall_time();
+            factorization_status    = common.status;
+            positive_definite       = factorization_status == CHOLMOD_OK && factor->minor == factor->n;
+            stats.factor_nonzeros   = common.lnz;
+            stats.factor_flops      = common.fl;
+          }
         cholmod_l_free_sparse(&A, &common);
         if (!positive_definite)
-          {
-            cholmod_l_free_factor(&factor, &common);
-            cholmod_l_finish(&common);
-          }
+          release();
+        AssertThrow(analyzed, ExcMessage("CHOLMOD's analysis failed (status " + std::to_string(analysis_status) +
+                                         ", out of memory?)."));
+        AssertThrow(factorization_status == CHOLMOD_OK || factorization_status == CHOLMOD_NOT_POSDEF,
+                    ExcMessage("CHOLMOD's factorization failed (status " + std::to_string(factorization_status) +
+                               ", out of memory?)."));
         AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
-        triangular_solves = std::make_unique<SupernodalSolve>(*factor, solve_threads());
+        try
+          {
+            triangular_solves = std::make_unique<SupernodalSolve>(*factor, solve_threads());
+          }
+        catch (...)
+          {
+            release();
+            throw;
+          }
       }
 
-      ~CholmodFactorization() override
-      {
-        cholmod_l_free_factor(&factor, &common);
-        cholmod_l_finish(&common);
-      }
+      ~CholmodFactorization() override { release(); }
 
       // The triangular solves run on SupernodalSolve (subtrees of the elimination tree on parallel
       // threads, one BLAS thread each: supernodal_solve.h says why not cholmod_solve).
@@ -114,6 +126,16 @@ namespace modal_haptics
       }
 
     private:
+      // Frees the factor and CHOLMOD's workspace (once; the destructor and the failure paths).
+      void release()
+      {
+        if (factor != nullptr)
+          cholmod_l_free_factor(&factor, &common);
+        if (!finished)
+          cholmod_l_finish(&common);
+        finished = true;
+      }
+
       // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
       // form holds the rows i <= j, which by symmetry are the entries of deal.II's CSR row j with
       // column <= j. M has K's sparsity pattern, so its entries are walked in step.
@@ -151,7 +173,8 @@ namespace modal_haptics
       }
 
       cholmod_common                   common;
-      cholmod_factor                  *factor = nullptr;
+      bool                             finished = false; // cholmod_l_finish called
+      cholmod_factor                  *factor   = nullptr;
       std::unique_ptr<SupernodalSolve> triangular_solves;
     };
 
