@@ -92,17 +92,24 @@ namespace modal_haptics
       if (parent[s] >= 0)
         subtree_entries[parent[s]] += subtree_entries[s];
 
-    const auto heavier = [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; };
-    const auto largest_load = [&](std::vector<Index> &roots) {
-      std::sort(roots.begin(), roots.end(), heavier);
+    // Packs the subtrees of 'roots' onto the threads (sorting the roots, heaviest first); returns
+    // the largest load, and each root's thread in thread_of when given.
+    const auto pack = [&](std::vector<Index> &roots, std::vector<int> *thread_of) {
+      std::sort(roots.begin(), roots.end(),
+                [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; });
       std::vector<double> load(threads, 0.);
       for (const Index s : roots)
-        *std::min_element(load.begin(), load.end()) += subtree_entries[s];
+        {
+          const auto lightest = std::min_element(load.begin(), load.end()) - load.begin();
+          load[lightest] += subtree_entries[s];
+          if (thread_of != nullptr)
+            (*thread_of)[s] = int(lightest);
+        }
       return *std::max_element(load.begin(), load.end());
     };
     std::vector<Index> cuts; // the supernodes cut, in order
     std::size_t        best_n_cuts = 0;
-    double             top = 0., best_cost = largest_load(candidates);
+    double             top = 0., best_cost = pack(candidates, nullptr);
     while (threads > 1 && !candidates.empty() && !children[candidates.front()].empty() && top < best_cost)
       {
         const Index heaviest = candidates.front();
@@ -110,7 +117,7 @@ namespace modal_haptics
         candidates.insert(candidates.end(), children[heaviest].begin(), children[heaviest].end());
         cuts.push_back(heaviest);
         top += entries[heaviest];
-        const double cost = top + largest_load(candidates);
+        const double cost = top + pack(candidates, nullptr);
         if (cost < best_cost)
           {
             best_cost   = cost;
@@ -129,16 +136,8 @@ namespace modal_haptics
     for (Index s = 0; s < n_supernodes; ++s)
       if (!in_top[s] && (parent[s] < 0 || in_top[parent[s]]))
         roots.push_back(s);
-    std::sort(roots.begin(), roots.end(), heavier);
-    std::vector<double> load(threads, 0.);
-    std::vector<int>    thread_of(n_supernodes, -1);
-    for (const Index s : roots)
-      {
-        const auto lightest = std::min_element(load.begin(), load.end()) - load.begin();
-        load[lightest] += subtree_entries[s];
-        thread_of[s] = int(lightest);
-      }
-    largest_thread_entries = *std::max_element(load.begin(), load.end());
+    std::vector<int> thread_of(n_supernodes, -1);
+    largest_thread_entries = pack(roots, &thread_of);
 
     // Every other supernode outside the top belongs to the thread of its subtree's root.
     for (Index s = n_supernodes - 1; s >= 0; --s)
