@@ -22,6 +22,8 @@
 // right-hand side of its solve): one M product per solved vector plus the residuals' per cycle.
 #include "eigensolver.h"
 
+#include "blas_lapack.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/timer.h>
@@ -32,18 +34,6 @@
 #include <random>
 #include <sstream>
 #include <string>
-
-extern "C"
-{
-  void dgemm_(const char *, const char *, const int *, const int *, const int *, const double *, const double *,
-              const int *, const double *, const int *, const double *, double *, const int *);
-  void dsyev_(const char *, const char *, const int *, double *, const int *, double *, double *, const int *, int *);
-  void dpotrf_(const char *, const int *, double *, const int *, int *);
-  void dtrmm_(const char *, const char *, const char *, const char *, const int *, const int *, const double *,
-              const double *, const int *, double *, const int *);
-  void dtrsm_(const char *, const char *, const char *, const char *, const int *, const int *, const double *,
-              const double *, const int *, double *, const int *);
-}
 
 namespace modal_haptics
 {

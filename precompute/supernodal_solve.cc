@@ -1,17 +1,11 @@
 #include "supernodal_solve.h"
 
+#include "blas_lapack.h"
+
 #include <algorithm>
 #include <functional>
 #include <stdexcept>
 #include <thread>
-
-extern "C"
-{
-  void dgemm_(const char *, const char *, const int *, const int *, const int *, const double *, const double *,
-              const int *, const double *, const int *, const double *, double *, const int *);
-  void dtrsm_(const char *, const char *, const char *, const char *, const int *, const int *, const double *,
-              const double *, const int *, double *, const int *);
-}
 
 namespace modal_haptics
 {
