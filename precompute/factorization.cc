@@ -126,14 +126,12 @@ namespace modal_haptics
       }
 
     private:
-      // Frees the factor and CHOLMOD's workspace (once; the destructor and the failure paths).
+      // Frees the factor (if any) and CHOLMOD's workspace: called once, by the destructor or by the
+      // constructor's failure paths (after which no destructor runs).
       void release()
       {
-        if (factor != nullptr)
-          cholmod_l_free_factor(&factor, &common);
-        if (!finished)
-          cholmod_l_finish(&common);
-        finished = true;
+        cholmod_l_free_factor(&factor, &common);
+        cholmod_l_finish(&common);
       }
 
       // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
@@ -173,8 +171,7 @@ namespace modal_haptics
       }
 
       cholmod_common                   common;
-      bool                             finished = false; // cholmod_l_finish called
-      cholmod_factor                  *factor   = nullptr;
+      cholmod_factor                  *factor = nullptr;
       std::unique_ptr<SupernodalSolve> triangular_solves;
     };
 
