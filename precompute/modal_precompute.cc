@@ -66,10 +66,7 @@ namespace modal_haptics
             std::copy_n(&tet_rows[p][4 * k], 4, &space.mesh_tets[4 * std::size_t(tets[p][k])]);
         }
     }
-  } // namespace
 
-  namespace
-  {
     // 'what' names the folder in the message: "output folder", "partial results folder".
     void create_folder(const std::string &folder, const std::string &what)
     {
