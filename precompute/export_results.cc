@@ -584,6 +584,7 @@ namespace modal_haptics
         .value("operator_applications", s.n_operator_applications)
         .value("solved_vectors", s.factorization.n_solved_vectors)
         .value("solve_s", s.factorization.solve_seconds)
+        .value("solve_threads", s.factorization.solve_threads)
         .value("mass_products_s", s.mass_product_seconds)
         .value("orthogonalization_s", s.orthogonalization_seconds)
         .end_object();

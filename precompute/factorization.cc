@@ -103,7 +103,8 @@ namespace modal_haptics
         AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
         try
           {
-            triangular_solves = std::make_unique<SupernodalSolve>(*factor, solve_threads());
+            triangular_solves   = std::make_unique<SupernodalSolve>(*factor, solve_threads());
+            stats.solve_threads = triangular_solves->n_threads();
           }
         catch (...)
           {

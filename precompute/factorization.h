@@ -19,6 +19,7 @@ namespace modal_haptics
     double factor_flops      = 0.;  // floating point operations of the numeric factorization (CHOLMOD)
     double solve_seconds     = 0.;  // accumulated over every solve
     unsigned long n_solved_vectors = 0;
+    unsigned int  solve_threads    = 1;  // threads of the triangular solves (CHOLMOD: SupernodalSolve's)
   };
 
   // OpenBLAS' thread count, set for a scope and restored after it (no-op with another BLAS: the

@@ -95,7 +95,10 @@ namespace
 int main(int argc, char **argv)
 {
   using namespace modal_haptics;
-  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
+  // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
+  // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
+  // solves and the M products run on these threads.
+  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv);
   // A file that reaches the size limit (RLIMIT_FSIZE, a quota) would kill the program with SIGXFSZ
   // and no word of why; ignored, the write fails with EFBIG and the program says which file.
   std::signal(SIGXFSZ, SIG_IGN);

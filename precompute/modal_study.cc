@@ -735,7 +735,10 @@ namespace modal_haptics
 int main(int argc, char **argv)
 {
   using namespace modal_haptics;
-  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
+  // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
+  // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
+  // solves and the M products run on these threads.
+  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv);
   std::string study_file, output_directory;
   bool        report = true, verbose = false;
   for (int i = 1; i < argc; ++i)

@@ -47,7 +47,7 @@ namespace boost::serialization
   void serialize(Archive &ar, modal_haptics::FactorizationStatistics &f, const unsigned int)
   {
     ar &f.method &f.analyze_seconds &f.factorize_seconds &f.factor_nonzeros &f.factor_flops &f.solve_seconds;
-    ar &f.n_solved_vectors;
+    ar &f.n_solved_vectors &f.solve_threads;
   }
 
   template <class Archive>

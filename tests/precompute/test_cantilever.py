@@ -77,6 +77,18 @@ def check(name, value, reference, tolerance):
     return error <= tolerance
 
 
+def solves_use_the_cores(eigensolver):
+    """The triangular solves run on deal.II's thread count: the machine's cores (or
+    DEAL_II_NUM_THREADS), at most 8. One process must not be limited to one thread (as it was when
+    main() passed 1 to MPI_InitFinalize)."""
+    expected = min(os.cpu_count(), 8)  # deal.II counts std::thread::hardware_concurrency()
+    if os.environ.get("DEAL_II_NUM_THREADS"):
+        expected = min(expected, max(1, int(os.environ["DEAL_II_NUM_THREADS"])))
+    threads = eigensolver["solve_threads"]
+    print(f"triangular solves on {threads} threads, expected {expected}")
+    return threads == expected
+
+
 def main():
     args = binary_and_fresh_workdir()
     here = os.path.dirname(os.path.abspath(__file__))
@@ -98,6 +110,7 @@ def main():
             component = "xyz".index(c["direction"])
             ok &= check(f"tip compliance {c['direction']} [m/N]", c["full_contact_response_m_per_n"][component],
                         tip_compliance(), 0.01)
+    ok &= solves_use_the_cores(space["eigensolver"])
     print("cantilever:", "PASSED" if ok else "FAILED")
     return 0 if ok else 1
 
