@@ -10,12 +10,25 @@
 #include <algorithm>
 #include <cmath>
 
+// The kernel is compiled for the baseline of its architecture (on x86-64: SSE2, 4 floats a vector),
+// so that one binary runs on every machine. Where the modes sit in the caches (small surfaces, few
+// modes) the reconstruction is bound by the arithmetic, not the memory: there GCC also compiles it
+// for AVX2, which the loader picks when the CPU has it (target_clones, an ELF ifunc: no test per
+// call; Clang 14 clones no templates). Not AVX-512: its 16-float vectors and their reductions were
+// slower on rows of 50 (docs/performance.md). The display's sums then differ in the last bits
+// between CPUs; the tick's (and so the session hash) do not.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__) && !defined(__AVX2__)
+#define MODALRT_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+#else
+#define MODALRT_AVX2_CLONE
+#endif
+
 namespace modalrt
 {
   namespace
   {
     template <typename Scalar, typename Out>
-    void modal_displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
+    MODALRT_AVX2_CLONE void modal_displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
                              std::uint32_t end, Out *out)
     {
       // Long rows (r * sizeof(Scalar) > 256 bytes): the three rows of a block one
