@@ -12,46 +12,179 @@
 
 // The kernel is compiled for the baseline of its architecture (on x86-64: SSE2, 4 floats a vector),
 // so that one binary runs on every machine. Where the modes sit in the caches (small surfaces, few
-// modes) the reconstruction is bound by the arithmetic, not the memory: there GCC also compiles it
-// for AVX2, which the loader picks when the CPU has it (target_clones, an ELF ifunc: no test per
-// call; Clang 14 clones no templates). Not AVX-512: its 16-float vectors and their reductions were
-// slower on rows of 50 (docs/performance.md). The display's sums then differ in the last bits
-// between CPUs; the tick's (and so the session hash) do not.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__) && !defined(__AVX2__)
-#define MODALRT_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
-#else
-#define MODALRT_AVX2_CLONE
+// modes) the reconstruction is bound by the arithmetic, not the memory; there, on x86-64 CPUs with
+// AVX2 and FMA (checked once), it runs a copy compiled for them, whose short rows take 8 floats a
+// step, their tails by masked loads, and reduce a vertex's three sums together (the compiler's
+// reductions cost as much as the products on rows of 50). The display's sums then differ in the last
+// bits between CPUs; the tick's (and so the session hash) do not. docs/performance.md has the figures.
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(__AVX2__)
+#define MODALRT_AVX2_COPY 1
+#define MODALRT_AVX2 __attribute__((target("avx2,fma")))
+#include <immintrin.h>
 #endif
 
 namespace modalrt
 {
   namespace
   {
+    // Long rows (r * sizeof(Scalar) > 256 bytes): the three rows of a block one after the other,
+    // so that the array is read as one sequential stream. One pass over the three rows (dot_rows3,
+    // which loads q once) reads three streams r apart, which the hardware prefetchers follow worse:
+    // 2-3x slower at r = 200 once the array is out of the caches. Short rows lie within a few cache
+    // lines of each other, and there the single pass is up to 40 % faster (less loop and reduction
+    // overhead). Both give the same sums in the same order; q stays in L1 either way.
+    template <typename Scalar>
+    bool long_rows(const std::uint32_t r)
+    {
+      return r * sizeof(Scalar) > 256;
+    }
+
     template <typename Scalar, typename Out>
-    MODALRT_AVX2_CLONE void modal_displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
+    inline void vertex_displacements(const Scalar *block, const Scalar *q, std::uint32_t r, Out *o)
+    {
+      Scalar u[3];
+      if (long_rows<Scalar>(r))
+        for (std::uint32_t c = 0; c < 3; ++c)
+          u[c] = dot_in_scalar(block + c * std::size_t(r), q, r);
+      else
+        dot_rows3(block, q, r, u);
+      for (std::uint32_t c = 0; c < 3; ++c)
+        o[c] = Out(u[c]);
+    }
+
+    template <typename Scalar, typename Out>
+    void modal_displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
                              std::uint32_t end, Out *out)
     {
-      // Long rows (r * sizeof(Scalar) > 256 bytes): the three rows of a block one
-      // after the other, so that the array is read as one sequential stream. One pass over the
-      // three rows (dot_rows3, which loads q once) reads three streams r apart, which the hardware
-      // prefetchers follow worse: 2-3x slower at r = 200 once the array is out of the caches. Short
-      // rows lie within a few cache lines of each other, and there the single pass is up to 40 %
-      // faster (less loop and reduction overhead). docs/performance.md has the measurements. Both
-      // give the same sums in the same order; q stays in L1 either way.
-      const bool long_rows = r * sizeof(Scalar) > 256;
+      for (std::uint32_t v = begin; v < end; ++v)
+        vertex_displacements(modes + std::size_t(v) * 3 * r, q, r, out + 3 * std::size_t(v - begin));
+    }
+
+#ifdef MODALRT_AVX2_COPY
+    bool cpu_has_avx2_fma()
+    {
+      static const bool has = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+      }();
+      return has;
+    }
+
+    // The AVX2 operations of rows3_avx2, on 8 floats or 4 doubles.
+    template <typename Scalar>
+    struct Avx2;
+
+    template <>
+    struct Avx2<float>
+    {
+      using Vector                         = __m256;
+      static constexpr std::uint32_t width = 8;
+      MODALRT_AVX2 static Vector zero() { return _mm256_setzero_ps(); }
+      MODALRT_AVX2 static Vector fmadd(Vector a, Vector b, Vector c) { return _mm256_fmadd_ps(a, b, c); }
+      MODALRT_AVX2 static Vector load(const float *p) { return _mm256_loadu_ps(p); }
+      // The first n < 8 values at p, then zeros: masked-off lanes are not read (no fault past the array).
+      MODALRT_AVX2 static __m256i first(std::uint32_t n)
+      {
+        return _mm256_cmpgt_epi32(_mm256_set1_epi32(int(n)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+      }
+      MODALRT_AVX2 static Vector load(const float *p, __m256i lanes) { return _mm256_maskload_ps(p, lanes); }
+      // The lane sums of s0, s1, s2: hadd(hadd(s0, s1), hadd(s2, s2)) has them in each 128-bit half.
+      MODALRT_AVX2 static void sums(Vector s0, Vector s1, Vector s2, float u[3])
+      {
+        const __m256 quads = _mm256_hadd_ps(_mm256_hadd_ps(s0, s1), _mm256_hadd_ps(s2, s2));
+        const __m128 sum   = _mm_add_ps(_mm256_castps256_ps128(quads), _mm256_extractf128_ps(quads, 1));
+        u[0]               = _mm_cvtss_f32(sum);
+        u[1]               = _mm_cvtss_f32(_mm_shuffle_ps(sum, sum, 1));
+        u[2]               = _mm_cvtss_f32(_mm_shuffle_ps(sum, sum, 2));
+      }
+    };
+
+    template <>
+    struct Avx2<double>
+    {
+      using Vector                         = __m256d;
+      static constexpr std::uint32_t width = 4;
+      MODALRT_AVX2 static Vector zero() { return _mm256_setzero_pd(); }
+      MODALRT_AVX2 static Vector fmadd(Vector a, Vector b, Vector c) { return _mm256_fmadd_pd(a, b, c); }
+      MODALRT_AVX2 static Vector load(const double *p) { return _mm256_loadu_pd(p); }
+      MODALRT_AVX2 static __m256i first(std::uint32_t n)
+      {
+        return _mm256_cmpgt_epi64(_mm256_set1_epi64x(n), _mm256_setr_epi64x(0, 1, 2, 3));
+      }
+      MODALRT_AVX2 static Vector load(const double *p, __m256i lanes) { return _mm256_maskload_pd(p, lanes); }
+      // hadd(s0, s1) has the pair sums of s0 and s1 in each 128-bit half; s2 alone.
+      MODALRT_AVX2 static void sums(Vector s0, Vector s1, Vector s2, double u[3])
+      {
+        const __m256d pairs01 = _mm256_hadd_pd(s0, s1), pairs2 = _mm256_hadd_pd(s2, s2);
+        const __m128d sum01   = _mm_add_pd(_mm256_castpd256_pd128(pairs01), _mm256_extractf128_pd(pairs01, 1));
+        const __m128d sum2    = _mm_add_pd(_mm256_castpd256_pd128(pairs2), _mm256_extractf128_pd(pairs2, 1));
+        u[0]                  = _mm_cvtsd_f64(sum01);
+        u[1]                  = _mm_cvtsd_f64(_mm_unpackhi_pd(sum01, sum01));
+        u[2]                  = _mm_cvtsd_f64(sum2);
+      }
+    };
+
+    // u[c] = sum_i block[c r + i] q[i], c = 0, 1, 2 (short rows): a vector of each row a step, the
+    // tail by a masked load, the three sums reduced together.
+    template <typename Scalar>
+    MODALRT_AVX2 inline void rows3_avx2(const Scalar *block, const Scalar *q, std::uint32_t r, Scalar u[3])
+    {
+      using V                = Avx2<Scalar>;
+      const Scalar      *row1 = block + r, *row2 = block + 2 * std::size_t(r);
+      typename V::Vector s0 = V::zero(), s1 = s0, s2 = s0;
+      std::uint32_t      i  = 0;
+      for (; i + V::width <= r; i += V::width)
+        {
+          const auto x = V::load(q + i);
+          s0           = V::fmadd(V::load(block + i), x, s0);
+          s1           = V::fmadd(V::load(row1 + i), x, s1);
+          s2           = V::fmadd(V::load(row2 + i), x, s2);
+        }
+      if (i < r)
+        {
+          const __m256i tail = V::first(r - i);
+          const auto    x    = V::load(q + i, tail);
+          s0                 = V::fmadd(V::load(block + i, tail), x, s0);
+          s1                 = V::fmadd(V::load(row1 + i, tail), x, s1);
+          s2                 = V::fmadd(V::load(row2 + i, tail), x, s2);
+        }
+      V::sums(s0, s1, s2, u);
+    }
+
+    // modal_displacements compiled for AVX2: its long rows by the same loops (vectorized 8 floats
+    // wide here), its short rows by rows3_avx2.
+    template <typename Scalar, typename Out>
+    MODALRT_AVX2 void modal_displacements_avx2(const Scalar *modes, const Scalar *q, std::uint32_t r,
+                                               std::uint32_t begin, std::uint32_t end, Out *out)
+    {
+      const bool long_block = long_rows<Scalar>(r);
       for (std::uint32_t v = begin; v < end; ++v)
         {
           const Scalar *block = modes + std::size_t(v) * 3 * r;
           Out          *o     = out + 3 * std::size_t(v - begin);
-          Scalar        u[3];
-          if (long_rows)
-            for (std::uint32_t c = 0; c < 3; ++c)
-              u[c] = dot_in_scalar(block + c * std::size_t(r), q, r);
+          if (long_block)
+            vertex_displacements(block, q, r, o);
           else
-            dot_rows3(block, q, r, u);
-          for (std::uint32_t c = 0; c < 3; ++c)
-            o[c] = Out(u[c]);
+            {
+              Scalar u[3];
+              rows3_avx2(block, q, r, u);
+              for (std::uint32_t c = 0; c < 3; ++c)
+                o[c] = Out(u[c]);
+            }
         }
+    }
+#endif
+
+    // The reconstruction of vertices begin to end: the AVX2 copy where the CPU has it.
+    template <typename Scalar, typename Out>
+    void displacements(const Scalar *modes, const Scalar *q, std::uint32_t r, std::uint32_t begin,
+                       std::uint32_t end, Out *out)
+    {
+#ifdef MODALRT_AVX2_COPY
+      if (cpu_has_avx2_fma())
+        return modal_displacements_avx2(modes, q, r, begin, end, out);
+#endif
+      modal_displacements(modes, q, r, begin, end, out);
     }
 
     // Near each contact at a candidate, the felt static correction C F spread over the patch with
@@ -120,9 +253,9 @@ namespace modalrt
     const std::uint32_t           r = s.mode_count;
     const ModalSpace             &space = basis.spaces[s.space];
     if (basis.float64_modes())
-      modal_displacements(space.display_modes_f64.data(), s.q.data(), r, begin, end, out);
+      displacements(space.display_modes_f64.data(), s.q.data(), r, begin, end, out);
     else
-      modal_displacements(space.display_modes_f32.data(), snapshot.q_f32.data(), r, begin, end, out);
+      displacements(space.display_modes_f32.data(), snapshot.q_f32.data(), r, begin, end, out);
     if (!(flags & MODALRT_DISPLAY_NO_CORRECTION))
       add_corrections(snapshot, begin, end, out);
     if (flags & MODALRT_DISPLAY_POSITIONS)

@@ -23,10 +23,13 @@ namespace
     return k;
   }
 
-  void reconstruction_matches_modes(bool float64)
+  // r_tip modes in the tip space: row lengths around the kernel's vector widths (4 doubles, 8
+  // floats on AVX2) and its short/long row threshold (32 doubles, 64 floats) test the tails.
+  void reconstruction_matches_modes(bool float64, std::uint32_t r_tip)
   {
     LatticeOptions o;
     o.float64_modes       = float64;
+    o.modes               = {8, r_tip};
     const BasisContent c  = modalrt::make_lattice_cantilever(o);
     modalrt_basis     *b  = test::load(c);
     modalrt_kernel    *k  = pushed_kernel(b, modalrt::lattice_display_vertex(o, 8, 1), 37);
@@ -37,10 +40,10 @@ namespace
 
     modalrt_snapshot_info info;
     modalrt_snapshot_get_info(s, &info);
-    std::vector<double> q(64);
+    std::vector<double> q(256);
     std::uint32_t       r;
-    modalrt_kernel_get_modal_state(k, q.data(), nullptr, 64, &r);
-    ENSURE(info.tick == 37 && info.space == 1 && info.mode_count == r && info.contact_count == 1);
+    modalrt_kernel_get_modal_state(k, q.data(), nullptr, 256, &r);
+    ENSURE(info.tick == 37 && info.space == 1 && info.mode_count == r && r == r_tip && info.contact_count == 1);
     ENSURE(std::equal(q.begin(), q.begin() + r, modalrt_snapshot_modal_coordinates(s)));
 
     const std::uint32_t nv = c.vertex_count();
@@ -200,8 +203,11 @@ namespace
 
 int main()
 {
-  reconstruction_matches_modes(true);
-  reconstruction_matches_modes(false);
+  for (const std::uint32_t r : {1u, 3u, 4u, 5u, 7u, 8u, 9u, 16u, 31u, 32u, 33u, 50u, 63u, 64u, 65u, 70u})
+    {
+      reconstruction_matches_modes(true, r);
+      reconstruction_matches_modes(false, r);
+    }
   correction_drawn_at_contact();
   world_positions();
   concurrent_reader();
