@@ -289,12 +289,14 @@ def main():
               "lambda_last_rel_diff", "phases_median_s", "solved_vectors", "factor_nonzeros", "factor_gflops", "rate",
               "rate_after", "rate_unit", "note"]
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", newline="", dir=os.path.dirname(os.path.abspath(args.out)), delete=False) as f:
+    # Written beside the target, then renamed (a kill leaves the previous CSV whole); open() gives the
+    # file the umask's mode, where a NamedTemporaryFile would stay 0600.
+    with open(args.out + ".tmp", "w", newline="") as f:
         f.write(f"# load average at the end: {' '.join(open('/proc/loadavg').read().split()[:3])}\n")
         writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    os.replace(f.name, args.out)
+    os.replace(args.out + ".tmp", args.out)
     print(f"\n{'DoFs':>8} {'ranks':>5} {'median s':>9} {'x ours':>7} {'peak MB':>8}  solver")
     for r in rows:
         if "seconds" in r:
