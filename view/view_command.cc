@@ -6,6 +6,7 @@
 // exchange. The server thread (view_server.cc) reads both at frame rate and talks to the browsers.
 #include "view_command.h"
 
+#include "frame_builder.h"
 #include "triple_buffer.h"
 #include "view_server.h"
 
@@ -42,49 +43,11 @@ namespace modalrt_view
       double        force[mouse_hips][3] = {};
     };
 
-    // Tick durations and wake-up lateness over a window of ticks, in 0.1 us bins (no allocation).
-    struct TickHistogram
-    {
-      static constexpr int bins = 5000; // up to 500 us; beyond, the last bin
-      std::uint32_t        count[bins] = {};
-      std::uint32_t        n           = 0;
-      double               max_us      = 0.0;
-
-      void add(double us)
-      {
-        const int b = std::min(bins - 1, std::max(0, int(us * 10.0)));
-        ++count[b];
-        ++n;
-        max_us = std::max(max_us, us);
-      }
-      double percentile(double p) const
-      {
-        const std::uint64_t target = std::uint64_t(std::ceil(p * n));
-        std::uint64_t       seen   = 0;
-        for (int b = 0; b < bins; ++b)
-          if ((seen += count[b]) >= target && target > 0)
-            return (b + 0.5) / 10.0;
-        return 0.0;
-      }
-      void clear() { *this = TickHistogram(); }
-    };
-
-    struct TickStats
-    {
-      double tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0; // kernel tick duration
-      double late_p50_us = 0, late_p99_us = 0, late_max_us = 0; // tick start after its deadline
-      double rate_hz     = 0;                                  // ticks per second of wall time
-    };
-
     // What the haptic thread publishes after each tick (haptic thread -> server thread).
     struct HapticState
     {
-      std::uint64_t      tick    = 0;
-      double             wall_ms = 0.0; // [ms] epoch, end of the tick
-      double             time    = 0.0; // [s] simulated
-      std::uint64_t      rejected = 0;
+      HapticTick         tick;                  // statistics over the last full second
       modalrt_hip_output out[mouse_hips] = {};
-      TickStats          stats;        // over the last full second
     };
 
     struct Options
@@ -93,14 +56,14 @@ namespace modalrt_view
       ServerOptions server;
       double        rate     = 1000.0; // [Hz]
       double        duration = 0.0;    // [s] 0: until SIGINT/SIGTERM
-      bool          quiet    = false;
     };
 
     // The mouse session: owns the kernel, the haptic thread, and builds the frames.
     class MouseSession : public FrameSource
     {
     public:
-      MouseSession(const modalrt_basis *basis, const Options &options) : basis_(basis), options_(options)
+      MouseSession(const modalrt_basis *basis, const Options &options)
+        : basis_(basis), options_(options), builder_(basis, mouse_hips)
       {
         modalrt_basis_get_info(basis, &info_);
         modalrt_kernel_def def = modalrt_kernel_default_def();
@@ -174,129 +137,28 @@ namespace modalrt_view
       bool frame(std::vector<unsigned char> &bytes) override
       {
         refresh();
-        modalrt_snapshot_info si{};
-        modalrt_snapshot_get_info(snapshot_, &si);
-        const auto put = [&bytes](const void *p, std::size_t n) {
-          const auto *c = static_cast<const unsigned char *>(p);
-          bytes.insert(bytes.end(), c, c + n);
-        };
-        const auto u32 = [&](std::uint32_t v) { put(&v, 4); };
-        const auto f64 = [&](double v) { put(&v, 8); };
-        u32(0x4654524Du); // "MRTF"
-        u32(1);
-        f64(haptic_.wall_ms);
-        f64(wall_clock_ms());
-        f64(double(si.tick));
-        f64(si.time);
-        u32(si.space);
-        u32(si.mode_count);
-        u32(mouse_hips);
-        u32(contact_count_);
-        const TickStats &t = haptic_.stats;
-        for (double v : {double(haptic_.tick), double(haptic_.rejected), t.tick_p50_us, t.tick_p99_us, t.tick_max_us,
-                         t.late_p99_us, t.late_max_us, t.rate_hz})
-          f64(v);
-        put(modalrt_snapshot_modal_coordinates(snapshot_), 8 * std::size_t(si.mode_count));
-        for (std::uint32_t k = 0; k < contact_count_; ++k)
-          {
-            u32(contact_vertices_[k]);
-            u32(0);
-            put(&contact_corrections_[3 * k], 24);
-          }
-        for (std::uint32_t h = 0; h < mouse_hips; ++h)
-          {
-            const Hip &hip = hips_[h];
-            u32(hip.in_contact);
-            u32(hip.vertex);
-            u32(hip.full_fe);
-            u32(0);
-            put(hip.force, 24);
-            put(hip.displacement, 24);
-            put(hip.felt, 24);
-            f64(hip.static_stiffness);
-          }
+        builder_.frame(bytes);
         return true;
       }
 
       std::string state_json() override
       {
         refresh();
-        modalrt_snapshot_info si{};
-        modalrt_snapshot_get_info(snapshot_, &si);
-        const TickStats   &t = haptic_.stats;
-        std::ostringstream j;
-        j.precision(17);
-        j << "{\"tick\":" << si.tick << ",\"haptic_tick\":" << haptic_.tick << ",\"time\":" << si.time
-          << ",\"space\":" << si.space << ",\"rejected_ticks\":" << haptic_.rejected << ",\"tick_us\":{\"p50\":"
-          << t.tick_p50_us << ",\"p99\":" << t.tick_p99_us << ",\"max\":" << t.tick_max_us
-          << "},\"lateness_us\":{\"p50\":" << t.late_p50_us << ",\"p99\":" << t.late_p99_us << ",\"max\":"
-          << t.late_max_us << "},\"tick_rate_hz\":" << t.rate_hz << ",\"hips\":[";
-        for (std::uint32_t h = 0; h < mouse_hips; ++h)
-          {
-            const Hip &hip = hips_[h];
-            j << (h ? "," : "") << "{\"in_contact\":" << hip.in_contact << ",\"vertex\":"
-              << (hip.in_contact ? double(hip.vertex) : -1.0) << ",\"full_fe\":" << hip.full_fe << ",\"force\":["
-              << hip.force[0] << "," << hip.force[1] << "," << hip.force[2] << "],\"displacement\":["
-              << hip.displacement[0] << "," << hip.displacement[1] << "," << hip.displacement[2] << "],\"felt\":["
-              << hip.felt[0] << "," << hip.felt[1] << "," << hip.felt[2] << "],\"static_stiffness_n_per_m\":"
-              << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0) << "}";
-          }
-        j << "]}";
-        return j.str();
+        return builder_.state_json();
+      }
+
+      std::string session_json() override
+      {
+        return "{\"driver\":\"mouse\",\"watch_only\":false,\"hips\":" + std::to_string(mouse_hips) + "}";
       }
 
     private:
-      struct Hip
-      {
-        std::uint32_t in_contact = 0, vertex = MODALRT_NONE, full_fe = 0, space = MODALRT_NONE;
-        double        force[3] = {}, displacement[3] = {}, felt[3] = {};
-        double        static_stiffness = 0.0; // [N/m] 1 / (n^T G n) along the force
-      };
-
-      // Server thread: the newest snapshot and haptic outputs, and what the page needs of them.
+      // Server thread: the newest snapshot and haptic outputs.
       void refresh()
       {
         modalrt_kernel_snapshot_read(kernel_, snapshot_);
         haptic_read_.read(haptic_);
-        modalrt_snapshot_get_contacts(snapshot_, mouse_hips, contact_vertices_, contact_corrections_, &contact_count_);
-        modalrt_snapshot_info si{};
-        modalrt_snapshot_get_info(snapshot_, &si);
-        for (std::uint32_t h = 0; h < mouse_hips; ++h)
-          {
-            const modalrt_hip_output &o   = haptic_.out[h];
-            Hip                      &hip = hips_[h];
-            const std::uint32_t       v   = o.in_contact ? o.active_vertex : MODALRT_NONE;
-            std::copy_n(o.force, 3, hip.force);
-            hip.in_contact = o.in_contact;
-            if (v == MODALRT_NONE)
-              {
-                hip.vertex = MODALRT_NONE;
-                std::fill_n(hip.displacement, 3, 0.0);
-                std::fill_n(hip.felt, 3, 0.0);
-                continue;
-              }
-            // The kernel's own reconstruction of the active vertex from the same snapshot.
-            modalrt_display_reconstruct_f64(snapshot_, v, v + 1, MODALRT_DISPLAY_DISPLACEMENTS, hip.displacement);
-            for (int d = 0; d < 3; ++d)
-              hip.felt[d] = o.position[d] - vertices_[3 * std::size_t(v) + d];
-            if (v != hip.vertex || si.space != hip.space)
-              {
-                double G[9];
-                hip.static_stiffness = 0.0;
-                hip.full_fe          = 0;
-                if (modalrt_basis_contact_compliance(basis_, si.space, v, G, &hip.full_fe) == MODALRT_OK)
-                  {
-                    const double *n   = &normals_[3 * std::size_t(v)];
-                    double        nGn = 0.0;
-                    for (int a = 0; a < 3; ++a)
-                      for (int b = 0; b < 3; ++b)
-                        nGn += n[a] * G[3 * a + b] * n[b];
-                    hip.static_stiffness = nGn > 0.0 ? 1.0 / nGn : 0.0;
-                  }
-                hip.vertex = v;
-                hip.space  = si.space;
-              }
-          }
+        builder_.update(snapshot_, haptic_.tick, haptic_.out);
       }
 
       // ------------------------------------------------------------------- haptic thread
@@ -344,25 +206,12 @@ namespace modalrt_view
             ++window_ticks;
             if (end - window >= std::chrono::seconds(1))
               {
-                const double seconds    = std::chrono::duration<double>(end - window).count();
-                state.stats.tick_p50_us = durations.percentile(0.5);
-                state.stats.tick_p99_us = durations.percentile(0.99);
-                state.stats.tick_max_us = durations.max_us;
-                state.stats.late_p50_us = lateness.percentile(0.5);
-                state.stats.late_p99_us = lateness.percentile(0.99);
-                state.stats.late_max_us = lateness.max_us;
-                state.stats.rate_hz     = window_ticks / seconds;
-                durations.clear();
-                lateness.clear();
+                close_window(state.tick.stats, durations, &lateness, window_ticks,
+                             std::chrono::duration<double>(end - window).count());
                 window       = end;
                 window_ticks = 0;
               }
-            modalrt_kernel_stats ks{};
-            modalrt_kernel_get_stats(kernel_, &ks);
-            state.tick     = ks.tick_count;
-            state.time     = ks.time;
-            state.rejected = ks.rejected_ticks;
-            state.wall_ms  = wall_clock_ms();
+            stamp_tick(kernel_, state.tick);
             std::copy_n(out, mouse_hips, state.out);
             haptic_write_.publish(state);
           }
@@ -384,10 +233,7 @@ namespace modalrt_view
       TripleBuffer<HapticState> haptic_exchange_;
       TripleBuffer<HapticState> &haptic_write_ = haptic_exchange_, &haptic_read_ = haptic_exchange_;
       HapticState               haptic_;   // server thread's copy
-      Hip                       hips_[mouse_hips];
-      std::uint32_t             contact_vertices_[mouse_hips] = {};
-      double                    contact_corrections_[3 * mouse_hips] = {};
-      std::uint32_t             contact_count_ = 0;
+      FrameBuilder              builder_;                // server thread's
     };
 
     struct UsageError
@@ -400,8 +246,11 @@ namespace modalrt_view
       char        *end   = nullptr;
       const double value = std::strtod(text, &end);
       if (end == text || *end != '\0' || !std::isfinite(value) || value < low || value > high)
-        throw UsageError{option + ": '" + text + "' is not a number in [" + std::to_string(low) + ", " +
-                         std::to_string(high) + "]"};
+        {
+          char range[96];
+          std::snprintf(range, sizeof range, "' is not a number in [%g, %g]", low, high);
+          throw UsageError{option + ": '" + text + range};
+        }
       return value;
     }
 
@@ -411,11 +260,9 @@ namespace modalrt_view
       for (int i = 0; i < argc; ++i)
         {
           const std::string option = argv[i];
-          if (option == "--quiet")
-            {
-              o.quiet = true;
-              continue;
-            }
+          if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
+              option != "--frame-rate" && option != "--duration")
+            throw UsageError{"unknown option '" + option + "'"};
           if (i + 1 >= argc)
             throw UsageError{option + " needs a value"};
           const char *value = argv[++i];
@@ -429,10 +276,8 @@ namespace modalrt_view
             o.rate = number(option, value, 100, 20000);
           else if (option == "--frame-rate")
             o.server.frame_rate = number(option, value, 1, 240);
-          else if (option == "--duration")
-            o.duration = number(option, value, 0, 1e7);
           else
-            throw UsageError{"unknown option '" + option + "'"};
+            o.duration = number(option, value, 0, 1e7);
         }
       if (o.basis.empty())
         throw UsageError{"--basis FILE is required"};
@@ -443,7 +288,7 @@ namespace modalrt_view
   const char *view_usage()
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
-           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--quiet]\n";
+           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)]\n";
   }
 
   int view_command(int argc, char **argv)

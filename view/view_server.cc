@@ -483,6 +483,8 @@ namespace modalrt_view
     const std::vector<unsigned char> bytes = basis_binary(basis, basis_path);
     impl_->basis_bytes.assign(bytes.begin(), bytes.end());
     impl_->info_json = basis_json(basis, basis_path, bytes.size());
+    impl_->info_json.pop_back(); // the closing brace: the session joins the basis's description
+    impl_->info_json += ",\"session\":" + source.session_json() + "}";
     const auto report = std::filesystem::path(basis_path).parent_path() / "report.json";
     impl_->report     = read_file(report, impl_->has_report);
   }

@@ -29,6 +29,10 @@ namespace modalrt_view
     virtual std::string command(const std::string &text) = 0;
     // Server thread: the latest state as JSON (GET /api/state).
     virtual std::string state_json() = 0;
+    // Once, before the server starts: what drives the HIPs, as the JSON object "session" of
+    // GET /api/info: {"driver": "mouse"|"run"|"serve", "watch_only": bool, "hips": N}. A watch-only
+    // page does not press (the HIPs belong to a script or a device).
+    virtual std::string session_json() = 0;
   };
 
   struct ServerOptions

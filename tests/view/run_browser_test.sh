@@ -2,9 +2,9 @@
 # ctest view.browser: runs test_view_browser.mjs in Debian's chromium. Without chromium, node or
 # playwright-core (scripts/setup installs them) it skips with a message (exit 77), except in CI
 # (CI=true), where it must run and therefore fails.
-# Usage: run_browser_test.sh MODAL_RT FIXTURE_MAKER WORK_DIR
+# Usage: run_browser_test.sh MODAL_RT FIXTURE_MAKER WORK_DIR [SCRIPT (test_view_browser.mjs)]
 set -u
-modal_rt=$1 maker=$2 work=$3
+modal_rt=$1 maker=$2 work=$3 script=${4:-test_view_browser.mjs}
 here=$(cd "$(dirname "$0")" && pwd)
 missing=""
 command -v node >/dev/null 2>&1 || missing="node"
@@ -19,5 +19,5 @@ if [ -n "$missing" ]; then
   exit 77
 fi
 mkdir -p "$work" && "$maker" lattice "$work/view_lattice.mrt" || exit 1
-exec node "$here/test_view_browser.mjs" --modal-rt "$modal_rt" --basis "$work/view_lattice.mrt" \
-  --screenshot "$work/view_browser_test.png"
+exec node "$here/$script" --modal-rt "$modal_rt" --basis "$work/view_lattice.mrt" \
+  --screenshot "$work/view_browser_test.png" --work "$work"

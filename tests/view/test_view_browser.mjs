@@ -10,20 +10,7 @@
 //   - a screenshot is not blank (it is written to --screenshot for the README).
 // Usage: node test_view_browser.mjs --modal-rt BIN --basis FILE [--screenshot PNG]
 import { spawn } from 'node:child_process';
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
-import path from 'node:path';
-
-const args = Object.fromEntries(process.argv.slice(2).reduce((a, x, i, all) => (x.startsWith('--') ? [...a, [x.slice(2), all[i + 1]]] : a), []));
-const here = path.dirname(fileURLToPath(import.meta.url));
-const require = createRequire(path.join(here, '../../view/web/package.json'));
-const { chromium } = require('playwright-core');
-
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures += 1;
-}
+import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
 const relative = (a, b) => Math.hypot(...a.map((x, i) => x - b[i])) / Math.max(Math.hypot(...b), 1e-300);
 
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
@@ -35,13 +22,10 @@ const url = await new Promise((resolve, reject) => {
 });
 console.log(`server ${url}`);
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-  args: ['--use-angle=swiftshader', '--use-gl=angle', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--no-sandbox'],
-});
+const browser = await launchChromium();
 try {
   const page = await browser.newPage({ viewport: { width: 1000, height: 620 } });
-  page.on('pageerror', (e) => { console.log(`page error: ${e.message}`); failures += 1; });
+  page.on('pageerror', (e) => { console.log(`page error: ${e.message}`); fail(); });
   await page.goto(url);
   await page.waitForFunction(() => window.viewState?.ready && window.viewState.frames > 5, null, { timeout: 30000 });
 
@@ -105,5 +89,4 @@ try {
   await browser.close();
   server.kill('SIGINT');
 }
-console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-process.exit(failures ? 1 : 0);
+finish();

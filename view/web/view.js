@@ -23,6 +23,14 @@ state.basisBytes = basisBuffer.byteLength;
 let report = null;
 try { const r = await fetch('/api/report'); if (r.ok) report = await r.json(); } catch (e) { /* none */ }
 $('file').textContent = info.file.split('/').pop();
+// Who drives the HIPs: the mouse (`modal-rt view`), or a session file / UDP device (`run`/`serve
+// --view`): then the page only watches.
+const session = info.session ?? { driver: 'mouse', watch_only: false, hips: 2 };
+state.watchOnly = session.watch_only;
+if (state.watchOnly) {
+  $('contacts-title').innerHTML = `Contacts <small>(watch-only: driven by <b>modal-rt ${session.driver}</b>; the mouse turns the view)</small>`;
+  for (const id of ['mouse-spring', 'mouse-hold']) $(id).style.display = 'none';
+}
 
 function parseBasis(buffer) {
   const dv = new DataView(buffer);
@@ -147,8 +155,8 @@ const voiBoxes = info.spaces.map((s, index) => {
 });
 
 // HIPs: a sphere at the felt position and the force arrow.
-const hipColors = [0xff4fd8, 0x4fffe0];
-const hips = [0, 1].map((h) => {
+const hipColors = Array.from({ length: session.hips }, (_, h) => [0xff4fd8, 0x4fffe0, 0xffd24f, 0x8fff4f][h % 4]);
+const hips = hipColors.map((_, h) => {
   const sphere = new THREE.Mesh(new THREE.SphereGeometry(size * 0.006), new THREE.MeshBasicMaterial({ color: hipColors[h] }));
   const arrow = new THREE.ArrowHelper(new THREE.Vector3(0, 0, -1), new THREE.Vector3(), size * 0.1, hipColors[h]);
   sphere.visible = arrow.visible = false;
@@ -218,7 +226,7 @@ function vertexDisplacement(frame, v) {
 const protocol = location.protocol === 'https:' ? 'wss' : 'ws';
 const socket = new WebSocket(`${protocol}://${location.host}/ws`);
 socket.binaryType = 'arraybuffer';
-socket.onopen = () => { $('status').textContent = 'live'; };
+socket.onopen = () => { $('status').textContent = state.watchOnly ? `watching modal-rt ${session.driver} (watch-only)` : 'live'; };
 socket.onclose = () => { $('status').textContent = 'disconnected (no session): offline tabs only'; };
 socket.onmessage = (event) => {
   if (typeof event.data === 'string') { if (event.data.startsWith('error')) $('status').textContent = event.data; return; }
@@ -236,7 +244,7 @@ function pointerNdc(event) {
   return new THREE.Vector2(((event.clientX - rect.left) / rect.width) * 2 - 1, -((event.clientY - rect.top) / rect.height) * 2 + 1);
 }
 renderer.domElement.addEventListener('pointerdown', (event) => {
-  if (event.button !== 0 || state.mode !== 'live') return;
+  if (event.button !== 0 || state.mode !== 'live' || state.watchOnly) return;
   raycaster.setFromCamera(pointerNdc(event), camera);
   const hit = raycaster.intersectObject(mesh)[0];
   if (!hit) return;
@@ -344,7 +352,7 @@ function liveFrame(now) {
   const f = latest;
   if (!f) return;
   applyModal(f.space, f.q, f.contacts);
-  state.space = f.space; state.tick = f.tick;
+  state.space = f.space; state.tick = f.tick; state.hapticTick = f.stats[0];
   const age = Date.now() - f.tickWallMs;
   state.ageMs.push(age);
   if (state.ageMs.length > 600) state.ageMs.shift();
@@ -376,13 +384,13 @@ function liveFrame(now) {
     view.history.push([Math.max(0, along), F]);
     if (view.history.length > 2000) view.history.shift();
     html += hipPanel(h, hip, js);
-    return { inContact: 1, vertex: v, force: hip.force, forceN: F, displacement: js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
+    return { inContact: 1, vertex: v, tick: f.stats[0], force: hip.force, forceN: F, displacement: js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
   });
   for (const h of state.hips) if (h.inContact) setScale(Math.max(scaleMax, Math.hypot(...h.displacement)));
   hips.forEach((view, h) => { view.panel.innerHTML = ''; });
-  $('hips').innerHTML = html || '<small>no contact: click the part</small>';
-  const s = f.stats;
-  $('ticks').innerHTML = `ticks ${s[0]} (rejected ${s[1]}), ${s[7].toFixed(0)} Hz<br>tick p50 ${s[2].toFixed(1)} µs, p99 ${s[3].toFixed(1)} µs, max ${s[4].toFixed(1)} µs<br>wake-up lateness p99 ${s[5].toFixed(1)} µs, max ${s[6].toFixed(1)} µs`;
+  $('hips').innerHTML = html || `<small>no contact${state.watchOnly ? '' : ': click the part'}</small>`;
+  const s = f.stats, us = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
+  $('ticks').innerHTML = `ticks ${s[0]} (rejected ${s[1]}), ${s[7].toFixed(0)} Hz<br>tick p50 ${us(s[2])} µs, p99 ${us(s[3])} µs, max ${us(s[4])} µs<br>wake-up lateness p99 ${us(s[5])} µs, max ${us(s[6])} µs`;
   drawPlot();
 }
 
