@@ -4,6 +4,7 @@
 //   - the page receives frames while the session runs, and every frame's HIP forces equal the run's
 //     own record of that tick (trace.csv at one row per tick, 9 significant digits) within 1e-8
 //     relative; so do the forces the page shows;
+//   - the haptic thread, with the view's device wrapper in it, allocates nothing (stats.json);
 //   - the page is watch-only: it says so, a mouse drag sends nothing, and a press sent by hand on the
 //     WebSocket is refused by the server;
 //   - `modal-rt serve --view P` serves the page and a watch-only session description, and ends cleanly.
@@ -110,6 +111,9 @@ try {
 
   const code = await run.exited;
   check(code === 0, `modal-rt run --view exited with ${code}`);
+  // The view's wrapper of the device runs in the haptic thread: it must not allocate there.
+  const stats = JSON.parse(fs.readFileSync(path.join(outDir, 'stats.json'), 'utf8'));
+  check(stats.allocations_after_start === 0, `the haptic thread allocated ${stats.allocations_after_start} times with the view attached`);
 
   // The run's own record: trace.csv, one row per tick (row n is tick n, after which the kernel has
   // done n + 1 ticks: the frame's haptic tick).
