@@ -17,3 +17,8 @@ node "$here/bench_view.mjs" --modal-rt "$build/bin/modal-rt" --basis "$panel" --
 "$build/bin/make_view_fixture" plate "$build/benchmarks/view/plate_100k.mrt" 317 317 10
 node "$here/bench_view.mjs" --modal-rt "$build/bin/modal-rt" --basis "$build/benchmarks/view/plate_100k.mrt" \
   --vertex $((158 * 317 + 158)) --seconds 10 --label plate_100k_r10 --csv "$out/view.csv"
+# modal-rt run on the default scene's session, without and with --view and a browser watching.
+rm -f "$out/run_view.csv"
+node "$here/bench_run_view.mjs" --modal-rt "$build/bin/modal-rt" --basis "$panel" \
+  --session "$here/../../parameters/ribbed_panel_session.csv" --work "$build/benchmarks/view" --label ribbed_panel \
+  --csv "$out/run_view.csv"
