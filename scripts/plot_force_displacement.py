@@ -71,6 +71,18 @@ def draw_press(ax, trace, press):
         x = [0.0, 1.15 * reach]
         ax.plot(x, [k * 1e-3 * d for d in x], "--", color="C3", lw=1.5, label=label)
 
+    # Several HIPs in contact: the static answer to all their loads together (full FE through the
+    # stored cross compliance when every contact is a candidate), the reference that applies.
+    multi = finite(press.get("multi_static_stiffness_n_per_m", "nan") or "nan")
+    if multi and multi > 0 and int(press.get("felt_contacts", "1") or 1) > 1:
+        if press.get("multi_full_fe") == "1":
+            label = "full-FE static, %s contacts' loads together %.4g N/mm" % (press["felt_contacts"], multi * 1e-3)
+        else:
+            label = "static, %s contacts' loads together %.4g N/mm\n(no full-FE reference: %s)" % (
+                press["felt_contacts"], multi * 1e-3, press.get("multi_note", ""))
+        x = [0.0, 1.15 * reach]
+        ax.plot(x, [multi * 1e-3 * d for d in x], ":", color="C4", lw=1.8, label=label)
+
     felt = finite(press["felt_stiffness_n_per_m"])
     ratio = finite(press["ratio"])
     if felt:
@@ -81,7 +93,7 @@ def draw_press(ax, trace, press):
     title = "HIP %s \u00b7 space %s \u00b7 vertex %s\nt = %.2f\u2013%.2f s" % (
         press["hip"], press["space_name"], press["vertex"], float(press["start_s"]), float(press["end_s"]))
     if int(press["max_contacts"]) > 1:
-        # The reference is the contact alone: the other HIPs' loads displace this vertex too.
+        # The dashed reference is the contact alone; the dotted one adds the other HIPs' loads.
         title += " \u00b7 %s HIPs in contact (loads add)" % press["max_contacts"]
     ax.set_title(title, fontsize=10)
     ax.set_xlabel("displacement into the part along the normal [mm]")

@@ -432,6 +432,19 @@ const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapsho
   return snapshot ? snapshot->state.q.data() : nullptr;
 }
 
+int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
+                                  double *corrections, uint32_t *count)
+{
+  if (!snapshot || !count || (capacity > 0 && (!vertices || !corrections)))
+    return MODALRT_ERROR_INVALID_ARGUMENT;
+  const modalrt::SnapshotState &s = snapshot->state;
+  const std::uint32_t           n = std::min(capacity, s.contact_count);
+  std::copy_n(s.contact_vertices.data(), n, vertices);
+  std::copy_n(s.contact_corrections.data(), 3 * std::size_t(n), corrections);
+  *count = n;
+  return MODALRT_OK;
+}
+
 int modalrt_display_reconstruct(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
                                 uint32_t flags, float *out)
 {

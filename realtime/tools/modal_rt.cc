@@ -12,6 +12,9 @@
 //
 // Exit status: 0 success, 1 bad basis or failed check, 2 bad command line.
 #include "run_command.h"
+#ifdef MODAL_RT_WITH_VIEW
+#  include "view_command.h" // view/: the browser view, built when Boost.Beast is found
+#endif
 
 #include <modalrt/modalrt.h>
 
@@ -28,7 +31,8 @@ namespace
   int usage()
   {
     std::fprintf(stderr, "usage: modal-rt info --basis FILE\n"
-                         "       modal-rt verify --basis FILE [--quiet]\n%s%s",
+                         "       modal-rt verify --basis FILE [--quiet]\n%s%s"
+                         "       modal-rt view --basis FILE [--port P] (view/README.md)\n",
                  modalrt_tool::run_usage(), modalrt_tool::serve_usage());
     return 2;
   }
@@ -167,6 +171,16 @@ int main(int argc, char **argv)
   const std::string command = argv[1];
   if (command == "run" || command == "serve")
     return modalrt_tool::run_command(argc - 2, argv + 2, command == "serve");
+  if (command == "view")
+#ifdef MODAL_RT_WITH_VIEW
+    return modalrt_view::view_command(argc - 2, argv + 2);
+#else
+    {
+      std::fprintf(stderr, "modal-rt view: this modal-rt was built without the view (it needs Boost.Beast from "
+                           "libboost-dev at configure time; see view/README.md)\n");
+      return 1;
+    }
+#endif
   const char       *path    = nullptr;
   bool              quiet   = false;
   for (int k = 2; k < argc; ++k)

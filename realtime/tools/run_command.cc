@@ -5,6 +5,9 @@
 #include "run_outputs.h"
 #include "session.h"
 #include "udp_device.h"
+#ifdef MODAL_RT_WITH_VIEW
+#  include "run_view.h" // view/: --view P, built when Boost.Beast is found
+#endif
 
 #include <modalrt/modalrt.h>
 
@@ -40,6 +43,7 @@ namespace modalrt_tool
       bool        quiet         = false;
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
       UdpSettings udp;                   // serve only
+      int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
     };
 
     // A bad command line: one message naming the option and the value.
@@ -135,6 +139,8 @@ namespace modalrt_tool
             o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
           else if (option == "--device" && !serve)
             throw UsageError{"--device '" + text + "' is not hand or probe"};
+          else if (option == "--view")
+            o.view_port = int(integer_option(option, value, 0, 65535));
           else if (serve)
             parse_serve_option(o, option, value);
           else
@@ -313,6 +319,22 @@ namespace modalrt_tool
       return report;
     }
 
+    // --view P: the browser watches the session (view/run_view.h). The view wraps the device to see
+    // each tick's outputs; the display thread hands it each snapshot.
+    std::unique_ptr<DisplayObserver> open_view(const RunOptions &o, const modalrt_basis *basis, modalrt_kernel *kernel,
+                                               std::unique_ptr<Device> &device, std::string &error)
+    {
+#ifdef MODAL_RT_WITH_VIEW
+      return modalrt_view::start_run_view(basis, o.basis, kernel, device, unsigned(o.view_port),
+                                          o.serve ? "serve" : "run", error);
+#else
+      (void)basis, (void)kernel, (void)device;
+      error = "--view " + std::to_string(o.view_port) + ": this modal-rt was built without the view (it needs "
+              "Boost.Beast from libboost-dev at configure time; see view/README.md)";
+      return nullptr;
+#endif
+    }
+
     int execute(const RunOptions &o)
     {
       Session session;
@@ -341,6 +363,9 @@ namespace modalrt_tool
         return fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
       if (!prepare_output_dir(o.output_dir, error))
         return fail(error);
+      std::unique_ptr<DisplayObserver> view;
+      if (o.view_port >= 0 && !(view = open_view(o, r.basis, r.kernel, device, error)))
+        return fail(error);
 
       HapticSettings haptic;
       haptic.rate             = o.rate;
@@ -348,7 +373,7 @@ namespace modalrt_tool
       haptic.impedance        = o.impedance;
       haptic.trace_decimation = std::uint32_t(std::max(1.0, std::round(o.rate / o.trace_rate)));
       haptic.spin_us          = o.spin_us;
-      DisplaySettings display{o.output_dir, display_rate, o.frame_rate};
+      DisplaySettings display{o.output_dir, display_rate, o.frame_rate, view.get()};
       HapticResult    haptic_result;
       DisplayResult   display_result;
       install_stop_handler();
@@ -374,7 +399,7 @@ namespace modalrt_tool
     return "       modal-rt run --basis FILE.mrt --session SESSION.csv --output-dir DIR [--rate HZ (1000)]\n"
            "                    [--duration S] [--mode impedance|admittance] [--device hand|probe]\n"
            "                    [--frame-rate HZ (10)] [--trace-rate HZ (100)] [--snap-distance M]\n"
-           "                    [--spin-us US (100)] [--no-plot] [--quiet]\n";
+           "                    [--spin-us US (100)] [--view PORT] [--no-plot] [--quiet]\n";
   }
 
   const char *serve_usage()
@@ -382,7 +407,7 @@ namespace modalrt_tool
     return "       modal-rt serve --basis FILE.mrt --output-dir DIR [--bind ADDRESS (127.0.0.1)] [--port N (47000)]\n"
            "                    [--hips N (1)] [--silence-ticks N (1)] [--rate HZ (1000)] [--duration S (600)]\n"
            "                    [--mode impedance|admittance] [--frame-rate HZ] [--trace-rate HZ]\n"
-           "                    [--snap-distance M] [--spin-us US] [--no-plot] [--quiet]\n";
+           "                    [--snap-distance M] [--spin-us US] [--view PORT] [--no-plot] [--quiet]\n";
   }
 
   int run_command(int argc, char **argv, bool serve)

@@ -242,7 +242,10 @@ namespace modalrt_tool
     private:
       void redraw(bool last)
       {
-        if (modalrt_kernel_snapshot_read(kernel_, snapshot_) != 1 && !last)
+        const bool fresh = modalrt_kernel_snapshot_read(kernel_, snapshot_) == 1;
+        if (fresh && settings_.observer)
+          settings_.observer->displayed(snapshot_);
+        if (!fresh && !last)
           return;
         const Clock::time_point begin = Clock::now();
         modalrt_display_reconstruct(snapshot_, 0, vertex_count_, MODALRT_DISPLAY_DISPLACEMENTS, displacements_.data());

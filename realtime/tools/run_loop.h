@@ -72,11 +72,22 @@ namespace modalrt_tool
     std::string file; // relative to the output directory
   };
 
+  // A second consumer of the display thread (the live browser view of --view, view/run_view.h): the
+  // display thread hands it each new snapshot it reads, so the kernel keeps one snapshot reader.
+  class DisplayObserver
+  {
+  public:
+    virtual ~DisplayObserver() = default;
+    // Display thread, after each snapshot read that brought a new state.
+    virtual void displayed(const modalrt_snapshot *snapshot) = 0;
+  };
+
   struct DisplaySettings
   {
-    std::string output_dir;
-    double      rate       = 60.0; // [Hz] reconstructions
-    double      frame_rate = 10.0; // [Hz] of simulated time: frames written (0: none)
+    std::string      output_dir;
+    double           rate       = 60.0;    // [Hz] reconstructions
+    double           frame_rate = 10.0;    // [Hz] of simulated time: frames written (0: none)
+    DisplayObserver *observer   = nullptr; // --view: the browser view
   };
 
   struct DisplayResult

@@ -284,6 +284,76 @@ namespace modalrt_tool
       p.felt_stiffness    = pushed ? p.felt_force / p.felt_displacement : std::nan("");
     }
 
+    // The static answer to every HIP in contact at the press's felt time (deliverable: multi-contact
+    // presses compared with full FE). A reference kernel (admittance, no auto release) snaps each
+    // HIP to its vertex, is settled to the exact static equilibrium under the forces the part received
+    // in that trace row, and one tick gives each contact's displacement u_c = B q + C F + the cross
+    // terms: with every contact a candidate of the space and CROSS_COMPLIANCE stored, that is the full
+    // static FE answer W_a^T K^-1 sum_b W_b F_b; otherwise the modal part (and the corrections that exist).
+    void multi_contact_reference(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,
+                                 modalrt_kernel *reference, double force_sign)
+    {
+      // The felt row: the trace row at felt_time.
+      std::size_t first = p.first_row;
+      for (std::size_t r = p.first_row; r <= p.last_row; ++r)
+        if (result.trace[r * hips].time == p.felt_time)
+          first = r;
+      std::vector<modalrt_hip_input> inputs(hips);
+      std::vector<std::uint32_t>     in_contact;
+      for (std::uint32_t h = 0; h < hips; ++h)
+        {
+          const TraceSample &s = result.trace[first * hips + h];
+          if (!s.in_contact)
+            continue;
+          in_contact.push_back(h);
+          if (h != p.hip)
+            p.other_vertices += (p.other_vertices.empty() ? "" : ";") + std::to_string(s.active_vertex);
+        }
+      p.felt_contacts = std::uint32_t(in_contact.size());
+      if (in_contact.size() < 2 || !reference)
+        return;
+      modalrt_kernel_reset(reference);
+      modalrt_kernel_switch_space(reference, p.space);
+      modalrt_space_info space{};
+      modalrt_basis_get_space_info(basis, p.space, &space);
+      p.multi_full_fe = space.cross_count > 0;
+      if (!p.multi_full_fe)
+        p.multi_note = std::string("space '") + csv_safe(space.name) + "' stores no cross compliance";
+      const double *rest = modalrt_basis_display_vertices(basis);
+      for (std::uint32_t h : in_contact)
+        {
+          const TraceSample &s = result.trace[first * hips + h];
+          modalrt_kernel_contact_begin(reference, h, s.active_vertex);
+          double        G[9];
+          std::uint32_t full = 0;
+          if (modalrt_basis_contact_compliance(basis, p.space, s.active_vertex, G, &full) != MODALRT_OK || !full)
+            {
+              if (p.multi_full_fe || p.multi_note.empty())
+                p.multi_note = "not a candidate of '" + csv_safe(space.name) + "': vertex";
+              p.multi_note += " " + std::to_string(s.active_vertex);
+              p.multi_full_fe = false;
+            }
+          for (int c = 0; c < 3; ++c)
+            {
+              inputs[h].position[c] = rest[3 * std::size_t(s.active_vertex) + c];
+              inputs[h].force[c]    = -force_sign * s.force[c]; // the force on the part
+            }
+        }
+      std::vector<modalrt_hip_output> outputs(hips);
+      if (modalrt_kernel_settle(reference, inputs.data(), hips) != MODALRT_OK ||
+          modalrt_kernel_tick_admittance(reference, inputs.data(), hips, outputs.data()) != MODALRT_OK ||
+          !outputs[p.hip].in_contact)
+        {
+          p.multi_note    = "the reference kernel refused the contacts";
+          p.multi_full_fe = false;
+          return;
+        }
+      const double moved[3] = {outputs[p.hip].position[0] - p.rest[0], outputs[p.hip].position[1] - p.rest[1],
+                               outputs[p.hip].position[2] - p.rest[2]};
+      const double u_n      = -dot3(moved, p.normal);
+      p.multi_stiffness     = u_n > 0.0 ? p.felt_force / u_n : std::nan("");
+    }
+
     // Runs `arguments` (arguments[0] is the program's path) and waits: its exit status, -1 if it
     // could not be started or did not exit normally.
     int run_program(const std::vector<std::string> &arguments)
@@ -329,6 +399,17 @@ namespace modalrt_tool
       return presses;
     for (std::uint32_t h = 0; h < hip_count; ++h)
       collect_presses(result, hip_count, h, presses);
+    // The reference kernel of the multi-contact presses: admittance, released only on request, no
+    // switch on its own (the press's space is set).
+    modalrt_kernel_def def   = modalrt_kernel_default_def();
+    def.hip_capacity         = hip_count;
+    def.auto_release         = 0;
+    def.switch_rule          = MODALRT_SWITCH_NEVER;
+    def.carry_state_on_switch = 0;
+    def.snap_distance        = 1e-9;
+    modalrt_kernel *reference = nullptr;
+    if (hip_count > 1 && modalrt_kernel_create(basis, &def, &reference) != MODALRT_OK)
+      reference = nullptr;
     for (Press &p : presses)
       {
         p.start = result.trace[p.first_row * hip_count].time;
@@ -336,7 +417,9 @@ namespace modalrt_tool
         p.space = result.trace[p.last_row * hip_count + p.hip].space;
         static_reference(p, basis);
         felt_response(p, result, hip_count, impedance ? 1.0 : -1.0);
+        multi_contact_reference(p, result, hip_count, basis, reference, impedance ? 1.0 : -1.0);
       }
+    modalrt_kernel_destroy(reference);
     std::stable_sort(presses.begin(), presses.end(), [](const Press &a, const Press &b) { return a.start < b.start; });
     return presses;
   }
@@ -349,10 +432,13 @@ namespace modalrt_tool
       "= -n . (contact - frame - rest) [m]. compliance = n^T G n [m/N] of the static compliance G of the contact "
       "(full_fe 1: full FE; 0: modal part only, no full-FE reference). felt_*: at the end of the push (the last "
       "local maximum of the force reaching half its largest value); felt_stiffness = felt_force / "
-      "felt_displacement [N/m]; ratio = felt / static stiffness\n"
+      "felt_displacement [N/m]; ratio = felt / static stiffness. With several HIPs in contact at the felt time "
+      "(felt_contacts > 1, other_vertices): multi_static_stiffness = felt_force / the static normal displacement "
+      "under all their loads at once, multi_full_fe 1 when it is the full-FE answer (every contact a candidate, "
+      "cross compliance stored), multi_ratio = felt / multi_static_stiffness, multi_note why not full FE\n"
       "press,hip,space,space_name,vertex,start_s,end_s,nx,ny,nz,rest_x,rest_y,rest_z,compliance_m_per_n,full_fe,"
       "force_sign,max_contacts,felt_time_s,felt_force_n,felt_displacement_m,felt_stiffness_n_per_m,static_stiffness_n_per_m,"
-      "ratio\n";
+      "ratio,felt_contacts,other_vertices,multi_static_stiffness_n_per_m,multi_full_fe,multi_ratio,multi_note\n";
     char line[1024];
     for (std::size_t k = 0; k < presses.size(); ++k)
       {
@@ -363,6 +449,12 @@ namespace modalrt_tool
                       p.normal[2], p.rest[0], p.rest[1], p.rest[2], p.compliance, p.full_fe ? 1 : 0,
                       impedance ? 1 : -1, p.max_contacts, p.felt_time, p.felt_force, p.felt_displacement, p.felt_stiffness,
                       1.0 / p.compliance, p.felt_stiffness * p.compliance);
+        text += line;
+        text.pop_back(); // the multi-contact columns
+        // 17 digits: the full-FE multi-contact answer is checked to 1e-9 (tests/realtime/test_run.cc).
+        std::snprintf(line, sizeof line, ",%u,%s,%.17g,%s,%.17g,%s\n", p.felt_contacts, p.other_vertices.c_str(),
+                      p.multi_stiffness, p.felt_contacts > 1 ? (p.multi_full_fe ? "1" : "0") : "",
+                      p.felt_stiffness / p.multi_stiffness, p.multi_note.c_str());
         text += line;
       }
     return write_file_atomically(path, text, error);
@@ -484,6 +576,12 @@ namespace modalrt_tool
                       p.felt_time,
                       p.full_fe ? "full-FE static" : "modal-only static (no full-FE reference)",
                       1e-3 / p.compliance, p.felt_stiffness * p.compliance);
+          if (p.felt_contacts > 1 && std::isfinite(p.multi_stiffness))
+            std::printf("  %-13s with the %u contacts' loads together (vertices %u;%s): %s %.4g N/mm; ratio %.3f\n", "",
+                        p.felt_contacts, p.vertex, p.other_vertices.c_str(),
+                        p.multi_full_fe ? "full-FE static (cross compliance)"
+                                        : ("static, no full-FE reference (" + p.multi_note + ")").c_str(),
+                        1e-3 * p.multi_stiffness, p.felt_stiffness / p.multi_stiffness);
         }
       if (presses.size() > shown)
         std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);

@@ -7,6 +7,7 @@
 
 #include <modalrt/modalrt.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,15 @@ namespace modalrt_tool
     double        felt_force = 0.0;            // [N] normal force there
     double        felt_displacement = 0.0;     // [m] normal displacement there
     double        felt_stiffness = 0.0;        // [N/m] felt_force / felt_displacement (NaN if not pushed in)
+    // Several HIPs in contact at the felt time: the static answer to all their loads at once (the
+    // forces of that trace row, each at its own vertex), u_n = n^T sum_b G_ab F_b, from a kernel
+    // settled to its exact static equilibrium under them. It is the full-FE answer when every
+    // contact is a candidate of the space and the space stores the cross compliance.
+    std::uint32_t felt_contacts = 0;           // [-] HIPs in contact at the felt time
+    std::string   other_vertices;              // their other active vertices, ';'-separated
+    double        multi_stiffness = std::nan(""); // [N/m] felt_force / u_n of that static answer; NaN if one contact
+    bool          multi_full_fe   = false;     // every pair has its full-FE cross compliance
+    std::string   multi_note;                  // why not full FE ("" when it is)
   };
 
   // The presses of a run, in order of start time. `impedance`: the trace's force is the one

@@ -426,6 +426,12 @@ typedef struct modalrt_snapshot_info
 MODALRT_API int modalrt_snapshot_get_info(const modalrt_snapshot *snapshot, modalrt_snapshot_info *info);
 /* The modal coordinates of the snapshot (mode_count values) [m sqrt(kg)]. */
 MODALRT_API const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapshot);
+/* The snapshot's contacts at candidates, for a display that reconstructs elsewhere (a GPU): the
+ * active vertex of each of the first contact_count contacts and its static correction C F [m] (body
+ * frame), which modalrt_display_reconstruct spreads over the patch with (1 - (d/rho)^2)^2. Copies at
+ * most `capacity` contacts; *count is the number copied. Read only, no allocation. */
+MODALRT_API int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
+                                              double *corrections, uint32_t *count);
 
 enum
 {

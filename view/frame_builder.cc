@@ -1,0 +1,171 @@
+#include "frame_builder.h"
+
+#include "view_server.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace modalrt_view
+{
+  void TickHistogram::add(double us)
+  {
+    const int b = std::min(bins - 1, std::max(0, int(us * 10.0)));
+    ++count[b];
+    ++n;
+    max_us = std::max(max_us, us);
+  }
+
+  double TickHistogram::percentile(double p) const
+  {
+    const std::uint64_t target = std::uint64_t(std::ceil(p * n));
+    std::uint64_t       seen   = 0;
+    for (int b = 0; b < bins; ++b)
+      if ((seen += count[b]) >= target && target > 0)
+        return (b + 0.5) / 10.0;
+    return 0.0;
+  }
+
+  void close_window(TickStats &stats, TickHistogram &durations, TickHistogram *lateness, std::uint64_t ticks,
+                    double seconds)
+  {
+    stats.tick_p50_us = durations.percentile(0.5);
+    stats.tick_p99_us = durations.percentile(0.99);
+    stats.tick_max_us = durations.max_us;
+    stats.late_p50_us = lateness ? lateness->percentile(0.5) : std::numeric_limits<double>::quiet_NaN();
+    stats.late_p99_us = lateness ? lateness->percentile(0.99) : std::numeric_limits<double>::quiet_NaN();
+    stats.late_max_us = lateness ? lateness->max_us : std::numeric_limits<double>::quiet_NaN();
+    stats.rate_hz     = ticks / seconds;
+    durations.clear();
+    if (lateness)
+      lateness->clear();
+  }
+
+  void stamp_tick(const modalrt_kernel *kernel, HapticTick &tick)
+  {
+    modalrt_kernel_stats ks{};
+    modalrt_kernel_get_stats(kernel, &ks);
+    tick.tick     = ks.tick_count;
+    tick.rejected = ks.rejected_ticks;
+    tick.wall_ms  = wall_clock_ms();
+  }
+
+  FrameBuilder::FrameBuilder(const modalrt_basis *basis, std::uint32_t hips)
+    : basis_(basis), vertices_(modalrt_basis_display_vertices(basis)), normals_(modalrt_basis_display_normals(basis)),
+      hips_(hips), hip_(hips), contact_vertices_(hips), contact_corrections_(3 * std::size_t(hips))
+  {}
+
+  void FrameBuilder::update(const modalrt_snapshot *snapshot, const HapticTick &tick, const modalrt_hip_output *outputs)
+  {
+    tick_ = tick;
+    modalrt_snapshot_get_info(snapshot, &info_);
+    const double *q = modalrt_snapshot_modal_coordinates(snapshot);
+    q_.assign(q, q + info_.mode_count);
+    modalrt_snapshot_get_contacts(snapshot, hips_, contact_vertices_.data(), contact_corrections_.data(),
+                                  &contact_count_);
+    for (std::uint32_t h = 0; h < hips_; ++h)
+      {
+        const modalrt_hip_output &o   = outputs[h];
+        Hip                      &hip = hip_[h];
+        const std::uint32_t       v   = o.in_contact ? o.active_vertex : MODALRT_NONE;
+        std::copy_n(o.force, 3, hip.force);
+        hip.in_contact = o.in_contact;
+        if (v == MODALRT_NONE)
+          {
+            hip.vertex = MODALRT_NONE;
+            std::fill_n(hip.displacement, 3, 0.0);
+            std::fill_n(hip.felt, 3, 0.0);
+            continue;
+          }
+        // The kernel's own reconstruction of the active vertex from the same snapshot.
+        modalrt_display_reconstruct_f64(snapshot, v, v + 1, MODALRT_DISPLAY_DISPLACEMENTS, hip.displacement);
+        for (int d = 0; d < 3; ++d)
+          hip.felt[d] = o.position[d] - vertices_[3 * std::size_t(v) + d];
+        if (v != hip.vertex || info_.space != hip.space)
+          {
+            double G[9];
+            hip.static_stiffness = 0.0;
+            hip.full_fe          = 0;
+            if (modalrt_basis_contact_compliance(basis_, info_.space, v, G, &hip.full_fe) == MODALRT_OK)
+              {
+                const double *n   = &normals_[3 * std::size_t(v)];
+                double        nGn = 0.0;
+                for (int a = 0; a < 3; ++a)
+                  for (int b = 0; b < 3; ++b)
+                    nGn += n[a] * G[3 * a + b] * n[b];
+                hip.static_stiffness = nGn > 0.0 ? 1.0 / nGn : 0.0;
+              }
+            hip.vertex = v;
+            hip.space  = info_.space;
+          }
+      }
+  }
+
+  void FrameBuilder::frame(std::vector<unsigned char> &bytes) const
+  {
+    const auto put = [&bytes](const void *p, std::size_t n) {
+      const auto *c = static_cast<const unsigned char *>(p);
+      bytes.insert(bytes.end(), c, c + n);
+    };
+    const auto u32 = [&](std::uint32_t v) { put(&v, 4); };
+    const auto f64 = [&](double v) { put(&v, 8); };
+    u32(0x4654524Du); // "MRTF"
+    u32(1);
+    f64(tick_.wall_ms);
+    f64(wall_clock_ms());
+    f64(double(info_.tick));
+    f64(info_.time);
+    u32(info_.space);
+    u32(std::uint32_t(q_.size()));
+    u32(hips_);
+    u32(contact_count_);
+    const TickStats &t = tick_.stats;
+    for (double v : {double(tick_.tick), double(tick_.rejected), t.tick_p50_us, t.tick_p99_us, t.tick_max_us,
+                     t.late_p99_us, t.late_max_us, t.rate_hz})
+      f64(v);
+    put(q_.data(), 8 * q_.size());
+    for (std::uint32_t k = 0; k < contact_count_; ++k)
+      {
+        u32(contact_vertices_[k]);
+        u32(0);
+        put(&contact_corrections_[3 * k], 24);
+      }
+    for (const Hip &hip : hip_)
+      {
+        u32(hip.in_contact);
+        u32(hip.vertex);
+        u32(hip.full_fe);
+        u32(0);
+        put(hip.force, 24);
+        put(hip.displacement, 24);
+        put(hip.felt, 24);
+        f64(hip.static_stiffness);
+      }
+  }
+
+  std::string FrameBuilder::state_json() const
+  {
+    const TickStats   &t   = tick_.stats;
+    const auto         num = [](double x) { return std::isfinite(x) ? x : -1.0; }; // -1: not measured
+    std::ostringstream j;
+    j.precision(17);
+    j << "{\"tick\":" << info_.tick << ",\"haptic_tick\":" << tick_.tick << ",\"time\":" << info_.time
+      << ",\"space\":" << info_.space << ",\"rejected_ticks\":" << tick_.rejected << ",\"tick_us\":{\"p50\":"
+      << num(t.tick_p50_us) << ",\"p99\":" << num(t.tick_p99_us) << ",\"max\":" << num(t.tick_max_us)
+      << "},\"lateness_us\":{\"p50\":" << num(t.late_p50_us) << ",\"p99\":" << num(t.late_p99_us) << ",\"max\":"
+      << num(t.late_max_us) << "},\"tick_rate_hz\":" << num(t.rate_hz) << ",\"hips\":[";
+    for (std::uint32_t h = 0; h < hips_; ++h)
+      {
+        const Hip &hip = hip_[h];
+        j << (h ? "," : "") << "{\"in_contact\":" << hip.in_contact << ",\"vertex\":"
+          << (hip.in_contact ? double(hip.vertex) : -1.0) << ",\"full_fe\":" << hip.full_fe << ",\"force\":["
+          << hip.force[0] << "," << hip.force[1] << "," << hip.force[2] << "],\"displacement\":["
+          << hip.displacement[0] << "," << hip.displacement[1] << "," << hip.displacement[2] << "],\"felt\":["
+          << hip.felt[0] << "," << hip.felt[1] << "," << hip.felt[2] << "],\"static_stiffness_n_per_m\":"
+          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0) << "}";
+      }
+    j << "]}";
+    return j.str();
+  }
+} // namespace modalrt_view

@@ -1,0 +1,83 @@
+// The frames the page receives (view/README.md, "Frame") and the JSON of GET /api/state, built from
+// a kernel snapshot and the haptic thread's HIP outputs. Used by every FrameSource: the mouse
+// session of `modal-rt view` (server thread) and the live view of `run`/`serve` (display thread).
+// Never used in a haptic thread (it allocates).
+#pragma once
+
+#include <modalrt/modalrt.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace modalrt_view
+{
+  // Tick durations and wake-up lateness over a window of ticks, in 0.1 us bins (no allocation:
+  // usable in a haptic thread).
+  struct TickHistogram
+  {
+    static constexpr int bins = 5000; // up to 500 us; beyond, the last bin
+    std::uint32_t        count[bins] = {};
+    std::uint32_t        n           = 0;
+    double               max_us      = 0.0;
+
+    void   add(double us);
+    double percentile(double p) const;
+    void   clear() { *this = TickHistogram(); }
+  };
+
+  // What the haptic side measured: the frame's statistics block (NaN: not measured).
+  struct TickStats
+  {
+    double tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0; // tick duration
+    double late_p50_us = 0, late_p99_us = 0, late_max_us = 0; // tick start after its deadline
+    double rate_hz     = 0;                                  // ticks per second of wall time
+  };
+
+  // The haptic thread's latest tick as the view needs it.
+  struct HapticTick
+  {
+    std::uint64_t tick     = 0;   // kernel ticks done (modalrt_kernel_stats.tick_count)
+    double        wall_ms  = 0.0; // [ms] since the epoch, end of that tick
+    std::uint64_t rejected = 0;   // kernel's rejected ticks
+    TickStats     stats;
+  };
+
+  // Haptic thread (no allocation): the statistics of a closed window of `ticks` ticks over `seconds`
+  // of wall time, then the histograms cleared. `lateness` null: not measured (NaN).
+  void close_window(TickStats &stats, TickHistogram &durations, TickHistogram *lateness, std::uint64_t ticks,
+                    double seconds);
+  // Haptic thread, after a tick: the kernel's counters and the wall clock.
+  void stamp_tick(const modalrt_kernel *kernel, HapticTick &tick);
+
+  class FrameBuilder
+  {
+  public:
+    FrameBuilder(const modalrt_basis *basis, std::uint32_t hips);
+
+    // After a snapshot was read: the HIPs' outputs of the haptic tick (`hips` of them).
+    void update(const modalrt_snapshot *snapshot, const HapticTick &tick, const modalrt_hip_output *outputs);
+    // The frame of the last update, appended to `bytes`.
+    void        frame(std::vector<unsigned char> &bytes) const;
+    std::string state_json() const;
+
+  private:
+    struct Hip
+    {
+      std::uint32_t in_contact = 0, vertex = MODALRT_NONE, full_fe = 0, space = MODALRT_NONE;
+      double        force[3] = {}, displacement[3] = {}, felt[3] = {};
+      double        static_stiffness = 0.0; // [N/m] 1 / (n^T G n) along the normal
+    };
+
+    const modalrt_basis       *basis_;
+    const double              *vertices_, *normals_;
+    std::uint32_t              hips_;
+    HapticTick                 tick_;
+    modalrt_snapshot_info      info_{};
+    std::vector<double>        q_;
+    std::vector<Hip>           hip_;
+    std::vector<std::uint32_t> contact_vertices_;
+    std::vector<double>        contact_corrections_;
+    std::uint32_t              contact_count_ = 0;
+  };
+} // namespace modalrt_view

@@ -1,0 +1,514 @@
+// The browser side of modal-rt view (view/README.md): the display basis is fetched once, then each
+// WebSocket frame carries the modal state q and the contacts' static corrections; a vertex shader
+// reconstructs u = Phi q (+ corrections) from a texture of Phi on the GPU.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+// The mouse is a device through a virtual spring: a drag of s metres (the pointer's travel, measured
+// in the scene at the pressed point's depth) pushes along the inward normal with F = k s.
+const springNPerM = Number(params.get('spring') ?? 200); // [N/m] (0.2 N/mm)
+$('spring').textContent = `${(springNPerM / 1000).toPrecision(3)} N/mm (F = k · drag)`;
+
+const state = window.viewState = {
+  ready: false, frames: 0, renderedFrames: 0, fps: 0, receivedFps: 0, bytesPerFrame: 0, basisBytes: 0,
+  ageMs: [], ageP50: NaN, ageP95: NaN, hips: [], space: 0, tick: 0, mode: 'live',
+};
+
+// ------------------------------------------------------------------------------------- the basis
+const info = await (await fetch('/api/info')).json();
+const basisBuffer = await (await fetch('/api/basis')).arrayBuffer();
+state.basisBytes = basisBuffer.byteLength;
+let report = null;
+try { const r = await fetch('/api/report'); if (r.ok) report = await r.json(); } catch (e) { /* none */ }
+$('file').textContent = info.file.split('/').pop();
+// Who drives the HIPs: the mouse (`modal-rt view`), or a session file / UDP device (`run`/`serve
+// --view`): then the page only watches.
+const session = info.session ?? { driver: 'mouse', watch_only: false, hips: 2 };
+state.watchOnly = session.watch_only;
+if (state.watchOnly) {
+  $('contacts-title').innerHTML = `Contacts <small>(watch-only: driven by <b>modal-rt ${session.driver}</b>; the mouse turns the view)</small>`;
+  for (const id of ['mouse-spring', 'mouse-hold']) $(id).style.display = 'none';
+}
+
+function parseBasis(buffer) {
+  const dv = new DataView(buffer);
+  let o = 8;
+  const nv = dv.getUint32(o, true), nt = dv.getUint32(o + 4, true), ns = dv.getUint32(o + 8, true);
+  const scalarBytes = dv.getUint32(o + 12, true);
+  o += 16;
+  const take = (Type, n) => { const a = new Type(buffer.slice(o, o + n * Type.BYTES_PER_ELEMENT)); o += n * Type.BYTES_PER_ELEMENT; return a; };
+  const vertices = take(Float32Array, 3 * nv), triangles = take(Uint32Array, 3 * nt);
+  const normals = take(Float32Array, 3 * nv), regions = take(Uint32Array, nv);
+  const spaces = [];
+  for (let s = 0; s < ns; ++s) {
+    const r = dv.getUint32(o, true); o += 8;
+    const phi32 = take(Float32Array, 3 * nv * r);
+    const phi64 = scalarBytes === 8 ? take(Float64Array, 3 * nv * r) : null;
+    spaces.push({ r, phi32, phi64 });
+  }
+  return { nv, nt, vertices, triangles, normals, regions, spaces };
+}
+const basis = parseBasis(basisBuffer);
+const rho = info.patch_radius_m;
+
+// ------------------------------------------------------------------------------------- the scene
+const container = $('canvas');
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(1);
+container.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1d2026);
+const lo = new THREE.Vector3(...info.bounds_min), hi = new THREE.Vector3(...info.bounds_max);
+const centre = lo.clone().add(hi).multiplyScalar(0.5), size = hi.clone().sub(lo).length();
+const camera = new THREE.PerspectiveCamera(35, 1, size * 0.01, size * 20);
+camera.up.set(0, 0, 1);
+camera.position.copy(centre).add(new THREE.Vector3(0.35, -1.0, 0.8).multiplyScalar(size));
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.target.copy(centre);
+controls.update();
+
+// Phi as an RGBA32F texture: texel (v r + i) holds mode i at vertex v.
+const texWidth = 2048;
+function phiTexture(space) {
+  const n = basis.nv * space.r, height = Math.max(1, Math.ceil(n / texWidth));
+  const data = new Float32Array(texWidth * height * 4);
+  for (let t = 0; t < n; ++t) {
+    data[4 * t] = space.phi32[3 * t]; data[4 * t + 1] = space.phi32[3 * t + 1]; data[4 * t + 2] = space.phi32[3 * t + 2];
+  }
+  const tex = new THREE.DataTexture(data, texWidth, height, THREE.RGBAFormat, THREE.FloatType);
+  tex.needsUpdate = true;
+  return tex;
+}
+const textures = basis.spaces.map(phiTexture);
+const maxModes = 256;
+
+const uniforms = {
+  phi: { value: textures[0] }, r: { value: basis.spaces[0].r }, texWidth: { value: texWidth },
+  q: { value: Array.from({ length: maxModes / 4 }, () => new THREE.Vector4()) },
+  exaggeration: { value: 1 }, scaleMax: { value: 1e-3 }, rho: { value: rho },
+  contactOn: { value: [0, 0] }, contactVertex: { value: [0, 0] },
+  contactPos: { value: [new THREE.Vector3(), new THREE.Vector3()] }, contactC: { value: [new THREE.Vector3(), new THREE.Vector3()] },
+};
+const material = new THREE.ShaderMaterial({
+  glslVersion: THREE.GLSL3, uniforms, side: THREE.DoubleSide,
+  vertexShader: `
+    precision highp float; precision highp int; precision highp sampler2D;
+    uniform sampler2D phi; uniform int r; uniform int texWidth; uniform vec4 q[${maxModes / 4}];
+    uniform float exaggeration; uniform float scaleMax; uniform float rho;
+    uniform float contactOn[2]; uniform int contactVertex[2]; uniform vec3 contactPos[2]; uniform vec3 contactC[2];
+    out float vMagnitude; out vec3 vPosition;
+    void main() {
+      int v = gl_VertexID;
+      vec3 u = vec3(0.0);
+      for (int i = 0; i < r; ++i) {
+        int t = v * r + i;
+        u += q[i >> 2][i & 3] * texelFetch(phi, ivec2(t % texWidth, t / texWidth), 0).xyz;
+      }
+      for (int k = 0; k < 2; ++k) {
+        if (contactOn[k] < 0.5) continue;
+        float w = v == contactVertex[k] ? 1.0 : 0.0;
+        if (rho > 0.0) { vec3 d = position - contactPos[k]; float s = max(0.0, 1.0 - dot(d, d) / (rho * rho)); w = s * s; }
+        u += w * contactC[k];
+      }
+      vMagnitude = length(u) / scaleMax;
+      vec4 world = modelMatrix * vec4(position + exaggeration * u, 1.0);
+      vPosition = world.xyz;
+      gl_Position = projectionMatrix * viewMatrix * world;
+    }`,
+  fragmentShader: `
+    precision highp float;
+    in float vMagnitude; in vec3 vPosition; out vec4 color;
+    vec3 turbo(float x) {
+      x = clamp(x, 0.0, 1.0);
+      vec4 v4 = vec4(1.0, x, x * x, x * x * x); vec2 v2 = v4.zw * v4.z;
+      return vec3(dot(v4, vec4(0.13572138, 4.61539260, -42.66032258, 132.13108234)) + dot(v2, vec2(-152.94239396, 59.28637943)),
+                  dot(v4, vec4(0.09140261, 2.19418839, 4.84296658, -14.18503333)) + dot(v2, vec2(4.27729857, 2.82956604)),
+                  dot(v4, vec4(0.10667330, 12.64194608, -60.58204836, 110.36276771)) + dot(v2, vec2(-89.90310912, 27.34824973)));
+    }
+    void main() {
+      vec3 n = normalize(cross(dFdx(vPosition), dFdy(vPosition)));
+      float light = 0.45 + 0.55 * abs(dot(n, normalize(vec3(0.3, -0.5, 0.8))));
+      color = vec4(turbo(vMagnitude) * light, 1.0);
+    }`,
+});
+const geometry = new THREE.BufferGeometry();
+geometry.setAttribute('position', new THREE.BufferAttribute(basis.vertices, 3));
+geometry.setIndex(new THREE.BufferAttribute(basis.triangles, 1));
+geometry.computeBoundingSphere();
+geometry.boundingSphere.radius *= 4; // the shader moves the vertices
+const mesh = new THREE.Mesh(geometry, material);
+scene.add(mesh);
+
+// VOI boxes: the bounding box of each space's display region (space 0, the global space, has none).
+const voiBoxes = info.spaces.map((s, index) => {
+  if (index === 0) return null;
+  const box = new THREE.Box3();
+  for (let v = 0; v < basis.nv; ++v)
+    if (basis.regions[v] === index) box.expandByPoint(new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]));
+  if (box.isEmpty()) return null;
+  box.expandByScalar(size * 0.005);
+  const helper = new THREE.Box3Helper(box, 0x8899aa);
+  scene.add(helper);
+  return helper;
+});
+
+// HIPs: a sphere at the felt position and the force arrow.
+const hipColors = Array.from({ length: session.hips }, (_, h) => [0xff4fd8, 0x4fffe0, 0xffd24f, 0x8fff4f][h % 4]);
+const hips = hipColors.map((_, h) => {
+  const sphere = new THREE.Mesh(new THREE.SphereGeometry(size * 0.006), new THREE.MeshBasicMaterial({ color: hipColors[h] }));
+  const arrow = new THREE.ArrowHelper(new THREE.Vector3(0, 0, -1), new THREE.Vector3(), size * 0.1, hipColors[h]);
+  sphere.visible = arrow.visible = false;
+  scene.add(sphere, arrow);
+  const label = document.createElement('div');
+  label.className = 'label'; label.style.display = 'none'; label.style.color = '#' + hipColors[h].toString(16);
+  $('labels').appendChild(label);
+  const panel = document.createElement('div');
+  $('hips').appendChild(panel);
+  return { sphere, arrow, label, panel, history: [] };
+});
+
+// Validation points (offline side).
+const validationPoints = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ size: 9, sizeAttenuation: false, vertexColors: true }));
+validationPoints.visible = false;
+scene.add(validationPoints);
+
+function resize() {
+  const w = container.clientWidth, h = container.clientHeight;
+  renderer.setSize(w, h); camera.aspect = w / h; camera.updateProjectionMatrix();
+}
+window.addEventListener('resize', resize);
+resize();
+
+// ------------------------------------------------------------------------------------- frames
+let latest = null, freshFrame = false, received = 0, lastSecond = performance.now(), rendered = 0;
+function parseFrame(buffer) {
+  const dv = new DataView(buffer);
+  if (dv.getUint32(0, true) !== 0x4654524d) return null;
+  const f = { tickWallMs: dv.getFloat64(8, true), sendWallMs: dv.getFloat64(16, true), tick: dv.getFloat64(24, true), time: dv.getFloat64(32, true) };
+  f.space = dv.getUint32(40, true); f.r = dv.getUint32(44, true);
+  const hipCount = dv.getUint32(48, true), contactCount = dv.getUint32(52, true);
+  f.stats = Array.from({ length: 8 }, (_, i) => dv.getFloat64(56 + 8 * i, true));
+  let o = 120;
+  f.q = new Float64Array(buffer.slice(o, o + 8 * f.r)); o += 8 * f.r;
+  f.contacts = [];
+  for (let k = 0; k < contactCount; ++k, o += 32)
+    f.contacts.push({ vertex: dv.getUint32(o, true), c: [dv.getFloat64(o + 8, true), dv.getFloat64(o + 16, true), dv.getFloat64(o + 24, true)] });
+  f.hips = [];
+  for (let h = 0; h < hipCount; ++h, o += 96) {
+    const v3 = (p) => [dv.getFloat64(p, true), dv.getFloat64(p + 8, true), dv.getFloat64(p + 16, true)];
+    f.hips.push({ inContact: dv.getUint32(o, true), vertex: dv.getUint32(o + 4, true), fullFe: dv.getUint32(o + 8, true),
+      force: v3(o + 16), kernelDisplacement: v3(o + 40), felt: v3(o + 64), staticStiffness: dv.getFloat64(o + 88, true) });
+  }
+  f.bytes = buffer.byteLength;
+  return f;
+}
+
+// The displacement of one vertex in double, from the same Phi, q and corrections as the shader:
+// what the panel prints and the browser test compares with the kernel's own reconstruction.
+function vertexDisplacement(frame, v) {
+  const space = basis.spaces[frame.space], r = frame.r, phi = space.phi64 ?? space.phi32;
+  const u = [0, 0, 0];
+  for (let i = 0; i < r; ++i) for (let c = 0; c < 3; ++c) u[c] += frame.q[i] * phi[(v * r + i) * 3 + c];
+  for (const contact of frame.contacts) {
+    let w = contact.vertex === v ? 1 : 0;
+    if (rho > 0) {
+      let d2 = 0;
+      for (let c = 0; c < 3; ++c) { const d = basis.vertices[3 * v + c] - basis.vertices[3 * contact.vertex + c]; d2 += d * d; }
+      const s = Math.max(0, 1 - d2 / (rho * rho)); w = s * s;
+    }
+    for (let c = 0; c < 3; ++c) u[c] += w * contact.c[c];
+  }
+  return u;
+}
+
+const protocol = location.protocol === 'https:' ? 'wss' : 'ws';
+const socket = new WebSocket(`${protocol}://${location.host}/ws`);
+socket.binaryType = 'arraybuffer';
+socket.onopen = () => { $('status').textContent = state.watchOnly ? `watching modal-rt ${session.driver} (watch-only)` : 'live'; };
+socket.onclose = () => { $('status').textContent = 'disconnected (no session): offline tabs only'; };
+socket.onmessage = (event) => {
+  if (typeof event.data === 'string') { if (event.data.startsWith('error')) $('status').textContent = event.data; return; }
+  const f = parseFrame(event.data);
+  if (!f) return;
+  latest = f; freshFrame = true; ++received; ++state.frames; state.bytesPerFrame = f.bytes;
+};
+
+// ------------------------------------------------------------------------------------- the mouse
+const raycaster = new THREE.Raycaster();
+let drag = null;
+function send(text) { if (socket.readyState === WebSocket.OPEN) socket.send(text); }
+function pointerNdc(event) {
+  const rect = renderer.domElement.getBoundingClientRect();
+  return new THREE.Vector2(((event.clientX - rect.left) / rect.width) * 2 - 1, -((event.clientY - rect.top) / rect.height) * 2 + 1);
+}
+renderer.domElement.addEventListener('pointerdown', (event) => {
+  if (event.button !== 0 || state.mode !== 'live' || state.watchOnly) return;
+  raycaster.setFromCamera(pointerNdc(event), camera);
+  const hit = raycaster.intersectObject(mesh)[0];
+  if (!hit) return;
+  // Snap to the hit triangle's vertex nearest to the hit point.
+  let best = hit.face.a, bestD = Infinity;
+  for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
+    const d = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]).distanceToSquared(hit.point);
+    if (d < bestD) { bestD = d; best = v; }
+  }
+  const hip = event.shiftKey ? 1 : 0;
+  const pixel = 2 * hit.distance * Math.tan(THREE.MathUtils.degToRad(camera.fov / 2)) / renderer.domElement.clientHeight;
+  drag = { hip, vertex: best, x: event.clientX, y: event.clientY, pixel, force: 0 };
+  controls.enabled = false;
+  renderer.domElement.setPointerCapture(event.pointerId);
+  send(`press ${hip} ${best} 0`);
+  state.pressed = { hip, vertex: best, force: 0, pixelMetres: pixel };
+});
+renderer.domElement.addEventListener('pointermove', (event) => {
+  if (!drag) return;
+  const travel = Math.hypot(event.clientX - drag.x, event.clientY - drag.y) * drag.pixel; // [m]
+  drag.force = springNPerM * travel;
+  state.pressed = { hip: drag.hip, vertex: drag.vertex, force: drag.force, travel, pixelMetres: drag.pixel };
+  send(`press ${drag.hip} ${drag.vertex} ${drag.force}`);
+});
+renderer.domElement.addEventListener('pointerup', () => {
+  if (!drag) return;
+  if (!$('hold').checked) send(`release ${drag.hip}`);
+  drag = null; controls.enabled = true;
+});
+$('release-all').onclick = () => { send('release 0'); send('release 1'); };
+
+// ------------------------------------------------------------------------------------- panels
+const fmt = (x, digits = 4) => (Number.isFinite(x) ? x.toPrecision(digits) : '–');
+function hipPanel(h, hip, jsDisplacement) {
+  const F = Math.hypot(...hip.force);
+  const n = F > 0 ? hip.force.map((x) => x / F) : [0, 0, 0];
+  const along = hip.felt[0] * n[0] + hip.felt[1] * n[1] + hip.felt[2] * n[2];
+  const felt = along > 0 ? F / along / 1000 : NaN;
+  return `<div style="color:#${hipColors[h].toString(16)}"><b>HIP ${h}</b> vertex ${hip.vertex}</div>
+    <div class="row"><span>force</span><span class="num" id="hip${h}-force" data-value="${F}">${F.toFixed(6)} N</span></div>
+    <div class="row"><span>|u| at the vertex</span><span class="num" id="hip${h}-u" data-value="${jsDisplacement.join(',')}">${(Math.hypot(...jsDisplacement) * 1000).toPrecision(7)} mm</span></div>
+    <div class="row"><span>felt stiffness (live)</span><span class="num">${fmt(felt)} N/mm</span></div>
+    <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>`;
+}
+
+function drawPlot() {
+  const canvas = $('plot'), g = canvas.getContext('2d');
+  g.clearRect(0, 0, canvas.width, canvas.height);
+  let maxU = 1e-6, maxF = 1e-3;
+  for (const hip of hips) for (const [u, f] of hip.history) { maxU = Math.max(maxU, u); maxF = Math.max(maxF, f); }
+  g.strokeStyle = '#555'; g.strokeRect(40, 10, canvas.width - 50, canvas.height - 40);
+  g.fillStyle = '#aaa'; g.font = '20px sans-serif';
+  g.fillText(`u [mm] (max ${(maxU * 1000).toPrecision(3)})`, 50, canvas.height - 5);
+  g.save(); g.translate(25, canvas.height - 40); g.rotate(-Math.PI / 2); g.fillText(`F [N] (max ${maxF.toPrecision(3)})`, 0, 0); g.restore();
+  hips.forEach((hip, h) => {
+    g.strokeStyle = '#' + hipColors[h].toString(16); g.beginPath();
+    hip.history.forEach(([u, f], i) => {
+      const x = 40 + (u / maxU) * (canvas.width - 50), y = canvas.height - 30 - (f / maxF) * (canvas.height - 40);
+      if (i) g.lineTo(x, y); else g.moveTo(x, y);
+    });
+    g.stroke();
+  });
+}
+
+// Color scale: fixed per mode/tab, adapted to the largest |u| seen in the live view.
+let scaleMax = 1e-6;
+function setScale(max) {
+  scaleMax = max; uniforms.scaleMax.value = max;
+  $('scale-max').textContent = `${(max * 1000).toPrecision(3)} mm`;
+  $('scale-text').textContent = `0 … ${(max * 1000).toPrecision(3)} mm`;
+}
+setScale(1e-6);
+
+// Exaggeration: automatic (the largest |u| drawn as 6 % of the part's size, at least x1) until the
+// slider is moved; the slider is in decades, 10^x.
+let autoExaggeration = true;
+$('exaggeration').addEventListener('input', () => { autoExaggeration = false; });
+function exaggerationFactor() {
+  if (autoExaggeration && state.mode === 'live') {
+    const e = Math.max(1, (0.06 * size) / scaleMax);
+    $('exaggeration').value = Math.log10(e);
+    return e;
+  }
+  if (state.mode !== 'live') return 1;
+  return Math.pow(10, Number($('exaggeration').value));
+}
+
+function applyModal(spaceIndex, q, contacts) {
+  uniforms.phi.value = textures[spaceIndex];
+  uniforms.r.value = basis.spaces[spaceIndex].r;
+  for (let i = 0; i < maxModes; ++i) uniforms.q.value[i >> 2].setComponent(i & 3, i < q.length ? q[i] : 0);
+  for (let k = 0; k < 2; ++k) {
+    const c = contacts[k];
+    uniforms.contactOn.value[k] = c ? 1 : 0;
+    if (!c) continue;
+    uniforms.contactVertex.value[k] = c.vertex;
+    uniforms.contactPos.value[k].set(basis.vertices[3 * c.vertex], basis.vertices[3 * c.vertex + 1], basis.vertices[3 * c.vertex + 2]);
+    uniforms.contactC.value[k].set(...c.c);
+  }
+  voiBoxes.forEach((box, i) => { if (box) box.material.color.set(i === spaceIndex ? 0xffd34f : 0x667788); });
+  $('space').textContent = `${spaceIndex} '${info.spaces[spaceIndex].name}' (r = ${basis.spaces[spaceIndex].r})`;
+}
+
+function liveFrame(now) {
+  const f = latest;
+  if (!f) return;
+  applyModal(f.space, f.q, f.contacts);
+  state.space = f.space; state.tick = f.tick; state.hapticTick = f.stats[0];
+  const age = Date.now() - f.tickWallMs;
+  state.ageMs.push(age);
+  if (state.ageMs.length > 600) state.ageMs.shift();
+  const e = exaggerationFactor();
+  let html = '';
+  state.hips = f.hips.map((hip, h) => {
+    const view = hips[h];
+    const show = hip.inContact === 1;
+    view.sphere.visible = view.arrow.visible = show;
+    view.label.style.display = show ? 'block' : 'none';
+    if (!show) { view.history.length = 0; return { inContact: 0 }; }
+    const v = hip.vertex;
+    const js = vertexDisplacement(f, v);
+    const F = Math.hypot(...hip.force);
+    const rest = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]);
+    const at = rest.clone().add(new THREE.Vector3(...js).multiplyScalar(e));
+    view.sphere.position.copy(at);
+    if (F > 0) {
+      const dir = new THREE.Vector3(...hip.force).normalize();
+      view.arrow.position.copy(at.clone().sub(dir.clone().multiplyScalar(size * 0.12)));
+      view.arrow.setDirection(dir); view.arrow.setLength(size * 0.12, size * 0.03, size * 0.015);
+    }
+    const p = at.clone().project(camera);
+    view.label.style.left = `${(p.x * 0.5 + 0.5) * container.clientWidth + 8}px`;
+    view.label.style.top = `${(-p.y * 0.5 + 0.5) * container.clientHeight - 24}px`;
+    view.label.textContent = `${F.toFixed(3)} N`;
+    const n = F > 0 ? hip.force.map((x) => x / F) : [0, 0, 0];
+    const along = hip.felt[0] * n[0] + hip.felt[1] * n[1] + hip.felt[2] * n[2];
+    view.history.push([Math.max(0, along), F]);
+    if (view.history.length > 2000) view.history.shift();
+    html += hipPanel(h, hip, js);
+    return { inContact: 1, vertex: v, tick: f.stats[0], force: hip.force, forceN: F, displacement: js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
+  });
+  for (const h of state.hips) if (h.inContact) setScale(Math.max(scaleMax, Math.hypot(...h.displacement)));
+  hips.forEach((view, h) => { view.panel.innerHTML = ''; });
+  $('hips').innerHTML = html || `<small>no contact${state.watchOnly ? '' : ': click the part'}</small>`;
+  const s = f.stats, us = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
+  $('ticks').innerHTML = `ticks ${s[0]} (rejected ${s[1]}), ${s[7].toFixed(0)} Hz<br>tick p50 ${us(s[2])} µs, p99 ${us(s[3])} µs, max ${us(s[4])} µs<br>wake-up lateness p99 ${us(s[5])} µs, max ${us(s[6])} µs`;
+  drawPlot();
+}
+
+// Offline: one mode animated, or the validation points.
+function modesFrame(now) {
+  const s = Number($('mode-space').value), i = Number($('mode-index').value);
+  const space = basis.spaces[s];
+  let maxPhi = 0;
+  for (let v = 0; v < basis.nv; ++v) {
+    const t = (v * space.r + i) * 3;
+    maxPhi = Math.max(maxPhi, Math.hypot(space.phi32[t], space.phi32[t + 1], space.phi32[t + 2]));
+  }
+  const amplitude = maxPhi > 0 ? (0.05 * size) / maxPhi : 0; // 5 % of the part's size at the crest
+  const q = new Array(space.r).fill(0);
+  q[i] = amplitude * Math.sin(2 * Math.PI * now / 1000);
+  applyModal(s, q, []);
+  setScale(0.05 * size);
+  $('mode-text').textContent = `${i + 1}: ${info.spaces[s].frequencies_hz[i].toFixed(2)} Hz`;
+}
+
+function errorColor(e) {
+  const x = Math.min(1, Math.max(0, (Math.log10(Math.max(e, 1e-12)) + 12) / 12));
+  const c = new THREE.Color(); c.setHSL(0.66 * (1 - x), 0.9, 0.55); return c;
+}
+function showValidation() {
+  const s = Number($('validation-space').value), kind = $('validation-kind').value;
+  const positions = [], colors = [];
+  const spaceInfo = info.spaces[s];
+  const rows = (report?.spaces?.[s]?.validation) ?? [];
+  const byVertex = new Map();
+  for (const row of rows) {
+    const e = kind === 'modal' ? row.contact_rel_error_modal : row.contact_rel_error_corrected;
+    byVertex.set(row.vertex, Math.max(byVertex.get(row.vertex) ?? 0, e));
+  }
+  if (!rows.length) for (const c of spaceInfo.validation) if (kind === 'corrected') byVertex.set(c.vertex, Math.max(byVertex.get(c.vertex) ?? 0, c.kernel_rel_error));
+  for (const v of spaceInfo.candidates) {
+    positions.push(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]);
+    const e = byVertex.get(v);
+    const c = e === undefined ? new THREE.Color(0x999999) : errorColor(e);
+    colors.push(c.r, c.g, c.b);
+  }
+  validationPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
+  validationPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colors, 3));
+  let table = '<table><tr><th>vertex</th><th>dir</th><th>modal-only</th><th>corrected</th><th>kernel</th></tr>';
+  spaceInfo.validation.forEach((c, k) => {
+    const row = rows[k];
+    table += `<tr><td>${c.vertex}</td><td>${'xyz'[c.direction]}</td><td>${row ? fmt(row.contact_rel_error_modal, 3) : '–'}</td><td>${row ? fmt(row.contact_rel_error_corrected, 3) : '–'}</td><td>${fmt(c.kernel_rel_error, 3)}</td></tr>`;
+  });
+  $('validation-table').innerHTML = table + '</table>' + (rows.length ? '' : '<small>no report.json beside the basis: kernel self-check only</small>');
+  applyModal(s, [], []);
+}
+
+function reportTables() {
+  let html = '<table><tr><th>space</th><th>r</th><th>f [Hz]</th><th>cand.</th><th>cross</th></tr>';
+  info.spaces.forEach((s) => {
+    html += `<tr><td>${s.name}</td><td>${s.modes}</td><td>${s.frequencies_hz[0].toFixed(1)}–${s.frequencies_hz[s.modes - 1].toFixed(1)}</td><td>${s.candidates.length}</td><td>${s.cross ? 'yes' : 'no'}</td></tr>`;
+  });
+  html += '</table>';
+  if (report) {
+    html += '<table><tr><th>space</th><th>DoFs</th><th>max err. modal</th><th>max err. corr.</th></tr>';
+    for (const s of report.spaces ?? []) {
+      const v = s.validation ?? [];
+      const m = Math.max(0, ...v.map((x) => x.contact_rel_error_modal)), c = Math.max(0, ...v.map((x) => x.contact_rel_error_corrected));
+      html += `<tr><td>${s.name}</td><td>${s.n_dofs}</td><td>${fmt(m, 3)}</td><td>${fmt(c, 3)}</td></tr>`;
+    }
+    html += '</table>';
+    if (report.timings_s) html += '<table>' + Object.entries(report.timings_s).map(([k, t]) => `<tr><td>${k}</td><td>${Number(t).toFixed(2)} s</td></tr>`).join('') + '</table>';
+  } else html += '<small>no report.json beside the basis</small>';
+  html += `<small>basis: ${info.vertices} vertices, ${info.triangles} triangles, ${(state.basisBytes / 1e6).toFixed(2)} MB sent once</small>`;
+  $('report').innerHTML = html;
+}
+
+// Tabs.
+for (const [name, panel] of [['live', 'live-panel'], ['modes', 'modes-panel'], ['validation', 'validation-panel']]) {
+  $(`tab-${name}`).onclick = () => {
+    state.mode = name;
+    for (const other of ['live', 'modes', 'validation']) {
+      $(`tab-${other}`).classList.toggle('on', other === name);
+      $(`${other}-panel`).style.display = other === name ? '' : 'none';
+    }
+    validationPoints.visible = name === 'validation';
+    hips.forEach((h) => { h.sphere.visible = h.arrow.visible = false; h.label.style.display = 'none'; });
+    if (name === 'validation') showValidation();
+  };
+}
+for (const id of ['mode-space', 'validation-space'])
+  info.spaces.forEach((s, i) => $(id).add(new Option(`${i} ${s.name}`, i)));
+$('mode-space').onchange = () => { $('mode-index').max = info.spaces[Number($('mode-space').value)].modes - 1; };
+$('mode-space').onchange();
+$('validation-space').onchange = $('validation-kind').onchange = showValidation;
+reportTables();
+
+// ------------------------------------------------------------------------------------- the loop
+function render(now) {
+  requestAnimationFrame(render);
+  const e = exaggerationFactor();
+  uniforms.exaggeration.value = e;
+  $('exaggeration-value').textContent = `×${e.toPrecision(3)}`;
+  if (state.mode === 'live' && freshFrame) { liveFrame(now); freshFrame = false; ++rendered; ++state.renderedFrames; }
+  else if (state.mode === 'modes') modesFrame(now);
+  controls.update();
+  renderer.render(scene, camera);
+  if (now - lastSecond >= 1000) {
+    state.fps = rendered * 1000 / (now - lastSecond); state.receivedFps = received * 1000 / (now - lastSecond);
+    rendered = 0; received = 0; lastSecond = now;
+    const sorted = [...state.ageMs].sort((a, b) => a - b);
+    state.ageP50 = sorted[Math.floor(sorted.length * 0.5)]; state.ageP95 = sorted[Math.floor(sorted.length * 0.95)];
+    $('frames').innerHTML = `${state.fps.toFixed(1)} frames/s drawn (${state.receivedFps.toFixed(1)} received), ${state.bytesPerFrame} bytes/frame<br>frame age tick → screen p50 ${fmt(state.ageP50, 3)} ms, p95 ${fmt(state.ageP95, 3)} ms`;
+  }
+}
+// For tests and benchmarks: the screen position of a display vertex at rest.
+window.viewDebug = {
+  project(v) {
+    const p = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]).project(camera);
+    const rect = renderer.domElement.getBoundingClientRect();
+    return { x: rect.left + (p.x * 0.5 + 0.5) * rect.width, y: rect.top + (-p.y * 0.5 + 0.5) * rect.height };
+  },
+  canvas: renderer.domElement,
+};
+state.ready = true;
+requestAnimationFrame(render);
