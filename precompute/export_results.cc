@@ -6,6 +6,8 @@
 #include <deal.II/base/hdf5.h>
 #include <deal.II/base/mpi.h>
 
+#include <mrt/writer.h>
+
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -236,167 +238,58 @@ namespace modal_haptics
   }
 
   // ---------------------------------------------------------------------------------------------
-  // The .mrt basis file
+  // The .mrt basis file: its content, laid out and checksummed by the format's writer (mrt/)
   // ---------------------------------------------------------------------------------------------
   namespace
   {
-    // CRC-32 (zlib's): reflected polynomial 0xEDB88320, initial value and final xor 0xFFFFFFFF.
-    std::uint32_t crc32(const unsigned char *data, const std::size_t size)
+    mrt::BasisContent basis_content(const SceneParameters &scene, const PrecomputeResults &results)
     {
-      static const auto table = [] {
-        std::array<std::uint32_t, 256> t{};
-        for (std::uint32_t i = 0; i < 256; ++i)
-          {
-            std::uint32_t c = i;
-            for (int k = 0; k < 8; ++k)
-              c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-            t[i] = c;
-          }
-        return t;
-      }();
-      std::uint32_t crc = 0xFFFFFFFFu;
-      for (std::size_t i = 0; i < size; ++i)
-        crc = table[(crc ^ data[i]) & 0xFF] ^ (crc >> 8);
-      return crc ^ 0xFFFFFFFFu;
-    }
-
-    enum ScalarType : std::uint32_t { u32 = 1, f32 = 2, f64 = 3, u8 = 4 };
-    constexpr std::uint32_t scene_wide = 0xFFFFFFFFu;
-
-    struct Section
-    {
-      std::uint32_t              kind, space, source_space, scalar_type;
-      std::uint64_t              count;
-      std::vector<unsigned char> bytes;
-    };
-
-    template <typename T>
-    Section make_section(std::uint32_t kind, std::uint32_t space, ScalarType type, const std::vector<T> &values,
-                         std::uint32_t source_space = scene_wide)
-    {
-      Section s{kind, space, source_space, type, values.size(), {}};
-      s.bytes.resize(values.size() * sizeof(T));
-      if (!values.empty())
-        std::memcpy(s.bytes.data(), values.data(), s.bytes.size());
-      return s;
-    }
-
-    // The file is little-endian; so is every machine we build on (x86-64, aarch64).
-    static_assert(sizeof(float) == 4 && sizeof(double) == 8, "IEEE-754 binary32/64 expected");
-
-    template <typename T>
-    void put(std::vector<unsigned char> &buffer, const std::size_t offset, const T value)
-    {
-      std::memcpy(buffer.data() + offset, &value, sizeof(T));
-    }
-
-    std::uint64_t align64(const std::uint64_t offset) { return (offset + 63) / 64 * 64; }
-
-    std::vector<Section> basis_sections(const SceneParameters &scene, const PrecomputeResults &results)
-    {
-      const auto          &d = results.display;
-      std::vector<Section> sections;
-      sections.push_back(make_section(1, scene_wide, f64, flatten(d.vertices)));
-      sections.push_back(make_section(2, scene_wide, u32, flatten(d.triangles)));
-      sections.push_back(make_section(3, scene_wide, u32, d.region));
-      sections.push_back(make_section(4, scene_wide, u32, d.patch_offsets));
-      sections.push_back(make_section(5, scene_wide, u32, d.patch_vertices));
-      sections.push_back(make_section(6, scene_wide, f64, d.patch_weights));
-      const auto          &global = results.spaces.front();
-      std::vector<double>  scalars{d.patch_radius, global.mass};
-      scalars.insert(scalars.end(), global.centre_of_mass.begin(), global.centre_of_mass.end());
-      scalars.insert(scalars.end(), global.inertia.begin(), global.inertia.end());
-      sections.push_back(make_section(7, scene_wide, f64, scalars));
+      const auto       &d = results.display;
+      mrt::BasisContent c;
+      c.vertices       = flatten(d.vertices);
+      c.triangles      = flatten(d.triangles);
+      c.region         = d.region;
+      c.patch_offsets  = d.patch_offsets;
+      c.patch_vertices = d.patch_vertices;
+      c.patch_weights  = d.patch_weights;
+      const auto &global = results.spaces.front();
+      c.scene_scalars    = {d.patch_radius, global.mass};
+      c.scene_scalars.insert(c.scene_scalars.end(), global.centre_of_mass.begin(), global.centre_of_mass.end());
+      c.scene_scalars.insert(c.scene_scalars.end(), global.inertia.begin(), global.inertia.end());
+      c.float64_modes = scene.output.float64_modes;
 
       for (const auto &s : results.spaces)
         {
-          const std::uint32_t      r = s.eigenvalues.size(), nc = s.candidates.size();
-          const std::uint32_t      n_cross = s.cross_compliance.empty() ? 0 : nc;
-          std::vector<std::uint32_t> info{r, nc, std::uint32_t(s.validation.size()), n_cross};
-          sections.push_back(make_section(16, s.index, u32, info));
-          sections.push_back(make_section(17, s.index, u8, std::vector<unsigned char>(s.name.begin(), s.name.end())));
-          sections.push_back(make_section(18, s.index, f64, s.eigenvalues));
-          sections.push_back(make_section(19, s.index, f64, s.damping_ratios));
-          if (scene.output.float64_modes)
-            sections.push_back(make_section(20, s.index, f64, s.display_modes));
-          else
-            sections.push_back(make_section(20, s.index, f32, std::vector<float>(s.display_modes.begin(), s.display_modes.end())));
-          if (nc > 0)
+          AssertThrow(s.index == c.spaces.size(), dealii::ExcInternalError()); // space s is spaces[s]
+          mrt::BasisSpaceContent space;
+          space.name                 = s.name;
+          space.eigenvalues          = s.eigenvalues;
+          space.damping_ratios       = s.damping_ratios;
+          space.display_modes        = s.display_modes;
+          space.candidates           = s.candidates;
+          space.candidate_modes      = s.candidate_modes;
+          space.candidate_compliance = s.candidate_compliance;
+          space.cross_compliance     = s.cross_compliance;
+          space.participation        = s.participation;
+          for (const auto &vc : s.validation)
             {
-              sections.push_back(make_section(21, s.index, u32, s.candidates));
-              sections.push_back(make_section(22, s.index, f64, s.candidate_modes));
-              sections.push_back(make_section(23, s.index, f64, s.candidate_compliance));
-              if (n_cross > 0)
-                sections.push_back(make_section(24, s.index, f64, s.cross_compliance));
+              space.validation_cases.push_back(vc.vertex);
+              space.validation_cases.push_back(vc.direction);
+              space.validation_response.insert(space.validation_response.end(), vc.full_response.begin(),
+                                               vc.full_response.end());
             }
-          sections.push_back(make_section(25, s.index, f64, s.participation));
-          if (!s.validation.empty())
-            {
-              std::vector<std::uint32_t> cases;
-              std::vector<double>        response;
-              for (const auto &vc : s.validation)
-                {
-                  cases.push_back(vc.vertex);
-                  cases.push_back(vc.direction);
-                  response.insert(response.end(), vc.full_response.begin(), vc.full_response.end());
-                }
-              sections.push_back(make_section(26, s.index, u32, cases));
-              sections.push_back(make_section(27, s.index, f64, response));
-            }
+          c.spaces.push_back(std::move(space));
         }
       for (const auto &t : results.transfers)
-        sections.push_back(make_section(32, t.to, f64, t.values, t.from));
-      return sections;
+        c.transfers.push_back({t.to, t.from, t.values});
+      return c;
     }
   } // namespace
 
   void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                         StagedFiles &staged)
   {
-    const std::vector<Section> sections = basis_sections(scene, results);
-    constexpr std::size_t      header_bytes = 64, entry_bytes = 40;
-    std::vector<std::uint64_t> offsets;
-    std::uint64_t              end = header_bytes + entry_bytes * sections.size();
-    for (const auto &s : sections)
-      {
-        offsets.push_back(align64(end));
-        end = offsets.back() + s.bytes.size();
-      }
-    std::vector<unsigned char> file(end, 0);
-
-    for (std::size_t k = 0; k < sections.size(); ++k)
-      {
-        const auto       &s     = sections[k];
-        const std::size_t entry = header_bytes + entry_bytes * k;
-        put<std::uint32_t>(file, entry + 0, s.kind);
-        put<std::uint32_t>(file, entry + 4, s.space);
-        put<std::uint32_t>(file, entry + 8, s.source_space);
-        put<std::uint32_t>(file, entry + 12, s.scalar_type);
-        put<std::uint64_t>(file, entry + 16, offsets[k]);
-        put<std::uint64_t>(file, entry + 24, s.count);
-        put<std::uint32_t>(file, entry + 32, crc32(s.bytes.data(), s.bytes.size()));
-        if (!s.bytes.empty())
-          std::memcpy(file.data() + offsets[k], s.bytes.data(), s.bytes.size());
-      }
-
-    std::uint32_t max_modes = 0;
-    for (const auto &s : results.spaces)
-      max_modes = std::max<std::uint32_t>(max_modes, s.eigenvalues.size());
-    std::memcpy(file.data(), "MODALRT\0", 8);
-    put<std::uint32_t>(file, 8, 1);  // version major
-    put<std::uint32_t>(file, 12, 0); // version minor
-    put<std::uint32_t>(file, 16, header_bytes);
-    put<std::uint32_t>(file, 20, sections.size());
-    put<std::uint64_t>(file, 24, end);
-    put<std::uint32_t>(file, 32, results.spaces.size());
-    put<std::uint32_t>(file, 36, results.display.n_vertices());
-    put<std::uint32_t>(file, 40, results.display.triangles.size());
-    put<std::uint32_t>(file, 44, max_modes);
-    put<std::uint32_t>(file, 48, results.display.max_patch_size);
-    put<std::uint32_t>(file, 52, scene.output.float64_modes ? f64 : f32);
-    put<std::uint32_t>(file, 56, crc32(file.data() + header_bytes, entry_bytes * sections.size()));
-    put<std::uint32_t>(file, 60, crc32(file.data(), 60));
-
+    const std::vector<unsigned char> file = mrt::write_basis(basis_content(scene, results));
     staged.write(filename, [&](std::ostream &out) { out.write(reinterpret_cast<const char *>(file.data()), file.size()); },
                  std::ios::binary);
   }

@@ -7,12 +7,13 @@
 #include <boost/archive/archive_exception.hpp>
 #include <boost/archive/binary_iarchive.hpp>
 #include <boost/archive/binary_oarchive.hpp>
-#include <boost/crc.hpp>
 #include <boost/serialization/array.hpp>
 #include <boost/serialization/map.hpp>
 #include <boost/serialization/string.hpp>
 #include <boost/serialization/utility.hpp>
 #include <boost/serialization/vector.hpp>
+
+#include <mrt/crc32.h>
 
 #include <filesystem>
 #include <fstream>
@@ -124,21 +125,19 @@ namespace modal_haptics
 
   std::uint32_t display_surface_checksum(const meshing::DisplaySurface &surface)
   {
-    boost::crc_32_type crc;
+    std::uint32_t crc = 0;
     for (const auto &vertex : surface.vertices)
-      crc.process_bytes(vertex.data(), sizeof(vertex));
+      crc = mrt::crc32_update(crc, vertex.data(), sizeof(vertex));
     for (const auto &triangle : surface.triangles)
-      crc.process_bytes(triangle.data(), sizeof(triangle));
-    return crc.checksum();
+      crc = mrt::crc32_update(crc, triangle.data(), sizeof(triangle));
+    return crc;
   }
 
   std::uint32_t file_checksum(const std::string &filename)
   {
     std::ifstream in(filename, std::ios::binary);
     AssertThrow(in, dealii::ExcMessage("Cannot read '" + filename + "'."));
-    const std::string  bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    boost::crc_32_type crc;
-    crc.process_bytes(bytes.data(), bytes.size());
-    return crc.checksum();
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return mrt::crc32(bytes.data(), bytes.size());
   }
 } // namespace modal_haptics

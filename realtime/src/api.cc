@@ -1,5 +1,4 @@
 // The C API: argument checks, exceptions turned into status codes and messages, and defaults.
-#include "basis_format.h"
 #include "basis_loader.h"
 #include "display.h"
 #include "error.h"
@@ -7,6 +6,7 @@
 #include "self_check.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/format.h>
 
 #include <algorithm>
 #include <cmath>

@@ -5,6 +5,7 @@
 #include "spatial_grid.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/format.h>
 
 #include <array>
 #include <cstdint>
@@ -13,6 +14,9 @@
 
 namespace modalrt
 {
+  // The .mrt format's constants, owned by mrt/ (include/mrt/format.h).
+  namespace format = ::mrt;
+
   // One modal space: the reduced basis of one scenario (global space 0, or a VOI).
   struct ModalSpace
   {

@@ -3,9 +3,10 @@
 // with a message naming the file and the section.
 #include "basis_loader.h"
 
-#include "basis_format.h"
-#include "crc32.h"
 #include "error.h"
+
+#include <mrt/crc32.h>
+#include <mrt/format.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -19,6 +20,9 @@ namespace modalrt
 {
   namespace
   {
+    using mrt::crc32;
+    using mrt::crc32_update;
+
     // ---------------------------------------------------------------------------------------------
     // Where the bytes come from
     // ---------------------------------------------------------------------------------------------
@@ -167,9 +171,9 @@ namespace modalrt
           fail(MODALRT_ERROR_FORMAT, cat(file, ": format version ", basis_.version_major, ".", basis_.version_minor,
                                          " is not supported (this reader reads ", format::version_major, ".x)"));
         const std::uint32_t header_crc = get<std::uint32_t>(h, format::header::header_crc32);
-        if (crc32(h, 60) != header_crc)
+        if (crc32(h, format::header_crc_bytes) != header_crc)
           fail(MODALRT_ERROR_CHECKSUM, cat(file, ": header checksum mismatch (stored 0x", hex(header_crc),
-                                           ", computed 0x", hex(crc32(h, 60)), ")"));
+                                           ", computed 0x", hex(crc32(h, format::header_crc_bytes)), ")"));
         if (get<std::uint32_t>(h, format::header::header_bytes) != format::header_bytes)
           fail(MODALRT_ERROR_FORMAT, cat(file, ": header_bytes is ", get<std::uint32_t>(h, format::header::header_bytes),
                                          ", expected 64"));

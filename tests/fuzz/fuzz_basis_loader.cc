@@ -13,10 +13,9 @@
 // and never reaches the checks behind it. Each input is therefore loaded twice: as is (the
 // checksum paths), and, when that changes anything, with every CRC recomputed (the layout, count,
 // index and value checks, and the kernel behind them).
-#include "basis_format.h"
-#include "crc32.h"
-
 #include <modalrt/modalrt.h>
+#include <mrt/format.h>
+#include <mrt/writer.h>
 
 #include <cstdint>
 #include <cstdio>
@@ -34,47 +33,6 @@ namespace
         std::fprintf(stderr, "fuzz_basis_loader: broken expectation: %s\n", what);
         std::abort();
       }
-  }
-
-  template <typename T>
-  T get(const std::vector<unsigned char> &bytes, std::size_t offset)
-  {
-    T value;
-    std::memcpy(&value, bytes.data() + offset, sizeof(T));
-    return value;
-  }
-
-  template <typename T>
-  void put(std::vector<unsigned char> &bytes, std::size_t offset, T value)
-  {
-    std::memcpy(bytes.data() + offset, &value, sizeof(T));
-  }
-
-  // Recomputes the CRCs of whatever part of the table and the sections lies inside the buffer
-  // (the writer's refresh_checksums trusts its input; this one must not).
-  void refresh_checksums(std::vector<unsigned char> &bytes)
-  {
-    namespace format = modalrt::format;
-    const std::size_t size = bytes.size();
-    if (size < format::header_bytes)
-      return;
-    const std::uint64_t declared = get<std::uint32_t>(bytes, format::header::section_count);
-    const std::uint64_t fitting  = (size - format::header_bytes) / format::table_entry_bytes;
-    const std::uint64_t entries  = declared < fitting ? declared : fitting;
-    for (std::uint64_t k = 0; k < entries; ++k)
-      {
-        const std::size_t   entry  = format::header_bytes + format::table_entry_bytes * std::size_t(k);
-        const std::size_t   scalar = format::scalar_bytes(get<std::uint32_t>(bytes, entry + format::entry::scalar_type));
-        const std::uint64_t offset = get<std::uint64_t>(bytes, entry + format::entry::offset);
-        const std::uint64_t count  = get<std::uint64_t>(bytes, entry + format::entry::count);
-        if (scalar == 0 || offset > size || count > (size - offset) / scalar)
-          continue; // the reader refuses this entry before reading it
-        put<std::uint32_t>(bytes, entry + format::entry::crc32,
-                           modalrt::crc32(bytes.data() + offset, std::size_t(count) * scalar));
-      }
-    put<std::uint32_t>(bytes, format::header::section_table_crc32,
-                       modalrt::crc32(bytes.data() + format::header_bytes, std::size_t(entries) * format::table_entry_bytes));
-    put<std::uint32_t>(bytes, format::header::header_crc32, modalrt::crc32(bytes.data(), 60));
   }
 
   // Where touch() leaves its sum: a volatile store the optimizer must keep, and with it the loads
@@ -245,10 +203,10 @@ namespace
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size)
 {
   exercise(data, size);
-  if (size >= modalrt::format::header_bytes)
+  if (size >= mrt::header_bytes)
     {
       std::vector<unsigned char> fixed(data, data + size);
-      refresh_checksums(fixed);
+      mrt::refresh_checksums(fixed); // bounds-checked: the table may point anywhere
       if (std::memcmp(fixed.data(), data, size) != 0)
         exercise(fixed.data(), fixed.size());
     }

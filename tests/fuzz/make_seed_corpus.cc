@@ -1,14 +1,15 @@
 // Writes the seed corpus of fuzz_basis_loader (tests/fuzz/corpus/basis/): small valid .mrt files
-// made with the kernel's synthetic scenes, and corrupted variants that each stop at a different
-// check of the reader. Seeds are kept small (a few kB) because libFuzzer mutates faster and
+// made with the kernel's synthetic scenes (tests/realtime/support) and the .mrt writer (mrt/), and
+// corrupted variants that each stop at a different check of the reader. Seeds are kept small (a few kB) because libFuzzer mutates faster and
 // further on small inputs, and because the corpus is committed.
 //
 //   make_seed_corpus DIR      (scripts/test-kernel-checks does not run it: the corpus is committed;
 //                              run it again only when the format or the synthetic scenes change)
-#include "basis_format.h"
-#include "basis_writer.h"
 #include "seed_file.h"
 #include "synthetic_scene.h"
+
+#include <mrt/format.h>
+#include <mrt/writer.h>
 
 #include <cstdint>
 #include <cstdio>
@@ -21,7 +22,7 @@ namespace
 {
   using Bytes = std::vector<unsigned char>;
   using seed::save;
-  namespace format = modalrt::format;
+  namespace format = mrt;
 
   template <typename T>
   T get(const Bytes &bytes, std::size_t offset)
@@ -84,7 +85,7 @@ int main(int argc, char **argv)
   bool              ok  = true;
 
   // ----- valid files: each feature of the format at least once ------------------------------------
-  const Bytes two_spaces = modalrt::write_basis(modalrt::make_lattice_cantilever(small_lattice()));
+  const Bytes two_spaces = mrt::write_basis(modalrt::make_lattice_cantilever(small_lattice()));
   ok &= save(dir, "lattice_two_spaces_f64.mrt", two_spaces);
 
   modalrt::LatticeOptions patches = small_lattice();
@@ -93,12 +94,12 @@ int main(int argc, char **argv)
   patches.cross         = false;
   patches.transfers     = false;
   patches.participation = false;
-  ok &= save(dir, "lattice_patches_f32.mrt", modalrt::write_basis(modalrt::make_lattice_cantilever(patches)));
+  ok &= save(dir, "lattice_patches_f32.mrt", mrt::write_basis(modalrt::make_lattice_cantilever(patches)));
 
   modalrt::LatticeOptions one_space = small_lattice();
   one_space.modes   = {5};
   one_space.damping = {0.03};
-  ok &= save(dir, "lattice_one_space.mrt", modalrt::write_basis(modalrt::make_lattice_cantilever(one_space)));
+  ok &= save(dir, "lattice_one_space.mrt", mrt::write_basis(modalrt::make_lattice_cantilever(one_space)));
 
   modalrt::PlateOptions plate;
   plate.nx         = 6;
@@ -106,13 +107,13 @@ int main(int argc, char **argv)
   plate.modes      = 4;
   plate.spaces     = 2;
   plate.candidates = 3;
-  ok &= save(dir, "plate_two_spaces_f32.mrt", modalrt::write_basis(modalrt::make_analytic_plate(plate)));
+  ok &= save(dir, "plate_two_spaces_f32.mrt", mrt::write_basis(modalrt::make_analytic_plate(plate)));
 
   // A newer minor version with a section kind this reader does not know (skipped after its CRC).
-  modalrt::BasisContent newer = modalrt::make_lattice_cantilever(one_space);
+  mrt::BasisContent newer = modalrt::make_lattice_cantilever(one_space);
   newer.version_minor         = 1;
   newer.extra_sections.push_back({99, format::scene_wide, format::scene_wide, format::u8, 5, {1, 2, 3, 4, 5}});
-  ok &= save(dir, "newer_minor_extra_section.mrt", modalrt::write_basis(newer));
+  ok &= save(dir, "newer_minor_extra_section.mrt", mrt::write_basis(newer));
 
   // ----- corrupted variants of the two-space file --------------------------------------------------
   ok &= save(dir, "corrupt_header_only.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + format::header_bytes));
@@ -131,17 +132,17 @@ int main(int argc, char **argv)
   Bytes triangle = two_spaces;
   put<std::uint32_t>(triangle, section_offset(triangle, format::display_triangles) + 4,
                      get<std::uint32_t>(triangle, format::header::n_display_vertices)); // one past the last vertex
-  modalrt::refresh_checksums(triangle);
+  mrt::refresh_checksums(triangle);
   ok &= save(dir, "corrupt_triangle_index.mrt", triangle);
 
   Bytes nan = two_spaces;
   put<double>(nan, section_offset(nan, format::eigenvalues, 1) + 8, std::numeric_limits<double>::quiet_NaN());
-  modalrt::refresh_checksums(nan);
+  mrt::refresh_checksums(nan);
   ok &= save(dir, "corrupt_nan_eigenvalue.mrt", nan);
 
   Bytes offsets = two_spaces;
   put<std::uint32_t>(offsets, section_offset(offsets, format::patch_offsets) + 8, 0); // patch of vertex 1 ends before it starts
-  modalrt::refresh_checksums(offsets);
+  mrt::refresh_checksums(offsets);
   ok &= save(dir, "corrupt_patch_offsets.mrt", offsets);
 
   // The patch of vertex 0 running past the end of PATCH_VERTICES (the offsets fall back only at
@@ -149,26 +150,26 @@ int main(int argc, char **argv)
   Bytes overrun = two_spaces;
   put<std::uint32_t>(overrun, section_offset(overrun, format::patch_offsets) + 4, 40);
   put<std::uint32_t>(overrun, format::header::max_patch_size, 64);
-  modalrt::refresh_checksums(overrun);
+  mrt::refresh_checksums(overrun);
   ok &= save(dir, "corrupt_patch_overrun.mrt", overrun);
 
   // Finite but astronomically far vertices: their differences overflow in what the loader derives.
   Bytes far = two_spaces;
   put<double>(far, section_offset(far, format::display_vertices), -1e308);
   put<double>(far, section_offset(far, format::display_vertices) + 24, 1e308);
-  modalrt::refresh_checksums(far);
+  mrt::refresh_checksums(far);
   ok &= save(dir, "corrupt_far_vertices.mrt", far);
 
   // A capacity far above every space's r: the kernel would size its buffers by it.
   Bytes capacity = two_spaces;
   put<std::uint32_t>(capacity, format::header::max_modes, 0x40000000u);
-  modalrt::refresh_checksums(capacity);
+  mrt::refresh_checksums(capacity);
   ok &= save(dir, "corrupt_max_modes.mrt", capacity);
 
   // A space count the section table cannot hold (the reader sized its spaces by it first).
   Bytes spaces = two_spaces;
   put<std::uint32_t>(spaces, format::header::n_spaces, 0x10000000u);
-  modalrt::refresh_checksums(spaces);
+  mrt::refresh_checksums(spaces);
   ok &= save(dir, "corrupt_n_spaces.mrt", spaces);
 
   // A section whose offset lies beyond the end of the file, with a count of about 10^12 bytes (the
@@ -177,7 +178,7 @@ int main(int argc, char **argv)
   const std::size_t name   = table_entry(beyond, format::space_name, 0);
   put<std::uint64_t>(beyond, name + format::entry::offset, (beyond.size() / 64 + 1000) * 64);
   put<std::uint64_t>(beyond, name + format::entry::count, 0xFFFFFFFFFAull);
-  modalrt::refresh_checksums(beyond);
+  mrt::refresh_checksums(beyond);
   ok &= save(dir, "corrupt_section_offset.mrt", beyond);
 
   return ok ? 0 : 1;

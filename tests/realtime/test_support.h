@@ -2,7 +2,6 @@
 // and synthetic bases loaded straight from memory.
 #pragma once
 
-#include "basis_writer.h"
 #include "synthetic_scene.h"
 
 #include <modalrt/modalrt.h>

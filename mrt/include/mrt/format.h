@@ -1,11 +1,13 @@
-// Constants of the .mrt basis file, version 1.0 (docs/basis-format.md), shared by the loader and
-// by the writer that tests use to make synthetic bases.
+// Constants of the .mrt basis file, version 1.0 (docs/basis-format.md): the layout, the header and
+// table field offsets, the scalar types and the section kinds. The one place they are written: the
+// writer (writer.h), the kernel's loader (realtime/src/basis_loader.cc) and the tests take them from
+// here.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 
-namespace modalrt::format
+namespace mrt
 {
   constexpr char          magic[8]          = {'M', 'O', 'D', 'A', 'L', 'R', 'T', '\0'};
   constexpr std::uint32_t version_major     = 1;
@@ -130,6 +132,9 @@ namespace modalrt::format
     constexpr std::size_t header_crc32        = 60;
   } // namespace header
 
+  // The header CRC covers the header's bytes before its own field (0..59).
+  constexpr std::size_t header_crc_bytes = header::header_crc32;
+
   // Section table entry field offsets (bytes).
   namespace entry
   {
@@ -142,4 +147,4 @@ namespace modalrt::format
     constexpr std::size_t crc32        = 32;
     constexpr std::size_t reserved     = 36;
   } // namespace entry
-} // namespace modalrt::format
+} // namespace mrt

@@ -1,13 +1,15 @@
-// A writer of .mrt basis files (docs/basis-format.md) for tests and benchmarks, which make synthetic
-// bases with it. The precompute has its own writer (precompute/export_results.cc); both follow the
-// same specification, and the loader is the judge.
+// The one writer of .mrt basis files (docs/basis-format.md). A producer (the precompute's exporter,
+// the kernel's test fixtures) hands it the content of a basis; the writer chooses the sections, their
+// order and offsets, derives every header field from the content and computes every CRC.
 #pragma once
+
+#include <mrt/format.h>
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-namespace modalrt
+namespace mrt
 {
   struct BasisSpaceContent
   {
@@ -45,20 +47,22 @@ namespace modalrt
     std::vector<std::uint32_t> region;    // nv
     std::vector<std::uint32_t> patch_offsets, patch_vertices;
     std::vector<double>        patch_weights;
-    std::vector<double>        scene_scalars; // 14
+    std::vector<double>        scene_scalars; // scene_scalar_count
     bool                       float64_modes = true;
-    std::uint32_t              version_minor = 0;
-    std::vector<BasisSpaceContent>    spaces;
+    std::uint32_t              version_minor = mrt::version_minor;
+    std::vector<BasisSpaceContent>    spaces;    // space s is spaces[s]; space 0 is the global space
     std::vector<BasisTransferContent> transfers;
     std::vector<ExtraSection>         extra_sections;
 
     std::uint32_t vertex_count() const { return std::uint32_t(vertices.size() / 3); }
   };
 
-  // The bytes of the file, sections in the order of the specification, empty optional sections left out.
+  // The bytes of the file: sections in the order of the specification, the optional sections that
+  // are empty (candidates, cross compliance, participation, validation) left out.
   std::vector<unsigned char> write_basis(const BasisContent &content);
   // Writes it to `path`; false (and a message) if the file cannot be written.
   bool write_basis_file(const std::string &path, const BasisContent &content, std::string *error = nullptr);
-  // Recomputes every section CRC, the table CRC and the header CRC of a (deliberately edited) file.
+  // Recomputes the CRC of every section, the table CRC and the header CRC of a (deliberately edited)
+  // file; entries whose data lie outside the buffer, and table entries past its end, are left alone.
   void refresh_checksums(std::vector<unsigned char> &bytes);
-} // namespace modalrt
+} // namespace mrt

@@ -1,8 +1,9 @@
-#include "crc32.h"
+// zlib's CRC-32 (crc32.h), slicing by 4.
+#include <mrt/crc32.h>
 
 #include <array>
 
-namespace modalrt
+namespace mrt
 {
   namespace
   {
@@ -48,4 +49,4 @@ namespace modalrt
       crc = t[0][(crc ^ *p) & 0xFFu] ^ (crc >> 8);
     return ~crc;
   }
-} // namespace modalrt
+} // namespace mrt

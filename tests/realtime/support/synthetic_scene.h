@@ -1,4 +1,5 @@
-// Synthetic bases for tests and benchmarks, written with basis_writer.h.
+// Synthetic bases for the kernel's tests, benchmarks and fuzz seeds (test support: the kernel
+// library ships none of it), described as the .mrt writer's content (mrt/include/mrt/writer.h).
 //
 // make_lattice_cantilever: a physically consistent scene. A small lattice of point masses joined by
 // springs (axial, face and body diagonals), clamped at x = 0, with its top face as the display
@@ -13,13 +14,22 @@
 // own numbers, so the self-check passes on it too.
 #pragma once
 
-#include "basis_writer.h"
+#include <mrt/writer.h>
 
 #include <cstdint>
 #include <vector>
 
 namespace modalrt
 {
+  // The writer's names, as the tests use them.
+  using mrt::BasisContent;
+  using mrt::BasisSpaceContent;
+  using mrt::BasisTransferContent;
+  using mrt::ExtraSection;
+  using mrt::refresh_checksums;
+  using mrt::write_basis;
+  using mrt::write_basis_file;
+
   struct LatticeOptions
   {
     std::uint32_t nx = 9, ny = 3, nz = 2;  // nodes along the length, width, thickness
