@@ -64,8 +64,8 @@ namespace modal_haptics::meshing
     Point3 box_upper = {0., 0., 0.};  // box corner [unit]
     Point3 ball_centre = {0., 0., 0.}; // [unit]
     double ball_radius = 0.;          // [unit]
-    double fine_size   = 1.;          // element size inside [unit]
-    double transition  = 10.;         // distance over which the size grows to the coarse size [unit]
+    double fine_size   = 1.5;         // element size inside [unit]
+    double transition  = 15.;         // distance over which the size grows to the coarse size [unit]
 
     bool contains(const Point3 &p, double tolerance = 0.) const;
   };
@@ -74,7 +74,7 @@ namespace modal_haptics::meshing
   {
     // "builtin:ribbed_panel", or a path to a .step/.stp/.brep/.geo file (meshed here)
     // or to a .msh file (used as it is, for the global scenario only: it cannot be re-graded).
-    std::string geometry;
+    std::string geometry = "builtin:ribbed_panel";
     RibbedPanelGeometry ribbed_panel; // used with "builtin:ribbed_panel"
     double coarse_size = 6.;          // element size outside every VOI [unit]
     // For STEP/BREP input, which has no names: boundary faces whose bounding box lies inside one of
