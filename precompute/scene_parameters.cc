@@ -167,7 +167,9 @@ namespace modal_haptics
       AssertThrow(g.rib_heights.size() == g.rib_positions_y.size() &&
                     g.rib_thicknesses.size() == g.rib_positions_y.size(),
                   ExcMessage("'Geometry/Ribbed panel': 'Rib positions', 'Rib heights' and 'Rib thicknesses' "
-                             "must have the same number of entries."));
+                             "must have the same number of entries (have " + std::to_string(g.rib_positions_y.size()) +
+                             ", " + std::to_string(g.rib_heights.size()) + " and " +
+                             std::to_string(g.rib_thicknesses.size()) + ")."));
       g.rib_length        = prm.get_double("Rib length");
       g.boss_inset        = prm.get_double("Boss inset");
       g.boss_outer_radius = prm.get_double("Boss outer radius");
@@ -319,15 +321,17 @@ namespace modal_haptics
         {
           for (unsigned int d = 0; d < 3; ++d)
             AssertThrow(voi.box_lower[d] < voi.box_upper[d],
-                        ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner must "
-                                   "lie below its upper corner in x, y and z."));
+                        ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner (" +
+                                   text(voi.box_lower) + ") must lie below its upper corner (" + text(voi.box_upper) +
+                                   ") in x, y and z."));
         }
       else
         AssertThrow(voi.ball_radius > 0.,
-                    ExcMessage("'" + section + "/Ball radius' must be > 0 for VOI '" + voi.name + "'."));
+                    ExcMessage("'" + section + "/Ball radius' = " + text(voi.ball_radius) + " must be > 0 for VOI '" +
+                               voi.name + "'."));
       AssertThrow(voi.fine_size <= coarse_size,
-                  ExcMessage("'" + section + "/Fine size' (" + std::to_string(voi.fine_size) +
-                             ") is larger than 'Meshing/Coarse size'."));
+                  ExcMessage("'" + section + "/Fine size' (" + text(voi.fine_size) +
+                             ") is larger than 'Meshing/Coarse size' (" + text(coarse_size) + ")."));
       return voi;
     }
 
@@ -383,12 +387,12 @@ namespace modal_haptics
     prm.leave_subsection();
     // The Patterns hold the closed ranges; the open ends are checked here.
     AssertThrow(youngs_modulus > 0. && std::isfinite(youngs_modulus),
-                ExcMessage("'Material/Young's modulus' = " + std::to_string(youngs_modulus) + " Pa: must be > 0."));
+                ExcMessage("'Material/Young's modulus' = " + text(youngs_modulus) + " Pa: must be > 0."));
     AssertThrow(poissons_ratio > -1. && poissons_ratio < 0.5,
-                ExcMessage("'Material/Poisson's ratio' = " + std::to_string(poissons_ratio) +
+                ExcMessage("'Material/Poisson's ratio' = " + text(poissons_ratio) +
                            ": must lie in (-1, 0.5)."));
     AssertThrow(density > 0. && std::isfinite(density),
-                ExcMessage("'Material/Density' = " + std::to_string(density) + " kg/m^3: must be > 0."));
+                ExcMessage("'Material/Density' = " + text(density) + " kg/m^3: must be > 0."));
   }
 
   namespace
