@@ -64,8 +64,8 @@ namespace modal_haptics::meshing
     Point3 box_upper = {0., 0., 0.};  // box corner [unit]
     Point3 ball_centre = {0., 0., 0.}; // [unit]
     double ball_radius = 0.;          // [unit]
-    double fine_size   = 1.;          // element size inside [unit]
-    double transition  = 10.;         // distance over which the size grows to the coarse size [unit]
+    double fine_size   = 1.5;         // element size inside [unit]
+    double transition  = 15.;         // distance over which the size grows to the coarse size [unit]
 
     bool contains(const Point3 &p, double tolerance = 0.) const;
   };
@@ -74,7 +74,7 @@ namespace modal_haptics::meshing
   {
     // "builtin:ribbed_panel", or a path to a .step/.stp/.brep/.geo file (meshed here)
     // or to a .msh file (used as it is, for the global scenario only: it cannot be re-graded).
-    std::string geometry;
+    std::string geometry = "builtin:ribbed_panel";
     RibbedPanelGeometry ribbed_panel; // used with "builtin:ribbed_panel"
     double coarse_size = 6.;          // element size outside every VOI [unit]
     // For STEP/BREP input, which has no names: boundary faces whose bounding box lies inside one of
@@ -99,6 +99,7 @@ namespace modal_haptics::meshing
   {
     std::string name;                      // "global" or the VOI's name
     std::string msh_file;                  // path of the written mesh (MSH 4.1 ASCII, linear tets)
+    std::string cache_key;                 // hash of every input the mesh depends on (mesh_<name>.key)
     std::map<std::string, int> physical_surfaces; // name -> physical tag (tags >= 1), as in the file
     std::map<std::string, int> physical_volumes;  // name -> physical tag
     MeshStatistics statistics;
@@ -111,9 +112,12 @@ namespace modal_haptics::meshing
     std::vector<Point3> vertices;                   // [unit]
     std::vector<std::array<unsigned int, 3>> triangles; // vertex indices, outward orientation
     std::string msh_file;                            // where it was written
+    std::string cache_key;                           // hash of its inputs (display_surface.key)
     MeshStatistics statistics;                       // n_tets = 0, n_nodes = vertices.size()
   };
 
+  // The meshing stage's output, what the precompute consumes: one mesh per scenario and the display
+  // surface, each with the file it lies in and the cache key of the inputs it was made from.
   struct SceneMeshes
   {
     std::vector<ScenarioMesh> scenarios; // scenarios[0] is "global", then one per VOI in order

@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -90,11 +91,203 @@ namespace
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
     modal_haptics::set_openblas_threads(1);
   }
+
+  // This process's place among the MPI processes.
+  struct Processes
+  {
+    unsigned int count = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
+    unsigned int rank  = dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD);
+  };
+
+  // What the command line asks for.
+  struct CommandLine
+  {
+    std::string parameter_file, output_directory, scenario, partial_directory;
+    bool        validate_only = false, verbose = true, list_scenarios = false, mesh_only = false, merge = false;
+    bool        distributed   = false;
+  };
+
+  // A usage error: one framed message and the usage on process 0; exit code 2.
+  int usage_error(const Processes &processes, const std::string &what)
+  {
+    if (processes.rank == 0)
+      {
+        print_error(what);
+        print_usage(std::cerr);
+      }
+    return 2;
+  }
+
+  // --help: the usage, every parameter with its default and unit (a .prm template), then the values
+  // each accepts (its Pattern: the range), on process 0.
+  int print_help(const Processes &processes)
+  {
+    if (processes.rank != 0)
+      return 0;
+    print_usage(std::cout);
+    std::cout << "\nEvery parameter, its default and unit:\n";
+    dealii::ParameterHandler prm;
+    modal_haptics::declare_scene_parameters(prm);
+    prm.print_parameters(std::cout, dealii::ParameterHandler::Text);
+    std::cout << "\nThe values each parameter accepts (its range):\n";
+    prm.print_parameters(std::cout, dealii::ParameterHandler::Description);
+    return 0;
+  }
+
+  // Reads the arguments into `command`, in order; returns an exit code when the program is done
+  // (--help, or an unknown argument).
+  std::optional<int> read_arguments(int argc, char **argv, const Processes &processes, CommandLine &command)
+  {
+    command.distributed = processes.count > 1;
+    for (int i = 1; i < argc; ++i)
+      {
+        const std::string arg = argv[i];
+        if (arg == "--validate")
+          command.validate_only = true;
+        else if (arg == "--quiet")
+          command.verbose = false;
+        else if (arg == "--distributed")
+          command.distributed = true;
+        else if (arg == "--list-scenarios")
+          command.list_scenarios = true;
+        else if (arg == "--mesh-only")
+          command.mesh_only = true;
+        else if (arg == "--merge")
+          command.merge = true;
+        else if (arg == "--output-dir" && i + 1 < argc)
+          command.output_directory = argv[++i];
+        else if (arg == "--scenario" && i + 1 < argc)
+          command.scenario = argv[++i];
+        else if (arg == "--partial-dir" && i + 1 < argc)
+          command.partial_directory = argv[++i];
+        else if (arg == "--help" || arg == "-h")
+          return print_help(processes);
+        else if (!arg.empty() && arg[0] != '-' && command.parameter_file.empty())
+          command.parameter_file = arg;
+        else
+          return usage_error(processes, "unknown or incomplete argument '" + arg + "'");
+      }
+    return std::nullopt;
+  }
+
+  // The checks between arguments; returns an exit code when they do not go together.
+  std::optional<int> check_arguments(const CommandLine &command, const Processes &processes)
+  {
+    if (command.parameter_file.empty())
+      {
+        if (processes.rank == 0)
+          print_usage(std::cerr);
+        return 2;
+      }
+    if (command.validate_only + command.list_scenarios + command.mesh_only + !command.scenario.empty() +
+          command.merge > 1)
+      return usage_error(processes,
+                         "--validate, --list-scenarios, --mesh-only, --scenario and --merge exclude each other");
+    if (!command.partial_directory.empty() && command.scenario.empty() && !command.merge)
+      return usage_error(processes, "--partial-dir goes with --scenario or --merge");
+    if (command.merge && processes.count > 1)
+      return usage_error(processes, "--merge computes no modal space: run it on one process, without mpirun -np " +
+                                      std::to_string(processes.count));
+    return std::nullopt;
+  }
+
+  // Reading the parameters is the same on every process: if one fails, all report it together and
+  // exit normally (process 0 prints, or the first failing process when process 0 did not fail).
+  bool read_parameters_on_every_process(const CommandLine &command, const Processes &processes,
+                                        dealii::ParameterHandler &prm, modal_haptics::SceneParameters &scene)
+  {
+    std::string parse_error;
+    try
+      {
+        scene = modal_haptics::read_scene_parameters(prm, command.parameter_file, command.output_directory);
+      }
+    catch (const std::exception &e)
+      {
+        parse_error = error_message(e);
+      }
+    const unsigned int first_failing =
+      dealii::Utilities::MPI::min(parse_error.empty() ? processes.count : processes.rank, MPI_COMM_WORLD);
+    if (first_failing < processes.count && processes.rank == first_failing)
+      print_error(parse_error);
+    return first_failing == processes.count;
+  }
+
+  // --list-scenarios and --validate answer from the parameters alone; returns their exit code.
+  std::optional<int> answer_from_parameters(const CommandLine &command, const Processes &processes,
+                                            const modal_haptics::SceneParameters &scene)
+  {
+    if (command.list_scenarios)
+      {
+        if (processes.rank == 0)
+          {
+            std::cout << "global\n";
+            for (const auto &voi : scene.volumes_of_interest)
+              std::cout << voi.name << "\n";
+          }
+        return 0;
+      }
+    if (command.validate_only)
+      {
+        if (processes.rank == 0)
+          std::cout << command.parameter_file << ": valid (scene '" << scene.scene_name << "', "
+                    << scene.volumes_of_interest.size() << " VOI scenarios + the global one)" << std::endl;
+        return 0;
+      }
+    return std::nullopt;
+  }
+
+  // Runs the mode the command line chose; returns the closing line (where the results are).
+  std::string run_mode(const CommandLine &command, const Processes &processes,
+                       const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm)
+  {
+    modal_haptics::ModalPrecompute precompute(scene, prm, command.verbose && processes.rank == 0,
+                                              command.distributed);
+    if (command.mesh_only)
+      {
+        precompute.mesh_only();
+        return "meshes in " + scene.output_directory + "/";
+      }
+    if (!command.scenario.empty())
+      {
+        precompute.run_scenario(command.scenario, command.partial_directory);
+        return "partial result in " +
+               modal_haptics::partial_result_file(command.partial_directory, command.scenario);
+      }
+    if (command.merge)
+      {
+        precompute.merge(command.partial_directory);
+        return "merged " + command.partial_directory + "/ into " + scene.output_directory + "/";
+      }
+    precompute.run();
+    return "results in " + scene.output_directory + "/";
+  }
+
+  // Errors during the run may strike one process inside collective operations: it prints its message
+  // and aborts every process (MPI_Abort), so that none waits forever.
+  int run_and_report(const CommandLine &command, const Processes &processes,
+                     const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm)
+  {
+    try
+      {
+        const std::string done = run_mode(command, processes, scene, prm);
+        if (processes.rank == 0)
+          std::cout << done << std::endl;
+      }
+    catch (const std::exception &e)
+      {
+        print_error(processes.count > 1 ? "(process " + std::to_string(processes.rank) + ") " + error_message(e) :
+                                          error_message(e));
+        if (processes.count > 1)
+          MPI_Abort(MPI_COMM_WORLD, 1);
+        end_now_if_hdf5_holds_a_file();
+        return 1;
+      }
+    return 0;
+  }
 } // namespace
 
 int main(int argc, char **argv)
 {
-  using namespace modal_haptics;
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.
@@ -102,139 +295,23 @@ int main(int argc, char **argv)
   // A file that reaches the size limit (RLIMIT_FSIZE, a quota) would kill the program with SIGXFSZ
   // and no word of why; ignored, the write fails with EFBIG and the program says which file.
   std::signal(SIGXFSZ, SIG_IGN);
-  std::string parameter_file, output_directory, scenario, partial_directory;
-  bool        validate_only = false, verbose = true, list_scenarios = false, mesh_only = false, merge = false;
-  const unsigned int n_processes = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD);
-  const unsigned int process     = dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD);
-  bool               distributed = n_processes > 1;
-  const auto         usage_error = [&](const std::string &what) {
-    if (process == 0)
-      {
-        print_error(what);
-        print_usage(std::cerr);
-      }
-    return 2;
-  };
-  for (int i = 1; i < argc; ++i)
-    {
-      const std::string arg = argv[i];
-      if (arg == "--validate")
-        validate_only = true;
-      else if (arg == "--quiet")
-        verbose = false;
-      else if (arg == "--distributed")
-        distributed = true;
-      else if (arg == "--list-scenarios")
-        list_scenarios = true;
-      else if (arg == "--mesh-only")
-        mesh_only = true;
-      else if (arg == "--merge")
-        merge = true;
-      else if (arg == "--output-dir" && i + 1 < argc)
-        output_directory = argv[++i];
-      else if (arg == "--scenario" && i + 1 < argc)
-        scenario = argv[++i];
-      else if (arg == "--partial-dir" && i + 1 < argc)
-        partial_directory = argv[++i];
-      else if ((arg == "--help" || arg == "-h") && process == 0)
-        {
-          print_usage(std::cout);
-          std::cout << "\nEvery parameter, its default, range and unit:\n";
-          dealii::ParameterHandler prm;
-          declare_scene_parameters(prm);
-          prm.print_parameters(std::cout, dealii::ParameterHandler::Text);
-          return 0;
-        }
-      else if (!arg.empty() && arg[0] != '-' && parameter_file.empty())
-        parameter_file = arg;
-      else if (arg == "--help" || arg == "-h")
-        return 0;
-      else
-        return usage_error("unknown or incomplete argument '" + arg + "'");
-    }
-  if (parameter_file.empty())
-    {
-      if (process == 0)
-        print_usage(std::cerr);
-      return 2;
-    }
-  if (validate_only + list_scenarios + mesh_only + !scenario.empty() + merge > 1)
-    return usage_error("--validate, --list-scenarios, --mesh-only, --scenario and --merge exclude each other");
-  if (!partial_directory.empty() && scenario.empty() && !merge)
-    return usage_error("--partial-dir goes with --scenario or --merge");
-  if (merge && n_processes > 1)
-    return usage_error("--merge computes no modal space: run it on one process, without mpirun -np " +
-                       std::to_string(n_processes));
-  if (distributed)
+
+  const Processes processes;
+  CommandLine     command;
+  if (const auto done = read_arguments(argc, argv, processes, command))
+    return *done;
+  if (const auto done = check_arguments(command, processes))
+    return *done;
+  if (command.distributed)
     use_one_blas_thread_unless_set();
 
-  // Reading the parameters is the same on every process: if one fails, all report it together and
-  // exit normally (process 0 prints, or the first failing process when process 0 did not fail).
-  dealii::ParameterHandler prm;
-  SceneParameters          scene;
-  std::string              parse_error;
-  try
-    {
-      scene = read_scene_parameters(prm, parameter_file, output_directory);
-    }
-  catch (const std::exception &e)
-    {
-      parse_error = error_message(e);
-    }
-  const unsigned int first_failing = dealii::Utilities::MPI::min(parse_error.empty() ? n_processes : process, MPI_COMM_WORLD);
-  if (first_failing < n_processes)
-    {
-      if (process == first_failing)
-        print_error(parse_error);
-      return 1;
-    }
-  if (list_scenarios)
-    {
-      if (process == 0)
-        {
-          std::cout << "global\n";
-          for (const auto &voi : scene.volumes_of_interest)
-            std::cout << voi.name << "\n";
-        }
-      return 0;
-    }
-  if (partial_directory.empty())
-    partial_directory = scene.output_directory + "/partial";
-  if (validate_only)
-    {
-      if (process == 0)
-        std::cout << parameter_file << ": valid (scene '" << scene.scene_name << "', "
-                  << scene.volumes_of_interest.size() << " VOI scenarios + the global one)" << std::endl;
-      return 0;
-    }
-
-  // Later errors may strike one process inside collective operations: it prints its message and
-  // aborts every process (MPI_Abort), so that none waits forever.
-  try
-    {
-      ModalPrecompute precompute(scene, prm, verbose && process == 0, distributed);
-      if (mesh_only)
-        precompute.mesh_only();
-      else if (!scenario.empty())
-        precompute.run_scenario(scenario, partial_directory);
-      else if (merge)
-        precompute.merge(partial_directory);
-      else
-        precompute.run();
-      if (process == 0)
-        std::cout << (mesh_only  ? "meshes in " + scene.output_directory + "/" :
-                      merge      ? "merged " + partial_directory + "/ into " + scene.output_directory + "/" :
-                      !scenario.empty() ? "partial result in " + partial_result_file(partial_directory, scenario) :
-                                          "results in " + scene.output_directory + "/")
-                  << std::endl;
-    }
-  catch (const std::exception &e)
-    {
-      print_error(n_processes > 1 ? "(process " + std::to_string(process) + ") " + error_message(e) : error_message(e));
-      if (n_processes > 1)
-        MPI_Abort(MPI_COMM_WORLD, 1);
-      end_now_if_hdf5_holds_a_file();
-      return 1;
-    }
-  return 0;
+  dealii::ParameterHandler        prm;
+  modal_haptics::SceneParameters scene;
+  if (!read_parameters_on_every_process(command, processes, prm, scene))
+    return 1;
+  if (const auto done = answer_from_parameters(command, processes, scene))
+    return *done;
+  if (command.partial_directory.empty())
+    command.partial_directory = scene.output_directory + "/partial";
+  return run_and_report(command, processes, scene, prm);
 }

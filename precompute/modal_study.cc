@@ -711,12 +711,30 @@ namespace modal_haptics
     std::vector<StudyRow>          rows;
   };
 
-  // scripts/study_report.py of the source tree this program was built from (the build passes its
-  // scripts/ folder): study.md and the plots.
+  // study_report.py installed beside this program (<prefix>/bin/modal-study finds
+  // <prefix>/share/modal-haptics/scripts), else in the scripts/ folder of the source tree this program
+  // was built from (the build passes both places).
+  fs::path find_report_script()
+  {
+    std::error_code code;
+    const fs::path  exe = fs::read_symlink("/proc/self/exe", code);
+    std::string     tried;
+    for (const fs::path &folder : {code ? fs::path() : exe.parent_path() / MODAL_HAPTICS_SCRIPTS_FROM_BIN,
+                                   fs::path(MODAL_HAPTICS_SCRIPTS_DIR)})
+      {
+        const fs::path script = (folder / "study_report.py").lexically_normal();
+        if (!folder.empty() && fs::is_regular_file(script, code))
+          return script;
+        tried += (tried.empty() ? "" : " nor ") + script.string();
+      }
+    AssertThrow(false, ExcMessage("Cannot find study_report.py: neither " + tried + " exists (use --no-report)."));
+    return {};
+  }
+
+  // scripts/study_report.py: study.md and the plots.
   int write_report(const std::string &output_directory)
   {
-    const fs::path script = fs::path(MODAL_HAPTICS_SCRIPTS_DIR) / "study_report.py";
-    AssertThrow(fs::is_regular_file(script), ExcMessage("Cannot find " + script.string() + " (use --no-report)."));
+    const fs::path script = find_report_script();
     const std::string        python = "/usr/bin/python3";
     std::vector<std::string> arguments{python, script.string(), output_directory};
     std::vector<char *>      argv;

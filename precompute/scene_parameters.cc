@@ -1,5 +1,7 @@
 #include "scene_parameters.h"
 
+#include "parameter_text.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>
 
@@ -13,6 +15,8 @@ namespace modal_haptics
 {
   using dealii::ExcMessage;
   using dealii::ParameterHandler;
+  using parameter_text::Notation;
+  using parameter_text::text;
   namespace Patterns = dealii::Patterns;
 
   double ModeParameters::cut_off_frequency() const
@@ -40,6 +44,7 @@ namespace modal_haptics
     return alpha / (2. * omega) + beta * omega / 2.;
   }
 
+  // ---- Reading lists back (parameter_text.h writes the defaults) -------------------------------------
   namespace
   {
     const std::string point_pattern_help = " Three comma-separated numbers x, y, z.";
@@ -57,253 +62,46 @@ namespace modal_haptics
     {
       return dealii::Utilities::string_to_double(dealii::Utilities::split_string_list(text, ','));
     }
-
-    void declare_geometry(ParameterHandler &prm)
-    {
-      prm.enter_subsection("Geometry");
-      {
-        prm.declare_entry("Source", "builtin:ribbed_panel", Patterns::Anything(),
-                          "The part: 'builtin:ribbed_panel' (the panel described in the subsection "
-                          "'Ribbed panel'), or a path to a .step/.stp/.brep/.geo/.msh file, relative to the "
-                          ".prm file's folder. Units: the geometry's own length unit (see 'Length unit').");
-        prm.declare_entry("Length unit", "0.001", Patterns::Double(1e-9, 1e9),
-                          "Metres per length unit of the geometry and of every length in this file "
-                          "(0.001: the geometry is in mm). Units: m.");
-        prm.declare_entry("Clamp groups", "clamp", Patterns::List(Patterns::Anything()),
-                          "Names of the physical surfaces that are clamped (zero displacement). The "
-                          "built-in panel names the top faces of its screw bosses 'clamp'. Empty: the part is "
-                          "free-floating: its six lowest modes are the rigid-body motions (frequency 0), which "
-                          "needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
-                          "Units: none.");
-        prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
-                          "For STEP/BREP input (which carries no names): boundary faces inside any of these "
-                          "boxes form the physical surface 'clamp'. Format 'x0,y0,z0,x1,y1,z1; ...'. "
-                          "Units: geometry units.");
-        prm.enter_subsection("Ribbed panel");
-        {
-          const meshing::RibbedPanelGeometry g;
-          prm.declare_entry("Length", std::to_string(g.length), Patterns::Double(1e-6),
-                            "Plate length along x. Units: geometry units (mm by default).");
-          prm.declare_entry("Width", std::to_string(g.width), Patterns::Double(1e-6),
-                            "Plate width along y. Units: geometry units.");
-          prm.declare_entry("Wall thickness", std::to_string(g.wall_thickness), Patterns::Double(1e-6),
-                            "Plate thickness along z. Units: geometry units.");
-          prm.declare_entry("Rib positions", "-50, 0, 50", Patterns::List(Patterns::Double(), 1),
-                            "y coordinates of the rib centre lines (ribs run along x). Units: geometry units.");
-          prm.declare_entry("Rib heights", "8, 14, 20", Patterns::List(Patterns::Double(1e-6), 1),
-                            "Height of each rib above the plate. Units: geometry units.");
-          prm.declare_entry("Rib thicknesses", "1.5, 2, 1.8", Patterns::List(Patterns::Double(1e-6), 1),
-                            "Thickness of each rib. Units: geometry units.");
-          prm.declare_entry("Rib length", std::to_string(g.rib_length), Patterns::Double(1e-6),
-                            "Length of the ribs, centred in x. Units: geometry units.");
-          prm.declare_entry("Boss inset", std::to_string(g.boss_inset), Patterns::Double(1e-6),
-                            "Distance of the screw-boss axes from the plate edges. Units: geometry units.");
-          prm.declare_entry("Boss outer radius", std::to_string(g.boss_outer_radius), Patterns::Double(1e-6),
-                            "Outer radius of the screw bosses. Units: geometry units.");
-          prm.declare_entry("Boss inner radius", std::to_string(g.boss_inner_radius), Patterns::Double(1e-6),
-                            "Radius of the screw holes. Units: geometry units.");
-          prm.declare_entry("Boss height", std::to_string(g.boss_height), Patterns::Double(1e-6),
-                            "Height of the bosses above the plate. Units: geometry units.");
-          prm.declare_entry("Clip tower centre", "60, 25, 0", Patterns::Anything(),
-                            "x, y of the clip tower's axis (z ignored)." + point_pattern_help +
-                              " Units: geometry units.");
-          prm.declare_entry("Clip tower size", std::to_string(g.clip_size), Patterns::Double(1e-6),
-                            "Outer edge of the square clip tower. Units: geometry units.");
-          prm.declare_entry("Clip tower wall", std::to_string(g.clip_wall), Patterns::Double(1e-6),
-                            "Wall thickness of the clip tower. Units: geometry units.");
-          prm.declare_entry("Clip tower height", std::to_string(g.clip_height), Patterns::Double(1e-6),
-                            "Height of the clip tower above the plate. Units: geometry units.");
-        }
-        prm.leave_subsection();
-      }
-      prm.leave_subsection();
-    }
-
-    void declare_meshing(ParameterHandler &prm)
-    {
-      prm.enter_subsection("Meshing");
-      {
-        prm.declare_entry("Coarse size", "6", Patterns::Double(1e-9),
-                          "Element size outside every VOI (the global scenario's size). Units: geometry units.");
-        prm.declare_entry("Element degree", "2", Patterns::Integer(1, 2),
-                          "Polynomial degree of the tetrahedral elements (FE_SimplexP). Linear tets lock on "
-                          "thin walls; 2 is the default. Units: none.");
-        prm.declare_entry("Minimum element quality", "0.01", Patterns::Double(0., 1.),
-                          "Meshes with a tet of lower quality (gmsh minSICN; <= 0 is inverted) are refused. "
-                          "Units: none.");
-        prm.declare_entry("Threads", "1", Patterns::Integer(1, 64), "gmsh's threads. Units: none.");
-      }
-      prm.leave_subsection();
-
-      for (unsigned int s = 1; s <= max_scenarios; ++s)
-        {
-          prm.enter_subsection("Scenario " + std::to_string(s));
-          {
-            prm.declare_entry("Name", "", Patterns::Anything(),
-                              "Name of this anticipated contact scenario (its VOI); empty: unused. Units: none.");
-            prm.declare_entry("Shape", "box", Patterns::Selection("box|ball"), "Shape of the VOI. Units: none.");
-            prm.declare_entry("Box lower corner", "0, 0, 0", Patterns::Anything(),
-                              "Lower corner of a box VOI." + point_pattern_help + " Units: geometry units.");
-            prm.declare_entry("Box upper corner", "0, 0, 0", Patterns::Anything(),
-                              "Upper corner of a box VOI." + point_pattern_help + " Units: geometry units.");
-            prm.declare_entry("Ball centre", "0, 0, 0", Patterns::Anything(),
-                              "Centre of a ball VOI." + point_pattern_help + " Units: geometry units.");
-            prm.declare_entry("Ball radius", "0", Patterns::Double(0.), "Radius of a ball VOI. Units: geometry units.");
-            prm.declare_entry("Fine size", "1.5", Patterns::Double(1e-9),
-                              "Element size inside the VOI. Units: geometry units.");
-            prm.declare_entry("Transition", "15", Patterns::Double(0.),
-                              "Distance over which the size grows from the fine to the coarse size. Units: "
-                              "geometry units.");
-          }
-          prm.leave_subsection();
-        }
-    }
-
-    void declare_physics(ParameterHandler &prm)
-    {
-      prm.enter_subsection("Material");
-      {
-        prm.declare_entry("Young's modulus", "2.3e9", Patterns::Double(),
-                          "Young's modulus E (> 0). ABS: 2.3e9. Units: Pa.");
-        prm.declare_entry("Poisson's ratio", "0.35", Patterns::Double(),
-                          "Poisson's ratio nu, in (-1, 0.5). Units: none.");
-        prm.declare_entry("Density", "1050", Patterns::Double(), "Mass density rho (> 0). Units: kg/m^3.");
-      }
-      prm.leave_subsection();
-
-      prm.enter_subsection("Modes");
-      {
-        prm.declare_entry("Maximum number of modes", "50", Patterns::Integer(),
-                          "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
-        prm.declare_entry("Minimum number of modes", "10", Patterns::Integer(0),
-                          "The cut-off never leaves fewer modes than this. Units: none.");
-        prm.declare_entry("Cut-off rule", "haptic", Patterns::Selection("none|display|haptic"),
-                          "Which modes are dropped: 'display' drops modes above half the display rate (the "
-                          "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
-                          "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
-        prm.declare_entry("Display rate", "60", Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
-        prm.declare_entry("Haptic rate", "1000", Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
-        prm.declare_entry("Shift", "0", Patterns::Double(),
-                          "Shift of the shift-invert transformation, as a frequency; must lie below the first "
-                          "frequency, and below zero for a free-floating part (no clamp groups), where a "
-                          "magnitude of about a tenth of the first elastic frequency is best: the static solves "
-                          "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
-                          "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
-        prm.declare_entry("Tolerance", "1e-10", Patterns::Double(1e-16, 1e-2),
-                          "ARPACK's relative tolerance on the Ritz values. Units: none.");
-        prm.declare_entry("Eigensolver", "block-krylov", Patterns::Selection("block-krylov|arpack"),
-                          "The Krylov method on the shift-invert operator: 'block-krylov' (blocks of 'Block size' "
-                          "right-hand sides per solve, thick restarts) or 'arpack' (ARPACK's dsaupd, one vector "
-                          "per solve). Both converge to the same modes. Units: none.");
-        prm.declare_entry("Block size", "4", Patterns::Integer(1, 64),
-                          "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
-        prm.declare_entry("Operator", "cholmod", Patterns::Selection("cholmod|umfpack"),
-                          "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
-                          "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
-      }
-      prm.leave_subsection();
-
-      prm.enter_subsection("Damping");
-      {
-        prm.declare_entry("Model", "rayleigh", Patterns::Selection("rayleigh|modal"),
-                          "'rayleigh': C = alpha M + beta K; 'modal': one damping ratio for every mode. Units: none.");
-        prm.declare_entry("Rayleigh alpha", "0", Patterns::Double(0.), "Mass-proportional coefficient. Units: 1/s.");
-        prm.declare_entry("Rayleigh beta", "2e-5", Patterns::Double(0.),
-                          "Stiffness-proportional coefficient. Units: s.");
-        prm.declare_entry("Modal damping ratio", "0.02", Patterns::Double(0.), "Damping ratio zeta. Units: none.");
-      }
-      prm.leave_subsection();
-    }
-
-    void declare_contact_and_output(ParameterHandler &prm)
-    {
-      prm.enter_subsection("Contact");
-      {
-        prm.declare_entry("Patch radius", "2", Patterns::Double(0.),
-                          "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
-                          "load). Units: geometry units.");
-        prm.declare_entry("Global candidate stride", "0", Patterns::Integer(0),
-                          "Static-correction candidates of the global space: every n-th display vertex outside "
-                          "every VOI; 0 = none. Units: none.");
-        prm.declare_entry("Maximum candidates", "400", Patterns::Integer(1),
-                          "At most this many candidates per space (thinned evenly). Units: none.");
-        prm.declare_entry("Cross compliance", "true", Patterns::Bool(),
-                          "Store the residual compliance between every pair of candidates of a space (two "
-                          "hands on one rib). Units: none.");
-        prm.declare_entry("Validation samples", "4", Patterns::Integer(0),
-                          "Candidates per space validated against full static FE, in x, y and z. Units: none.");
-        prm.declare_entry("Validation points", "", Patterns::Anything(),
-                          "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
-                          "of each becomes a static-correction candidate. Units: geometry units.");
-        prm.declare_entry("Correction field tolerance", "1e-3", Patterns::Double(0., 1.),
-                          "The display correction field of a contact is kept where it exceeds this fraction of "
-                          "its maximum (it is local); the validation reports the error this truncation leaves. "
-                          "Units: none.");
-      }
-      prm.leave_subsection();
-
-      prm.enter_subsection("Output");
-      {
-        prm.declare_entry("Mode precision", "float32", Patterns::Selection("float32|float64"),
-                          "Scalar type of the display modes in the .mrt file. Units: none.");
-        prm.declare_entry("VTU modes", "10", Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
-        prm.declare_entry("Export matrices", "false", Patterns::Bool(),
-                          "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
-                          "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");
-      }
-      prm.leave_subsection();
-    }
   } // namespace
 
-  void declare_scene_parameters(ParameterHandler &prm)
-  {
-    prm.enter_subsection("Scene");
-    {
-      prm.declare_entry("Name", "ribbed_panel", Patterns::Anything(),
-                        "Name of the scene: results go to results/<name>/ and files are named after it. "
-                        "Letters, digits, '_' and '-' only. Units: none.");
-    }
-    prm.leave_subsection();
-    declare_geometry(prm);
-    declare_meshing(prm);
-    declare_physics(prm);
-    declare_contact_and_output(prm);
-  }
-
+  // ---- The meshing stage's structs (meshing/scene_mesher.h has no deal.II) ---------------------------
   namespace
   {
-    void parse_geometry(ParameterHandler &prm, SceneParameters &scene)
+    // Subsection "Geometry/Ribbed panel": the built-in part. Its scalar defaults are printed with
+    // std::to_string ("300.000000"), as they always were in used_parameters.prm.
+    void declare_ribbed_panel(ParameterHandler &prm)
     {
-      prm.enter_subsection("Geometry");
-      std::string source = prm.get("Source");
-      if (source.rfind("builtin:", 0) != 0)
-        {
-          // Relative paths are relative to the .prm file's folder.
-          std::filesystem::path path(source);
-          if (path.is_relative())
-            path = std::filesystem::path(scene.parameter_file).parent_path() / path;
-          source = path.lexically_normal().string();
-          AssertThrow(std::filesystem::exists(source),
-                      ExcMessage("Geometry file '" + source + "' (parameter 'Geometry/Source' in " +
-                                 scene.parameter_file + ") does not exist."));
-        }
-      else
-        AssertThrow(source == "builtin:ribbed_panel",
-                    ExcMessage("Unknown built-in geometry '" + source + "' in 'Geometry/Source'; the only one is "
-                               "'builtin:ribbed_panel'."));
-      scene.meshing.geometry = source;
-      scene.length_unit      = prm.get_double("Length unit");
-      scene.clamp_groups     = dealii::Utilities::split_string_list(prm.get("Clamp groups"), ',');
-      for (const auto &box_text : dealii::Utilities::split_string_list(prm.get("Clamp boxes"), ';'))
-        {
-          const auto v = parse_doubles(box_text);
-          AssertThrow(v.size() == 6, ExcMessage("'Geometry/Clamp boxes': each box needs 6 numbers, got '" +
-                                                box_text + "'."));
-          scene.meshing.clamp_boxes.push_back({{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}});
-        }
-
+      const meshing::RibbedPanelGeometry g;
+      const auto length = [&](const char *name, const double value, const std::string &what) {
+        prm.declare_entry(name, std::to_string(value), Patterns::Double(1e-6), what + " Units: geometry units.");
+      };
       prm.enter_subsection("Ribbed panel");
-      auto &g           = scene.meshing.ribbed_panel;
+      prm.declare_entry("Length", std::to_string(g.length), Patterns::Double(1e-6),
+                        "Plate length along x. Units: geometry units (mm by default).");
+      length("Width", g.width, "Plate width along y.");
+      length("Wall thickness", g.wall_thickness, "Plate thickness along z.");
+      prm.declare_entry("Rib positions", text(g.rib_positions_y), Patterns::List(Patterns::Double(), 1),
+                        "y coordinates of the rib centre lines (ribs run along x). Units: geometry units.");
+      prm.declare_entry("Rib heights", text(g.rib_heights), Patterns::List(Patterns::Double(1e-6), 1),
+                        "Height of each rib above the plate. Units: geometry units.");
+      prm.declare_entry("Rib thicknesses", text(g.rib_thicknesses), Patterns::List(Patterns::Double(1e-6), 1),
+                        "Thickness of each rib. Units: geometry units.");
+      length("Rib length", g.rib_length, "Length of the ribs, centred in x.");
+      length("Boss inset", g.boss_inset, "Distance of the screw-boss axes from the plate edges.");
+      length("Boss outer radius", g.boss_outer_radius, "Outer radius of the screw bosses.");
+      length("Boss inner radius", g.boss_inner_radius, "Radius of the screw holes.");
+      length("Boss height", g.boss_height, "Height of the bosses above the plate.");
+      prm.declare_entry("Clip tower centre", text(g.clip_centre), Patterns::Anything(),
+                        "x, y of the clip tower's axis (z ignored)." + point_pattern_help + " Units: geometry units.");
+      length("Clip tower size", g.clip_size, "Outer edge of the square clip tower.");
+      length("Clip tower wall", g.clip_wall, "Wall thickness of the clip tower.");
+      length("Clip tower height", g.clip_height, "Height of the clip tower above the plate.");
+      prm.leave_subsection();
+    }
+
+    void parse_ribbed_panel(ParameterHandler &prm, meshing::RibbedPanelGeometry &g)
+    {
+      prm.enter_subsection("Ribbed panel");
       g.length          = prm.get_double("Length");
       g.width           = prm.get_double("Width");
       g.wall_thickness  = prm.get_double("Wall thickness");
@@ -313,21 +111,105 @@ namespace modal_haptics
       AssertThrow(g.rib_heights.size() == g.rib_positions_y.size() &&
                     g.rib_thicknesses.size() == g.rib_positions_y.size(),
                   ExcMessage("'Geometry/Ribbed panel': 'Rib positions', 'Rib heights' and 'Rib thicknesses' "
-                             "must have the same number of entries."));
+                             "must have the same number of entries (have " + std::to_string(g.rib_positions_y.size()) +
+                             ", " + std::to_string(g.rib_heights.size()) + " and " +
+                             std::to_string(g.rib_thicknesses.size()) + ")."));
       g.rib_length        = prm.get_double("Rib length");
       g.boss_inset        = prm.get_double("Boss inset");
       g.boss_outer_radius = prm.get_double("Boss outer radius");
       g.boss_inner_radius = prm.get_double("Boss inner radius");
       AssertThrow(g.boss_inner_radius < g.boss_outer_radius,
-                  ExcMessage("'Boss inner radius' must be smaller than 'Boss outer radius'."));
+                  ExcMessage("'Boss inner radius' (" + text(g.boss_inner_radius) +
+                             ") must be smaller than 'Boss outer radius' (" + text(g.boss_outer_radius) + ")."));
       g.boss_height = prm.get_double("Boss height");
       g.clip_centre = parse_point(prm.get("Clip tower centre"), "Clip tower centre");
       g.clip_size   = prm.get_double("Clip tower size");
       g.clip_wall   = prm.get_double("Clip tower wall");
       AssertThrow(2. * g.clip_wall < g.clip_size,
-                  ExcMessage("'Clip tower wall' must be less than half of 'Clip tower size'."));
+                  ExcMessage("'Clip tower wall' (" + text(g.clip_wall) + ") must be less than half of 'Clip tower "
+                             "size' (" + text(g.clip_size) + ")."));
       g.clip_height = prm.get_double("Clip tower height");
       prm.leave_subsection();
+    }
+
+    // Subsection "Geometry": the part, its length unit and its clamps.
+    void declare_geometry(ParameterHandler &prm)
+    {
+      const SceneParameters scene;
+      prm.enter_subsection("Geometry");
+      prm.declare_entry("Source", scene.meshing.geometry, Patterns::Anything(),
+                        "The part: 'builtin:ribbed_panel' (the panel described in the subsection "
+                        "'Ribbed panel'), or a path to a .step/.stp/.brep/.geo/.msh file, relative to the "
+                        ".prm file's folder. Units: the geometry's own length unit (see 'Length unit').");
+      prm.declare_entry("Length unit", text(scene.length_unit), Patterns::Double(1e-9, 1e9),
+                        "Metres per length unit of the geometry and of every length in this file "
+                        "(0.001: the geometry is in mm). Units: m.");
+      prm.declare_entry("Clamp groups", text(scene.clamp_groups), Patterns::List(Patterns::Anything()),
+                        "Names of the physical surfaces that are clamped (zero displacement). The "
+                        "built-in panel names the top faces of its screw bosses 'clamp'. Empty: the part is "
+                        "free-floating: its six lowest modes are the rigid-body motions (frequency 0), which "
+                        "needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
+                        "Units: none.");
+      prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
+                        "For STEP/BREP input (which carries no names): boundary faces inside any of these "
+                        "boxes form the physical surface 'clamp'. Format 'x0,y0,z0,x1,y1,z1; ...'. "
+                        "Units: geometry units.");
+      declare_ribbed_panel(prm);
+      prm.leave_subsection();
+    }
+
+    // A path relative to the .prm file's folder; it must exist. Or the one built-in part.
+    std::string geometry_source(const std::string &source, const std::string &parameter_file)
+    {
+      if (source.rfind("builtin:", 0) == 0)
+        {
+          AssertThrow(source == "builtin:ribbed_panel",
+                      ExcMessage("Unknown built-in geometry '" + source + "' in 'Geometry/Source'; the only one is "
+                                 "'builtin:ribbed_panel'."));
+          return source;
+        }
+      std::filesystem::path path(source);
+      if (path.is_relative())
+        path = std::filesystem::path(parameter_file).parent_path() / path;
+      const std::string resolved = path.lexically_normal().string();
+      AssertThrow(std::filesystem::exists(resolved),
+                  ExcMessage("Geometry file '" + resolved + "' (parameter 'Geometry/Source' in " + parameter_file +
+                             ") does not exist."));
+      return resolved;
+    }
+
+    void parse_geometry(ParameterHandler &prm, SceneParameters &scene)
+    {
+      prm.enter_subsection("Geometry");
+      scene.meshing.geometry = geometry_source(prm.get("Source"), scene.parameter_file);
+      scene.length_unit      = prm.get_double("Length unit");
+      scene.clamp_groups     = dealii::Utilities::split_string_list(prm.get("Clamp groups"), ',');
+      for (const auto &box_text : dealii::Utilities::split_string_list(prm.get("Clamp boxes"), ';'))
+        {
+          const auto v = parse_doubles(box_text);
+          AssertThrow(v.size() == 6, ExcMessage("'Geometry/Clamp boxes': each box needs 6 numbers, got '" +
+                                                box_text + "'."));
+          scene.meshing.clamp_boxes.push_back({{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}});
+        }
+      parse_ribbed_panel(prm, scene.meshing.ribbed_panel);
+      prm.leave_subsection();
+    }
+
+    // Subsection "Meshing": sizes, element degree and quality, beside the "Scenario N" subsections.
+    void declare_meshing(ParameterHandler &prm)
+    {
+      const SceneParameters scene;
+      prm.enter_subsection("Meshing");
+      prm.declare_entry("Coarse size", text(scene.meshing.coarse_size), Patterns::Double(1e-9),
+                        "Element size outside every VOI (the global scenario's size). Units: geometry units.");
+      prm.declare_entry("Element degree", text(scene.element_degree), Patterns::Integer(1, 2),
+                        "Polynomial degree of the tetrahedral elements (FE_SimplexP). Linear tets lock on "
+                        "thin walls; 2 is the default. Units: none.");
+      prm.declare_entry("Minimum element quality", text(scene.meshing.min_quality), Patterns::Double(0., 1.),
+                        "Meshes with a tet of lower quality (gmsh minSICN; <= 0 is inverted) are refused. "
+                        "Units: none.");
+      prm.declare_entry("Threads", std::to_string(scene.meshing.mesh_threads), Patterns::Integer(1, 64),
+                        "gmsh's threads. Units: none.");
       prm.leave_subsection();
     }
 
@@ -339,118 +221,310 @@ namespace modal_haptics
       scene.meshing.min_quality  = prm.get_double("Minimum element quality");
       scene.meshing.mesh_threads = prm.get_integer("Threads");
       prm.leave_subsection();
+    }
 
+    // Subsection "Scenario N": one VOI; an empty name leaves it unused.
+    void declare_volume_of_interest(ParameterHandler &prm)
+    {
+      const meshing::VolumeOfInterest voi;
+      prm.declare_entry("Name", voi.name, Patterns::Anything(),
+                        "Name of this anticipated contact scenario (its VOI); empty: unused. Units: none.");
+      prm.declare_entry("Shape", voi.shape == meshing::VolumeOfInterest::Shape::ball ? "ball" : "box",
+                        Patterns::Selection("box|ball"), "Shape of the VOI. Units: none.");
+      prm.declare_entry("Box lower corner", text(voi.box_lower), Patterns::Anything(),
+                        "Lower corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+      prm.declare_entry("Box upper corner", text(voi.box_upper), Patterns::Anything(),
+                        "Upper corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+      prm.declare_entry("Ball centre", text(voi.ball_centre), Patterns::Anything(),
+                        "Centre of a ball VOI." + point_pattern_help + " Units: geometry units.");
+      prm.declare_entry("Ball radius", text(voi.ball_radius), Patterns::Double(0.),
+                        "Radius of a ball VOI. Units: geometry units.");
+      prm.declare_entry("Fine size", text(voi.fine_size), Patterns::Double(1e-9),
+                        "Element size inside the VOI. Units: geometry units.");
+      prm.declare_entry("Transition", text(voi.transition), Patterns::Double(0.),
+                        "Distance over which the size grows from the fine to the coarse size. Units: "
+                        "geometry units.");
+    }
+
+    // Reads the current "Scenario N" subsection (named `section` in messages) into a VOI and checks
+    // its shape and its size against the coarse size.
+    meshing::VolumeOfInterest parse_volume_of_interest(ParameterHandler &prm, const std::string &section,
+                                                       const double coarse_size)
+    {
+      meshing::VolumeOfInterest voi;
+      voi.name        = prm.get("Name");
+      voi.shape       = prm.get("Shape") == "ball" ? meshing::VolumeOfInterest::Shape::ball :
+                                                     meshing::VolumeOfInterest::Shape::box;
+      voi.box_lower   = parse_point(prm.get("Box lower corner"), section + "/Box lower corner");
+      voi.box_upper   = parse_point(prm.get("Box upper corner"), section + "/Box upper corner");
+      voi.ball_centre = parse_point(prm.get("Ball centre"), section + "/Ball centre");
+      voi.ball_radius = prm.get_double("Ball radius");
+      voi.fine_size   = prm.get_double("Fine size");
+      voi.transition  = prm.get_double("Transition");
+      if (voi.shape == meshing::VolumeOfInterest::Shape::box)
+        {
+          for (unsigned int d = 0; d < 3; ++d)
+            AssertThrow(voi.box_lower[d] < voi.box_upper[d],
+                        ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner (" +
+                                   text(voi.box_lower) + ") must lie below its upper corner (" + text(voi.box_upper) +
+                                   ") in x, y and z."));
+        }
+      else
+        AssertThrow(voi.ball_radius > 0.,
+                    ExcMessage("'" + section + "/Ball radius' = " + text(voi.ball_radius) + " must be > 0 for VOI '" +
+                               voi.name + "'."));
+      AssertThrow(voi.fine_size <= coarse_size,
+                  ExcMessage("'" + section + "/Fine size' (" + text(voi.fine_size) +
+                             ") is larger than 'Meshing/Coarse size' (" + text(coarse_size) + ")."));
+      return voi;
+    }
+
+    void declare_scenarios(ParameterHandler &prm)
+    {
+      for (unsigned int s = 1; s <= max_scenarios; ++s)
+        {
+          prm.enter_subsection("Scenario " + std::to_string(s));
+          declare_volume_of_interest(prm);
+          prm.leave_subsection();
+        }
+    }
+
+    void parse_scenarios(ParameterHandler &prm, SceneParameters &scene)
+    {
       std::set<std::string> names;
       for (unsigned int s = 1; s <= max_scenarios; ++s)
         {
           const std::string section = "Scenario " + std::to_string(s);
           prm.enter_subsection(section);
-          meshing::VolumeOfInterest voi;
-          voi.name = prm.get("Name");
-          if (!voi.name.empty())
+          const std::string name = prm.get("Name");
+          if (!name.empty())
             {
-              AssertThrow(voi.name != "global" && names.insert(voi.name).second,
-                          ExcMessage("'" + section + "/Name' = '" + voi.name +
+              AssertThrow(name != "global" && names.insert(name).second,
+                          ExcMessage("'" + section + "/Name' = '" + name +
                                      "' is used twice or is the reserved name 'global'."));
-              voi.shape       = prm.get("Shape") == "ball" ? meshing::VolumeOfInterest::Shape::ball :
-                                                             meshing::VolumeOfInterest::Shape::box;
-              voi.box_lower   = parse_point(prm.get("Box lower corner"), section + "/Box lower corner");
-              voi.box_upper   = parse_point(prm.get("Box upper corner"), section + "/Box upper corner");
-              voi.ball_centre = parse_point(prm.get("Ball centre"), section + "/Ball centre");
-              voi.ball_radius = prm.get_double("Ball radius");
-              voi.fine_size   = prm.get_double("Fine size");
-              voi.transition  = prm.get_double("Transition");
-              if (voi.shape == meshing::VolumeOfInterest::Shape::box)
-                {
-                  for (unsigned int d = 0; d < 3; ++d)
-                    AssertThrow(voi.box_lower[d] < voi.box_upper[d],
-                                ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner must "
-                                           "lie below its upper corner in x, y and z."));
-                }
-              else
-                {
-                  AssertThrow(voi.ball_radius > 0.,
-                              ExcMessage("'" + section + "/Ball radius' must be > 0 for VOI '" + voi.name + "'."));
-                }
-              AssertThrow(voi.fine_size <= scene.meshing.coarse_size,
-                          ExcMessage("'" + section + "/Fine size' (" + std::to_string(voi.fine_size) +
-                                     ") is larger than 'Meshing/Coarse size'."));
-              scene.volumes_of_interest.push_back(voi);
+              scene.volumes_of_interest.push_back(parse_volume_of_interest(prm, section, scene.meshing.coarse_size));
             }
           prm.leave_subsection();
         }
     }
+  } // namespace
 
-    void parse_physics(ParameterHandler &prm, SceneParameters &scene)
+  // ---- The precompute's structs --------------------------------------------------------------------
+  void MaterialParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const MaterialParameters m;
+    prm.enter_subsection("Material");
+    prm.declare_entry("Young's modulus", text(m.youngs_modulus), Patterns::Double(0.),
+                      "Young's modulus E (> 0). ABS: 2.3e9. Units: Pa.");
+    prm.declare_entry("Poisson's ratio", text(m.poissons_ratio), Patterns::Double(-1., 0.5),
+                      "Poisson's ratio nu, in (-1, 0.5). Units: none.");
+    prm.declare_entry("Density", text(m.density), Patterns::Double(0.), "Mass density rho (> 0). Units: kg/m^3.");
+    prm.leave_subsection();
+  }
+
+  void MaterialParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Material");
+    youngs_modulus = prm.get_double("Young's modulus");
+    poissons_ratio = prm.get_double("Poisson's ratio");
+    density        = prm.get_double("Density");
+    prm.leave_subsection();
+    // The Patterns hold the closed ranges; the open ends are checked here.
+    AssertThrow(youngs_modulus > 0. && std::isfinite(youngs_modulus),
+                ExcMessage("'Material/Young's modulus' = " + text(youngs_modulus) + " Pa: must be > 0."));
+    AssertThrow(poissons_ratio > -1. && poissons_ratio < 0.5,
+                ExcMessage("'Material/Poisson's ratio' = " + text(poissons_ratio) +
+                           ": must lie in (-1, 0.5)."));
+    AssertThrow(density > 0. && std::isfinite(density),
+                ExcMessage("'Material/Density' = " + text(density) + " kg/m^3: must be > 0."));
+  }
+
+  namespace
+  {
+    const char *cut_off_rule_name(const CutOffRule rule)
     {
-      prm.enter_subsection("Material");
-      auto &m          = scene.material;
-      m.youngs_modulus = prm.get_double("Young's modulus");
-      m.poissons_ratio = prm.get_double("Poisson's ratio");
-      m.density        = prm.get_double("Density");
-      AssertThrow(m.youngs_modulus > 0. && std::isfinite(m.youngs_modulus),
-                  ExcMessage("'Material/Young's modulus' = " + std::to_string(m.youngs_modulus) + " Pa: must be > 0."));
-      AssertThrow(m.poissons_ratio > -1. && m.poissons_ratio < 0.5,
-                  ExcMessage("'Material/Poisson's ratio' = " + std::to_string(m.poissons_ratio) +
-                             ": must lie in (-1, 0.5)."));
-      AssertThrow(m.density > 0. && std::isfinite(m.density),
-                  ExcMessage("'Material/Density' = " + std::to_string(m.density) + " kg/m^3: must be > 0."));
-      prm.leave_subsection();
+      return rule == CutOffRule::none ? "none" : rule == CutOffRule::display ? "display" : "haptic";
+    }
+  } // namespace
 
-      prm.enter_subsection("Modes");
-      auto &modes = scene.modes;
-      const long maximum = prm.get_integer("Maximum number of modes");
-      AssertThrow(maximum >= 1, ExcMessage("'Modes/Maximum number of modes' = " + std::to_string(maximum) +
-                                           ": at least one mode is needed."));
-      modes.maximum_count = maximum;
-      modes.minimum_count = prm.get_integer("Minimum number of modes");
-      AssertThrow(modes.minimum_count <= modes.maximum_count,
-                  ExcMessage("'Modes/Minimum number of modes' exceeds 'Maximum number of modes'."));
-      const std::string rule = prm.get("Cut-off rule");
-      modes.cut_off_rule = rule == "none" ? CutOffRule::none : rule == "display" ? CutOffRule::display : CutOffRule::haptic;
-      modes.display_rate   = prm.get_double("Display rate");
-      modes.haptic_rate    = prm.get_double("Haptic rate");
-      modes.shift          = prm.get_double("Shift");
-      modes.tolerance      = prm.get_double("Tolerance");
-      modes.eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
-      modes.block_krylov   = prm.get("Eigensolver") == "block-krylov";
-      modes.block_size     = prm.get_integer("Block size");
-      AssertThrow(!scene.free_floating() || modes.shift < 0.,
+  void ModeParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const ModeParameters m;
+    prm.enter_subsection("Modes");
+    prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
+                      "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
+    prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
+                      "The cut-off never leaves fewer modes than this. Units: none.");
+    prm.declare_entry("Cut-off rule", cut_off_rule_name(m.cut_off_rule), Patterns::Selection("none|display|haptic"),
+                      "Which modes are dropped: 'display' drops modes above half the display rate (the "
+                      "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
+                      "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
+    prm.declare_entry("Display rate", text(m.display_rate), Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
+    prm.declare_entry("Haptic rate", text(m.haptic_rate), Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
+    prm.declare_entry("Shift", text(m.shift), Patterns::Double(),
+                      "Shift of the shift-invert transformation, as a frequency; must lie below the first "
+                      "frequency, and below zero for a free-floating part (no clamp groups), where a "
+                      "magnitude of about a tenth of the first elastic frequency is best: the static solves "
+                      "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
+                      "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
+    prm.declare_entry("Tolerance", text(m.tolerance), Patterns::Double(1e-16, 1e-2),
+                      "ARPACK's relative tolerance on the Ritz values. Units: none.");
+    prm.declare_entry("Eigensolver", m.block_krylov ? "block-krylov" : "arpack",
+                      Patterns::Selection("block-krylov|arpack"),
+                      "The Krylov method on the shift-invert operator: 'block-krylov' (blocks of 'Block size' "
+                      "right-hand sides per solve, thick restarts) or 'arpack' (ARPACK's dsaupd, one vector "
+                      "per solve). Both converge to the same modes. Units: none.");
+    prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
+                      "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
+    prm.declare_entry("Operator", m.eigen_operator == EigenOperator::umfpack ? "umfpack" : "cholmod",
+                      Patterns::Selection("cholmod|umfpack"),
+                      "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
+                      "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
+    prm.leave_subsection();
+  }
+
+  void ModeParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Modes");
+    maximum_count = prm.get_integer("Maximum number of modes");
+    minimum_count = prm.get_integer("Minimum number of modes");
+    const std::string rule = prm.get("Cut-off rule");
+    cut_off_rule   = rule == "none" ? CutOffRule::none : rule == "display" ? CutOffRule::display : CutOffRule::haptic;
+    display_rate   = prm.get_double("Display rate");
+    haptic_rate    = prm.get_double("Haptic rate");
+    shift          = prm.get_double("Shift");
+    tolerance      = prm.get_double("Tolerance");
+    eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
+    block_krylov   = prm.get("Eigensolver") == "block-krylov";
+    block_size     = prm.get_integer("Block size");
+    prm.leave_subsection();
+    AssertThrow(minimum_count <= maximum_count,
+                ExcMessage("'Modes/Minimum number of modes' = " + text(minimum_count) +
+                           " exceeds 'Maximum number of modes' = " + text(maximum_count) + "."));
+  }
+
+  void DampingParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const DampingParameters d;
+    prm.enter_subsection("Damping");
+    prm.declare_entry("Model", d.rayleigh ? "rayleigh" : "modal", Patterns::Selection("rayleigh|modal"),
+                      "'rayleigh': C = alpha M + beta K; 'modal': one damping ratio for every mode. Units: none.");
+    prm.declare_entry("Rayleigh alpha", text(d.alpha), Patterns::Double(0.), "Mass-proportional coefficient. Units: 1/s.");
+    prm.declare_entry("Rayleigh beta", text(d.beta), Patterns::Double(0.), "Stiffness-proportional coefficient. Units: s.");
+    prm.declare_entry("Modal damping ratio", text(d.modal_ratio), Patterns::Double(0.),
+                      "Damping ratio zeta. Units: none.");
+    prm.leave_subsection();
+  }
+
+  void DampingParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Damping");
+    rayleigh    = prm.get("Model") == "rayleigh";
+    alpha       = prm.get_double("Rayleigh alpha");
+    beta        = prm.get_double("Rayleigh beta");
+    modal_ratio = prm.get_double("Modal damping ratio");
+    prm.leave_subsection();
+  }
+
+  void ContactParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const ContactParameters c;
+    prm.enter_subsection("Contact");
+    prm.declare_entry("Patch radius", text(c.patch_radius), Patterns::Double(0.),
+                      "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
+                      "load). Units: geometry units.");
+    prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
+                      "Static-correction candidates of the global space: every n-th display vertex outside "
+                      "every VOI; 0 = none. Units: none.");
+    prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
+                      "At most this many candidates per space (thinned evenly). Units: none.");
+    prm.declare_entry("Cross compliance", text(c.cross_compliance), Patterns::Bool(),
+                      "Store the residual compliance between every pair of candidates of a space (two "
+                      "hands on one rib). Units: none.");
+    prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
+                      "Candidates per space validated against full static FE, in x, y and z. Units: none.");
+    prm.declare_entry("Validation points", "", Patterns::Anything(),
+                      "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
+                      "of each becomes a static-correction candidate. Units: geometry units.");
+    prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
+                      "The display correction field of a contact is kept where it exceeds this fraction of "
+                      "its maximum (it is local); the validation reports the error this truncation leaves. "
+                      "Units: none.");
+    prm.leave_subsection();
+  }
+
+  void ContactParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Contact");
+    patch_radius               = prm.get_double("Patch radius");
+    global_candidate_stride    = prm.get_integer("Global candidate stride");
+    maximum_candidates         = prm.get_integer("Maximum candidates");
+    cross_compliance           = prm.get_bool("Cross compliance");
+    validation_samples         = prm.get_integer("Validation samples");
+    correction_field_tolerance = prm.get_double("Correction field tolerance");
+    for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
+      validation_points.push_back(parse_point(point, "Contact/Validation points"));
+    prm.leave_subsection();
+  }
+
+  void OutputParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const OutputParameters o;
+    prm.enter_subsection("Output");
+    prm.declare_entry("Mode precision", o.float64_modes ? "float64" : "float32", Patterns::Selection("float32|float64"),
+                      "Scalar type of the display modes in the .mrt file. Units: none.");
+    prm.declare_entry("VTU modes", text(o.vtu_modes), Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
+    prm.declare_entry("Export matrices", text(o.export_matrices), Patterns::Bool(),
+                      "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
+                      "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");
+    prm.leave_subsection();
+  }
+
+  void OutputParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Output");
+    float64_modes   = prm.get("Mode precision") == "float64";
+    vtu_modes       = prm.get_integer("VTU modes");
+    export_matrices = prm.get_bool("Export matrices");
+    prm.leave_subsection();
+  }
+
+  // ---- The scene: its name, then every subsection, then the checks across them ---------------------
+  void declare_scene_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Scene");
+    prm.declare_entry("Name", SceneParameters().scene_name, Patterns::Anything(),
+                      "Name of the scene: results go to results/<name>/ and files are named after it. "
+                      "Letters, digits, '_' and '-' only. Units: none.");
+    prm.leave_subsection();
+    declare_geometry(prm);
+    declare_meshing(prm);
+    declare_scenarios(prm);
+    MaterialParameters::declare_parameters(prm);
+    ModeParameters::declare_parameters(prm);
+    DampingParameters::declare_parameters(prm);
+    ContactParameters::declare_parameters(prm);
+    OutputParameters::declare_parameters(prm);
+  }
+
+  namespace
+  {
+    // Checks that need two subsections.
+    void check_across_subsections(const SceneParameters &scene)
+    {
+      AssertThrow(!scene.free_floating() || scene.modes.shift < 0.,
                   ExcMessage("The part is free-floating ('Geometry/Clamp groups' is empty), so K is singular: set "
                              "'Modes/Shift' below zero (e.g. -0.1 times the first elastic frequency), not " +
-                             prm.get("Shift") + " Hz."));
-      AssertThrow(!scene.free_floating() || modes.maximum_count > 6,
+                             text(scene.modes.shift) + " Hz."));
+      AssertThrow(!scene.free_floating() || scene.modes.maximum_count > 6,
                   ExcMessage("The part is free-floating: its six lowest modes are rigid-body motions, so "
-                             "'Modes/Maximum number of modes' = " + std::to_string(modes.maximum_count) +
+                             "'Modes/Maximum number of modes' = " + std::to_string(scene.modes.maximum_count) +
                              " leaves no elastic mode; ask for at least 7."));
-      prm.leave_subsection();
-
-      prm.enter_subsection("Damping");
-      scene.damping.rayleigh    = prm.get("Model") == "rayleigh";
-      scene.damping.alpha       = prm.get_double("Rayleigh alpha");
-      scene.damping.beta        = prm.get_double("Rayleigh beta");
-      scene.damping.modal_ratio = prm.get_double("Modal damping ratio");
-      prm.leave_subsection();
-    }
-
-    void parse_contact_and_output(ParameterHandler &prm, SceneParameters &scene)
-    {
-      prm.enter_subsection("Contact");
-      scene.contact.patch_radius            = prm.get_double("Patch radius");
-      scene.contact.global_candidate_stride = prm.get_integer("Global candidate stride");
-      scene.contact.maximum_candidates      = prm.get_integer("Maximum candidates");
-      scene.contact.cross_compliance        = prm.get_bool("Cross compliance");
-      scene.contact.validation_samples      = prm.get_integer("Validation samples");
-      scene.contact.correction_field_tolerance = prm.get_double("Correction field tolerance");
-      for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
-        scene.contact.validation_points.push_back(parse_point(point, "Contact/Validation points"));
-      prm.leave_subsection();
-
-      prm.enter_subsection("Output");
-      scene.output.float64_modes = prm.get("Mode precision") == "float64";
-      scene.output.vtu_modes     = prm.get_integer("VTU modes");
-      scene.output.export_matrices = prm.get_bool("Export matrices");
-      prm.leave_subsection();
+      const std::string &geometry = scene.meshing.geometry;
+      AssertThrow(!(geometry.size() > 4 && geometry.substr(geometry.size() - 4) == ".msh" &&
+                    !scene.volumes_of_interest.empty()),
+                  ExcMessage("Geometry '" + geometry + "' is a .msh file, which cannot be re-graded "
+                             "around a VOI: give the geometry as STEP/.geo, or remove the 'Scenario' subsections."));
     }
 
     // Linear tets lock as nu -> 0.5 (the divergence-free constraint leaves them almost no motion):
@@ -483,14 +557,14 @@ namespace modal_haptics
 
     parse_geometry(prm, scene);
     parse_meshing(prm, scene);
-    parse_physics(prm, scene);
-    parse_contact_and_output(prm, scene);
+    parse_scenarios(prm, scene);
+    scene.material.parse_parameters(prm);
+    scene.modes.parse_parameters(prm);
+    scene.damping.parse_parameters(prm);
+    scene.contact.parse_parameters(prm);
+    scene.output.parse_parameters(prm);
+    check_across_subsections(scene);
     warn_about_locking(scene);
-    AssertThrow(!(scene.meshing.geometry.size() > 4 &&
-                  scene.meshing.geometry.substr(scene.meshing.geometry.size() - 4) == ".msh" &&
-                  !scene.volumes_of_interest.empty()),
-                ExcMessage("Geometry '" + scene.meshing.geometry + "' is a .msh file, which cannot be re-graded "
-                           "around a VOI: give the geometry as STEP/.geo, or remove the 'Scenario' subsections."));
     return scene;
   }
 

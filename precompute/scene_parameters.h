@@ -1,8 +1,12 @@
 // The scene's .prm file: every parameter the precompute reads, with its default, range and unit.
 //
-// declare_parameters() documents each entry where it is declared (units in every description);
-// parse() reads them into plain structs and cross-checks them, throwing ExcMessage with the culprit
-// named for user errors.
+// Each struct declares and parses its own subsection (ASPECT's declare_parameters/parse_parameters):
+// declare_parameters() documents each entry where it is declared (units in every description, the
+// range in its Pattern) and takes the default from the struct's member initializer, so each default
+// is written once; parse_parameters() reads the subsection back and cross-checks what a Pattern cannot
+// say, throwing ExcMessage with the parameter and its value named for user errors. The meshing
+// stage's structs (meshing/scene_mesher.h, free of deal.II) are declared and parsed in
+// scene_parameters.cc beside the scene's.
 #pragma once
 
 #include <deal.II/base/parameter_handler.h>
@@ -19,6 +23,9 @@ namespace modal_haptics
     double youngs_modulus = 2.3e9; // [Pa]
     double poissons_ratio = 0.35;  // [-]
     double density        = 1050.; // [kg/m^3]
+
+    static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Material"
+    void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
   enum class CutOffRule
@@ -49,6 +56,9 @@ namespace modal_haptics
 
     // The cut-off frequency [Hz] the rule gives, +inf for CutOffRule::none.
     double cut_off_frequency() const;
+
+    static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Modes"
+    void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
   struct DampingParameters
@@ -60,6 +70,9 @@ namespace modal_haptics
 
     // Damping ratio of a mode of angular frequency omega [rad/s].
     double ratio(double omega) const;
+
+    static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Damping"
+    void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
   struct ContactParameters
@@ -73,6 +86,9 @@ namespace modal_haptics
     // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of
     // the space whose VOI holds it and is validated in every space.
     std::vector<meshing::Point3> validation_points;
+
+    static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Contact"
+    void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
   struct OutputParameters
@@ -80,6 +96,9 @@ namespace modal_haptics
     bool         float64_modes  = false; // .mrt display modes in float64 instead of float32
     unsigned int vtu_modes      = 10;    // number of mode shapes written to VTU
     bool         export_matrices = false; // write K and M (binary CSR) for the benchmark's peers
+
+    static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Output"
+    void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
   struct SceneParameters

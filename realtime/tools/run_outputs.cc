@@ -372,16 +372,22 @@ namespace modalrt_tool
       return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     }
 
-    // scripts/plot_force_displacement.py of the source tree this tool was built from (__FILE__ is
-    // realtime/tools/run_outputs.cc there), else of a build directory inside the repository
-    // (build/bin/modal-rt). Empty if neither exists.
+    // scripts/plot_force_displacement.py: installed beside this program (<prefix>/bin/modal-rt finds
+    // <prefix>/share/modal-haptics/scripts, MODAL_HAPTICS_SCRIPTS_FROM_BIN), else of the source tree
+    // this tool was built from (__FILE__ is realtime/tools/run_outputs.cc there), else of a build
+    // directory inside the repository (build/bin/modal-rt). Empty if none exists.
     std::string find_plot_script()
     {
       namespace fs        = std::filesystem;
       const fs::path name = "scripts/plot_force_displacement.py";
       std::error_code code;
-      std::vector<fs::path> places = {fs::path(__FILE__).parent_path() / "../.." / name};
-      const fs::path        exe    = fs::read_symlink("/proc/self/exe", code);
+      std::vector<fs::path> places;
+      const fs::path        exe = fs::read_symlink("/proc/self/exe", code);
+#ifdef MODAL_HAPTICS_SCRIPTS_FROM_BIN
+      if (!code)
+        places.push_back(exe.parent_path() / MODAL_HAPTICS_SCRIPTS_FROM_BIN / name.filename());
+#endif
+      places.push_back(fs::path(__FILE__).parent_path() / "../.." / name);
       if (!code)
         places.push_back(exe.parent_path() / "../.." / name);
       for (const fs::path &place : places)

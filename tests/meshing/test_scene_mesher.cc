@@ -138,6 +138,20 @@ namespace
     for (const auto *file : {"mesh_global.msh", "mesh_global.key", "mesh_rib_mid.msh", "mesh_rib_mid.key",
                              "display_surface.msh", "display_surface.key"})
       check(fs::exists(folder / file), std::string(file) + " exists");
+    // The stage's output names the cache key of every mesh: the one its key file holds.
+    const auto key_in_file = [&](const std::string &file) {
+      std::ifstream input(folder / file);
+      std::string   word, key;
+      while (input >> word)
+        if (word == "key")
+          input >> key;
+      return key;
+    };
+    check(!meshes.scenarios[0].cache_key.empty() && meshes.scenarios[0].cache_key == key_in_file("mesh_global.key") &&
+            meshes.scenarios[1].cache_key == key_in_file("mesh_rib_mid.key") &&
+            meshes.display_surface.cache_key == key_in_file("display_surface.key") &&
+            meshes.scenarios[0].cache_key != meshes.scenarios[1].cache_key,
+          "each mesh's cache key is its key file's");
     check(meshes.scenarios[0].statistics.reused, "the global mesh of the first call is reused");
 
     for (const auto &scenario : meshes.scenarios)
