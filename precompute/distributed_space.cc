@@ -1,5 +1,7 @@
 #include "distributed_space.h"
 
+#include "space_phases.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/index_set.h>
 #include <deal.II/base/quadrature_lib.h>
@@ -70,11 +72,48 @@ namespace modal_haptics
       FactorizationStatistics               &stats;
     };
 
-    class DistributedModalSpace : public space_parts::SpaceBase
+    // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
+    // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, PARPACK.
+    class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
     {
     public:
-      DistributedModalSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                            TimerOutput &timer, bool verbose, MPI_Comm comm);
+      DistributedSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
+                       TimerOutput &timer, bool verbose, MPI_Comm comm);
+
+      // The backend of space_phases.h.
+      using Field = DistributedVector;
+      struct Block
+      {
+        std::vector<DistributedVector> columns; // loads, then (solve_static) the ghosted solutions
+      };
+      const std::vector<Field> &kept_modes() const { return modes; }
+      Field ghosted(const Field &owned) const;
+      const Field &ghosted_mode(const unsigned int i) const { return ghosted_modes[i]; }
+      Field zero_field() const { return Field(owned_dofs, comm); }
+      // Collective: every point is evaluated by one process, the one whose own cells hold it best (the
+      // serial locator's rule, space_parts::PointLocator, ties to the lowest rank); the others get an
+      // invalid cell. 'max_outside', if given, is the farthest a point lies outside the mesh.
+      std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
+                                                                  double *max_outside) const;
+      // sum_d factor_d W_v e_d as a distributed vector; each process adds its cells' part.
+      Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
+      // A free-floating part is refused before assembly (setup_system): no load needs relief.
+      void relieve_load(Field &) const {}
+      void solve_static(Field &u) const;
+      Block new_block(unsigned int) const { return {}; }
+      void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
+      void solve_static(Block &X) const;
+      const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }
+      void sum_over_processes(std::vector<double> &values) const;
+      std::array<Field, 6> rigid_body_motions(const Point<3> &centre) const;
+      void fill_modes_at_vertices();
+      void write_vtu(DataOut<3> &data_out) const { data_out.write_vtu_in_parallel(task.vtu_file, comm); }
+
+      DoFHandler<3>                    dof_handler;
+      TrilinosWrappers::SparseMatrix   stiffness_matrix, mass_matrix;
+      space_phases::SurfaceOperators   surface;
+      std::vector<Field>               validation_fields; // full - modal, ghosted
+      using SpaceBase::mapping;
 
     private:
       void assemble() override
@@ -84,36 +123,10 @@ namespace modal_haptics
         assemble_system();
       }
       void solve_eigenproblem() override;
-      void interpolate() override
-      {
-        interpolate_on_display_surface();
-        compute_participation_factors();
-      }
-      void compute_static_correction() override;
-      void validate() override;
-      void output_results() const override;
 
       void read_and_partition_mesh();
       void setup_system();
       void assemble_system();
-      void interpolate_on_display_surface();
-      void compute_participation_factors();
-      void validate_two_contacts();
-
-      // Collective: every point is evaluated by one process, the one whose own cells hold it best (the
-      // serial locator's rule, space_parts::PointLocator, ties to the lowest rank); the others get an
-      // invalid cell. 'max_outside', if given, is the farthest a point lies outside the mesh.
-      std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
-                                                                  double *max_outside = nullptr) const;
-      // sum_d factor_d W_v e_d as a distributed vector; each process adds its cells' part.
-      DistributedVector patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
-      DistributedVector ghosted(const DistributedVector &owned) const;
-      DistributedVector solve(const DistributedVector &rhs) const;
-      // This process's part of W_v^T u (u ghosted); the sum over processes is the patch average.
-      std::array<double, 3> local_patch_average(unsigned int vertex, const DistributedVector &u) const;
-      // Appends this process's part of u at the display vertices (3 nv, component-fastest) to 'out'.
-      void append_local_display_values(const DistributedVector &u, std::vector<double> &out) const;
-      void sum_over_processes(std::vector<double> &values) const;
 
       const MPI_Comm comm;
 
@@ -122,23 +135,19 @@ namespace modal_haptics
       parallel::fullydistributed::Triangulation<3> triangulation;
       std::vector<unsigned int>                    whole_mesh_vertex;  // by local vertex index, of own and ghost cells
       std::vector<std::array<types::global_dof_index, 3>> owned_vertex_dofs; // of result.owned_rows->vertices
-      DoFHandler<3>                                dof_handler;
       IndexSet                                     owned_dofs, relevant_dofs;
       AffineConstraints<double>                    constraints;
-      TrilinosWrappers::SparseMatrix               stiffness_matrix, mass_matrix, shifted_matrix;
+      TrilinosWrappers::SparseMatrix               shifted_matrix;
       std::unique_ptr<MumpsInverse>                inverse;
       std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
       std::unique_ptr<space_parts::PointLocator>   locator; // in the owned cells
-      std::vector<std::pair<unsigned int, space_parts::DofWeights>> display_rows; // (3v + c, weights), owned cells
-      std::map<unsigned int, space_parts::PatchLoad> patch_loads;               // this process's part
       std::vector<DistributedVector>               modes, ghosted_modes;        // kept, M-orthonormal
-      std::vector<DistributedVector>               validation_fields;           // full - modal, ghosted
     };
 
-    DistributedModalSpace::DistributedModalSpace(const SceneParameters &scene, const DisplaySurface &display,
+    DistributedSpace::DistributedSpace(const SceneParameters &scene, const DisplaySurface &display,
                                                  const SpaceTask &task, TimerOutput &timer, const bool verbose,
                                                  const MPI_Comm comm)
-      : SpaceBase(scene, display, task, timer, verbose)
+      : PhasedSpace(scene, display, task, timer, verbose)
       , comm(comm)
       , triangulation(comm)
     {}
@@ -148,7 +157,7 @@ namespace modal_haptics
     // cell keeps its whole-mesh index as its id: what this process needs of the whole mesh (the
     // whole-mesh numbers of its vertices, its tets for the HDF5 file) is taken from it here, and the
     // whole mesh is freed.
-    void DistributedModalSpace::read_and_partition_mesh()
+    void DistributedSpace::read_and_partition_mesh()
     {
       {
         Triangulation<3> whole_mesh;
@@ -180,7 +189,7 @@ namespace modal_haptics
       locator = std::make_unique<space_parts::PointLocator>(triangulation, mapping);
     }
 
-    void DistributedModalSpace::setup_system()
+    void DistributedSpace::setup_system()
     {
       dof_handler.reinit(triangulation);
       dof_handler.distribute_dofs(fe);
@@ -209,9 +218,14 @@ namespace modal_haptics
           owned_vertex_dofs.push_back(vertex.second);
         }
 
+      // The phases (space_phases.h) would handle a free part as the serial path does, by inertia
+      // relief (relieve_load) and static_gain; what this backend lacks is the eigensolve's side: the
+      // identification of the six rigid-body modes against the exact rigid span, and static solves
+      // refined against K itself where MUMPS factorizes K - shift M (the serial solve_static).
       AssertThrow(!scene.free_floating(),
-                  ExcMessage("A free-floating part (no 'Geometry/Clamp groups') runs on the serial path only: "
-                             "run modal-precompute without mpirun or --distributed."));
+                  ExcMessage("A free-floating part (no 'Geometry/Clamp groups') runs on the serial path only: the "
+                             "distributed path neither identifies the rigid-body modes nor refines its static solves "
+                             "against K. Run modal-precompute without mpirun or --distributed."));
       constraints.clear();
       constraints.reinit(relevant_dofs);
       space_parts::add_clamp_constraints(scene, task, mapping, dof_handler, constraints, comm);
@@ -237,7 +251,7 @@ namespace modal_haptics
           std::to_string(Utilities::MPI::n_mpi_processes(comm)) + " processes");
     }
 
-    void DistributedModalSpace::assemble_system()
+    void DistributedSpace::assemble_system()
     {
       const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells, constraints,
                                                               stiffness_matrix, mass_matrix);
@@ -257,7 +271,7 @@ namespace modal_haptics
     // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
     // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
     // runs on different process counts build nearly the same Krylov space.
-    void DistributedModalSpace::solve_eigenproblem()
+    void DistributedSpace::solve_eigenproblem()
     {
       const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       log(std::string("Modes/Eigensolver (") + (scene.modes.block_krylov ? "block-krylov" : "arpack") +
@@ -339,7 +353,7 @@ namespace modal_haptics
     }
 
     std::vector<space_parts::EvaluationPoint>
-    DistributedModalSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
+    DistributedSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
     {
       struct Claim // MPI_DOUBLE_INT
       {
@@ -398,98 +412,73 @@ namespace modal_haptics
       return evaluated;
     }
 
-    DistributedVector DistributedModalSpace::ghosted(const DistributedVector &owned) const
+    DistributedVector DistributedSpace::ghosted(const DistributedVector &owned) const
     {
       DistributedVector u(owned_dofs, relevant_dofs, comm);
       u = owned;
       return u;
     }
 
-    DistributedVector DistributedModalSpace::solve(const DistributedVector &rhs) const
+    void DistributedSpace::solve_static(DistributedVector &u) const
     {
       DistributedVector x(owned_dofs, comm);
-      inverse->vmult(x, rhs);
-      return x;
+      inverse->vmult(x, u);
+      u.swap(x);
     }
 
-    DistributedVector DistributedModalSpace::patch_load(const unsigned int vertex, const std::array<double, 3> &factor) const
+    void DistributedSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const
+    {
+      X.columns.resize(std::max<std::size_t>(X.columns.size(), first_column + 3));
+      for (unsigned int c = 0; c < 3; ++c)
+        {
+          std::array<double, 3> unit{};
+          unit[c]                      = 1.;
+          X.columns[first_column + c] = patch_load(vertex, unit);
+        }
+    }
+
+    void DistributedSpace::solve_static(Block &X) const
+    {
+      for (auto &column : X.columns)
+        {
+          solve_static(column);
+          DistributedVector ghosted_column = ghosted(column);
+          column.swap(ghosted_column);
+        }
+    }
+
+    DistributedVector DistributedSpace::patch_load(const unsigned int vertex, const std::array<double, 3> &factor) const
     {
       // Writable ghost entries: a patch's cells may hold DoFs another process owns.
       DistributedVector load;
       load.reinit(owned_dofs, relevant_dofs, comm, /*vector_writable*/ true);
-      for (unsigned int d = 0; d < 3; ++d)
-        if (factor[d] != 0.)
-          for (const auto &[dof, w] : patch_loads.at(vertex)[d])
-            load[dof] += factor[d] * w;
+      surface.add_patch_load(vertex, factor, load);
       load.compress(VectorOperation::add);
       return load;
     }
 
-    std::array<double, 3> DistributedModalSpace::local_patch_average(const unsigned int vertex,
-                                                                     const DistributedVector &u) const
-    {
-      std::array<double, 3> average{};
-      for (unsigned int c = 0; c < 3; ++c)
-        for (const auto &[dof, w] : patch_loads.at(vertex)[c])
-          average[c] += w * u[dof];
-      return average;
-    }
-
-    void DistributedModalSpace::append_local_display_values(const DistributedVector &u, std::vector<double> &out) const
-    {
-      const std::size_t first = out.size();
-      out.resize(first + 3 * std::size_t(display.n_vertices()), 0.);
-      for (const auto &[row, weights] : display_rows)
-        for (const auto &[dof, w] : weights)
-          out[first + row] += w * u[dof];
-    }
-
-    void DistributedModalSpace::sum_over_processes(std::vector<double> &values) const
+    void DistributedSpace::sum_over_processes(std::vector<double> &values) const
     {
       const std::vector<double> local = values;
       Utilities::MPI::sum(local, comm, values);
     }
 
+
     // The process that evaluates a display vertex (evaluation_points) interpolates the modes there,
-    // the others add zero.
-    void DistributedModalSpace::interpolate_on_display_surface()
+    // the others add zero: modes at this process's rows of the mesh vertices, for the parallel HDF5 file.
+    void DistributedSpace::fill_modes_at_vertices()
     {
-      double     max_outside = 0.;
-      const auto evaluated   = evaluation_points(display.vertices, &max_outside);
-      for (unsigned int v = 0; v < display.n_vertices(); ++v)
-        if (evaluated[v].cell.state() == IteratorState::valid)
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
-              space_parts::add_shape_values(evaluated[v].cell, evaluated[v].unit, c, 1., display_rows.back().second);
-            }
-
-      const unsigned int  r  = modes.size();
-      const unsigned int  nv = display.n_vertices();
-      std::vector<double> by_mode; // r blocks of 3 nv
-      for (const auto &mode : ghosted_modes)
-        append_local_display_values(mode, by_mode);
-      sum_over_processes(by_mode);
-      result.display_modes.resize(std::size_t(3) * nv * r);
-      for (unsigned int row = 0; row < 3 * nv; ++row)
-        for (unsigned int i = 0; i < r; ++i)
-          result.display_modes[std::size_t(row) * r + i] = by_mode[std::size_t(i) * 3 * nv + row];
-
-      // Modes at this process's rows of the mesh vertices, for the parallel HDF5 file.
-      const std::size_t n_rows = owned_vertex_dofs.size();
+      const unsigned int r      = modes.size();
+      const std::size_t  n_rows = owned_vertex_dofs.size();
       result.modes_at_vertices.resize(std::size_t(r) * n_rows * 3);
       for (unsigned int i = 0; i < r; ++i)
         for (std::size_t k = 0; k < n_rows; ++k)
           for (unsigned int c = 0; c < 3; ++c)
             result.modes_at_vertices[(std::size_t(i) * n_rows + k) * 3 + c] = modes[i][owned_vertex_dofs[k][c]];
-      std::ostringstream line;
-      line << "display surface: " << nv << " vertices located, farthest outside the mesh by " << max_outside
-           << " (barycentric)";
-      log(line.str());
     }
 
-    // Gamma = Phi^T M R with R the rigid translations and rotations about the centre of mass.
-    void DistributedModalSpace::compute_participation_factors()
+    // The rigid-body motions about 'centre' at this process's DoFs.
+    std::array<DistributedVector, 6> DistributedSpace::rigid_body_motions(const Point<3> &centre) const
     {
       std::map<types::global_dof_index, Point<3>> support;
       DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
@@ -501,183 +490,17 @@ namespace modal_haptics
           for (unsigned int i = 0; i < dofs.size(); ++i)
             component[dofs[i]] = fe.system_to_component_index(i).first;
         }
-      const Point<3> c(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
-      const unsigned int r = modes.size();
-      result.participation.assign(std::size_t(r) * 6, 0.);
-      DistributedVector rigid(owned_dofs, comm), M_rigid(owned_dofs, comm);
+      std::array<DistributedVector, 6> motions;
       for (unsigned int k = 0; k < 6; ++k)
         {
+          motions[k].reinit(owned_dofs, comm);
           for (const auto i : owned_dofs)
-            {
-              const Tensor<1, 3> x = support.at(i) - c;
-              Tensor<1, 3>       u;
-              if (k < 3)
-                u[k] = 1.;
-              else
-                {
-                  Tensor<1, 3> axis;
-                  axis[k - 3] = 1.;
-                  u           = cross_product_3d(axis, x);
-                }
-              rigid[i] = u[component.at(i)];
-            }
-          rigid.compress(VectorOperation::insert);
-          mass_matrix.vmult(M_rigid, rigid);
-          for (unsigned int i = 0; i < r; ++i)
-            result.participation[std::size_t(i) * 6 + k] = modes[i] * M_rigid;
+            motions[k][i] = space_parts::rigid_body_motion(k, support.at(i) - centre)[component.at(i)];
+          motions[k].compress(VectorOperation::insert);
         }
+      return motions;
     }
 
-    // C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T with one MUMPS solve per load and direction; the
-    // patch averages every solve needs are summed over the processes once per load.
-    void DistributedModalSpace::compute_static_correction()
-    {
-      const unsigned int r     = modes.size();
-      const auto         loads = space_parts::plan_static_correction(scene, task, result);
-      const unsigned int nc    = result.candidates.size();
-      Timer              wall;
-      for (const unsigned int v : loads)
-        patch_loads[v] = space_parts::make_patch_load(display, v, [&](const std::vector<meshing::Point3> &points) {
-          return evaluation_points(points);
-        });
-
-      for (unsigned int a = 0; a < nc; ++a)
-        for (unsigned int i = 0; i < r; ++i)
-          {
-            const auto b = local_patch_average(result.candidates[a], ghosted_modes[i]);
-            for (unsigned int c = 0; c < 3; ++c)
-              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = b[c];
-          }
-      sum_over_processes(result.candidate_modes);
-
-      // Targets of one load's averages: the load itself, then every candidate (cross compliance).
-      const bool  store_cross = !result.cross_compliance.empty();
-      const auto  n_targets   = 1 + (store_cross ? nc : 0);
-      std::vector<double> averages(3 * n_targets * 3);
-      for (unsigned int load = 0; load < loads.size(); ++load)
-        {
-          std::fill(averages.begin(), averages.end(), 0.);
-          for (unsigned int d = 0; d < 3; ++d)
-            {
-              std::array<double, 3> unit{};
-              unit[d]                     = 1.;
-              const DistributedVector x   = ghosted(solve(patch_load(loads[load], unit)));
-              for (unsigned int t = 0; t < n_targets; ++t)
-                {
-                  const auto u = local_patch_average(t == 0 ? loads[load] : result.candidates[t - 1], x);
-                  std::copy(u.begin(), u.end(), &averages[(d * n_targets + t) * 3]);
-                }
-            }
-          sum_over_processes(averages);
-          space_parts::record_static_response(
-            result, task, load, loads[load], [&](const unsigned int vertex, const unsigned int d) {
-              const std::size_t t =
-                vertex == loads[load] ?
-                  0 :
-                  1 + (std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex) - result.candidates.begin());
-              std::array<double, 3> u;
-              std::copy(&averages[(d * n_targets + t) * 3], &averages[(d * n_targets + t) * 3] + 3, u.begin());
-              return u;
-            });
-        }
-      result.correction_seconds_per_candidate = loads.empty() ? 0. : wall.wall_time() / loads.size();
-      log(space_parts::static_correction_summary(result, loads.size()));
-    }
-
-    void DistributedModalSpace::validate()
-    {
-      const unsigned int r  = modes.size();
-      const std::size_t  nv = display.n_vertices();
-      DistributedVector  residual(owned_dofs, comm);
-      for (const unsigned int vertex : task.validation_vertices)
-        for (unsigned int direction = 0; direction < 3; ++direction)
-          {
-            ValidationCase vc;
-            vc.vertex    = vertex;
-            vc.direction = direction;
-            std::array<double, 3> unit{};
-            unit[direction]           = 1.;
-            const DistributedVector f = patch_load(vertex, unit);
-            const DistributedVector u = solve(f);
-            stiffness_matrix.vmult(residual, u);
-            residual -= f;
-            vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
-
-            DistributedVector   u_modal(owned_dofs, comm);
-            std::vector<double> modal_coefficients(r);
-            for (unsigned int i = 0; i < r; ++i)
-              {
-                modal_coefficients[i] = (modes[i] * f) / result.eigenvalues[i];
-                u_modal.add(modal_coefficients[i], modes[i]);
-              }
-            DistributedVector difference = u;
-            difference -= u_modal;
-            vc.energy_rel_error_modal =
-              std::sqrt(stiffness_matrix.matrix_norm_square(difference) / stiffness_matrix.matrix_norm_square(u));
-
-            // One sum over the processes: both patch averages, then both display fields.
-            const DistributedVector u_ghosted = ghosted(u), u_modal_ghosted = ghosted(u_modal);
-            std::vector<double>     values(6);
-            const auto              full = local_patch_average(vertex, u_ghosted), modal = local_patch_average(vertex, u_modal_ghosted);
-            std::copy(full.begin(), full.end(), values.begin());
-            std::copy(modal.begin(), modal.end(), values.begin() + 3);
-            append_local_display_values(u_ghosted, values);
-            append_local_display_values(u_modal_ghosted, values);
-            sum_over_processes(values);
-            std::array<double, 3> uc_full, uc_modal;
-            std::copy(values.begin(), values.begin() + 3, uc_full.begin());
-            std::copy(values.begin() + 3, values.begin() + 6, uc_modal.begin());
-            space_parts::set_validation_errors(vc, result, display, scene.contact.correction_field_tolerance, uc_full,
-                                               uc_modal, std::vector<double>(values.begin() + 6, values.begin() + 6 + 3 * nv),
-                                               std::vector<double>(values.begin() + 6 + 3 * nv, values.end()), modal_coefficients);
-            validation_fields.push_back(ghosted(difference));
-            result.validation.push_back(vc);
-          }
-      validate_two_contacts();
-      log(space_parts::validation_summary(result));
-    }
-
-    void DistributedModalSpace::validate_two_contacts()
-    {
-      if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
-        return;
-      const std::array<unsigned int, 2> vertices = {task.validation_vertices.front(), task.validation_vertices.back()};
-      DistributedVector                 f(owned_dofs, comm);
-      for (unsigned int h = 0; h < 2; ++h)
-        f += patch_load(vertices[h], space_parts::two_contact_forces[h]);
-      const DistributedVector u = ghosted(solve(f));
-      std::vector<double>     values;
-      for (const unsigned int v : vertices)
-        {
-          const auto average = local_patch_average(v, u);
-          values.insert(values.end(), average.begin(), average.end());
-        }
-      sum_over_processes(values);
-      result.two_contact_rel_error_corrected =
-        space_parts::two_contact_error(result, vertices, {{{{values[0], values[1], values[2]}}, {{values[3], values[4], values[5]}}}});
-    }
-
-    // One .vtu written by all processes together (MPI I/O), the same file name as the serial run.
-    void DistributedModalSpace::output_results() const
-    {
-      if (task.vtu_file.empty())
-        return;
-      DataOut<3> data_out;
-      data_out.attach_dof_handler(dof_handler);
-      const std::vector<DataComponentInterpretation::DataComponentInterpretation> vector_field(
-        3, DataComponentInterpretation::component_is_part_of_vector);
-      const unsigned int n_vtu = std::min<unsigned int>(scene.output.vtu_modes, ghosted_modes.size());
-      for (unsigned int i = 0; i < n_vtu; ++i)
-        data_out.add_data_vector(ghosted_modes[i],
-                                 std::vector<std::string>(3, space_parts::mode_field_name(i, result.frequencies_hz[i])),
-                                 DataOut<3>::type_dof_data, vector_field);
-      for (unsigned int k = 0; k < validation_fields.size(); ++k)
-        data_out.add_data_vector(validation_fields[k],
-                                 std::vector<std::string>(3, space_parts::validation_field_name(result.validation[k])),
-                                 DataOut<3>::type_dof_data, vector_field);
-      data_out.build_patches(mapping, scene.element_degree);
-      data_out.write_vtu_in_parallel(task.vtu_file, comm);
-    }
   } // namespace
 
   ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
@@ -687,7 +510,7 @@ namespace modal_haptics
                                                    const bool             verbose,
                                                    const MPI_Comm         comm)
   {
-    DistributedModalSpace space(scene, display, task, timer, verbose, comm);
+    DistributedSpace space(scene, display, task, timer, verbose, comm);
     return space.run();
   }
 } // namespace modal_haptics

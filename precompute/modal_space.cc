@@ -1,6 +1,7 @@
 #include "modal_space.h"
 
 #include "atomic_file.h"
+#include "space_phases.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/quadrature_lib.h>
@@ -46,33 +47,49 @@ namespace modal_haptics
   {
     constexpr double two_pi = 2. * M_PI;
 
-    // The interpolation of a space's FE field at the display vertices: row 3v + c gives component c
-    // of the field at vertex v as a combination of DoF values. Its transpose maps point forces at the
-    // display vertices to consistent nodal loads.
-    struct DisplayInterpolation
-    {
-      std::vector<unsigned int>            row_start; // 3 nv + 1
-      std::vector<types::global_dof_index> dofs;
-      std::vector<double>                  weights;
-
-      double row_dot(const unsigned int row, const double *field) const
-      {
-        double sum = 0.;
-        for (unsigned int k = row_start[row]; k < row_start[row + 1]; ++k)
-          sum += weights[k] * field[dofs[k]];
-        return sum;
-      }
-      void add_row_transpose(const unsigned int row, const double factor, double *load) const
-      {
-        for (unsigned int k = row_start[row]; k < row_start[row + 1]; ++k)
-          load[dofs[k]] += factor * weights[k];
-      }
-    };
-
-    class ModalSpace : public space_parts::SpaceBase
+    // The serial backend of the space phases (space_phases.h): deal.II sparse matrices, a CHOLMOD or
+    // UMFPACK factorization of K - shift M, every DoF on this process.
+    class SerialSpace : public space_phases::PhasedSpace<SerialSpace>
     {
     public:
-      using SpaceBase::SpaceBase;
+      using PhasedSpace::PhasedSpace;
+
+      // The backend of space_phases.h.
+      using Field = Vector<double>;
+      struct Block // columns of n DoFs, one after the other, solved together
+      {
+        std::vector<double> values;
+        std::size_t         n;
+      };
+      const std::vector<Field> &kept_modes() const { return eigen.eigenvectors; }
+      const Field &ghosted(const Field &u) const { return u; }
+      const Field &ghosted_mode(const unsigned int i) const { return eigen.eigenvectors[i]; }
+      Field zero_field() const { return Field(dof_handler.n_dofs()); }
+      std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
+                                                                  double *max_outside) const;
+      Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
+      void relieve_load(Field &load) const { relieve_load(load.begin()); }
+      void solve_static(Field &u) { solve_static(u.data(), 1); }
+      Block new_block(const unsigned int n_columns) const
+      {
+        return {std::vector<double>(n_columns * std::size_t(dof_handler.n_dofs()), 0.), dof_handler.n_dofs()};
+      }
+      void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
+      void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
+      const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
+      void sum_over_processes(std::vector<double> &) const {}
+      std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
+      void fill_modes_at_vertices();
+      void write_vtu(DataOut<3> &data_out) const
+      {
+        write_file_atomically(task.vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
+      }
+
+      DoFHandler<3>                    dof_handler;
+      SparseMatrix<double>             stiffness_matrix, mass_matrix;
+      space_phases::SurfaceOperators   surface;
+      std::vector<Field>               validation_fields; // full - modal error fields for VTU
+      using SpaceBase::mapping;
 
     private:
       void assemble() override
@@ -87,14 +104,6 @@ namespace modal_haptics
           export_matrices();
       }
       void solve_eigenproblem() override;
-      void interpolate() override
-      {
-        interpolate_on_display_surface();
-        compute_participation_factors();
-      }
-      void compute_static_correction() override;
-      void validate() override;
-      void output_results() const override;
       void finish() override { result.factorization = factorization->statistics(); }
 
       void read_mesh();
@@ -102,46 +111,27 @@ namespace modal_haptics
       void assemble_system();
       void select_modes();
       void identify_rigid_body_modes();
-      std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
       void relieve_load(double *load) const;
       void remove_rigid_motion(double *field) const;
       void solve_static(double *columns, unsigned int n_rhs);
-      void interpolate_on_display_surface();
-      void compute_participation_factors();
-      void validate_two_contacts();
       void export_matrices() const;
 
       const space_parts::PointLocator &locator() const;
-      // The located point's cell with this space's DoFs (serial: every cell is ours).
-      bool dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const;
-      void build_patch_load(unsigned int vertex);
-
-      // Patch load W_v e_c for c = 0, 1, 2 as three DoF vectors, stored one after the other.
-      void add_patch_load(unsigned int vertex, double *three_columns) const;
-      // u_c = W_v^T u for a DoF field u.
-      std::array<double, 3> patch_average(unsigned int vertex, const double *field) const;
 
       Triangulation<3>          triangulation;
-      DoFHandler<3>             dof_handler;
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
-      SparseMatrix<double>      stiffness_matrix, mass_matrix;
       std::unique_ptr<Factorization> factorization; // of K - shift M
       double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
       // A free-floating part: the rigid-body motions, M-orthonormal, and M times each.
       std::vector<Vector<double>> rigid_modes, mass_times_rigid;
-      DisplayInterpolation      interpolation;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
-      // W_v of the loaded vertices (candidates, shared vertices).
-      std::map<unsigned int, space_parts::PatchLoad> patch_loads;
-      std::vector<Vector<double>> validation_fields; // full - modal error fields for VTU
-      std::vector<std::string>    validation_field_names;
     };
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
     // user error (a hand-made or foreign .msh): refuse them before they turn into negative Jacobians.
-    void ModalSpace::read_mesh()
+    void SerialSpace::read_mesh()
     {
       space_parts::read_mesh(scene, task, triangulation, result);
     }
@@ -149,7 +139,7 @@ namespace modal_haptics
     // Homogeneous Dirichlet conditions on the named clamp groups. A group that is missing from the
     // mesh, or present but with no face, is a user error: silently clamping nothing would give a
     // free-floating part.
-    void ModalSpace::setup_system()
+    void SerialSpace::setup_system()
     {
       dof_handler.reinit(triangulation);
       dof_handler.distribute_dofs(fe);
@@ -175,7 +165,7 @@ namespace modal_haptics
 
     // K from isotropic linear elasticity, M consistent; and the rigid-body mass properties from the
     // same quadrature.
-    void ModalSpace::assemble_system()
+    void SerialSpace::assemble_system()
     {
       const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
                                                               dof_handler.active_cell_iterators(), constraints,
@@ -190,7 +180,7 @@ namespace modal_haptics
       assembler.set_mass_properties(result);
     }
 
-    void ModalSpace::solve_eigenproblem()
+    void SerialSpace::solve_eigenproblem()
     {
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       log("factorizing K (" + std::string(scene.modes.eigen_operator == EigenOperator::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
@@ -246,7 +236,7 @@ namespace modal_haptics
       select_modes();
     }
 
-    void ModalSpace::select_modes()
+    void SerialSpace::select_modes()
     {
       std::vector<Vector<double>> kept;
       for (const unsigned int i : space_parts::select_modes(scene, eigen.eigenvalues, result))
@@ -260,7 +250,7 @@ namespace modal_haptics
     // mean a mesh in pieces or a mechanism). They are then replaced by the exact motions (lambda = 0,
     // M-orthonormal) and the elastic modes are made exactly M-orthogonal to them, so that no rigid
     // drift hides in an elastic mode and the kernel's omega = 0 modes are pure rigid motion.
-    void ModalSpace::identify_rigid_body_modes()
+    void SerialSpace::identify_rigid_body_modes()
     {
       if (!scene.free_floating())
         return;
@@ -330,13 +320,13 @@ namespace modal_haptics
 
     // Inertia relief: the load's resultant force and moment accelerate the free part (load M R R^T f),
     // what remains, f - M R R^T f, is in equilibrium and deforms it.
-    void ModalSpace::relieve_load(double *load) const
+    void SerialSpace::relieve_load(double *load) const
     {
       subtract_components(load, dof_handler.n_dofs(), rigid_modes, mass_times_rigid);
     }
 
     // The field's component M-orthogonal to the rigid-body motions found so far.
-    void ModalSpace::remove_rigid_motion(double *field) const
+    void SerialSpace::remove_rigid_motion(double *field) const
     {
       subtract_components(field, dof_handler.n_dofs(), mass_times_rigid, rigid_modes);
     }
@@ -345,7 +335,7 @@ namespace modal_haptics
     // that is one solve. With one, the solve is refined, u += A^-1 (f - K u), which shrinks each
     // elastic mode's error by |shift| / |lambda - shift| per step. A free part's loads are relieved
     // first and its solutions kept M-orthogonal to the rigid-body motions: the inertia-relief answer.
-    void ModalSpace::solve_static(double *columns, const unsigned int n_rhs)
+    void SerialSpace::solve_static(double *columns, const unsigned int n_rhs)
     {
       const std::size_t n = dof_handler.n_dofs();
       for (unsigned int b = 0; b < n_rhs; ++b)
@@ -399,68 +389,49 @@ namespace modal_haptics
         }
     }
 
-    const space_parts::PointLocator &ModalSpace::locator() const
+    const space_parts::PointLocator &SerialSpace::locator() const
     {
       if (!point_locator)
         point_locator = std::make_unique<space_parts::PointLocator>(triangulation, mapping);
       return *point_locator;
     }
 
-    bool ModalSpace::dof_cell(const space_parts::LocatedPoint &point, DoFHandler<3>::active_cell_iterator &cell) const
+    // Every cell is this process's: each point is located in the whole mesh.
+    std::vector<space_parts::EvaluationPoint>
+    SerialSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
     {
-      cell = DoFHandler<3>::active_cell_iterator(&triangulation, point.cell->level(), point.cell->index(), &dof_handler);
-      return true;
-    }
-
-    void ModalSpace::build_patch_load(const unsigned int vertex)
-    {
-      if (!patch_loads.count(vertex))
-        patch_loads[vertex] = space_parts::make_patch_load(display, vertex, [&](const std::vector<meshing::Point3> &points) {
-          std::vector<space_parts::EvaluationPoint> evaluated;
-          for (const auto &x : points)
-            {
-              const auto located = locator().locate(x);
-              evaluated.emplace_back();
-              dof_cell(located, evaluated.back().cell);
-              evaluated.back().unit = located.unit;
-            }
-          return evaluated;
-        });
-    }
-
-    // Each display vertex is located in the space's mesh and the FE basis is evaluated there.
-    void ModalSpace::interpolate_on_display_surface()
-    {
-      interpolation.row_start.assign(1, 0);
-      double max_outside = 0.;
-      space_parts::DofWeights row;
-      for (unsigned int v = 0; v < display.n_vertices(); ++v)
+      std::vector<space_parts::EvaluationPoint> evaluated;
+      for (const auto &x : points)
         {
-          const auto located = locator().locate(display.vertices[v]);
-          max_outside        = std::max(max_outside, located.distance_outside);
-          DoFHandler<3>::active_cell_iterator cell;
-          dof_cell(located, cell);
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              row.clear();
-              space_parts::add_shape_values(cell, located.unit, c, 1., row);
-              for (const auto &[dof, w] : row)
-                {
-                  interpolation.dofs.push_back(dof);
-                  interpolation.weights.push_back(w);
-                }
-              interpolation.row_start.push_back(interpolation.dofs.size());
-            }
+          const auto located = locator().locate(x);
+          if (max_outside)
+            *max_outside = std::max(*max_outside, located.distance_outside);
+          evaluated.push_back({DoFHandler<3>::active_cell_iterator(&triangulation, located.cell->level(),
+                                                                   located.cell->index(), &dof_handler),
+                               located.unit});
         }
+      return evaluated;
+    }
 
-      const unsigned int r  = eigen.eigenvectors.size();
-      const unsigned int nv = display.n_vertices();
-      result.display_modes.resize(std::size_t(3) * nv * r);
-      for (unsigned int row = 0; row < 3 * nv; ++row)
-        for (unsigned int i = 0; i < r; ++i)
-          result.display_modes[std::size_t(row) * r + i] = interpolation.row_dot(row, eigen.eigenvectors[i].data());
+    SerialSpace::Field SerialSpace::patch_load(const unsigned int vertex, const std::array<double, 3> &factor) const
+    {
+      Field load = zero_field();
+      surface.add_patch_load(vertex, factor, load);
+      return load;
+    }
 
-      // Modes at the mesh vertices for the HDF5 file (P2 vertex DoFs are the vertex values).
+    void SerialSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const
+    {
+      const auto &W = surface.patch_loads.at(vertex);
+      for (unsigned int c = 0; c < 3; ++c)
+        for (const auto &[dof, w] : W[c])
+          X.values[(first_column + c) * X.n + dof] += w;
+    }
+
+    // Modes at the mesh vertices for the HDF5 file (P2 vertex DoFs are the vertex values).
+    void SerialSpace::fill_modes_at_vertices()
+    {
+      const unsigned int r = eigen.eigenvectors.size();
       result.modes_at_vertices.assign(std::size_t(r) * result.n_vertices * 3, 0.);
       for (const auto &cell : dof_handler.active_cell_iterators())
         for (unsigned int vtx = 0; vtx < 4; ++vtx)
@@ -471,33 +442,12 @@ namespace modal_haptics
                 result.modes_at_vertices[(std::size_t(i) * result.n_vertices + cell->vertex_index(vtx)) * 3 + c] =
                   eigen.eigenvectors[i][dof];
             }
-      std::ostringstream line;
-      line << "display surface: " << nv << " vertices located, farthest outside the mesh by " << max_outside
-           << " (barycentric)";
-      log(line.str());
-    }
-
-    // Gamma = Phi^T M R with R the rigid translations and rotations about the centre of mass: how a
-    // frame acceleration drives each mode.
-    void ModalSpace::compute_participation_factors()
-    {
-      const Point<3> c(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
-      const unsigned int r = eigen.eigenvectors.size();
-      result.participation.assign(std::size_t(r) * 6, 0.);
-      Vector<double> M_rigid(dof_handler.n_dofs());
-      const auto     motions = rigid_body_motions(c);
-      for (unsigned int k = 0; k < 6; ++k)
-        {
-          mass_matrix.vmult(M_rigid, motions[k]);
-          for (unsigned int i = 0; i < r; ++i)
-            result.participation[std::size_t(i) * 6 + k] = eigen.eigenvectors[i] * M_rigid;
-        }
     }
 
     // Translations along x, y, z, then rotations about the axes through 'centre', as DoF fields: the
     // FE space holds them exactly (they are linear). Clamped DoFs keep their motion: M's clamped rows
     // are zero, so they add nothing to M-products.
-    std::array<Vector<double>, 6> ModalSpace::rigid_body_motions(const Point<3> &centre) const
+    std::array<Vector<double>, 6> SerialSpace::rigid_body_motions(const Point<3> &centre) const
     {
       std::vector<Point<3>> support(dof_handler.n_dofs());
       DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
@@ -514,150 +464,16 @@ namespace modal_haptics
         {
           motions[k].reinit(dof_handler.n_dofs());
           for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
-            {
-              Tensor<1, 3> u;
-              if (k < 3)
-                u[k] = 1.;
-              else
-                {
-                  Tensor<1, 3> axis;
-                  axis[k - 3] = 1.;
-                  u = cross_product_3d(axis, support[i] - centre);
-                }
-              motions[k][i] = u[component[i]];
-            }
+            motions[k][i] = space_parts::rigid_body_motion(k, support[i] - centre)[component[i]];
         }
       return motions;
     }
 
-    void ModalSpace::add_patch_load(const unsigned int vertex, double *three_columns) const
-    {
-      const std::size_t n = dof_handler.n_dofs();
-      const auto       &W = patch_loads.at(vertex);
-      for (unsigned int c = 0; c < 3; ++c)
-        for (const auto &[dof, w] : W[c])
-          three_columns[c * n + dof] += w;
-    }
-
-    std::array<double, 3> ModalSpace::patch_average(const unsigned int vertex, const double *field) const
-    {
-      const auto           &W = patch_loads.at(vertex);
-      std::array<double, 3> u{};
-      for (unsigned int c = 0; c < 3; ++c)
-        for (const auto &[dof, w] : W[c])
-          u[c] += w * field[dof];
-      return u;
-    }
-
-    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
-    // solves K^-1 W_v reuse the eigensolve's factorization, a block of candidates at a time; the
-    // cross terms W_a^T K^-1 W_b are read off the same block. For a free part K^-1 is the
-    // inertia-relief flexibility and Lambda^-1 leaves out the rigid-body modes (static_gain).
-    void ModalSpace::compute_static_correction()
-    {
-      const unsigned int r     = result.eigenvalues.size();
-      const std::size_t  n     = dof_handler.n_dofs();
-      const auto         loads = space_parts::plan_static_correction(scene, task, result);
-      const unsigned int nc    = result.candidates.size();
-      Timer              timer;
-      for (const unsigned int v : loads)
-        build_patch_load(v);
-
-      // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
-      for (unsigned int a = 0; a < nc; ++a)
-        for (unsigned int i = 0; i < r; ++i)
-          {
-            const auto b = patch_average(result.candidates[a], eigen.eigenvectors[i].data());
-            for (unsigned int c = 0; c < 3; ++c)
-              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = b[c];
-          }
-      const unsigned int  block = 16;
-      std::vector<double> X;
-      for (unsigned int first = 0; first < loads.size(); first += block)
-        {
-          const unsigned int count = std::min<unsigned int>(block, loads.size() - first);
-          X.assign(3 * count * n, 0.);
-          for (unsigned int b = 0; b < count; ++b)
-            add_patch_load(loads[first + b], &X[3 * b * n]);
-          solve_static(X.data(), 3 * count);
-
-          for (unsigned int b = 0; b < count; ++b)
-            space_parts::record_static_response(result, task, first + b, loads[first + b],
-                                                [&](const unsigned int vertex, const unsigned int d) {
-                                                  return patch_average(vertex, &X[(3 * b + d) * n]);
-                                                });
-          if (verbose && (first / block) % 8 == 7)
-            log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
-                " loads, " + std::to_string(timer.wall_time()) + " s");
-        }
-      result.correction_seconds_per_candidate = loads.empty() ? 0. : timer.wall_time() / loads.size();
-      log(space_parts::static_correction_summary(result, loads.size()));
-    }
-
-    // Full static FE for sampled candidates and the three directions, against the modal answer and
-    // the corrected one. The full solve is checked by its residual, so the comparison is with a true
-    // solution of K u = f, not with the correction's own numbers.
-    void ModalSpace::validate()
-    {
-      const unsigned int r  = result.eigenvalues.size();
-      const std::size_t  n  = dof_handler.n_dofs();
-      const unsigned int nv = display.n_vertices();
-      Vector<double>     f(n), u(n), u_modal(n), residual(n), difference(n);
-      std::vector<double> load(3 * n);
-
-      for (const unsigned int vertex : task.validation_vertices)
-        {
-          std::fill(load.begin(), load.end(), 0.);
-          add_patch_load(vertex, load.data());
-          for (unsigned int direction = 0; direction < 3; ++direction)
-            {
-              ValidationCase vc;
-              vc.vertex    = vertex;
-              vc.direction = direction;
-              std::copy(load.begin() + direction * n, load.begin() + (direction + 1) * n, f.begin());
-              relieve_load(f.begin()); // a free part: the equilibrated share of the load
-              u = f;
-              solve_static(u.data(), 1);
-              stiffness_matrix.vmult(residual, u);
-              residual -= f;
-              vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
-
-              std::vector<double> modal_coefficients(r);
-              u_modal = 0.;
-              for (unsigned int i = 0; i < r; ++i)
-                {
-                  modal_coefficients[i] = (eigen.eigenvectors[i] * f) * static_gain(result.eigenvalues[i]);
-                  u_modal.add(modal_coefficients[i], eigen.eigenvectors[i]);
-                }
-
-              std::vector<double> display_full(3 * nv), display_modal(3 * nv);
-              for (unsigned int row = 0; row < 3 * nv; ++row)
-                {
-                  display_full[row]  = interpolation.row_dot(row, u.data());
-                  display_modal[row] = interpolation.row_dot(row, u_modal.data());
-                }
-              space_parts::set_validation_errors(vc, result, display, scene.contact.correction_field_tolerance,
-                                                 patch_average(vertex, u.data()), patch_average(vertex, u_modal.data()),
-                                                 display_full, display_modal, modal_coefficients);
-
-              difference = u;
-              difference -= u_modal;
-              vc.energy_rel_error_modal =
-                std::sqrt(stiffness_matrix.matrix_norm_square(difference) / stiffness_matrix.matrix_norm_square(u));
-
-              validation_fields.push_back(difference);
-              validation_field_names.push_back(space_parts::validation_field_name(vc));
-              result.validation.push_back(vc);
-            }
-        }
-      validate_two_contacts();
-      log(space_parts::validation_summary(result));
-    }
 
     // K and M for the benchmark's peers (scipy, SLEPc) in a plain binary CSR: int64 n, int64 nnz,
     // int64 row_start[n + 1], int32 column[nnz], float64 value[nnz], little-endian, full symmetric
     // storage, constrained rows as the eigensolve sees them.
-    void ModalSpace::export_matrices() const
+    void SerialSpace::export_matrices() const
     {
       for (const auto &[matrix, suffix] : {std::make_pair(&stiffness_matrix, "K"), std::make_pair(&mass_matrix, "M")})
         write_file_atomically(scene.output_directory + "/" + task.name + "_" + suffix + ".csr",
@@ -685,51 +501,6 @@ namespace modal_haptics
       log("exported K and M to " + scene.output_directory + "/" + task.name + "_{K,M}.csr");
     }
 
-    // Two hands on one space: the first and last validated candidates pushed at once (in z and y), a
-    // fresh full solve against the kernel's formula with the cross compliance,
-    // u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
-    void ModalSpace::validate_two_contacts()
-    {
-      if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
-        return;
-      const std::size_t  n = dof_handler.n_dofs();
-      const std::array<unsigned int, 2> vertices = {task.validation_vertices.front(), task.validation_vertices.back()};
-      std::vector<double>         load(3 * n, 0.), f(n, 0.);
-      for (unsigned int h = 0; h < 2; ++h)
-        {
-          std::fill(load.begin(), load.end(), 0.);
-          add_patch_load(vertices[h], load.data());
-          for (unsigned int d = 0; d < 3; ++d)
-            for (std::size_t i = 0; i < n; ++i)
-              f[i] += space_parts::two_contact_forces[h][d] * load[d * n + i];
-        }
-      solve_static(f.data(), 1);
-      result.two_contact_rel_error_corrected = space_parts::two_contact_error(
-        result, vertices, {{patch_average(vertices[0], f.data()), patch_average(vertices[1], f.data())}});
-    }
-
-    // Mode shapes (frequency in the field name) and the validation error fields, for ParaView.
-    void ModalSpace::output_results() const
-    {
-      if (task.vtu_file.empty())
-        return;
-      DataOut<3> data_out;
-      data_out.attach_dof_handler(dof_handler);
-      const std::vector<DataComponentInterpretation::DataComponentInterpretation> vector_field(
-        3, DataComponentInterpretation::component_is_part_of_vector);
-      const unsigned int n_vtu = std::min<unsigned int>(scene.output.vtu_modes, eigen.eigenvectors.size());
-      for (unsigned int i = 0; i < n_vtu; ++i)
-        {
-          data_out.add_data_vector(eigen.eigenvectors[i],
-                                   std::vector<std::string>(3, space_parts::mode_field_name(i, result.frequencies_hz[i])),
-                                   DataOut<3>::type_dof_data, vector_field);
-        }
-      for (unsigned int k = 0; k < validation_fields.size(); ++k)
-        data_out.add_data_vector(validation_fields[k], std::vector<std::string>(3, validation_field_names[k]),
-                                 DataOut<3>::type_dof_data, vector_field);
-      data_out.build_patches(mapping, scene.element_degree);
-      write_file_atomically(task.vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
-    }
   } // namespace
 
   ModalSpaceResult compute_modal_space(const SceneParameters &scene,
@@ -738,7 +509,7 @@ namespace modal_haptics
                                        TimerOutput           &timer,
                                        const bool             verbose)
   {
-    ModalSpace space(scene, display, task, timer, verbose);
+    SerialSpace space(scene, display, task, timer, verbose);
     return space.run();
   }
   namespace space_parts
@@ -782,6 +553,20 @@ namespace modal_haptics
       phase("vtu_output", [&] { output_results(); });
       finish();
       return std::move(result);
+    }
+
+    Tensor<1, 3> rigid_body_motion(const unsigned int k, const Tensor<1, 3> &x)
+    {
+      Tensor<1, 3> u;
+      if (k < 3)
+        u[k] = 1.;
+      else
+        {
+          Tensor<1, 3> axis;
+          axis[k - 3] = 1.;
+          u           = cross_product_3d(axis, x);
+        }
+      return u;
     }
 
     std::string mode_field_name(const unsigned int i, const double frequency_hz)

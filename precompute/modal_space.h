@@ -196,6 +196,16 @@ namespace modal_haptics
       dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
     };
 
+    // Everything a phase of space_phases.h reads besides its backend and the result.
+    struct PhaseInputs
+    {
+      const SceneParameters                 &scene;
+      const DisplaySurface                  &display;
+      const SpaceTask                       &task;
+      const bool                             verbose;
+      const std::function<void(std::string)> log;
+    };
+
     // What a space is made of whatever the linear algebra: its inputs, its FE space, its result and
     // the order of its phases, each timed twice (the program's TimerOutput table, and per space for
     // the report).
@@ -217,6 +227,10 @@ namespace modal_haptics
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;
+      PhaseInputs inputs() const
+      {
+        return {scene, display, task, verbose, [this](const std::string &message) { log(message); }};
+      }
 
       const SceneParameters        &scene;
       const DisplaySurface         &display;
@@ -342,6 +356,10 @@ namespace modal_haptics
 
     // One summary line of the validation for the log.
     std::string validation_summary(const ModalSpaceResult &result);
+
+    // Rigid-body motion k at offset x from the centre: translations along x, y, z (k = 0, 1, 2),
+    // then rotations about the axes (k = 3, 4, 5).
+    dealii::Tensor<1, 3> rigid_body_motion(unsigned int k, const dealii::Tensor<1, 3> &x);
 
     // VTU field names: mode i (0-based) with its frequency, and a validation case's error field.
     std::string mode_field_name(unsigned int i, double frequency_hz);
