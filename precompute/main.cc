@@ -122,16 +122,19 @@ namespace
     return 2;
   }
 
-  // --help: the usage and every parameter, its default and unit, on process 0.
+  // --help: the usage, every parameter with its default and unit (a .prm template), then the values
+  // each accepts (its Pattern: the range), on process 0.
   int print_help(const Processes &processes)
   {
     if (processes.rank != 0)
       return 0;
     print_usage(std::cout);
-    std::cout << "\nEvery parameter, its default, range and unit:\n";
+    std::cout << "\nEvery parameter, its default and unit:\n";
     dealii::ParameterHandler prm;
     modal_haptics::declare_scene_parameters(prm);
     prm.print_parameters(std::cout, dealii::ParameterHandler::Text);
+    std::cout << "\nThe values each parameter accepts (its range):\n";
+    prm.print_parameters(std::cout, dealii::ParameterHandler::Description);
     return 0;
   }
 

@@ -1,11 +1,11 @@
 #include "scene_parameters.h"
 
+#include "parameter_text.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -15,6 +15,8 @@ namespace modal_haptics
 {
   using dealii::ExcMessage;
   using dealii::ParameterHandler;
+  using parameter_text::Notation;
+  using parameter_text::text;
   namespace Patterns = dealii::Patterns;
 
   double ModeParameters::cut_off_frequency() const
@@ -42,7 +44,7 @@ namespace modal_haptics
     return alpha / (2. * omega) + beta * omega / 2.;
   }
 
-  // ---- Writing a struct's default as an entry's default text, and reading lists back ----------------
+  // ---- Reading lists back (parameter_text.h writes the defaults) -------------------------------------
   namespace
   {
     const std::string point_pattern_help = " Three comma-separated numbers x, y, z.";
@@ -50,64 +52,6 @@ namespace modal_haptics
     const std::string geometry_units =
       " Units: geometry units ('Geometry/Length unit' metres each: mm by default and for the built-in panel; a "
       "STEP/IGES file's declared unit).";
-
-    // How a default is printed: %g's choice (fixed notation for exponents -4 to 5), or always with
-    // an exponent, for a tolerance that reads better as 1e-3 than as 0.001.
-    enum class Notation
-    {
-      automatic,
-      exponent
-    };
-
-    // The shortest text that reads back as `value`: fixed notation up to 6 significant digits
-    // ("1050", "0.001"), a compact exponent beyond ("2.3e9", "2e-5").
-    std::string text(const double value, const Notation notation = Notation::automatic)
-    {
-      char buffer[32];
-      for (int digits = 6; digits <= 17; ++digits)
-        {
-          std::snprintf(buffer, sizeof buffer, notation == Notation::exponent ? "%.*e" : "%.*g",
-                        notation == Notation::exponent ? digits - 6 : digits, value);
-          if (std::strtod(buffer, nullptr) == value)
-            break;
-        }
-      std::string out = buffer;
-      const auto  e   = out.find('e');
-      if (notation == Notation::exponent && out.find('.') != std::string::npos)
-        {
-          // "%.2e" pads the mantissa with zeros: 1.50e-03 -> 1.5e-03.
-          const auto last = out.find_last_not_of('0', e - 1);
-          out.erase(out[last] == '.' ? last : last + 1, e - (out[last] == '.' ? last : last + 1));
-        }
-      const auto e_at = out.find('e');
-      if (e_at == std::string::npos)
-        return out;
-      const std::string sign     = out[e_at + 1] == '-' ? "-" : "";
-      const auto        digits   = out.find_first_not_of("+-0", e_at + 1);
-      const std::string exponent = digits == std::string::npos ? "0" : out.substr(digits);
-      return out.substr(0, e_at + 1) + sign + exponent;
-    }
-
-    std::string text(const bool value) { return value ? "true" : "false"; }
-    std::string text(const unsigned int value) { return std::to_string(value); }
-
-    std::string text(const std::vector<double> &values)
-    {
-      std::string out;
-      for (const double v : values)
-        out += (out.empty() ? "" : ", ") + text(v);
-      return out;
-    }
-
-    std::string text(const meshing::Point3 &point) { return text(std::vector<double>(point.begin(), point.end())); }
-
-    std::string text(const std::vector<std::string> &names)
-    {
-      std::string out;
-      for (const auto &name : names)
-        out += (out.empty() ? "" : ", ") + name;
-      return out;
-    }
 
     meshing::Point3 parse_point(const std::string &text, const std::string &entry)
     {
@@ -171,7 +115,9 @@ namespace modal_haptics
       AssertThrow(g.rib_heights.size() == g.rib_positions_y.size() &&
                     g.rib_thicknesses.size() == g.rib_positions_y.size(),
                   ExcMessage("'Geometry/Ribbed panel': 'Rib positions', 'Rib heights' and 'Rib thicknesses' "
-                             "must have the same number of entries."));
+                             "must have the same number of entries (have " + std::to_string(g.rib_positions_y.size()) +
+                             ", " + std::to_string(g.rib_heights.size()) + " and " +
+                             std::to_string(g.rib_thicknesses.size()) + ")."));
       g.rib_length        = prm.get_double("Rib length");
       g.boss_inset        = prm.get_double("Boss inset");
       g.boss_outer_radius = prm.get_double("Boss outer radius");
@@ -325,15 +271,17 @@ namespace modal_haptics
         {
           for (unsigned int d = 0; d < 3; ++d)
             AssertThrow(voi.box_lower[d] < voi.box_upper[d],
-                        ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner must "
-                                   "lie below its upper corner in x, y and z."));
+                        ExcMessage("'" + section + "' (VOI '" + voi.name + "'): the box's lower corner (" +
+                                   text(voi.box_lower) + ") must lie below its upper corner (" + text(voi.box_upper) +
+                                   ") in x, y and z."));
         }
       else
         AssertThrow(voi.ball_radius > 0.,
-                    ExcMessage("'" + section + "/Ball radius' must be > 0 for VOI '" + voi.name + "'."));
+                    ExcMessage("'" + section + "/Ball radius' = " + text(voi.ball_radius) + " must be > 0 for VOI '" +
+                               voi.name + "'."));
       AssertThrow(voi.fine_size <= coarse_size,
-                  ExcMessage("'" + section + "/Fine size' (" + std::to_string(voi.fine_size) +
-                             ") is larger than 'Meshing/Coarse size'."));
+                  ExcMessage("'" + section + "/Fine size' (" + text(voi.fine_size) +
+                             ") is larger than 'Meshing/Coarse size' (" + text(coarse_size) + ")."));
       return voi;
     }
 
@@ -389,12 +337,12 @@ namespace modal_haptics
     prm.leave_subsection();
     // The Patterns hold the closed ranges; the open ends are checked here.
     AssertThrow(youngs_modulus > 0. && std::isfinite(youngs_modulus),
-                ExcMessage("'Material/Young's modulus' = " + std::to_string(youngs_modulus) + " Pa: must be > 0."));
+                ExcMessage("'Material/Young's modulus' = " + text(youngs_modulus) + " Pa: must be > 0."));
     AssertThrow(poissons_ratio > -1. && poissons_ratio < 0.5,
-                ExcMessage("'Material/Poisson's ratio' = " + std::to_string(poissons_ratio) +
+                ExcMessage("'Material/Poisson's ratio' = " + text(poissons_ratio) +
                            ": must lie in (-1, 0.5)."));
     AssertThrow(density > 0. && std::isfinite(density),
-                ExcMessage("'Material/Density' = " + std::to_string(density) + " kg/m^3: must be > 0."));
+                ExcMessage("'Material/Density' = " + text(density) + " kg/m^3: must be > 0."));
   }
 
   namespace
