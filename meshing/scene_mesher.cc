@@ -114,7 +114,10 @@ namespace modal_haptics::meshing
             report.volume  = part_volume();
             report.clamp_boxes = clamp_box_reports;
             for (const auto &voi : vois)
-              check_against_bounding_box(voi);
+              {
+                check_against_bounding_box(voi);
+                report.volumes_of_interest.push_back(inspect_voi(voi));
+              }
           });
         for (const auto &name : clamp_groups)
           report.clamp_groups.push_back(inspect_surface(name));
@@ -269,38 +272,101 @@ namespace modal_haptics::meshing
           }
       }
 
+      // The boundary faces whose bounding box meets a VOI's box (a ball's bounding box): a VOI that
+      // meets none is refused, naming the nearest face and its distance.
+      SelectionReport inspect_voi(const VolumeOfInterest &voi) const
+      {
+        std::array<Point3, 2> region;
+        for (int i = 0; i < 3; ++i)
+          {
+            const bool box = voi.shape == VolumeOfInterest::Shape::box;
+            region[0][i]   = box ? voi.box_lower[i] : voi.ball_centre[i] - voi.ball_radius;
+            region[1][i]   = box ? voi.box_upper[i] : voi.ball_centre[i] + voi.ball_radius;
+          }
+        SelectionReport caught;
+        caught.name    = "VOI '" + voi.name + "' (" + describe_region(voi) + ")";
+        int        nearest = 0;
+        double     gap     = std::numeric_limits<double>::max();
+        const bool occ     = part_volume() > 0.; // areas from OpenCASCADE, none for gmsh's built-in kernel
+        for (const int face : boundary_faces())
+          {
+            const auto f         = bounding_box(2, face);
+            double     face_gap  = 0.;
+            for (int i = 0; i < 3; ++i)
+              face_gap = std::max({face_gap, f[0][i] - region[1][i], region[0][i] - f[1][i]});
+            if (face_gap <= 0.)
+              {
+                ++caught.n_faces;
+                caught.area += occ ? face_area(face) : 0.;
+              }
+            else if (face_gap < gap)
+              {
+                gap     = face_gap;
+                nearest = face;
+              }
+          }
+        if (caught.n_faces == 0)
+          {
+            std::ostringstream why;
+            why << "no boundary face's bounding box meets it";
+            if (nearest > 0)
+              {
+                const auto f = bounding_box(2, nearest);
+                why << "; the nearest is face " << nearest << " with bounding box " << readable_point(f[0]) << "-"
+                    << readable_point(f[1]) << ", " << gap << " away";
+              }
+            throw MeshingError(not_intersecting_message(voi, why.str()));
+          }
+        return caught;
+      }
+
+      // The area of a mesh surface entity's triangles (a .msh input).
+      static double mesh_area(const int face)
+      {
+        std::vector<std::size_t> elements, element_nodes, node_tags;
+        std::vector<double>      coordinates, parametric;
+        gmsh::model::mesh::getElementsByType(2, elements, element_nodes, face);
+        gmsh::model::mesh::getNodes(node_tags, coordinates, parametric, 2, face, true, false);
+        std::unordered_map<std::size_t, std::size_t> position;
+        for (std::size_t i = 0; i < node_tags.size(); ++i)
+          position[node_tags[i]] = 3 * i;
+        double area = 0.;
+        for (std::size_t t = 0; t + 2 < element_nodes.size(); t += 3)
+          {
+            const double *a = &coordinates[position[element_nodes[t]]], *b = &coordinates[position[element_nodes[t + 1]]],
+                         *c = &coordinates[position[element_nodes[t + 2]]];
+            const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+            area += 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
+                                    std::pow(u[0] * v[1] - u[1] * v[0], 2));
+          }
+        return area;
+      }
+
       // A clamp group: a named physical surface of the model (or of the .msh file), its faces, area.
       SelectionReport inspect_surface(const std::string &name)
       {
         SelectionReport caught;
         caught.name = "Clamp group '" + name + "'";
         std::vector<std::string> known;
-        if (kind == InputKind::msh)
-          {
-            const auto surfaces = read_physical_names(settings.geometry)[2];
-            for (const auto &entry : surfaces)
-              known.push_back(entry.first);
-            caught.n_faces = surfaces.count(name);
-          }
-        else
-          call_gmsh(context("groups"), [&] {
-            DimTags groups;
-            gmsh::model::getPhysicalGroups(groups, 2);
-            const bool with_areas = part_volume() > 0.; // OpenCASCADE's model (not gmsh's built-in kernel)
-            for (const auto &[dim, tag] : groups)
-              {
-                std::string group_name;
-                gmsh::model::getPhysicalName(dim, tag, group_name);
-                known.push_back(group_name);
-                if (group_name != name)
-                  continue;
-                std::vector<int> faces;
-                gmsh::model::getEntitiesForPhysicalGroup(dim, tag, faces);
-                caught.n_faces = faces.size();
-                for (const int face : faces)
-                  caught.area += with_areas ? face_area(face) : 0.;
-              }
-          });
+        call_gmsh(context("groups"), [&] {
+          DimTags groups;
+          gmsh::model::getPhysicalGroups(groups, 2);
+          // Areas from OpenCASCADE, from a .msh's triangles; none for gmsh's built-in kernel.
+          const bool occ = kind != InputKind::msh && part_volume() > 0.;
+          for (const auto &[dim, tag] : groups)
+            {
+              std::string group_name;
+              gmsh::model::getPhysicalName(dim, tag, group_name);
+              known.push_back(group_name);
+              if (group_name != name)
+                continue;
+              std::vector<int> faces;
+              gmsh::model::getEntitiesForPhysicalGroup(dim, tag, faces);
+              caught.n_faces = faces.size();
+              for (const int face : faces)
+                caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
+            }
+        });
         if (caught.n_faces == 0)
           {
             std::string list;

@@ -168,6 +168,10 @@ namespace modal_haptics::meshing
     double       volume = 0.;     // [unit^3]; 0 when unknown (a .geo of gmsh's built-in kernel)
     std::vector<SelectionReport> clamp_groups; // one per required surface, in order
     std::vector<SelectionReport> clamp_boxes;  // one per 'Clamp boxes' entry (STEP/IGES/BREP only)
+    // Per VOI, the boundary faces whose bounding box meets the VOI's (none for a .msh input, which
+    // takes no VOI); their whole areas, so an upper bound of the surface inside. The mesh vertices
+    // inside a VOI are counted in the meshing log.
+    std::vector<SelectionReport> volumes_of_interest;
   };
 
   // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:

@@ -269,6 +269,14 @@ namespace
             out << ", area " << selection.area * unit * unit << " m^2";
           out << "\n";
         }
+    for (const auto &voi : report.volumes_of_interest)
+      {
+        out << "[geometry] " << voi.name << ": meets " << voi.n_faces << " boundary face"
+            << (voi.n_faces == 1 ? "" : "s");
+        if (voi.area > 0.)
+          out << " (their whole area: " << voi.area * unit * unit << " m^2)";
+        out << "\n";
+      }
     if (print)
       std::cout << out.str() << std::flush;
     // A patch that covers a large share of the part is no longer a contact (issue 18).

@@ -125,6 +125,27 @@ code, out, _ = run(work, "empty_box", scene(step_m, 1, clamp="set Clamp boxes = 
 check(code != 0 and "'Geometry/Clamp boxes' entry 1" in out and "catches no boundary face" in out
       and "the nearest is face" in out, "empty clamp box refused naming it and the nearest face")
 
+# VOIs at --validate: one at the free end reports the faces it meets; one buried inside the bar, away
+# from every face, is refused naming the nearest face.
+def voi(name, lower, upper):
+    return f"""subsection Scenario 1
+  set Name = {name}
+  set Box lower corner = {lower}
+  set Box upper corner = {upper}
+  set Fine size = 0.001
+  set Transition = 0.01
+end"""
+
+
+code, out, _ = run(work, "voi_end", scene(step_m, 1, extra=voi("tip", "0.19, -0.001, -0.001", "0.21, 0.011, 0.011")),
+                   "--validate")
+check(code == 0 and "VOI 'tip'" in out and "meets 5 boundary faces" in out,
+      "a VOI at the free end meets the end face and the 4 side faces")
+code, out, _ = run(work, "voi_buried",
+                   scene(step_m, 1, extra=voi("buried", "0.05, 0.004, 0.004", "0.06, 0.006, 0.006")), "--validate")
+check(code != 0 and "VOI 'buried'" in out and "the nearest is face" in out,
+      "a VOI that meets no boundary face refused by --validate naming the nearest face")
+
 # A group name that is not a physical surface is refused by --validate.
 code, out, _ = run(work, "no_group", scene(step_m, 1, clamp="set Clamp groups = ss"), "--validate")
 check(code != 0 and "Clamp group 'ss'" in out and "is not a physical surface" in out,
@@ -148,6 +169,14 @@ for step, unit, label in ((step_mm, 0.001, "mm"), (step_m, 1, "m")):
 if len(first) == 2:
     check(abs(first["m"] / first["mm"] - 1) < 0.01,
           f"first frequency of the metre file {first['m']:.3f} Hz = the millimetre file's {first['mm']:.3f} Hz (1 %)")
+
+# A .msh input (the metre run's own mesh): its box, mass and clamp group from the mesh itself.
+msh = os.path.join(work, "run_m", "mesh_global.msh")
+if os.path.exists(msh):
+    code, out, _ = run(work, "msh", scene(msh, 1, clamp="set Clamp groups = clamp"), "--validate")
+    check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Clamp group 'clamp': 1 face, area 0.0001 m^2" in out
+          and abs(number_after("mass", out) - DENSITY * VOLUME) < 1e-6,
+          "a .msh input: bounding box, mass and the clamp group's area from the mesh")
 
 print(f"{len(failures)} failure(s)")
 sys.exit(1 if failures else 0)
