@@ -247,7 +247,9 @@ namespace modal_haptics
       prm.declare_entry("Ball radius", text(voi.ball_radius), Patterns::Double(0.),
                         "Radius of a ball VOI." + geometry_units);
       prm.declare_entry("Fine size", text(voi.fine_size), Patterns::Double(1e-9),
-                        "Element size inside the VOI." + geometry_units);
+                        "Element size inside the VOI. The default (" + text(voi.fine_size) +
+                          ") becomes a quarter of 'Meshing/Coarse size' when that is smaller than it." +
+                          geometry_units);
       prm.declare_entry("Transition", text(voi.transition), Patterns::Double(0.),
                         "Distance over which the size grows from the fine to the coarse size." + geometry_units);
     }
@@ -267,6 +269,9 @@ namespace modal_haptics
       voi.ball_radius = prm.get_double("Ball radius");
       voi.fine_size   = prm.get_double("Fine size");
       voi.transition  = prm.get_double("Transition");
+      // A default nobody wrote must not conflict with a small coarse size (a part in metres).
+      if (voi.fine_size == meshing::VolumeOfInterest().fine_size && voi.fine_size > coarse_size)
+        voi.fine_size = coarse_size / 4.;
       if (voi.shape == meshing::VolumeOfInterest::Shape::box)
         {
           for (unsigned int d = 0; d < 3; ++d)

@@ -128,11 +128,11 @@ check(code != 0 and "'Geometry/Clamp boxes' entry 1" in out and "catches no boun
 # VOIs at --validate: one at the free end reports the faces it meets; one buried inside the bar, away
 # from every face, is refused naming the nearest face.
 def voi(name, lower, upper):
+    """A VOI with the default fine size (1.5), larger than the coarse size 0.0025: it must follow it."""
     return f"""subsection Scenario 1
   set Name = {name}
   set Box lower corner = {lower}
   set Box upper corner = {upper}
-  set Fine size = 0.001
   set Transition = 0.01
 end"""
 
@@ -140,7 +140,7 @@ end"""
 code, out, _ = run(work, "voi_end", scene(step_m, 1, extra=voi("tip", "0.19, -0.001, -0.001", "0.21, 0.011, 0.011")),
                    "--validate")
 check(code == 0 and "VOI 'tip'" in out and "meets 5 boundary faces" in out,
-      "a VOI at the free end meets the end face and the 4 side faces")
+      "a VOI at the free end meets the end face and the 4 side faces (with the default fine size)")
 code, out, _ = run(work, "voi_buried",
                    scene(step_m, 1, extra=voi("buried", "0.05, 0.004, 0.004", "0.06, 0.006, 0.006")), "--validate")
 check(code != 0 and "VOI 'buried'" in out and "the nearest is face" in out,
