@@ -26,14 +26,15 @@ namespace modal_haptics::meshing::detail
     if (geometry.rfind("builtin:", 0) == 0)
       throw MeshingError("unknown built-in geometry '" + geometry + "' (known: " + builtin_panel + ")");
     const std::string extension = lower_case(fs::path(geometry).extension().string());
-    if (extension == ".step" || extension == ".stp" || extension == ".brep")
+    if (extension == ".step" || extension == ".stp" || extension == ".iges" || extension == ".igs" ||
+        extension == ".brep")
       return InputKind::cad;
     if (extension == ".geo")
       return InputKind::geo;
     if (extension == ".msh")
       return InputKind::msh;
     throw MeshingError("geometry '" + geometry + "': unknown kind (expected " + builtin_panel +
-                       ", .step, .stp, .brep, .geo or .msh)");
+                       ", .step, .stp, .iges, .igs, .brep, .geo or .msh)");
   }
 
   // ---------------------------------------------------------------------------------------------

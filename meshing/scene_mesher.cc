@@ -83,6 +83,47 @@ namespace modal_haptics::meshing
         return meshes;
       }
 
+      GeometryReport inspect(const std::vector<std::string> &clamp_groups, const double length_unit)
+      {
+        check_settings(settings);
+        if (kind != InputKind::builtin_panel)
+          require_readable(settings.geometry, "geometry file");
+        else
+          check_ribbed_panel(settings.ribbed_panel);
+        check_volumes_of_interest(vois, settings, kind);
+        GeometryReport report;
+        if (kind == InputKind::cad)
+          report.unit = declared_length_unit(settings.geometry);
+        if (report.unit.metres > 0. && std::abs(length_unit / report.unit.metres - 1.) > 1e-9)
+          {
+            std::ostringstream message;
+            message << "geometry file '" << settings.geometry << "' declares its length unit as " << report.unit.name
+                    << " (" << report.unit.metres << " m), but 'Geometry/Length unit' = " << length_unit
+                    << " m: set 'Length unit' to " << report.unit.metres
+                    << " and give every length of the .prm file in " << report.unit.name << "s";
+            throw MeshingError(message.str());
+          }
+        if (kind == InputKind::msh)
+          inspect_mesh_file(report);
+        else
+          call_gmsh("loading geometry '" + settings.geometry + "'", [&] {
+            load_model();
+            const auto box = bounding_box();
+            report.lower   = box[0];
+            report.upper   = box[1];
+            report.volume  = part_volume();
+            report.clamp_boxes = clamp_box_reports;
+            for (const auto &voi : vois)
+              {
+                check_against_bounding_box(voi);
+                report.volumes_of_interest.push_back(inspect_voi(voi));
+              }
+          });
+        for (const auto &name : clamp_groups)
+          report.clamp_groups.push_back(inspect_surface(name));
+        return report;
+      }
+
     private:
       const MeshingSettings                &settings;
       const std::vector<VolumeOfInterest> &vois;
@@ -93,6 +134,7 @@ namespace modal_haptics::meshing
       std::string                           inputs;         // what every mesh of the scene depends on
       bool                                  model_loaded = false;
       std::vector<int>                      field_tags;     // the size fields currently defined
+      std::vector<SelectionReport>          clamp_box_reports; // what each clamp box caught
 
       std::string path(const std::string &file) const { return (fs::path(directory) / file).string(); }
 
@@ -120,6 +162,8 @@ namespace modal_haptics::meshing
         else
           out << lower_case(fs::path(settings.geometry).extension().string()) << " content "
               << file_content_hash(settings.geometry);
+        if (kind == InputKind::cad)
+          out << " read in unit '" << declared_length_unit(settings.geometry).occ_code << "'";
         if (kind == InputKind::cad)
           for (const auto &box : settings.clamp_boxes)
             out << " clamp " << describe_point(box[0]) << describe_point(box[1]);
@@ -175,6 +219,169 @@ namespace modal_haptics::meshing
         return mesh;
       }
 
+      // --- inspecting the geometry without meshing ---------------------------------------------------
+
+      // The part's volume [unit^3] from OpenCASCADE; 0 for gmsh's built-in kernel, which has none.
+      static double part_volume()
+      {
+        DimTags volumes;
+        gmsh::model::getEntities(volumes, 3);
+        double total = 0.;
+        try
+          {
+            for (const auto &[dim, tag] : volumes)
+              {
+                double volume = 0.;
+                gmsh::model::occ::getMass(dim, tag, volume);
+                total += volume;
+              }
+          }
+        catch (...)
+          {
+            return 0.;
+          }
+        return total;
+      }
+
+      // A .msh input: its bounding box and volume from its tets, its groups from $PhysicalNames.
+      void inspect_mesh_file(GeometryReport &report)
+      {
+        PlainMesh mesh;
+        call_gmsh("reading mesh file '" + settings.geometry + "'", [&] {
+          gmsh::clear();
+          gmsh::open(settings.geometry);
+          mesh = read_current_mesh(true, false);
+        });
+        model_loaded = false;
+        report.lower = {std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+                        std::numeric_limits<double>::max()};
+        report.upper = {-report.lower[0], -report.lower[1], -report.lower[2]};
+        for (const auto &p : mesh.nodes)
+          for (int i = 0; i < 3; ++i)
+            {
+              report.lower[i] = std::min(report.lower[i], p[i]);
+              report.upper[i] = std::max(report.upper[i], p[i]);
+            }
+        for (const auto &t : mesh.tets)
+          {
+            const auto &a = mesh.nodes[t[0]], &b = mesh.nodes[t[1]], &c = mesh.nodes[t[2]], &d = mesh.nodes[t[3]];
+            const Point3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]},
+              w{d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+            report.volume += std::abs(u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+                                      u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.;
+          }
+      }
+
+      // The boundary faces whose bounding box meets a VOI's box (a ball's bounding box): a VOI that
+      // meets none is refused, naming the nearest face and its distance.
+      SelectionReport inspect_voi(const VolumeOfInterest &voi) const
+      {
+        std::array<Point3, 2> region;
+        for (int i = 0; i < 3; ++i)
+          {
+            const bool box = voi.shape == VolumeOfInterest::Shape::box;
+            region[0][i]   = box ? voi.box_lower[i] : voi.ball_centre[i] - voi.ball_radius;
+            region[1][i]   = box ? voi.box_upper[i] : voi.ball_centre[i] + voi.ball_radius;
+          }
+        SelectionReport caught;
+        caught.name    = "VOI '" + voi.name + "' (" + describe_region(voi) + ")";
+        int        nearest = 0;
+        double     gap     = std::numeric_limits<double>::max();
+        const bool occ     = part_volume() > 0.; // areas from OpenCASCADE, none for gmsh's built-in kernel
+        for (const int face : boundary_faces())
+          {
+            const auto f         = bounding_box(2, face);
+            double     face_gap  = 0.;
+            for (int i = 0; i < 3; ++i)
+              face_gap = std::max({face_gap, f[0][i] - region[1][i], region[0][i] - f[1][i]});
+            if (face_gap <= 0.)
+              {
+                ++caught.n_faces;
+                caught.area += occ ? face_area(face) : 0.;
+              }
+            else if (face_gap < gap)
+              {
+                gap     = face_gap;
+                nearest = face;
+              }
+          }
+        if (caught.n_faces == 0)
+          {
+            std::ostringstream why;
+            why << "no boundary face's bounding box meets it";
+            if (nearest > 0)
+              {
+                const auto f = bounding_box(2, nearest);
+                why << "; the nearest is face " << nearest << " with bounding box " << readable_point(f[0]) << "-"
+                    << readable_point(f[1]) << ", " << gap << " away";
+              }
+            throw MeshingError(not_intersecting_message(voi, why.str()));
+          }
+        return caught;
+      }
+
+      // The area of a mesh surface entity's triangles (a .msh input).
+      static double mesh_area(const int face)
+      {
+        std::vector<std::size_t> elements, element_nodes, node_tags;
+        std::vector<double>      coordinates, parametric;
+        gmsh::model::mesh::getElementsByType(2, elements, element_nodes, face);
+        gmsh::model::mesh::getNodes(node_tags, coordinates, parametric, 2, face, true, false);
+        std::unordered_map<std::size_t, std::size_t> position;
+        for (std::size_t i = 0; i < node_tags.size(); ++i)
+          position[node_tags[i]] = 3 * i;
+        double area = 0.;
+        for (std::size_t t = 0; t + 2 < element_nodes.size(); t += 3)
+          {
+            const double *a = &coordinates[position[element_nodes[t]]], *b = &coordinates[position[element_nodes[t + 1]]],
+                         *c = &coordinates[position[element_nodes[t + 2]]];
+            const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+            area += 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
+                                    std::pow(u[0] * v[1] - u[1] * v[0], 2));
+          }
+        return area;
+      }
+
+      // A clamp group: a named physical surface of the model (or of the .msh file), its faces, area.
+      SelectionReport inspect_surface(const std::string &name)
+      {
+        SelectionReport caught;
+        caught.name = "Clamp group '" + name + "'";
+        std::vector<std::string> known;
+        call_gmsh(context("groups"), [&] {
+          DimTags groups;
+          gmsh::model::getPhysicalGroups(groups, 2);
+          // Areas from OpenCASCADE, from a .msh's triangles; none for gmsh's built-in kernel.
+          const bool occ = kind != InputKind::msh && part_volume() > 0.;
+          for (const auto &[dim, tag] : groups)
+            {
+              std::string group_name;
+              gmsh::model::getPhysicalName(dim, tag, group_name);
+              known.push_back(group_name);
+              if (group_name != name)
+                continue;
+              std::vector<int> faces;
+              gmsh::model::getEntitiesForPhysicalGroup(dim, tag, faces);
+              caught.n_faces = faces.size();
+              for (const int face : faces)
+                caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
+            }
+        });
+        if (caught.n_faces == 0)
+          {
+            std::string list;
+            for (const auto &k : known)
+              list += (list.empty() ? "'" : ", '") + k + "'";
+            throw MeshingError(caught.name + " ('Geometry/Clamp groups') is not a physical surface of geometry '" +
+                               settings.geometry + "' (its physical surfaces: " + (list.empty() ? "none" : list) +
+                               (kind == InputKind::cad ? "; STEP/IGES/BREP files get 'clamp' from 'Clamp boxes' "
+                                                         "and 'free' for the rest" :
+                                                         "") +
+                               ")");
+          }
+        return caught;
+      }
+
       // --- the gmsh model -------------------------------------------------------------------------
 
       void load_model()
@@ -200,6 +407,9 @@ namespace modal_haptics::meshing
       void load_cad()
       {
         gmsh::model::add(fs::path(settings.geometry).stem().string());
+        // In the file's declared unit, not OpenCASCADE's default millimetres ("" keeps the default
+        // for a file that declares none, and for BREP).
+        gmsh::option::setString("Geometry.OCCTargetUnit", declared_length_unit(settings.geometry).occ_code);
         DimTags shapes;
         gmsh::model::occ::importShapes(settings.geometry, shapes);
         DimTags volumes;
@@ -219,24 +429,92 @@ namespace modal_haptics::meshing
         complete_physical_groups();
       }
 
+      // The part's bounding box [unit] (OpenCASCADE pads it by about 1e-7).
+      static std::array<Point3, 2> bounding_box(const int dim = -1, const int tag = -1)
+      {
+        std::array<Point3, 2> box{};
+        gmsh::model::getBoundingBox(dim, tag, box[0][0], box[0][1], box[0][2], box[1][0], box[1][1], box[1][2]);
+        return box;
+      }
+
+      // How far a selection box must be widened to catch a whole face.
+      static double growth_to_catch(const std::array<Point3, 2> &box, const std::array<Point3, 2> &face)
+      {
+        double growth = 0.;
+        for (int i = 0; i < 3; ++i)
+          growth = std::max({growth, box[0][i] - face[0][i], face[1][i] - box[1][i]});
+        return growth;
+      }
+
+      static double face_area(const int face)
+      {
+        double area = 0.;
+        gmsh::model::occ::getMass(2, face, area);
+        return area;
+      }
+
+      // Each box's boundary faces form the surface "clamp"; a box that catches none is refused,
+      // naming the face it came nearest to. The tolerance is relative to the part's size, plus
+      // OpenCASCADE's padding of bounding boxes, so a box at a face's exact coordinates catches it.
       void add_clamp_from_boxes()
       {
+        clamp_box_reports.clear();
         const std::vector<int> boundary = boundary_faces();
-        std::set<int>          clamp;
-        for (const auto &box : settings.clamp_boxes)
+        const auto             part     = bounding_box();
+        double                 diagonal = 0.;
+        for (int i = 0; i < 3; ++i)
+          diagonal += std::pow(part[1][i] - part[0][i], 2);
+        const double  tolerance = 1e-5 * std::sqrt(diagonal) + 2e-7;
+        std::set<int> clamp;
+        for (std::size_t b = 0; b < settings.clamp_boxes.size(); ++b)
           {
-            Point3 lower, upper;
+            std::array<Point3, 2> box;
             for (int i = 0; i < 3; ++i)
               {
-                lower[i] = std::min(box[0][i], box[1][i]);
-                upper[i] = std::max(box[0][i], box[1][i]);
+                box[0][i] = std::min(settings.clamp_boxes[b][0][i], settings.clamp_boxes[b][1][i]);
+                box[1][i] = std::max(settings.clamp_boxes[b][0][i], settings.clamp_boxes[b][1][i]);
               }
-            for (const int face : entities_inside_box(2, lower, upper, 0.))
+            SelectionReport caught;
+            caught.name = "'Geometry/Clamp boxes' entry " + std::to_string(b + 1) + " (" + readable_point(box[0]) +
+                          "-" + readable_point(box[1]) + ")";
+            for (const int face : entities_inside_box(2, box[0], box[1], tolerance))
               if (std::binary_search(boundary.begin(), boundary.end(), face))
-                clamp.insert(face);
+                {
+                  clamp.insert(face);
+                  ++caught.n_faces;
+                  caught.area += face_area(face);
+                }
+            if (caught.n_faces == 0)
+              throw MeshingError(nothing_caught_message(caught.name, box, boundary, tolerance));
+            clamp_box_reports.push_back(caught);
           }
-        // No face selected: no group. The precompute then says that "clamp" is missing.
         add_named_group(2, {clamp.begin(), clamp.end()}, "clamp", 1);
+      }
+
+      std::string nothing_caught_message(const std::string &name, const std::array<Point3, 2> &box,
+                                         const std::vector<int> &boundary, const double tolerance) const
+      {
+        int    nearest = 0;
+        double growth  = std::numeric_limits<double>::max();
+        for (const int face : boundary)
+          if (const double g = growth_to_catch(box, bounding_box(2, face)); g < growth)
+            {
+              growth  = g;
+              nearest = face;
+            }
+        std::ostringstream message;
+        message << name << " of geometry '" << settings.geometry
+                << "' catches no boundary face (a face is caught when its bounding box lies inside the box, "
+                   "within "
+                << tolerance << ")";
+        if (nearest > 0)
+          {
+            const auto face = bounding_box(2, nearest);
+            message << "; the nearest is face " << nearest << " with bounding box " << readable_point(face[0]) << "-"
+                    << readable_point(face[1]) << ", caught if the box grew by " << growth;
+          }
+        message << " (units of the geometry)";
+        return message.str();
       }
 
       void load_geo()
@@ -409,6 +687,11 @@ namespace modal_haptics::meshing
             const PlainMesh mesh = read_current_mesh(true, false);
             if (voi && !any_node_inside(mesh, *voi))
               throw MeshingError(not_intersecting_message(*voi, "no mesh node lies inside it"));
+            if (voi)
+              say("VOI '" + voi->name + "' (" + describe_region(*voi) + "): " +
+                  std::to_string(std::count_if(mesh.nodes.begin(), mesh.nodes.end(),
+                                               [voi](const Point3 &p) { return voi->contains(p); })) +
+                  " of " + std::to_string(mesh.nodes.size()) + " mesh vertices inside");
             try
               {
                 return tet_statistics(mesh, settings.min_quality, context(name));
@@ -555,6 +838,14 @@ namespace modal_haptics::meshing
     SceneMesher mesher(settings, volumes_of_interest, output_directory, verbose, reuse_only);
     GmshSession session(verbose);
     return mesher.run();
+  }
+
+  GeometryReport inspect_geometry(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,
+                                  const std::vector<std::string> &clamp_groups, const double length_unit)
+  {
+    SceneMesher  mesher(settings, volumes_of_interest, "", false, true);
+    GmshSession  session(false);
+    return mesher.inspect(clamp_groups, length_unit);
   }
 
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file)

@@ -77,8 +77,9 @@ namespace modal_haptics::meshing
     std::string geometry = "builtin:ribbed_panel";
     RibbedPanelGeometry ribbed_panel; // used with "builtin:ribbed_panel"
     double coarse_size = 6.;          // element size outside every VOI [unit]
-    // For STEP/BREP input, which has no names: boundary faces whose bounding box lies inside one of
-    // these boxes form the physical surface "clamp". Ignored when empty.
+    // For STEP/IGES/BREP input, which has no names: boundary faces whose bounding box lies inside one
+    // of these boxes (widened by 1e-5 of the part's bounding-box diagonal + 2e-7, OpenCASCADE's own
+    // padding) form the physical surface "clamp". A box that catches no face is an error.
     std::vector<std::array<Point3, 2>> clamp_boxes;
     int    mesh_threads = 1;          // gmsh's threads
     double min_quality  = 0.01;       // minimum acceptable element quality (gmsh minSICN); below: error
@@ -138,6 +139,50 @@ namespace modal_haptics::meshing
                          const std::string &output_directory,
                          bool verbose = true,
                          bool reuse_only = false);
+
+  // The length unit a STEP (LENGTH_UNIT entity) or IGES (global section's units flag) file declares.
+  // Empty (metres = 0) for a file that declares none, and for BREP, .geo and .msh, which carry no unit.
+  // Throws MeshingError for a unit OpenCASCADE cannot convert. The mesher reads a STEP/IGES file in
+  // its declared unit (gmsh 4.8's OpenCASCADE would otherwise convert it to millimetres).
+  struct DeclaredUnit
+  {
+    std::string name;     // "metre", "millimetre", "inch", ...
+    std::string occ_code; // gmsh's Geometry.OCCTargetUnit ("M", "MM", "INCH", ...)
+    double      metres = 0.; // metres per unit
+  };
+  DeclaredUnit declared_length_unit(const std::string &file);
+
+  // What a selection caught: its boundary faces and their area.
+  struct SelectionReport
+  {
+    std::string name;       // "Clamp group 'clamp'", "Clamp boxes entry 1 (...)"
+    std::size_t n_faces = 0;
+    double      area    = 0.; // [unit^2]; 0 for a .msh input (no geometry)
+  };
+
+  // The geometry as loaded (not meshed), for --validate and the start of every run.
+  struct GeometryReport
+  {
+    DeclaredUnit unit;            // what the file declares (empty: 'Length unit' applies)
+    Point3       lower{}, upper{}; // bounding box [unit]
+    double       volume = 0.;     // [unit^3]; 0 when unknown (a .geo of gmsh's built-in kernel)
+    std::vector<SelectionReport> clamp_groups; // one per required surface, in order
+    std::vector<SelectionReport> clamp_boxes;  // one per 'Clamp boxes' entry (STEP/IGES/BREP only)
+    // Per VOI, the boundary faces whose bounding box meets the VOI's (none for a .msh input, which
+    // takes no VOI); their whole areas, so an upper bound of the surface inside. The mesh vertices
+    // inside a VOI are counted in the meshing log.
+    std::vector<SelectionReport> volumes_of_interest;
+  };
+
+  // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:
+  // the settings and VOIs (a VOI outside the part's bounding box), the file's declared length unit
+  // against 'length_unit' (metres per unit, refused when they differ), every clamp box (one that
+  // catches no boundary face is refused, naming the nearest face), every name of 'clamp_groups'
+  // (a physical surface of the model). Seconds, not minutes: nothing is meshed (a .msh is read).
+  GeometryReport inspect_geometry(const MeshingSettings &settings,
+                                  const std::vector<VolumeOfInterest> &volumes_of_interest,
+                                  const std::vector<std::string> &clamp_groups,
+                                  double length_unit);
 
   // Reads the $PhysicalNames of a MSH file: dimension -> (name -> tag).
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file);

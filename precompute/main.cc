@@ -17,7 +17,10 @@
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <iomanip>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -28,7 +31,8 @@ namespace
   {
     out << "usage: modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--distributed]\n"
            "       mpirun -np N modal-precompute SCENE.prm ...\n"
-           "  --validate     parse and check every parameter, then exit\n"
+           "  --validate     parse and check every parameter, load the geometry (no meshing) and check its unit,\n"
+           "                 groups and selections, then exit\n"
            "  --output-dir   where results go (default: results/<scene name>)\n"
            "  --quiet        no progress lines\n"
            "  --distributed  the MPI path (Trilinos, MUMPS, PARPACK) even on one process; implied by N > 1\n"
@@ -191,25 +195,96 @@ namespace
     return std::nullopt;
   }
 
-  // Reading the parameters is the same on every process: if one fails, all report it together and
-  // exit normally (process 0 prints, or the first failing process when process 0 did not fail).
-  bool read_parameters_on_every_process(const CommandLine &command, const Processes &processes,
-                                        dealii::ParameterHandler &prm, modal_haptics::SceneParameters &scene)
+  // A step that is the same on every process: if one fails, all report it together and exit normally
+  // (process 0 prints, or the first failing process when process 0 did not fail).
+  bool on_every_process(const Processes &processes, const std::function<void()> &step)
   {
-    std::string parse_error;
+    std::string error;
     try
       {
-        scene = modal_haptics::read_scene_parameters(prm, command.parameter_file, command.output_directory);
+        step();
       }
     catch (const std::exception &e)
       {
-        parse_error = error_message(e);
+        error = error_message(e);
       }
     const unsigned int first_failing =
-      dealii::Utilities::MPI::min(parse_error.empty() ? processes.count : processes.rank, MPI_COMM_WORLD);
+      dealii::Utilities::MPI::min(error.empty() ? processes.count : processes.rank, MPI_COMM_WORLD);
     if (first_failing < processes.count && processes.rank == first_failing)
-      print_error(parse_error);
+      print_error(error);
     return first_failing == processes.count;
+  }
+
+  bool read_parameters_on_every_process(const CommandLine &command, const Processes &processes,
+                                        dealii::ParameterHandler &prm, modal_haptics::SceneParameters &scene)
+  {
+    return on_every_process(processes, [&] {
+      scene = modal_haptics::read_scene_parameters(prm, command.parameter_file, command.output_directory);
+    });
+  }
+
+  std::string metres(const modal_haptics::meshing::Point3 &p, const double unit)
+  {
+    std::ostringstream out;
+    out << std::setprecision(5) << "(" << p[0] * unit << ", " << p[1] * unit << ", " << p[2] * unit << ")";
+    return out.str();
+  }
+
+  // The geometry, loaded without meshing (seconds): the unit its file declares, its size, volume and
+  // mass, and what each clamp selection caught; a contradicting 'Length unit', a selection that
+  // catches nothing, a group that does not exist are refused (meshing::inspect_geometry). Printed on
+  // process 0 when `print`; the warnings always.
+  void inspect_geometry(const modal_haptics::SceneParameters &scene, const bool print)
+  {
+    const auto report = modal_haptics::meshing::inspect_geometry(scene.meshing, scene.volumes_of_interest,
+                                                                 scene.clamp_groups, scene.length_unit);
+    const double unit   = scene.length_unit;
+    double       extent = std::numeric_limits<double>::max();
+    for (int i = 0; i < 3; ++i)
+      extent = std::min(extent, report.upper[i] - report.lower[i]);
+    std::ostringstream out;
+    out << std::setprecision(6) << "[geometry] '" << scene.meshing.geometry << "': ";
+    if (report.unit.metres > 0.)
+      out << "the file declares its lengths in " << report.unit.name << ", read as they are: " << unit
+          << " m per unit (= 'Geometry/Length unit')\n";
+    else
+      out << "no declared unit: 'Geometry/Length unit' = " << unit << " m per unit\n";
+    // OpenCASCADE pads bounding boxes by about 1e-7 units: 5 significant digits hide it.
+    out << std::setprecision(5) << "[geometry] bounding box " << metres(report.lower, unit) << " - "
+        << metres(report.upper, unit) << " m, extent " << (report.upper[0] - report.lower[0]) * unit << " x "
+        << (report.upper[1] - report.lower[1]) * unit << " x " << (report.upper[2] - report.lower[2]) * unit
+        << " m\n" << std::setprecision(6);
+    const double volume = report.volume * unit * unit * unit;
+    if (volume > 0.)
+      out << "[geometry] volume " << volume << " m^3, mass " << volume * scene.material.density << " kg (density "
+          << scene.material.density << " kg/m^3)\n";
+    else
+      out << "[geometry] volume unknown before meshing (gmsh's built-in geometry kernel)\n";
+    for (const auto &groups : {report.clamp_groups, report.clamp_boxes})
+      for (const auto &selection : groups)
+        {
+          out << "[geometry] " << selection.name << ": " << selection.n_faces
+              << (selection.n_faces == 1 ? " face" : " faces");
+          if (selection.area > 0.)
+            out << ", area " << selection.area * unit * unit << " m^2";
+          out << "\n";
+        }
+    for (const auto &voi : report.volumes_of_interest)
+      {
+        out << "[geometry] " << voi.name << ": meets " << voi.n_faces << " boundary face"
+            << (voi.n_faces == 1 ? "" : "s");
+        if (voi.area > 0.)
+          out << " (their whole area: " << voi.area * unit * unit << " m^2)";
+        out << "\n";
+      }
+    if (print)
+      std::cout << out.str() << std::flush;
+    // A patch that covers a large share of the part is no longer a contact (issue 18).
+    if (print && scene.contact.patch_radius > 0.1 * extent)
+      std::cerr << "Warning: 'Contact/Patch radius' = " << scene.contact.patch_radius << " (geometry units, "
+                << scene.contact.patch_radius * unit << " m) exceeds a tenth of the part's smallest extent ("
+                << extent << " geometry units, " << extent * unit << " m): is 'Geometry/Length unit' right?"
+                << std::endl;
   }
 
   // --list-scenarios and --validate answer from the parameters alone; returns their exit code.
@@ -228,6 +303,8 @@ namespace
       }
     if (command.validate_only)
       {
+        if (!on_every_process(processes, [&] { inspect_geometry(scene, processes.rank == 0); }))
+          return 1;
         if (processes.rank == 0)
           std::cout << command.parameter_file << ": valid (scene '" << scene.scene_name << "', "
                     << scene.volumes_of_interest.size() << " VOI scenarios + the global one)" << std::endl;
@@ -311,6 +388,8 @@ int main(int argc, char **argv)
     return 1;
   if (const auto done = answer_from_parameters(command, processes, scene))
     return *done;
+  if (!on_every_process(processes, [&] { inspect_geometry(scene, command.verbose && processes.rank == 0); }))
+    return 1;
   if (command.partial_directory.empty())
     command.partial_directory = scene.output_directory + "/partial";
   return run_and_report(command, processes, scene, prm);

@@ -48,6 +48,10 @@ namespace modal_haptics
   namespace
   {
     const std::string point_pattern_help = " Three comma-separated numbers x, y, z.";
+    // The unit of every length of the .prm file.
+    const std::string geometry_units =
+      " Units: geometry units ('Geometry/Length unit' metres each: mm by default and for the built-in panel; a "
+      "STEP/IGES file's declared unit).";
 
     meshing::Point3 parse_point(const std::string &text, const std::string &entry)
     {
@@ -73,26 +77,26 @@ namespace modal_haptics
     {
       const meshing::RibbedPanelGeometry g;
       const auto length = [&](const char *name, const double value, const std::string &what) {
-        prm.declare_entry(name, std::to_string(value), Patterns::Double(1e-6), what + " Units: geometry units.");
+        prm.declare_entry(name, std::to_string(value), Patterns::Double(1e-6), what + geometry_units);
       };
       prm.enter_subsection("Ribbed panel");
       prm.declare_entry("Length", std::to_string(g.length), Patterns::Double(1e-6),
-                        "Plate length along x. Units: geometry units (mm by default).");
+                        "Plate length along x." + geometry_units);
       length("Width", g.width, "Plate width along y.");
       length("Wall thickness", g.wall_thickness, "Plate thickness along z.");
       prm.declare_entry("Rib positions", text(g.rib_positions_y), Patterns::List(Patterns::Double(), 1),
-                        "y coordinates of the rib centre lines (ribs run along x). Units: geometry units.");
+                        "y coordinates of the rib centre lines (ribs run along x)." + geometry_units);
       prm.declare_entry("Rib heights", text(g.rib_heights), Patterns::List(Patterns::Double(1e-6), 1),
-                        "Height of each rib above the plate. Units: geometry units.");
+                        "Height of each rib above the plate." + geometry_units);
       prm.declare_entry("Rib thicknesses", text(g.rib_thicknesses), Patterns::List(Patterns::Double(1e-6), 1),
-                        "Thickness of each rib. Units: geometry units.");
+                        "Thickness of each rib." + geometry_units);
       length("Rib length", g.rib_length, "Length of the ribs, centred in x.");
       length("Boss inset", g.boss_inset, "Distance of the screw-boss axes from the plate edges.");
       length("Boss outer radius", g.boss_outer_radius, "Outer radius of the screw bosses.");
       length("Boss inner radius", g.boss_inner_radius, "Radius of the screw holes.");
       length("Boss height", g.boss_height, "Height of the bosses above the plate.");
       prm.declare_entry("Clip tower centre", text(g.clip_centre), Patterns::Anything(),
-                        "x, y of the clip tower's axis (z ignored)." + point_pattern_help + " Units: geometry units.");
+                        "x, y of the clip tower's axis (z ignored)." + point_pattern_help + geometry_units);
       length("Clip tower size", g.clip_size, "Outer edge of the square clip tower.");
       length("Clip tower wall", g.clip_wall, "Wall thickness of the clip tower.");
       length("Clip tower height", g.clip_height, "Height of the clip tower above the plate.");
@@ -139,11 +143,13 @@ namespace modal_haptics
       prm.enter_subsection("Geometry");
       prm.declare_entry("Source", scene.meshing.geometry, Patterns::Anything(),
                         "The part: 'builtin:ribbed_panel' (the panel described in the subsection "
-                        "'Ribbed panel'), or a path to a .step/.stp/.brep/.geo/.msh file, relative to the "
-                        ".prm file's folder. Units: the geometry's own length unit (see 'Length unit').");
+                        "'Ribbed panel'), or a path to a .step/.stp/.iges/.igs/.brep/.geo/.msh file, relative to "
+                        "the .prm file's folder. A STEP/IGES file is read in the length unit it declares. Units: "
+                        "the geometry's own length unit (see 'Length unit').");
       prm.declare_entry("Length unit", text(scene.length_unit), Patterns::Double(1e-9, 1e9),
                         "Metres per length unit of the geometry and of every length in this file "
-                        "(0.001: the geometry is in mm). Units: m.");
+                        "(0.001: the geometry is in mm). A STEP/IGES file that declares its unit must be given "
+                        "that unit here (1 for metres): a contradicting value is refused. Units: m.");
       prm.declare_entry("Clamp groups", text(scene.clamp_groups), Patterns::List(Patterns::Anything()),
                         "Names of the physical surfaces that are clamped (zero displacement). The "
                         "built-in panel names the top faces of its screw bosses 'clamp'. Empty: the part is "
@@ -151,9 +157,10 @@ namespace modal_haptics
                         "needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
                         "Units: none.");
       prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
-                        "For STEP/BREP input (which carries no names): boundary faces inside any of these "
-                        "boxes form the physical surface 'clamp'. Format 'x0,y0,z0,x1,y1,z1; ...'. "
-                        "Units: geometry units.");
+                        "For STEP/IGES/BREP input (which carries no names): boundary faces whose bounding box "
+                        "lies inside one of these boxes (within 1e-5 of the part's diagonal) form the physical "
+                        "surface 'clamp'; a box that catches no face is refused. Format "
+                        "'x0,y0,z0,x1,y1,z1; ...'." + geometry_units);
       declare_ribbed_panel(prm);
       prm.leave_subsection();
     }
@@ -201,7 +208,7 @@ namespace modal_haptics
       const SceneParameters scene;
       prm.enter_subsection("Meshing");
       prm.declare_entry("Coarse size", text(scene.meshing.coarse_size), Patterns::Double(1e-9),
-                        "Element size outside every VOI (the global scenario's size). Units: geometry units.");
+                        "Element size outside every VOI (the global scenario's size)." + geometry_units);
       prm.declare_entry("Element degree", text(scene.element_degree), Patterns::Integer(1, 2),
                         "Polynomial degree of the tetrahedral elements (FE_SimplexP). Linear tets lock on "
                         "thin walls; 2 is the default. Units: none.");
@@ -232,18 +239,19 @@ namespace modal_haptics
       prm.declare_entry("Shape", voi.shape == meshing::VolumeOfInterest::Shape::ball ? "ball" : "box",
                         Patterns::Selection("box|ball"), "Shape of the VOI. Units: none.");
       prm.declare_entry("Box lower corner", text(voi.box_lower), Patterns::Anything(),
-                        "Lower corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+                        "Lower corner of a box VOI." + point_pattern_help + geometry_units);
       prm.declare_entry("Box upper corner", text(voi.box_upper), Patterns::Anything(),
-                        "Upper corner of a box VOI." + point_pattern_help + " Units: geometry units.");
+                        "Upper corner of a box VOI." + point_pattern_help + geometry_units);
       prm.declare_entry("Ball centre", text(voi.ball_centre), Patterns::Anything(),
-                        "Centre of a ball VOI." + point_pattern_help + " Units: geometry units.");
+                        "Centre of a ball VOI." + point_pattern_help + geometry_units);
       prm.declare_entry("Ball radius", text(voi.ball_radius), Patterns::Double(0.),
-                        "Radius of a ball VOI. Units: geometry units.");
+                        "Radius of a ball VOI." + geometry_units);
       prm.declare_entry("Fine size", text(voi.fine_size), Patterns::Double(1e-9),
-                        "Element size inside the VOI. Units: geometry units.");
+                        "Element size inside the VOI. The default (" + text(voi.fine_size) +
+                          ") becomes a quarter of 'Meshing/Coarse size' when that is smaller than it." +
+                          geometry_units);
       prm.declare_entry("Transition", text(voi.transition), Patterns::Double(0.),
-                        "Distance over which the size grows from the fine to the coarse size. Units: "
-                        "geometry units.");
+                        "Distance over which the size grows from the fine to the coarse size." + geometry_units);
     }
 
     // Reads the current "Scenario N" subsection (named `section` in messages) into a VOI and checks
@@ -261,6 +269,9 @@ namespace modal_haptics
       voi.ball_radius = prm.get_double("Ball radius");
       voi.fine_size   = prm.get_double("Fine size");
       voi.transition  = prm.get_double("Transition");
+      // A default nobody wrote must not conflict with a small coarse size (a part in metres).
+      if (voi.fine_size == meshing::VolumeOfInterest().fine_size && voi.fine_size > coarse_size)
+        voi.fine_size = coarse_size / 4.;
       if (voi.shape == meshing::VolumeOfInterest::Shape::box)
         {
           for (unsigned int d = 0; d < 3; ++d)
@@ -354,7 +365,8 @@ namespace modal_haptics
     prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
                       "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
     prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
-                      "The cut-off never leaves fewer modes than this. Units: none.");
+                      "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
+                        ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");
     prm.declare_entry("Cut-off rule", cut_off_rule_name(m.cut_off_rule), Patterns::Selection("none|display|haptic"),
                       "Which modes are dropped: 'display' drops modes above half the display rate (the "
                       "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
@@ -398,6 +410,10 @@ namespace modal_haptics
     block_krylov   = prm.get("Eigensolver") == "block-krylov";
     block_size     = prm.get_integer("Block size");
     prm.leave_subsection();
+    // The default minimum follows a smaller requested count: asking for 5 modes must not fail on a
+    // default nobody wrote. A minimum written above the maximum is still an error.
+    if (minimum_count == ModeParameters().minimum_count && maximum_count < minimum_count)
+      minimum_count = maximum_count;
     AssertThrow(minimum_count <= maximum_count,
                 ExcMessage("'Modes/Minimum number of modes' = " + text(minimum_count) +
                            " exceeds 'Maximum number of modes' = " + text(maximum_count) + "."));
@@ -432,7 +448,7 @@ namespace modal_haptics
     prm.enter_subsection("Contact");
     prm.declare_entry("Patch radius", text(c.patch_radius), Patterns::Double(0.),
                       "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
-                      "load). Units: geometry units.");
+                      "load)." + geometry_units);
     prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
                       "Static-correction candidates of the global space: every n-th display vertex outside "
                       "every VOI; 0 = none. Units: none.");
@@ -445,7 +461,7 @@ namespace modal_haptics
                       "Candidates per space validated against full static FE, in x, y and z. Units: none.");
     prm.declare_entry("Validation points", "", Patterns::Anything(),
                       "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
-                      "of each becomes a static-correction candidate. Units: geometry units.");
+                      "of each becomes a static-correction candidate." + geometry_units);
     prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
                       "The display correction field of a contact is kept where it exceeds this fraction of "
                       "its maximum (it is local); the validation reports the error this truncation leaves. "
