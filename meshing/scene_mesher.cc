@@ -611,7 +611,6 @@ namespace modal_haptics::meshing
         option::setNumber("Mesh.Algorithm3D", algorithm_3d);
         option::setNumber("Mesh.Optimize", 1);
         option::setNumber("General.NumThreads", settings.mesh_threads);
-        if (const char *e = std::getenv("EXP_OPTS")) { std::istringstream in(e); std::string n; double v; while (in >> n >> v) option::setNumber(n, v); }
       }
 
       void generate(const int dimension, const std::vector<const VolumeOfInterest *> &graded)
