@@ -212,7 +212,7 @@ namespace modal_haptics
             std::copy(&ritz_vectors[std::size_t(i) * n], &ritz_vectors[std::size_t(i + 1) * n], phi.begin());
             solution.eigenvectors.push_back(std::move(phi));
           }
-        solution.arpack_seconds            = timer.wall_time();
+        solution.eigensolve_iteration_seconds            = timer.wall_time();
         solution.mass_product_seconds      = mass_seconds;
         solution.orthogonalization_seconds = orthogonalization_seconds;
         return solution;

@@ -14,7 +14,7 @@ namespace modal_haptics
                        (a[2] - b[2]) * (a[2] - b[2]));
     }
 
-    std::vector<double> lumped_vertex_areas(const DisplaySurface &s)
+    std::vector<double> lumped_vertex_areas(const ContactSurface &s)
     {
       std::vector<double> area(s.n_vertices(), 0.);
       for (const auto &t : s.triangles)
@@ -77,7 +77,7 @@ namespace modal_haptics
       std::unordered_map<long long, std::vector<unsigned int>> cells;
     };
 
-    void build_vertex_triangles(DisplaySurface &s)
+    void build_vertex_triangles(ContactSurface &s)
     {
       s.vertex_triangle_offsets.assign(s.n_vertices() + 1, 0);
       for (const auto &t : s.triangles)
@@ -98,7 +98,7 @@ namespace modal_haptics
       return s < 1. ? (1. - s * s) * (1. - s * s) : 0.;
     }
 
-    void build_patches(DisplaySurface &s)
+    void build_patches(ContactSurface &s)
     {
       const double rho = s.patch_radius;
       s.patch_offsets.assign(1, 0);
@@ -140,12 +140,12 @@ namespace modal_haptics
     }
   } // namespace
 
-  DisplaySurface make_display_surface(const meshing::DisplaySurface                &surface,
+  ContactSurface make_display_surface(const meshing::DisplaySurface                &surface,
                                       const std::vector<meshing::VolumeOfInterest> &volumes_of_interest,
                                       const double length_unit,
                                       const double patch_radius)
   {
-    DisplaySurface s;
+    ContactSurface s;
     s.triangles    = surface.triangles;
     s.patch_radius = patch_radius;
     s.region.assign(surface.vertices.size(), 0);
@@ -167,7 +167,7 @@ namespace modal_haptics
     return s;
   }
 
-  std::vector<SurfacePoint> patch_quadrature(const DisplaySurface &s, const unsigned int vertex)
+  std::vector<SurfacePoint> patch_quadrature(const ContactSurface &s, const unsigned int vertex)
   {
     const meshing::Point3 &centre = s.vertices[vertex];
     const double           rho    = s.patch_radius;

@@ -1,4 +1,5 @@
-// The scene's display/contact surface in SI units, with what every modal space shares on it:
+// The scene's display surface (DESIGN.md) as the modal spaces see it, the contact surface: the
+// mesher's meshing::DisplaySurface in SI units, with what every modal space shares on it:
 // the region tag of each vertex (which VOI holds it), the lumped vertex areas and the contact
 // patches (the weights that spread a HIP's force around its active vertex).
 #pragma once
@@ -10,7 +11,7 @@
 
 namespace modal_haptics
 {
-  struct DisplaySurface
+  struct ContactSurface
   {
     std::vector<meshing::Point3>             vertices;  // [m]
     std::vector<std::array<unsigned int, 3>> triangles;
@@ -43,12 +44,12 @@ namespace modal_haptics
   // The static solves load the FE mesh with this quadrature (the consistent load of the traction),
   // not with point forces at the patch vertices: on P2 meshes point forces at vertices are a sum of
   // singular loads whose response converges slowly under refinement.
-  std::vector<SurfacePoint> patch_quadrature(const DisplaySurface &surface, unsigned int vertex);
+  std::vector<SurfacePoint> patch_quadrature(const ContactSurface &surface, unsigned int vertex);
 
   // Scales the mesher's surface to metres, tags each vertex with the first VOI (1-based, in the order
   // given) that contains it, and builds the patches of radius patch_radius [m]:
   // w_j ~ A_j (1 - (d_j / rho)^2)^2 for d_j < rho, normalized (rho = 0: the vertex alone).
-  DisplaySurface make_display_surface(const meshing::DisplaySurface                &surface,
+  ContactSurface make_display_surface(const meshing::DisplaySurface                &surface,
                                       const std::vector<meshing::VolumeOfInterest> &volumes_of_interest,
                                       double length_unit,
                                       double patch_radius);

@@ -77,8 +77,8 @@ namespace modal_haptics
     class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
     {
     public:
-      DistributedSpace(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                       TimerOutput &timer, bool verbose, MPI_Comm comm);
+      DistributedSpace(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
+                       const std::string &vtu_file, TimerOutput &timer, bool verbose, MPI_Comm comm);
 
       // The backend of space_phases.h.
       using Field = DistributedVector;
@@ -107,7 +107,7 @@ namespace modal_haptics
       void sum_over_processes(std::vector<double> &values) const;
       std::array<Field, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
-      void write_vtu(DataOut<3> &data_out) const { data_out.write_vtu_in_parallel(task.vtu_file, comm); }
+      void write_vtu(DataOut<3> &data_out) const { data_out.write_vtu_in_parallel(vtu_file, comm); }
 
       DoFHandler<3>                    dof_handler;
       TrilinosWrappers::SparseMatrix   stiffness_matrix, mass_matrix;
@@ -144,10 +144,11 @@ namespace modal_haptics
       std::vector<DistributedVector>               modes, ghosted_modes;        // kept, M-orthonormal
     };
 
-    DistributedSpace::DistributedSpace(const SceneParameters &scene, const DisplaySurface &display,
-                                                 const SpaceTask &task, TimerOutput &timer, const bool verbose,
+    DistributedSpace::DistributedSpace(const SceneParameters &scene, const ContactSurface &display,
+                                                 const SpaceTask &task, const std::string &vtu_file, TimerOutput &timer,
+                                                 const bool verbose,
                                                  const MPI_Comm comm)
-      : PhasedSpace(scene, display, task, timer, verbose)
+      : PhasedSpace(scene, display, task, vtu_file, timer, verbose)
       , comm(comm)
       , triangulation(comm)
     {}
@@ -314,7 +315,7 @@ namespace modal_haptics
       std::vector<DistributedVector>    vectors(nev, DistributedVector(owned_dofs, comm));
       Timer                             arpack_timer;
       solver.solve(stiffness_matrix, mass_matrix, *inverse, lambda, vectors, nev);
-      result.arpack_seconds          = arpack_timer.wall_time();
+      result.eigensolve_iteration_seconds          = arpack_timer.wall_time();
       result.n_operator_applications = result.factorization.n_solved_vectors;
       result.eigensolver_method      = "PARPACK pdsaupd mode 3 (shift-invert), distributed";
 
@@ -345,7 +346,7 @@ namespace modal_haptics
         }
       std::ostringstream line;
       line << eigenvalues.size() << " modes in " << result.n_operator_applications << " solves, "
-           << result.arpack_seconds << " s; f1 = " << result.computed_frequencies_hz.front()
+           << result.eigensolve_iteration_seconds << " s; f1 = " << result.computed_frequencies_hz.front()
            << " Hz; max |Phi^T M Phi - I| = " << result.self_check.orthonormality_error
            << ", max ||K phi - lambda M phi|| / ||lambda M phi|| = " << result.self_check.max_relative_residual
            << "; kept " << modes.size();
@@ -504,13 +505,14 @@ namespace modal_haptics
   } // namespace
 
   ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
-                                                   const DisplaySurface  &display,
+                                                   const ContactSurface  &display,
                                                    const SpaceTask       &task,
+                                                   const std::string     &vtu_file,
                                                    TimerOutput           &timer,
                                                    const bool             verbose,
                                                    const MPI_Comm         comm)
   {
-    DistributedSpace space(scene, display, task, timer, verbose, comm);
+    DistributedSpace space(scene, display, task, vtu_file, timer, verbose, comm);
     return space.run();
   }
 } // namespace modal_haptics

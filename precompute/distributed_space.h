@@ -12,8 +12,9 @@
 namespace modal_haptics
 {
   ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
-                                                   const DisplaySurface  &display,
+                                                   const ContactSurface  &display,
                                                    const SpaceTask       &task,
+                                                   const std::string     &vtu_file,
                                                    dealii::TimerOutput   &timer,
                                                    bool                   verbose,
                                                    MPI_Comm               comm);

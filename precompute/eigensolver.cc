@@ -118,7 +118,7 @@ namespace modal_haptics
     AssertThrow(n_converged >= nev,
                 ExcMessage("ARPACK converged only " + std::to_string(n_converged) + " of " +
                            std::to_string(nev) + " modes."));
-    solution.arpack_seconds = timer.wall_time();
+    solution.eigensolve_iteration_seconds = timer.wall_time();
 
     // ARPACK does not promise an order: sort ascending.
     std::vector<unsigned int> order(nev);

@@ -19,9 +19,9 @@ namespace modal_haptics
     std::vector<dealii::Vector<double>> eigenvectors; // M-orthonormal
     unsigned int n_operator_applications = 0;         // solves with the factorization
     unsigned int n_restarts              = 0;         // ARPACK's implicit restarts
-    double       arpack_seconds          = 0.;        // wall time inside the Lanczos iteration
-    double       mass_product_seconds    = 0.;        // block Krylov: the products with M, in arpack_seconds
-    double       orthogonalization_seconds = 0.;      // block Krylov: Gram-Schmidt + Cholesky QR, in arpack_seconds
+    double       eigensolve_iteration_seconds = 0.; // wall time inside the iteration (ARPACK's Lanczos or block Krylov)
+    double       mass_product_seconds    = 0.;        // block Krylov: the products with M, in eigensolve_iteration_seconds
+    double       orthogonalization_seconds = 0.;      // block Krylov: Gram-Schmidt + Cholesky QR, in eigensolve_iteration_seconds
   };
 
   // Computes the n_modes eigenpairs closest to the shift (rad^2/s^2) with the factorization of

@@ -32,6 +32,13 @@ namespace modal_haptics
 
   namespace
   {
+    // Where a space's mode shapes go: DIRECTORY/modes_SPACE.vtu (the output folder, or a scenario
+    // job's partial results folder).
+    std::string vtu_file(const std::string &directory, const std::string &space)
+    {
+      return directory + "/modes_" + space + ".vtu";
+    }
+
     // A distributed space keeps only each process's own rows of the per-vertex and per-tet data
     // (ModalSpaceResult::owned_rows). A partial result is one file, written by process 0: it gets
     // every row, in mesh order.
@@ -88,9 +95,9 @@ namespace modal_haptics
     dealii::Timer total;
     create_output_directory();
     make_meshes();
-    plan_contacts(scene.output_directory);
+    plan_contacts();
     for (const auto &task : results.tasks)
-      compute_modal_space(task);
+      solve_space(task, scene.output_directory);
     record_peak_memory();
     // Every process writes its own rows of the .h5 (parallel HDF5 in a distributed run); process 0
     // alone writes the other files.
@@ -109,13 +116,13 @@ namespace modal_haptics
   {
     dealii::Timer total;
     make_meshes(true);
-    plan_contacts(partial_directory);
+    plan_contacts();
     const SpaceTask &task = task_of_scenario(name);
     if (writes_files)
       create_folder(partial_directory, "partial results folder");
     if (distributed) // all processes write the VTU into that folder
       MPI_Barrier(MPI_COMM_WORLD);
-    compute_modal_space(task);
+    solve_space(task, partial_directory);
     record_peak_memory();
     if (distributed)
       gather_rows_on_root(results.spaces.front(), MPI_COMM_WORLD);
@@ -139,22 +146,31 @@ namespace modal_haptics
     dealii::Timer total;
     create_output_directory();
     make_meshes(true);
-    plan_contacts(partial_directory);
+    plan_contacts();
     double job_seconds = 0.;
     read_partial_results(partial_directory, job_seconds);
-    write_results(job_seconds + total.wall_time());
+    write_results(job_seconds + total.wall_time(), partial_directory);
   }
 
   // The transfer matrices and every file of the scene, renamed into place together. The report is
   // written last: it gives the size of every other file and the total time.
-  void ModalPrecompute::write_results(const double earlier_seconds)
+  void ModalPrecompute::write_results(const double earlier_seconds, const std::string &jobs_directory)
   {
     dealii::Timer wall;
-    compute_transfer_matrices();
+    add_transfer_matrices();
     StagedFiles staged;
     export_results(staged);
     if (!writes_files)
       return;
+    // The VTU files the scenario jobs wrote beside their partial results join the scene's files.
+    if (!jobs_directory.empty())
+      for (const auto &task : results.tasks)
+        staged.write(vtu_file(scene.output_directory, task.name), [&](std::ostream &out) {
+          const std::string job_file = vtu_file(jobs_directory, task.name);
+          std::ifstream     in(job_file, std::ios::binary);
+          AssertThrow(in, ExcMessage("Cannot read '" + job_file + "'."));
+          out << in.rdbuf();
+        }, std::ios::binary);
     results.timings_s["total"] = earlier_seconds + wall.wall_time();
     write_report(scene.output_directory + "/report.json", scene, results, staged);
     staged.commit();
@@ -235,8 +251,9 @@ namespace modal_haptics
                     ExcMessage("'" + file + "' was computed on other meshes than those now in '" +
                                scene.output_directory + "' (" + task.msh_file +
                                ", display_surface.msh): the scene was meshed again since. Run its scenario again."));
-        AssertThrow(std::filesystem::exists(task.vtu_file),
-                    ExcMessage("'" + task.vtu_file + "', written with '" + file + "', is missing."));
+        AssertThrow(std::filesystem::exists(vtu_file(partial_directory, task.name)),
+                    ExcMessage("'" + vtu_file(partial_directory, task.name) + "', written with '" + file +
+                               "', is missing."));
         file_of_space[task.index] = file;
         partials[task.index]      = std::move(partial);
       }
@@ -310,7 +327,7 @@ namespace modal_haptics
 
   } // namespace
 
-  unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point,
+  unsigned int nearest_display_vertex(const ContactSurface &display, const meshing::Point3 &point,
                                       const double length_unit)
   {
     unsigned int best = 0;
@@ -328,7 +345,7 @@ namespace modal_haptics
 
   // A VOI space's candidates are the display vertices inside its VOI; the global space's are every
   // n-th vertex outside all VOIs (none by default): "model only what a scene requires".
-  void ModalPrecompute::plan_contacts(const std::string &vtu_directory)
+  void ModalPrecompute::plan_contacts()
   {
     const auto &display = results.display;
     std::vector<unsigned int> shared;
@@ -340,7 +357,6 @@ namespace modal_haptics
         task.index             = s;
         task.msh_file          = mesh.msh_file;
         task.physical_surfaces = mesh.physical_surfaces;
-        task.vtu_file          = vtu_directory + "/modes_" + mesh.name + ".vtu";
         std::vector<unsigned int> in_region;
         unsigned int              seen = 0;
         for (unsigned int v = 0; v < display.n_vertices(); ++v)
@@ -379,13 +395,15 @@ namespace modal_haptics
       task.shared_vertices = shared;
   }
 
-  void ModalPrecompute::compute_modal_space(const SpaceTask &task)
+  void ModalPrecompute::solve_space(const SpaceTask &task, const std::string &vtu_directory)
   {
     if (verbose)
       std::cout << "[space " << task.index + 1 << "/" << results.tasks.size() << "] " << task.name << std::endl;
     ModalSpaceResult space =
-      distributed ? compute_modal_space_distributed(scene, results.display, task, timer, verbose, MPI_COMM_WORLD) :
-                    modal_haptics::compute_modal_space(scene, results.display, task, timer, verbose);
+      distributed ? compute_modal_space_distributed(scene, results.display, task, vtu_file(vtu_directory, task.name),
+                                                    timer, verbose, MPI_COMM_WORLD) :
+                    compute_modal_space(scene, results.display, task, vtu_file(vtu_directory, task.name), timer,
+                                        verbose);
     for (const auto &[phase, seconds] : space.timings_s)
       results.timings_s[phase] += seconds;
     results.spaces.push_back(std::move(space));
@@ -406,7 +424,7 @@ namespace modal_haptics
 
   // T_(k <- j) = argmin_T || Phi_k T - Phi_j ||_A over the display surface, with A the lumped vertex
   // areas: the normal equations (Phi_k^T A Phi_k) T = Phi_k^T A Phi_j, small and dense.
-  std::vector<TransferMatrix> compute_transfer_matrices(const DisplaySurface &display,
+  std::vector<TransferMatrix> compute_transfer_matrices(const ContactSurface &display,
                                                         const std::vector<ModalSpaceResult> &spaces)
   {
     std::vector<TransferMatrix> transfers;
@@ -464,10 +482,10 @@ namespace modal_haptics
     return transfers;
   }
 
-  void ModalPrecompute::compute_transfer_matrices()
+  void ModalPrecompute::add_transfer_matrices()
   {
     TimerOutput::Scope scope(timer, "transfer matrices");
-    results.transfers = modal_haptics::compute_transfer_matrices(results.display, results.spaces);
+    results.transfers = compute_transfer_matrices(results.display, results.spaces);
   }
 
   void ModalPrecompute::export_results(StagedFiles &staged)
@@ -486,15 +504,6 @@ namespace modal_haptics
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
     for (const auto &task : results.tasks)
       {
-        // A space computed by a job of its own wrote its VTU beside its partial result: copied in
-        // with the other files.
-        const std::string vtu = scene.output_directory + "/modes_" + task.name + ".vtu";
-        if (task.vtu_file != vtu)
-          staged.write(vtu, [&](std::ostream &out) {
-            std::ifstream in(task.vtu_file, std::ios::binary);
-            AssertThrow(in, ExcMessage("Cannot read '" + task.vtu_file + "'."));
-            out << in.rdbuf();
-          }, std::ios::binary);
         staged.write(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
         out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n"
             << "    <DataSet timestep=\"0\" group=\"\" part=\"0\" file=\"modes_" << task.name << ".vtu\"/>\n"

@@ -2,12 +2,17 @@
 //
 //   make_meshes()                 gmsh: one graded mesh per scenario + the display surface
 //   plan_contacts()               which display vertices get a static correction and a validation
-//   compute_modal_space()         per space: assemble, eigensolve, select, correct, validate
-//   compute_transfer_matrices()   the state carried across a switch between spaces
-//   export_results()              .h5, .mrt, report.json, used_parameters.prm
+//   solve_space()                 per space (compute_modal_space, modal_space.h): assemble,
+//                                 eigensolve, select, correct, validate; its VTU where the caller says
+//   add_transfer_matrices()       the state carried across a switch between spaces
+//   export_results()              .h5, .mrt, report.json, used_parameters.prm (exporters.h)
+//
+// Data flows one way: parameters -> meshes and display surface -> space tasks (what to compute,
+// no output paths) -> space results -> the scene's files.
 #pragma once
 
 #include "display_surface.h"
+#include "exporters.h"
 #include "modal_space.h"
 #include "scene_parameters.h"
 
@@ -20,28 +25,6 @@
 
 namespace modal_haptics
 {
-  // T_(to <- from): q_to = T q_from, r_to x r_from row-major.
-  struct TransferMatrix
-  {
-    unsigned int        to = 0, from = 0;
-    unsigned int        rows = 0, columns = 0;
-    std::vector<double> values;
-    double              relative_residual = 0.; // area-weighted LS residual of carrying the modes of 'from'
-  };
-
-  // Everything the exporters write; filled by ModalPrecompute::run().
-  struct PrecomputeResults
-  {
-    meshing::SceneMeshes          meshes;
-    DisplaySurface                display;
-    std::vector<SpaceTask>        tasks;
-    std::vector<ModalSpaceResult> spaces;
-    std::vector<TransferMatrix>   transfers;
-    std::map<std::string, double> timings_s;
-    unsigned int                  n_processes = 1;           // MPI processes that computed the spaces
-    double                        max_peak_memory_mb = 0.;   // largest peak resident memory of one process
-  };
-
   class StagedFiles; // atomic_file.h
 
   // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
@@ -65,13 +48,15 @@ namespace modal_haptics
   private:
     void create_output_directory() const;
     void make_meshes(bool reuse_only = false);
-    void plan_contacts(const std::string &vtu_directory);
+    void plan_contacts();
     const SpaceTask &task_of_scenario(const std::string &name) const;
-    void compute_modal_space(const SpaceTask &task);
+    // The space of 'task', its VTU written into vtu_directory.
+    void solve_space(const SpaceTask &task, const std::string &vtu_directory);
     void record_peak_memory();
     void read_partial_results(const std::string &partial_directory, double &job_seconds);
-    void write_results(double earlier_seconds);
-    void compute_transfer_matrices();
+    // The scene's files; a merge also gathers the VTU files its jobs wrote in jobs_directory.
+    void write_results(double earlier_seconds, const std::string &jobs_directory = "");
+    void add_transfer_matrices();
     void export_results(StagedFiles &staged);
     std::string parameters_text() const;
 
@@ -85,23 +70,10 @@ namespace modal_haptics
   };
 
   // T_(k <- j) for every ordered pair of spaces: least squares over the display surface.
-  std::vector<TransferMatrix> compute_transfer_matrices(const DisplaySurface &display,
+  std::vector<TransferMatrix> compute_transfer_matrices(const ContactSurface &display,
                                                         const std::vector<ModalSpaceResult> &spaces);
 
   // The display vertex nearest to a point given in geometry units.
-  unsigned int nearest_display_vertex(const DisplaySurface &display, const meshing::Point3 &point, double length_unit);
+  unsigned int nearest_display_vertex(const ContactSurface &display, const meshing::Point3 &point, double length_unit);
 
-  // The exporters (export_results.cc). Each stages its file in `staged` (atomic_file.h): written
-  // complete to a temporary file, renamed over `filename` when the run commits its results.
-  void write_hdf5_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
-                       StagedFiles &staged);
-  // The same file written by every process of 'comm' together with parallel HDF5: each writes its
-  // own rows of the per-vertex and per-tet datasets, process 0 the rest and stages the file ('staged'
-  // is used on process 0 only).
-  void write_hdf5_file_parallel(const std::string &filename, const SceneParameters &scene,
-                                const PrecomputeResults &results, StagedFiles *staged, MPI_Comm comm);
-  void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
-                        StagedFiles &staged);
-  void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
-                    StagedFiles &staged);
 } // namespace modal_haptics

@@ -57,50 +57,67 @@ namespace modal_haptics
     double solve_relative_residual     = 0.; // ||K u - f|| / ||f|| of the full solve
   };
 
-  struct ModalSpaceResult
+  // A space's result is read by three readers, one struct each: the basis (what the .mrt and .h5
+  // files hold), its diagnostics (report.json) and the rows this process holds (MPI bookkeeping,
+  // never written). for_each_field lists every written field once, with its name: the partial
+  // result (partial_result.cc) serializes the basis and the diagnostics through it.
+
+  // The modal basis of a space on the scene's display surface, its mesh and its validation.
+  struct ModalBasis
   {
     std::string  name;
     unsigned int index = 0; // 0 = global
     unsigned int degree = 2;
-    unsigned int n_vertices = 0, n_cells = 0, n_dofs = 0, n_clamped_dofs = 0;
+    unsigned int n_vertices = 0, n_cells = 0, n_dofs = 0;
 
     std::vector<double>       mesh_vertices; // 3 per vertex [m]
     std::vector<unsigned int> mesh_tets;     // 4 per tet
     std::vector<unsigned int> clamped_dofs;
 
-    // A distributed run keeps only its own rows of the whole mesh (docs/cluster.md): mesh_vertices
-    // and modes_at_vertices then hold the vertices listed here, in this order, and mesh_tets the
-    // tets listed here; the parallel HDF5 writer puts every row in its place in the file.
-    struct OwnedRows
-    {
-      std::vector<unsigned int> vertices, tets; // indices in the whole mesh
-    };
-    std::optional<OwnedRows> owned_rows; // empty: every row, in mesh order (the serial run)
-    std::size_t n_vertex_rows() const { return owned_rows ? owned_rows->vertices.size() : n_vertices; }
+    std::vector<double> eigenvalues;    // the kept modes [rad^2/s^2]
+    std::vector<double> frequencies_hz;
+    std::vector<double> damping_ratios;
 
-    std::vector<double>      computed_frequencies_hz; // every computed mode
-    std::vector<double>      eigenvalues;             // the kept modes [rad^2/s^2]
-    std::vector<double>      frequencies_hz;
-    std::vector<double>      damping_ratios;
-    std::vector<DroppedMode> dropped_modes;
-    double                   cut_off_hz = 0.;
-    EigenSelfCheck           self_check;
-    unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
-
-    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)] (r x owned vertices x 3, see owned_rows)
+    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)] (r x owned vertices x 3, see ProcessRows)
     std::vector<double> display_modes;     // (3 nv) x r row-major: (3v + c) r + i
 
     std::vector<unsigned int> candidates;
     std::vector<double>       candidate_modes;      // nc x 3 x r
     std::vector<double>       candidate_compliance; // nc x 3 x 3 [m/N]
     std::vector<double>       cross_compliance;     // (3nc) x (3nc), empty when not stored
-    std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
 
     std::vector<double>         participation; // r x 6
     double                      mass = 0.;     // [kg]
     std::array<double, 3>       centre_of_mass{};
     std::array<double, 9>       inertia{};     // about the centre of mass [kg m^2]
     std::vector<ValidationCase> validation;
+
+    template <typename Self, typename Visitor>
+    static void for_each_field(Self &b, Visitor &&field)
+    {
+      field("name", b.name), field("index", b.index), field("degree", b.degree);
+      field("n_vertices", b.n_vertices), field("n_cells", b.n_cells), field("n_dofs", b.n_dofs);
+      field("mesh_vertices", b.mesh_vertices), field("mesh_tets", b.mesh_tets), field("clamped_dofs", b.clamped_dofs);
+      field("eigenvalues", b.eigenvalues), field("frequencies_hz", b.frequencies_hz);
+      field("damping_ratios", b.damping_ratios), field("modes_at_vertices", b.modes_at_vertices);
+      field("display_modes", b.display_modes), field("candidates", b.candidates);
+      field("candidate_modes", b.candidate_modes), field("candidate_compliance", b.candidate_compliance);
+      field("cross_compliance", b.cross_compliance), field("participation", b.participation);
+      field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
+      field("validation", b.validation);
+    }
+  };
+
+  // How a space was computed and how well: what report.json says beyond the basis.
+  struct SpaceDiagnostics
+  {
+    unsigned int             n_clamped_dofs = 0;
+    std::vector<double>      computed_frequencies_hz; // every computed mode
+    std::vector<DroppedMode> dropped_modes;
+    double                   cut_off_hz = 0.;
+    EigenSelfCheck           self_check;
+    unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
+    std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
     double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
 
     // A free-floating part (no clamp groups): its six lowest modes are the rigid-body motions.
@@ -112,11 +129,45 @@ namespace modal_haptics
     FactorizationStatistics factorization;
     std::string             eigensolver_method;
     unsigned int            n_operator_applications = 0;
-    double                  arpack_seconds = 0.; // the Lanczos iteration with its solves, after the factorization
-    double                  mass_product_seconds = 0.;      // block Krylov: products with M, in arpack_seconds
-    double                  orthogonalization_seconds = 0.; // block Krylov: Gram-Schmidt, in arpack_seconds
+    // The eigensolver's iteration with its solves, after the factorization (ARPACK, PARPACK or the
+    // block Krylov solver; report.json's "arpack_s").
+    double                  eigensolve_iteration_seconds = 0.;
+    double                  mass_product_seconds = 0.;      // block Krylov: products with M, in the iteration
+    double                  orthogonalization_seconds = 0.; // block Krylov: Gram-Schmidt, in the iteration
     double                  correction_seconds_per_candidate = 0.;
     std::map<std::string, double> timings_s;     // assembly, eigensolve, static_correction, validation
+
+    template <typename Self, typename Visitor>
+    static void for_each_field(Self &d, Visitor &&field)
+    {
+      field("n_clamped_dofs", d.n_clamped_dofs), field("computed_frequencies_hz", d.computed_frequencies_hz);
+      field("dropped_modes", d.dropped_modes), field("cut_off_hz", d.cut_off_hz), field("self_check", d.self_check);
+      field("n_spurious_rows", d.n_spurious_rows), field("full_compliance", d.full_compliance);
+      field("two_contact_rel_error_corrected", d.two_contact_rel_error_corrected);
+      field("n_rigid_body_modes", d.n_rigid_body_modes);
+      field("rigid_computed_frequencies_hz", d.rigid_computed_frequencies_hz);
+      field("rigid_subspace_sine", d.rigid_subspace_sine), field("static_solve_iterations", d.static_solve_iterations);
+      field("factorization", d.factorization), field("eigensolver_method", d.eigensolver_method);
+      field("n_operator_applications", d.n_operator_applications);
+      field("eigensolve_iteration_seconds", d.eigensolve_iteration_seconds);
+      field("mass_product_seconds", d.mass_product_seconds);
+      field("orthogonalization_seconds", d.orthogonalization_seconds);
+      field("correction_seconds_per_candidate", d.correction_seconds_per_candidate), field("timings_s", d.timings_s);
+    }
+  };
+
+  // The rows of the whole mesh a process of a distributed run holds (docs/cluster.md): mesh_vertices
+  // and modes_at_vertices then hold the vertices listed here, in this order, and mesh_tets the tets
+  // listed here; the parallel HDF5 writer puts every row in its place in the file.
+  struct ProcessRows
+  {
+    std::vector<unsigned int> vertices, tets; // indices in the whole mesh
+  };
+
+  struct ModalSpaceResult : ModalBasis, SpaceDiagnostics
+  {
+    std::optional<ProcessRows> owned_rows; // empty: every row, in mesh order (the serial run)
+    std::size_t n_vertex_rows() const { return owned_rows ? owned_rows->vertices.size() : n_vertices; }
   };
 
   // The static gain 1 / lambda of a mode, and 0 for a rigid-body mode (lambda = 0): the static
@@ -134,7 +185,6 @@ namespace modal_haptics
     std::vector<unsigned int>   candidates;         // display vertices with a static correction
     std::vector<unsigned int>   validation_vertices; // a subset of candidates
     std::vector<unsigned int>   shared_vertices;    // vertices whose full compliance every space reports
-    std::string                 vtu_file;           // mode shapes + validation error fields, or empty
   };
 
   // The space with its first r modes only (r <= its count), as if the eigensolve had kept r: the
@@ -144,10 +194,11 @@ namespace modal_haptics
   ModalSpaceResult truncate_modal_space(const ModalSpaceResult &space, unsigned int r);
 
   // Runs the whole pipeline of one space: read mesh, assemble, eigensolve, select, interpolate on
-  // the display surface, static correction, validation, VTU output.
+  // the display surface, static correction, validation, VTU output into vtu_file (none if empty).
   ModalSpaceResult compute_modal_space(const SceneParameters &scene,
-                                       const DisplaySurface  &display,
+                                       const ContactSurface  &display,
                                        const SpaceTask       &task,
+                                       const std::string     &vtu_file,
                                        dealii::TimerOutput   &timer,
                                        bool                   verbose);
 
@@ -200,8 +251,9 @@ namespace modal_haptics
     struct PhaseInputs
     {
       const SceneParameters                 &scene;
-      const DisplaySurface                  &display;
+      const ContactSurface                  &display;
       const SpaceTask                       &task;
+      const std::string                     &vtu_file;
       const bool                             verbose;
       const std::function<void(std::string)> log;
     };
@@ -212,8 +264,8 @@ namespace modal_haptics
     class SpaceBase
     {
     public:
-      SpaceBase(const SceneParameters &scene, const DisplaySurface &display, const SpaceTask &task,
-                dealii::TimerOutput &timer, bool verbose);
+      SpaceBase(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
+                const std::string &vtu_file, dealii::TimerOutput &timer, bool verbose);
       virtual ~SpaceBase() = default;
       ModalSpaceResult run();
 
@@ -229,12 +281,13 @@ namespace modal_haptics
       void log(const std::string &message) const;
       PhaseInputs inputs() const
       {
-        return {scene, display, task, verbose, [this](const std::string &message) { log(message); }};
+        return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};
       }
 
       const SceneParameters        &scene;
-      const DisplaySurface         &display;
+      const ContactSurface         &display;
       const SpaceTask              &task;
+      const std::string             vtu_file; // mode shapes + validation error fields, or empty
       dealii::TimerOutput          &timer;
       const bool                    verbose;
       const dealii::FESystem<3>     fe;
@@ -321,7 +374,7 @@ namespace modal_haptics
     using PointEvaluator = std::function<std::vector<EvaluationPoint>(const std::vector<meshing::Point3> &)>;
 
     // W_v from the patch quadrature; points another process evaluates add nothing here.
-    PatchLoad make_patch_load(const DisplaySurface &display, unsigned int vertex, const PointEvaluator &evaluate);
+    PatchLoad make_patch_load(const ContactSurface &display, unsigned int vertex, const PointEvaluator &evaluate);
 
     // B_v Lambda^-1 B_v^T e_direction at a candidate.
     std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,
@@ -343,7 +396,7 @@ namespace modal_haptics
     // The validation errors of one case from the patch averages (uc) and the fields at the display
     // vertices (3 nv each, component-fastest) of the full and the modal solution, the latter the sum
     // of modal_coefficients[i] times mode i.
-    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const DisplaySurface &display,
+    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const ContactSurface &display,
                                double correction_field_tolerance, const std::array<double, 3> &uc_full,
                                const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
                                const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients);

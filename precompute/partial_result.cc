@@ -19,9 +19,9 @@
 #include <fstream>
 #include <iterator>
 
-// Every field of the results a space computes, in one place for writing and reading. A field added
-// to ModalSpaceResult and not here is missing from merged files: test_scenario_jobs.py compares a
-// merged scene with a whole-scene run, .h5, .mrt and report.json.
+// Every field of the results a space computes, written and read through the field lists of
+// ModalBasis and SpaceDiagnostics (modal_space.h); the process-local rows are not written.
+// test_scenario_jobs.py compares a merged scene with a whole-scene run, .h5, .mrt and report.json.
 namespace boost::serialization
 {
   template <class Archive>
@@ -54,17 +54,9 @@ namespace boost::serialization
   template <class Archive>
   void serialize(Archive &ar, modal_haptics::ModalSpaceResult &s, const unsigned int)
   {
-    ar &s.name &s.index &s.degree &s.n_vertices &s.n_cells &s.n_dofs &s.n_clamped_dofs;
-    ar &s.mesh_vertices &s.mesh_tets &s.clamped_dofs;
-    ar &s.computed_frequencies_hz &s.eigenvalues &s.frequencies_hz &s.damping_ratios &s.dropped_modes &s.cut_off_hz;
-    ar &s.self_check &s.n_spurious_rows;
-    ar &s.modes_at_vertices &s.display_modes;
-    ar &s.candidates &s.candidate_modes &s.candidate_compliance &s.cross_compliance &s.full_compliance;
-    ar &s.participation &s.mass &s.centre_of_mass &s.inertia &s.validation &s.two_contact_rel_error_corrected;
-    ar &s.n_rigid_body_modes &s.rigid_computed_frequencies_hz &s.rigid_subspace_sine &s.static_solve_iterations;
-    ar &s.factorization &s.eigensolver_method &s.n_operator_applications &s.arpack_seconds;
-    ar &s.mass_product_seconds &s.orthogonalization_seconds;
-    ar &s.correction_seconds_per_candidate &s.timings_s;
+    const auto field = [&ar](const char *, auto &value) { ar &value; };
+    modal_haptics::ModalBasis::for_each_field(s, field);
+    modal_haptics::SpaceDiagnostics::for_each_field(s, field);
   }
 
   template <class Archive>
@@ -80,7 +72,7 @@ namespace modal_haptics
   namespace
   {
     // The first line of every partial result file; a new layout of the archive gets a new number.
-    const std::string format_line = "modal-haptics partial result, format 1";
+    const std::string format_line = "modal-haptics partial result, format 2";
   } // namespace
 
   std::string partial_result_file(const std::string &directory, const std::string &scenario)

@@ -91,7 +91,7 @@ namespace modal_haptics
     template <typename Backend>
     void interpolate_on_display_surface(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
     {
-      const DisplaySurface &display     = in.display;
+      const ContactSurface &display     = in.display;
       double                max_outside = 0.;
       const auto            evaluated   = b.evaluation_points(display.vertices, &max_outside);
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
@@ -315,7 +315,7 @@ namespace modal_haptics
     template <typename Backend>
     void output_results(const Backend &b, const PhaseInputs &in, const ModalSpaceResult &result)
     {
-      if (in.task.vtu_file.empty())
+      if (in.vtu_file.empty())
         return;
       dealii::DataOut<3> data_out;
       data_out.attach_dof_handler(b.dof_handler);

@@ -1,0 +1,625 @@
+// The steps a space takes whatever its linear algebra (space_parts in modal_space.h): mesh, clamps,
+// cell matrices, mode selection, point location, patch loads and the bookkeeping of the static
+// correction and the validation.
+#include "modal_space.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/grid_in.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <boost/geometry/index/rtree.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <set>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using namespace dealii;
+
+  namespace
+  {
+    constexpr double two_pi = 2. * M_PI;
+  } // namespace
+
+  namespace space_parts
+  {
+    SpaceBase::SpaceBase(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
+                         const std::string &vtu_file, TimerOutput &timer, const bool verbose)
+      : scene(scene)
+      , display(display)
+      , task(task)
+      , vtu_file(vtu_file)
+      , timer(timer)
+      , verbose(verbose)
+      , fe(FE_SimplexP<3>(scene.element_degree), 3)
+      , mapping(FE_SimplexP<3>(1))
+      , quadrature(scene.element_degree + 1)
+    {
+      result.name   = task.name;
+      result.index  = task.index;
+      result.degree = scene.element_degree;
+    }
+
+    void SpaceBase::log(const std::string &message) const
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+    }
+
+    ModalSpaceResult SpaceBase::run()
+    {
+      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
+        TimerOutput::Scope scope(timer, name);
+        Timer              wall;
+        work();
+        result.timings_s[name] += wall.wall_time();
+      };
+      phase("assembly", [&] { assemble(); });
+      after_assembly();
+      phase("eigensolve", [&] { solve_eigenproblem(); });
+      phase("interpolation", [&] { interpolate(); });
+      phase("static_correction", [&] { compute_static_correction(); });
+      phase("validation", [&] { validate(); });
+      phase("vtu_output", [&] { output_results(); });
+      finish();
+      return std::move(result);
+    }
+
+    Tensor<1, 3> rigid_body_motion(const unsigned int k, const Tensor<1, 3> &x)
+    {
+      Tensor<1, 3> u;
+      if (k < 3)
+        u[k] = 1.;
+      else
+        {
+          Tensor<1, 3> axis;
+          axis[k - 3] = 1.;
+          u           = cross_product_3d(axis, x);
+        }
+      return u;
+    }
+
+    std::string mode_field_name(const unsigned int i, const double frequency_hz)
+    {
+      std::ostringstream name;
+      name << "mode_" << std::setw(2) << std::setfill('0') << i + 1 << "_" << std::fixed << std::setprecision(1)
+           << frequency_hz << "Hz";
+      return name.str();
+    }
+
+    std::string validation_field_name(const ValidationCase &vc)
+    {
+      return "validation_error_v" + std::to_string(vc.vertex) + "_" + "xyz"[vc.direction];
+    }
+
+    void read_mesh(const SceneParameters &scene, const SpaceTask &task, Triangulation<3> &mesh, ModalSpaceResult &result)
+    {
+      GridIn<3> grid_in;
+      grid_in.attach_triangulation(mesh);
+      std::ifstream input(task.msh_file);
+      AssertThrow(input, ExcMessage("Cannot read mesh file '" + task.msh_file + "'."));
+      grid_in.read_msh(input);
+      GridTools::scale(scene.length_unit, mesh);
+
+      const double length_scale = std::pow(GridTools::volume(mesh, MappingFE<3>(FE_SimplexP<3>(1))), 1. / 3.);
+      for (const auto &cell : mesh.active_cell_iterators())
+        {
+          const Tensor<1, 3> a = cell->vertex(1) - cell->vertex(0), b = cell->vertex(2) - cell->vertex(0),
+                             c = cell->vertex(3) - cell->vertex(0);
+          const double signed_volume = (a * cross_product_3d(b, c)) / 6.;
+          AssertThrow(signed_volume > 1e-14 * std::pow(length_scale, 3),
+                      ExcMessage("Mesh '" + task.msh_file + "': tetrahedron " + std::to_string(cell->index()) +
+                                 " at " + [&] { std::ostringstream s; s << cell->center(); return s.str(); }() +
+                                 " is " + (signed_volume < 0 ? "inverted" : "degenerate") + " (signed volume " +
+                                 std::to_string(signed_volume) + " m^3)."));
+        }
+
+      result.n_vertices = mesh.n_vertices();
+      result.n_cells    = mesh.n_active_cells();
+      for (const auto &v : mesh.get_vertices())
+        for (unsigned int d = 0; d < 3; ++d)
+          result.mesh_vertices.push_back(v[d]);
+      for (const auto &cell : mesh.active_cell_iterators())
+        for (unsigned int i = 0; i < 4; ++i)
+          result.mesh_tets.push_back(cell->vertex_index(i));
+    }
+
+    // A group that is missing from the mesh, or present but with no face, is a user error: silently
+    // clamping nothing would give a free-floating part. No group at all is a free-floating part.
+    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Mapping<3> &mapping,
+                               const DoFHandler<3> &dof_handler, AffineConstraints<double> &constraints,
+                               const MPI_Comm comm)
+    {
+      std::vector<types::boundary_id> owned_ids;
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        if (cell->is_locally_owned())
+          for (const auto face : cell->face_indices())
+            if (cell->face(face)->at_boundary())
+              owned_ids.push_back(cell->face(face)->boundary_id());
+      std::sort(owned_ids.begin(), owned_ids.end());
+      owned_ids.erase(std::unique(owned_ids.begin(), owned_ids.end()), owned_ids.end());
+      const auto                         all_ids = Utilities::MPI::compute_set_union(owned_ids, comm);
+      const std::set<types::boundary_id> present_ids(all_ids.begin(), all_ids.end());
+      for (const std::string &group : scene.clamp_groups)
+        {
+          const auto it = task.physical_surfaces.find(group);
+          std::string known;
+          for (const auto &[name, tag] : task.physical_surfaces)
+            known += " '" + name + "'";
+          AssertThrow(it != task.physical_surfaces.end(),
+                      ExcMessage("Clamp group '" + group + "' (parameter 'Geometry/Clamp groups') is not a physical "
+                                 "surface of mesh '" + task.msh_file + "'; it has:" + known + "."));
+          AssertThrow(present_ids.count(it->second) == 1,
+                      ExcMessage("Clamp group '" + group + "' of mesh '" + task.msh_file + "' has no boundary face."));
+          VectorTools::interpolate_boundary_values(mapping, dof_handler, it->second,
+                                                   Functions::ZeroFunction<3>(3), constraints);
+        }
+    }
+
+    CellAssembler::CellAssembler(const MaterialParameters &material, const unsigned int dofs_per_cell)
+      : material(material)
+      , mu(material.youngs_modulus / (2. * (1. + material.poissons_ratio)))
+      , lambda(material.youngs_modulus * material.poissons_ratio /
+               ((1. + material.poissons_ratio) * (1. - 2. * material.poissons_ratio)))
+      , strain(dofs_per_cell)
+      , divergence(dofs_per_cell)
+      , value(dofs_per_cell)
+    {}
+
+    void CellAssembler::assemble(const FEValues<3> &fe_values, FullMatrix<double> &cell_K, FullMatrix<double> &cell_M)
+    {
+      const FEValuesExtractors::Vector displacement(0);
+      const unsigned int               dofs_per_cell = strain.size();
+      cell_K = 0.;
+      cell_M = 0.;
+      for (const unsigned int q : fe_values.quadrature_point_indices())
+        {
+          const double JxW = fe_values.JxW(q);
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            {
+              strain[i]     = fe_values[displacement].symmetric_gradient(i, q);
+              divergence[i] = fe_values[displacement].divergence(i, q);
+              value[i]      = fe_values[displacement].value(i, q);
+            }
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            for (unsigned int j = 0; j <= i; ++j)
+              {
+                cell_K(i, j) += (lambda * divergence[i] * divergence[j] + 2. * mu * (strain[i] * strain[j])) * JxW;
+                cell_M(i, j) += material.density * (value[i] * value[j]) * JxW;
+              }
+          const Point<3> &x = fe_values.quadrature_point(q);
+          mass += material.density * JxW;
+          first_moment += material.density * JxW * x;
+          second_moment += material.density * JxW * outer_product(x, x);
+        }
+      for (unsigned int i = 0; i < dofs_per_cell; ++i)
+        for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+          {
+            cell_K(i, j) = cell_K(j, i);
+            cell_M(i, j) = cell_M(j, i);
+          }
+    }
+
+    void CellAssembler::set_mass_properties(ModalSpaceResult &result, const std::function<double(double)> &reduce) const
+    {
+      Tensor<1, 3> first;
+      Tensor<2, 3> second;
+      for (unsigned int a = 0; a < 3; ++a)
+        {
+          first[a] = reduce(first_moment[a]);
+          for (unsigned int b = 0; b < 3; ++b)
+            second[a][b] = reduce(second_moment[a][b]);
+        }
+      result.mass = reduce(mass);
+      const Tensor<1, 3> c = first / result.mass;
+      for (unsigned int d = 0; d < 3; ++d)
+        result.centre_of_mass[d] = c[d];
+      // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
+      const Tensor<2, 3> S = second - result.mass * outer_product(c, c);
+      for (unsigned int a = 0; a < 3; ++a)
+        for (unsigned int b = 0; b < 3; ++b)
+          result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
+    }
+
+    // The cut-off rule drops modes above its frequency, but never below the floor count; the report
+    // says which modes went and why.
+    std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
+                                           ModalSpaceResult &result)
+    {
+      result.computed_frequencies_hz.clear();
+      for (const double lambda : eigenvalues)
+        result.computed_frequencies_hz.push_back(std::sqrt(std::max(lambda, 0.)) / two_pi);
+      result.cut_off_hz = scene.modes.cut_off_frequency();
+      std::vector<unsigned int> kept;
+      for (unsigned int i = 0; i < eigenvalues.size(); ++i)
+        {
+          const double f = result.computed_frequencies_hz[i];
+          if (f > result.cut_off_hz && kept.size() >= scene.modes.minimum_count)
+            {
+              std::ostringstream reason;
+              reason << "above the cut-off " << result.cut_off_hz << " Hz ("
+                     << (scene.modes.cut_off_rule == CutOffRule::display ? "half the display rate" : "half the haptic rate")
+                     << ")";
+              result.dropped_modes.push_back({i, f, reason.str()});
+              continue;
+            }
+          result.eigenvalues.push_back(eigenvalues[i]);
+          result.frequencies_hz.push_back(f);
+          result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigenvalues[i], 0.))));
+          kept.push_back(i);
+        }
+      // A space without modes cannot move: the user asked for something else.
+      AssertThrow(!kept.empty(),
+                  ExcMessage("Space '" + result.name + "': the cut-off " + std::to_string(result.cut_off_hz) +
+                             " Hz ('Modes/Cut-off rule') lies below its first frequency " +
+                             std::to_string(result.computed_frequencies_hz.front()) +
+                             " Hz, so no mode would be kept. Choose another rule or rate, or set "
+                             "'Modes/Minimum number of modes' to at least 1."));
+      return kept;
+    }
+
+    PointLocator::PointLocator(const Triangulation<3> &mesh, const Mapping<3> &mapping)
+      : cache(mesh, mapping)
+    {}
+
+    namespace
+    {
+      double squared_distance(const BoundingBox<3> &box, const Point<3> &p)
+      {
+        double d2 = 0.;
+        for (unsigned int d = 0; d < 3; ++d)
+          d2 += std::pow(std::max({box.lower_bound(d) - p[d], 0., p[d] - box.upper_bound(d)}), 2);
+        return d2;
+      }
+    } // namespace
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::nearest_boxes(const meshing::Point3 &x) const
+    {
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::nearest(Point<3>(x[0], x[1], x[2]), n_nearest), std::back_inserter(near));
+      return near;
+    }
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::candidate_boxes(const meshing::Point3 &x) const
+    {
+      // Every box that holds the point, then the nearest: a point of a fine mesh lies in the boxes of
+      // more tets than the nearest few, and its own tet must be among those tried.
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::intersects(Point<3>(x[0], x[1], x[2])), std::back_inserter(near));
+      for (const auto &box_cell : nearest_boxes(x))
+        if (std::none_of(near.begin(), near.end(), [&](const auto &other) { return other.second == box_cell.second; }))
+          near.push_back(box_cell);
+      return near;
+    }
+
+    std::array<double, PointLocator::n_nearest> PointLocator::nearest_box_distances(const meshing::Point3 &x) const
+    {
+      std::array<double, n_nearest> distances;
+      distances.fill(std::numeric_limits<double>::infinity());
+      const auto near = nearest_boxes(x);
+      for (std::size_t k = 0; k < near.size(); ++k)
+        distances[k] = squared_distance(near[k].first, Point<3>(x[0], x[1], x[2]));
+      std::sort(distances.begin(), distances.end());
+      return distances;
+    }
+
+    LocatedPoint PointLocator::locate(const meshing::Point3 &x, const double within) const
+    {
+      const Point<3> p(x[0], x[1], x[2]);
+      auto           near = candidate_boxes(x);
+      near.erase(std::remove_if(near.begin(), near.end(),
+                                [&](const auto &box_cell) { return squared_distance(box_cell.first, p) > within; }),
+                 near.end());
+      if (near.empty())
+        return {Triangulation<3>::active_cell_iterator(), Point<3>(), std::numeric_limits<double>::infinity()};
+      double                                 best_min = -1e300;
+      Triangulation<3>::active_cell_iterator best_cell;
+      std::array<double, 4>                  best_bary{};
+      for (const auto &[box, cell] : near)
+        {
+          Tensor<2, 3> J;
+          for (unsigned int d = 0; d < 3; ++d)
+            for (unsigned int e = 0; e < 3; ++e)
+              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
+          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+          const double                m    = *std::min_element(bary.begin(), bary.end());
+          if (m > best_min)
+            best_min = m, best_cell = cell, best_bary = bary;
+        }
+      double sum = 0.;
+      for (double &b : best_bary)
+        sum += (b = std::max(b, 0.));
+      for (double &b : best_bary)
+        b /= sum;
+      return {best_cell, Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
+    }
+
+    void add_shape_values(const DoFHandler<3>::active_cell_iterator &cell, const Point<3> &unit,
+                          const unsigned int component, const double factor, DofWeights &out)
+    {
+      const auto                          &fe = cell->get_fe();
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      cell->get_dof_indices(dof_indices);
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        if (fe.system_to_component_index(i).first == component)
+          {
+            const double w = fe.shape_value(i, unit);
+            if (w != 0.)
+              out.emplace_back(dof_indices[i], factor * w);
+          }
+    }
+
+    // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
+    PatchLoad make_patch_load(const ContactSurface &display, const unsigned int vertex, const PointEvaluator &evaluate)
+    {
+      std::array<std::map<types::global_dof_index, double>, 3> columns;
+      DofWeights                                               values;
+      const auto                                               quadrature = patch_quadrature(display, vertex);
+      std::vector<meshing::Point3>                             points;
+      for (const auto &point : quadrature)
+        points.push_back(point.x);
+      const auto evaluated = evaluate(points);
+      for (std::size_t k = 0; k < quadrature.size(); ++k)
+        {
+          const auto &[cell, unit] = evaluated[k];
+          if (cell.state() != IteratorState::valid)
+            continue;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              values.clear();
+              add_shape_values(cell, unit, c, quadrature[k].weight, values);
+              for (const auto &[dof, w] : values)
+                columns[c][dof] += w;
+            }
+        }
+      PatchLoad load;
+      for (unsigned int c = 0; c < 3; ++c)
+        load[c].assign(columns[c].begin(), columns[c].end());
+      return load;
+    }
+
+    std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, const unsigned int candidate,
+                                               const unsigned int direction)
+    {
+      const unsigned int r = result.eigenvalues.size();
+      const double      *B = &result.candidate_modes[std::size_t(candidate) * 3 * r];
+      std::array<double, 3> u{};
+      for (unsigned int i = 0; i < r; ++i)
+        {
+          const double q = B[direction * r + i] * static_gain(result.eigenvalues[i]);
+          for (unsigned int c = 0; c < 3; ++c)
+            u[c] += B[c * r + i] * q;
+        }
+      return u;
+    }
+
+    // The shared vertices (compared across spaces) are solved with the candidates.
+    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                     ModalSpaceResult &result)
+    {
+      result.candidates     = task.candidates;
+      const unsigned int nc = result.candidates.size();
+      std::vector<unsigned int> loads = result.candidates;
+      for (const unsigned int v : task.shared_vertices)
+        if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
+          loads.push_back(v);
+      result.candidate_modes.assign(3 * std::size_t(nc) * result.eigenvalues.size(), 0.);
+      result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
+      if (scene.contact.cross_compliance && nc > 0)
+        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
+      return loads;
+    }
+
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const unsigned int load,
+                                const unsigned int load_vertex,
+                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged)
+    {
+      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      // Full compliance at the load itself.
+      std::array<double, 9> G{};
+      for (unsigned int d = 0; d < 3; ++d)
+        {
+          const auto u = averaged(load_vertex, d);
+          for (unsigned int c = 0; c < 3; ++c)
+            G[3 * c + d] = u[c];
+        }
+      if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), load_vertex))
+        result.full_compliance[load_vertex] = G;
+      if (load >= nc)
+        return;
+      for (unsigned int d = 0; d < 3; ++d)
+        {
+          const auto u_modal = modal_patch_response(result, load, d);
+          for (unsigned int c = 0; c < 3; ++c)
+            result.candidate_compliance[9 * std::size_t(load) + 3 * c + d] = G[3 * c + d] - u_modal[c];
+        }
+      if (result.cross_compliance.empty())
+        return;
+      const unsigned int stride = 3 * nc;
+      const double      *Bb     = &result.candidate_modes[std::size_t(load) * 3 * r];
+      for (unsigned int a = 0; a < nc; ++a)
+        {
+          const double *Ba = &result.candidate_modes[std::size_t(a) * 3 * r];
+          for (unsigned int d = 0; d < 3; ++d)
+            {
+              const auto u = averaged(result.candidates[a], d);
+              for (unsigned int c = 0; c < 3; ++c)
+                {
+                  double modal = 0.;
+                  for (unsigned int i = 0; i < r; ++i)
+                    modal += Ba[c * r + i] * Bb[d * r + i] * static_gain(result.eigenvalues[i]);
+                  result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
+                }
+            }
+        }
+    }
+
+    std::string static_correction_summary(const ModalSpaceResult &result, const std::size_t n_loads)
+    {
+      const unsigned int nc = result.candidates.size();
+      std::ostringstream line;
+      line << "static correction: " << nc << " candidates (" << n_loads - nc << " shared vertices), "
+           << result.correction_seconds_per_candidate * 1e3 << " ms per load";
+      return line.str();
+    }
+
+    // Display field: modal vs full. The correction field d = full - modal is local; kept only where
+    // |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected field misses the
+    // dropped part.
+    // Area-weighted l2 error of the modal display field against full_field (3 per display vertex)
+    // with the first k modes, k = 1..r, relative to full_field: how the drawn field converges with r.
+    std::vector<double> display_error_by_mode_count(const ModalSpaceResult &result, const ContactSurface &display,
+                                                    const std::vector<double> &full_field,
+                                                    const std::vector<double> &modal_coefficient)
+    {
+      const unsigned int  r = modal_coefficient.size();
+      std::vector<double> remainder = full_field, errors;
+      double              full_norm = 0.;
+      for (std::size_t row = 0; row < full_field.size(); ++row)
+        full_norm += display.vertex_area[row / 3] * full_field[row] * full_field[row];
+      for (unsigned int k = 0; k < r; ++k)
+        {
+          double error = 0.;
+          for (std::size_t row = 0; row < remainder.size(); ++row)
+            {
+              remainder[row] -= modal_coefficient[k] * result.display_modes[row * r + k];
+              error += display.vertex_area[row / 3] * remainder[row] * remainder[row];
+            }
+          errors.push_back(std::sqrt(error / full_norm));
+        }
+      return errors;
+    }
+
+    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const ContactSurface &display,
+                               const double correction_field_tolerance, const std::array<double, 3> &uc_full,
+                               const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
+                               const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients)
+    {
+      const auto candidate_it = std::lower_bound(result.candidates.begin(), result.candidates.end(), vc.vertex);
+      Assert(candidate_it != result.candidates.end() && *candidate_it == vc.vertex, ExcInternalError());
+      const std::size_t candidate = candidate_it - result.candidates.begin();
+      vc.full_response = uc_full;
+      double full_norm = 0., modal_err = 0., corrected_err = 0.;
+      for (unsigned int c = 0; c < 3; ++c)
+        {
+          const double corrected = uc_modal[c] + result.candidate_compliance[9 * candidate + 3 * c + vc.direction];
+          full_norm += uc_full[c] * uc_full[c];
+          modal_err += std::pow(uc_modal[c] - uc_full[c], 2);
+          corrected_err += std::pow(corrected - uc_full[c], 2);
+        }
+      vc.contact_rel_error_modal     = std::sqrt(modal_err / full_norm);
+      vc.contact_rel_error_corrected = std::sqrt(corrected_err / full_norm);
+
+      const unsigned int  nv = display.n_vertices();
+      std::vector<double> error2(nv, 0.), full2(nv, 0.);
+      for (unsigned int v = 0; v < nv; ++v)
+        for (unsigned int c = 0; c < 3; ++c)
+          {
+            const double full  = display_full[3 * v + c];
+            const double modal = display_modal[3 * v + c];
+            full2[v] += full * full;
+            error2[v] += (modal - full) * (modal - full);
+          }
+      const double max_error = std::sqrt(*std::max_element(error2.begin(), error2.end()));
+      const double max_full  = std::sqrt(*std::max_element(full2.begin(), full2.end()));
+      const double keep      = correction_field_tolerance * max_error;
+      double l2_full = 0., l2_err = 0., l2_corr = 0.;
+      vc.correction_field_vertices = 0;
+      for (unsigned int v = 0; v < nv; ++v)
+        {
+          l2_full += full2[v] * display.vertex_area[v];
+          l2_err += error2[v] * display.vertex_area[v];
+          if (std::sqrt(error2[v]) >= keep)
+            ++vc.correction_field_vertices;
+          else
+            l2_corr += error2[v] * display.vertex_area[v];
+        }
+      vc.field_rel_error_modal     = std::sqrt(l2_err / l2_full);
+      vc.field_max_error_modal     = max_error / max_full;
+      vc.field_rel_error_corrected = std::sqrt(l2_corr / l2_full);
+      vc.field_rel_error_by_modes  = display_error_by_mode_count(result, display, display_full, modal_coefficients);
+    }
+
+    // The kernel's formula: u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
+    double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
+                             const std::array<std::array<double, 3>, 2> &full_responses)
+    {
+      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      const auto        &forces = two_contact_forces;
+      std::array<std::size_t, 2> index{};
+      for (unsigned int h = 0; h < 2; ++h)
+        index[h] = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertices[h]) -
+                   result.candidates.begin();
+      std::vector<double> modal_force(r, 0.); // sum_h B_h^T F_h
+      for (unsigned int h = 0; h < 2; ++h)
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int i = 0; i < r; ++i)
+            modal_force[i] += result.candidate_modes[(index[h] * 3 + c) * r + i] * forces[h][c];
+      double worst = 0.;
+      for (unsigned int h = 0; h < 2; ++h)
+        {
+          const auto &full  = full_responses[h];
+          double      error = 0., norm = 0.;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              double predicted = 0.;
+              for (unsigned int i = 0; i < r; ++i)
+                predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] * static_gain(result.eigenvalues[i]);
+              for (unsigned int g = 0; g < 2; ++g)
+                for (unsigned int d = 0; d < 3; ++d)
+                  predicted += result.cross_compliance[(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] * forces[g][d];
+              error += std::pow(predicted - full[c], 2);
+              norm += full[c] * full[c];
+            }
+          worst = std::max(worst, std::sqrt(error / norm));
+        }
+      return worst;
+    }
+
+    std::string validation_summary(const ModalSpaceResult &result)
+    {
+      double worst_modal = 0., worst_corrected = 0.;
+      for (const auto &vc : result.validation)
+        {
+          worst_modal     = std::max(worst_modal, vc.contact_rel_error_modal);
+          worst_corrected = std::max(worst_corrected, vc.contact_rel_error_corrected);
+        }
+      std::ostringstream line;
+      line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
+           << worst_modal << ", corrected up to " << worst_corrected;
+      return line.str();
+    }
+  } // namespace space_parts
+} // namespace modal_haptics
