@@ -42,6 +42,12 @@ namespace modalrt
     int candidate_index(std::uint32_t vertex) const;
   };
 
+  struct TransferMatrix
+  {
+    std::uint32_t       to, from;
+    std::vector<double> matrix; // r_to x r_from, row-major
+  };
+
   struct SectionRecord
   {
     std::uint32_t kind, space, source_space, scalar_type;
@@ -69,7 +75,10 @@ struct modalrt_basis
   std::array<double, 14>     scene_scalars{}; // rho, mass, centre of mass (3), inertia (9)
 
   std::vector<modalrt::ModalSpace>  spaces;
-  std::vector<std::vector<double>>  transfers; // [to * n_spaces + from], empty if absent
+  // The TRANSFER matrices the file holds, sorted by (to, from): memory in proportion to the file,
+  // not to n_spaces^2 (a crafted table of many spaces cannot make the load allocate a square).
+  std::vector<modalrt::TransferMatrix> transfers;
+  std::vector<double>                  no_transfer; // empty: what transfer() returns for a missing pair
   std::vector<modalrt::SectionRecord> sections;
 
   // Derived at load.
@@ -80,9 +89,22 @@ struct modalrt_basis
   std::uint32_t space_count() const { return std::uint32_t(spaces.size()); }
   double        patch_radius() const { return scene_scalars[0]; }
   bool          float64_modes() const { return mode_scalar_type == 3; }
+  // T from space `from` into space `to` (r_to x r_from, row-major), empty if absent. Binary search,
+  // no allocation (a tick may call it).
   const std::vector<double> &transfer(std::uint32_t to, std::uint32_t from) const
   {
-    return transfers[std::size_t(to) * spaces.size() + from];
+    std::size_t low = 0, high = transfers.size();
+    while (low < high)
+      {
+        const std::size_t middle = (low + high) / 2;
+        const auto       &t      = transfers[middle];
+        if (t.to < to || (t.to == to && t.from < from))
+          low = middle + 1;
+        else
+          high = middle;
+      }
+    return low < transfers.size() && transfers[low].to == to && transfers[low].from == from ? transfers[low].matrix
+                                                                                             : no_transfer;
   }
 };
 
@@ -90,6 +112,13 @@ namespace modalrt
 {
   // Everything derived from the file once its numbers are checked: normals, bounds, grid, norms.
   void finish_basis(modalrt_basis &basis);
+
+  // The contact row of display vertex v in space s without a stored candidate block: the patch
+  // average sum_j w_j Phi_j over v's contact patch, modes [mode_begin, mode_end) only (so that a
+  // caller without a 3 x r buffer can take it in pieces): out[c (mode_end - mode_begin) + i - mode_begin].
+  // The kernel's contact row and modalrt_basis_contact_compliance both take it from here.
+  void patch_row(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, std::uint32_t mode_begin,
+                 std::uint32_t mode_end, double *out);
 
   // Row block of the display modes of vertex v in space s, converted to double: out[c r + i].
   void vertex_mode_block(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, double *out);

@@ -525,7 +525,9 @@ namespace modalrt
 
       void read_transfers()
       {
-        basis_.transfers.assign(std::size_t(space_count_) * space_count_, {});
+        // Only the pairs the file holds (a square table of n_spaces^2 entries was the crafted-file
+        // memory bound of docs/reliability.md).
+        basis_.transfers.clear();
         for (const SectionRecord &s : basis_.sections)
           {
             if (s.kind != format::transfer)
@@ -534,8 +536,11 @@ namespace modalrt
             const std::uint64_t cols = basis_.spaces[s.source_space].mode_count;
             auto                t    = read<double>(&s, rows * cols, "r_k r_j");
             check_finite(t, format::transfer, s.space);
-            basis_.transfers[std::size_t(s.space) * space_count_ + s.source_space] = std::move(t);
+            basis_.transfers.push_back({s.space, s.source_space, std::move(t)});
           }
+        std::sort(basis_.transfers.begin(), basis_.transfers.end(), [](const auto &a, const auto &b) {
+          return a.to < b.to || (a.to == b.to && a.from < b.from);
+        });
       }
 
       // ----- helpers --------------------------------------------------------------------------
@@ -599,11 +604,16 @@ namespace modalrt
       template <typename T>
       void check_finite(const std::vector<T> &values, std::uint32_t kind, std::uint32_t space = format::scene_wide) const
       {
+        // Finite is not enough: a value beyond max_magnitude is absurd for any part (eigenvalues up to
+        // omega = 1e10 rad/s, mode entries of parts down to 1e-40 kg), and products of a few such
+        // values stay finite in the kernel.
+        constexpr double max_magnitude = 1e20;
         for (std::size_t i = 0; i < values.size(); ++i)
-          if (!is_finite(values[i]))
+          if (!is_finite(values[i]) || std::fabs(double(values[i])) > max_magnitude)
             fail(MODALRT_ERROR_VALUE, cat(basis_.source, ": section ", format::kind_name(kind),
                                           space == format::scene_wide ? std::string() : " of " + space_label(space),
-                                          ": value ", double(values[i]), " at index ", i, " is not finite"));
+                                          ": value ", double(values[i]), " at index ", i,
+                                          is_finite(values[i]) ? " is beyond +-1e20 (absurd)" : " is not finite"));
       }
 
       void check_below(const std::vector<std::uint32_t> &values, std::uint32_t bound, std::uint32_t kind,

@@ -67,6 +67,7 @@ struct modalrt_kernel
 
   // The C API's operations; ticks and the calls documented as tick-thread calls never allocate.
   int  tick(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
+  int  tick_missing(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   int  set_frame(const modalrt_frame_state &state) noexcept;
   int  contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept;
   int  release(std::uint32_t hip) noexcept;
@@ -98,6 +99,8 @@ private:
   void          update_corrections() noexcept;
   void          write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
   void          publish_snapshot() noexcept;
+  // The fail-safe rule (modalrt.h): the last safe outputs, force held then ramped, flagged.
+  int           fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
 
   // Contacts.
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
