@@ -44,6 +44,16 @@ namespace
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
 
+  // Runs `modal-rt` with `arguments` (the command included); returns the exit status and the output.
+  int tool(const std::string &arguments, std::string &output)
+  {
+    const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > tool_output.txt 2>&1";
+    const int         status  = std::system(command.c_str());
+    output                    = read_text("tool_output.txt");
+    std::remove("tool_output.txt");
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
   // The number after "key": in a stats.json text (NaN if absent).
   double json_number(const std::string &json, const std::string &key, std::size_t from = 0)
   {
@@ -320,6 +330,62 @@ time,hip,event,x,y,z
     expect_failure(files + " --output-dir x --frobnicate 1", 2, {"--frobnicate"});
     expect_failure(files + " --output-dir x --duration", 2, {"--duration needs a value"});
     expect_failure("--basis no_such.mrt --session run_two_hips.csv --output-dir x", 1, {"no_such.mrt"});
+    expect_failure(files + " --output-dir x --port 47000", 2, {"unknown option '--port'"}); // serve only
+
+    // serve: its own rules, each with the status the README documents.
+    const std::string serve = "serve --basis " + basis_path + " --output-dir x";
+    const struct
+    {
+      std::string                         arguments;
+      std::initializer_list<const char *> culprits;
+    } serve_cases[] = {
+      {serve + " --bind not-an-ip", {"--bind", "'not-an-ip'", "IPv4"}},
+      {serve + " --port 70000", {"--port 70000", "out of range"}},
+      {serve + " --hips 17", {"--hips 17", "out of range"}},
+      {serve + " --session s.csv", {"unknown option '--session'"}},
+      {serve + " --silence-ticks 1", {"unknown option '--silence-ticks'"}},
+      {serve + " --hold -1", {"--hold -1", "out of range"}},
+      {serve + " --ramp 0", {"--ramp 0", "out of range"}},
+      {serve + " --peer-timeout x", {"--peer-timeout", "'x'"}},
+      {"serve --output-dir x", {"missing --basis"}},
+      {"frobnicate", {"usage"}},
+    };
+    for (const auto &c : serve_cases)
+      {
+        std::string out;
+        const int   status = tool(c.arguments, out);
+        ENSURE(status == 2);
+        for (const char *culprit : c.culprits)
+          ENSURE(contains(out, culprit));
+        std::printf("  exit %d: %s", status, out.substr(0, out.find('\n') + 1).c_str());
+      }
+
+    // --help on every command: the usage on stdout, exit 0.
+    for (const char *command : {"--help", "info --help", "verify --help", "run --help", "serve --help"})
+      {
+        std::string out;
+        ENSURE(tool(command, out) == 0 && contains(out, "usage"));
+      }
+    std::string out;
+    ENSURE(tool("run --help", out) == 0 && contains(out, "--session") && contains(out, "--hold S (0.05)"));
+    ENSURE(tool("serve --help", out) == 0 && contains(out, "--peer-timeout S (0.5)") && !contains(out, "--session") &&
+           contains(out, "--frame-rate HZ (run 10, serve 0)"));
+  }
+
+  // serve's defaults cannot fill a disk: without --frame-rate it writes no frame.
+  void serve_writes_no_frames_by_default()
+  {
+    std::string out;
+    const int   port   = 20000 + int(getpid() % 20000) + 1;
+    const int   status = tool("serve --basis " + basis_path + " --output-dir serve_default --duration 0.3 --quiet --no-plot "
+                              "--port " + std::to_string(port), out);
+    ENSURE(status == 0);
+    const std::string stats = read_text("serve_default/stats.json");
+    ENSURE(json_number(stats, "ticks") == 300);
+    std::size_t frames = 0;
+    for (const auto &entry : std::filesystem::directory_iterator("serve_default/frames"))
+      frames += entry.path().extension() == ".vtu" ? 1 : 0;
+    ENSURE(frames == 0);
   }
 
   void bad_session_files()
@@ -362,6 +428,7 @@ int main()
   admittance_static_response(content);
   stop_on_sigint();
   bad_command_lines();
+  serve_writes_no_frames_by_default();
   bad_session_files();
   return test::finish("test_run");
 }
