@@ -295,7 +295,7 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.enable_profile         = 0;
   d.reserved               = 0;
   d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
-  d.fail_safe_hold         = 0.05; // s (docs/reliability.md: the measured jitter of a 1 kHz client)
+  d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
   d.fail_safe_ramp         = 0.05; // s
   return d;
 }

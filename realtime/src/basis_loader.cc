@@ -241,6 +241,25 @@ namespace modalrt
                                              " appears more than once"));
             basis_.sections.push_back(s);
           }
+        check_no_overlap();
+      }
+
+      // Sections must not share bytes. Each section is copied once into the basis, so this bounds
+      // the memory of a load by the file's size (plus about 0.5 kB per declared space): sections
+      // pointing at the same bytes, one per space of a crafted table, could otherwise make a 1 MB file
+      // take gigabytes (docs/reliability.md).
+      void check_no_overlap() const
+      {
+        std::vector<std::pair<std::uint64_t, std::uint64_t>> spans; // [begin, end) in bytes
+        for (const SectionRecord &s : basis_.sections)
+          if (s.count > 0)
+            spans.emplace_back(s.offset, s.offset + s.count * format::scalar_bytes(s.scalar_type));
+        std::sort(spans.begin(), spans.end());
+        for (std::size_t k = 1; k < spans.size(); ++k)
+          if (spans[k].first < spans[k - 1].second)
+            fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": sections overlap: bytes [", spans[k - 1].first, ", ",
+                                           spans[k - 1].second, ") and [", spans[k].first, ", ", spans[k].second,
+                                           ") (each section must have bytes of its own)"));
       }
 
       void check_entry(std::uint32_t k, const SectionRecord &s, std::uint64_t table_end)

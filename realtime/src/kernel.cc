@@ -121,6 +121,10 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   snapshots.allocate(R, H);
   space_              = def.initial_space;
   stats.active_space  = space_;
+  // The fail-safe rule in whole ticks (no rounding drift between the hold and the ramp); the ramp
+  // lasts at least two ticks, so the force never steps to zero.
+  hold_ticks_ = std::uint64_t(std::llround(def.fail_safe_hold / def.time_step));
+  ramp_ticks_ = std::max<std::uint64_t>(2, std::uint64_t(std::llround(def.fail_safe_ramp / def.time_step)));
 }
 
 // =================================================================================================
@@ -180,9 +184,8 @@ int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) 
 {
   ++stats.fail_safe_ticks;
   ++stats.fail_safe_run;
-  const double t     = double(stats.fail_safe_run) * def.time_step;
-  const double ramp  = std::max(def.fail_safe_ramp, 2.0 * def.time_step); // at least two ticks: never a step
-  const double scale = t <= def.fail_safe_hold ? 1.0 : std::max(0.0, 1.0 - (t - def.fail_safe_hold) / ramp);
+  const std::uint64_t n     = stats.fail_safe_run;
+  const double        scale = n <= hold_ticks_ ? 1.0 : std::max(0.0, 1.0 - double(n - hold_ticks_) / double(ramp_ticks_));
   bool held_force = false;
   for (std::uint32_t h = 0; h < count; ++h)
     {

@@ -139,4 +139,5 @@ private:
   bool                           coupling_dirty_   = true;
   bool                           contact_started_  = false;
   std::uint64_t                  ticks_since_publish_ = 0;
+  std::uint64_t                  hold_ticks_ = 0, ramp_ticks_ = 2; // the fail-safe rule in ticks
 };

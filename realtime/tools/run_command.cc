@@ -109,7 +109,7 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.port = std::uint16_t(integer_option(n, v, 1, 65535)); }},
       {"--hips", for_serve, "N", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
-      {"--peer-timeout", for_serve, "S", "0.5",
+      {"--peer-timeout", for_serve, "S", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
       {"--rate", for_both, "HZ", "1000",
        [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
@@ -129,7 +129,7 @@ namespace modalrt_tool
            throw UsageError{n + " '" + text + "' is not hand or probe"};
          o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
        }},
-      {"--hold", for_both, "S", "0.05",
+      {"--hold", for_both, "S", "0.5",
        [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
       {"--ramp", for_both, "S", "0.05",
        [](RunOptions &o, const std::string &n, const char *v) { o.ramp = number_option(n, v, 1e-6, 10.0, "s"); }},

@@ -29,7 +29,7 @@ namespace modalrt_tool
     std::string   bind_address  = "127.0.0.1"; // loopback only unless asked otherwise
     std::uint16_t port          = 47000;
     std::uint32_t hips          = 1;
-    double        peer_timeout  = 0.5; // [s] without an accepted state from the peer, the slot frees
+    double        peer_timeout  = 1.0; // [s] without an accepted state from the peer, the slot frees
     double        rate          = 1000.0; // [Hz] of the loop (turns peer_timeout into ticks)
     double        park[3]       = {0.0, 0.0, 1.0}; // [m] where the HIPs wait before the first state
   };

@@ -367,8 +367,8 @@ time,hip,event,x,y,z
         ENSURE(tool(command, out) == 0 && contains(out, "usage"));
       }
     std::string out;
-    ENSURE(tool("run --help", out) == 0 && contains(out, "--session") && contains(out, "--hold S (0.05)"));
-    ENSURE(tool("serve --help", out) == 0 && contains(out, "--peer-timeout S (0.5)") && !contains(out, "--session") &&
+    ENSURE(tool("run --help", out) == 0 && contains(out, "--session") && contains(out, "--hold S (0.5)"));
+    ENSURE(tool("serve --help", out) == 0 && contains(out, "--peer-timeout S (1)") && !contains(out, "--session") &&
            contains(out, "--frame-rate HZ (run 10, serve 0)"));
   }
 

@@ -8,7 +8,7 @@
 //   3. A second device gets a refusal packet (REFUSED); an old client (version 1) gets BAD_VERSION.
 //   4. The client falls silent mid-press: every command from the next tick on carries the FAIL_SAFE
 //      flag; the force is held, then ramps down to zero without a step; commands keep coming at the
-//      loop's rate until the peer timeout (0.5 s) frees the slot.
+//      loop's rate until the peer timeout (1 s) frees the slot.
 //   5. The second device (a restart on another port) then takes the slot, leaves with BYE, and the
 //      first client comes back with a counter restarted at 0 without HELLO: accepted (slot free).
 // The only timing asserted is the command rate, within a factor of 2.
@@ -236,9 +236,9 @@ int main()
   ENSURE(stranger_replies.size() == 2 && stranger_replies[1].hips == 0 && stranger_replies[1].flags == bad_version_flag);
 
   // 4. The client falls silent (a device unplugged mid-press): the loop keeps its rate; after the
-  // peer timeout (0.5 s) no command is sent any more.
+  // peer timeout (1 s) no command is sent any more.
   const auto silence_start = std::chrono::steady_clock::now();
-  for (int k = 0; k < 1600; ++k) // 0.8 s
+  for (int k = 0; k < 2600; ++k) // 1.3 s
     pause_and_drain(client, replies, 500);
   const double silence_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
   const std::size_t commands_at_silence_end = replies.size();
@@ -305,9 +305,9 @@ int main()
       std::printf("silence: %.3f N held, then ramped to 0 (largest step %.4f N, %zu fail-safe commands)\n", held,
                   largest_step, silent_forces.size());
     }
-  // Commands kept coming at the loop's rate until the peer timeout (1 kHz for 0.5 s; half of it
+  // Commands kept coming at the loop's rate until the peer timeout (1 kHz for 1 s; half of it
   // allows for a loaded machine).
-  ENSURE(double(silent_forces.size()) >= 0.5 * 1000.0 * std::min(0.5, silence_seconds));
+  ENSURE(double(silent_forces.size()) >= 0.5 * 1000.0 * std::min(1.0, silence_seconds));
 
   // Teleported 1 m deep: every force finite and within the device's limit, the limit reached.
   const double max_force = modalrt_device_default_def().max_force;

@@ -22,11 +22,14 @@
  * outputs are the last safe ones (before any accepted tick: zero force, not in contact) with the
  * MODALRT_HIP_FAIL_SAFE flag, and their force is
  *   - held at the last safe force for fail_safe_hold seconds of consecutive fail-safe ticks
- *     (default 0.05 s), then
+ *     (default 0.5 s: about twice the longest scheduling gap, 258 ms, of an ordinary 1 kHz client
+ *     process measured on a 2-core machine at load average 9, docs/reliability.md; a client with
+ *     real-time priority on a quiet machine can use far less), then
  *   - ramped linearly to zero over fail_safe_ramp seconds (default 0.05 s; at least two ticks: never
  *     a step), then zero for as long as no good input comes.
- * Fail-safe tick n of a run (n = 1, 2, ...) scales the last safe force by 1 while n T <= hold, then
- * by max(0, 1 - (n T - hold) / max(ramp, 2 T)).
+ * Fail-safe tick n of a run (n = 1, 2, ...) scales the last safe force by 1 while n <= H, then by
+ * max(0, 1 - (n - H) / R), with H = round(fail_safe_hold / time_step) and
+ * R = max(2, round(fail_safe_ramp / time_step)) ticks.
  * The call returns MODALRT_INPUT_REJECTED; modalrt_kernel_stats counts rejected and missing ticks
  * and the current run of fail-safe ticks. The next accepted tick ends the run.
  *
@@ -262,10 +265,11 @@ typedef struct modalrt_verify_report
  * reference. A space with rigid-body modes (lambda = 0, a free-floating part) runs in the frame that
  * follows the part's rigid acceleration under the force (inertia relief). `index` counts cases over
  * all spaces in file order.
- * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, index out of range), ERROR_OUT_OF_MEMORY. */
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, index out of range), ERROR_STATE (a free-floating
+ * space's case away from a candidate, or singular rigid-body participation), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int modalrt_basis_verify_case(const modalrt_basis *basis, uint32_t index, modalrt_verify_case *result);
 /* All cases. Returns: OK, ERROR_VERIFY_FAILED (the max error exceeds the tolerance; the report is
- * filled), ERROR_INVALID_ARGUMENT, ERROR_OUT_OF_MEMORY. */
+ * filled), ERROR_INVALID_ARGUMENT, ERROR_STATE (as modalrt_basis_verify_case), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *report);
 
 /* ------------------------------------------------------------------------------------------------
@@ -318,7 +322,7 @@ typedef struct modalrt_kernel_def
   uint32_t enable_profile;        /* 1: time every tick (two clock reads) into modalrt_kernel_stats [0] */
   uint32_t reserved;              /* must be 0 [0] */
   double   release_drag_distance; /* [m] impedance release: HIP this far from its contact across the normal, > 0 [0.01] */
-  double   fail_safe_hold;        /* [s] fail-safe: the last safe force is held this long, 0 .. 10 [0.05] */
+  double   fail_safe_hold;        /* [s] fail-safe: the last safe force is held this long, 0 .. 10 [0.5] */
   double   fail_safe_ramp;        /* [s] fail-safe: then ramped to zero over this time (at least 2 ticks), > 0 .. 10 [0.05] */
 } modalrt_kernel_def;
 
