@@ -22,29 +22,15 @@ namespace
 {
   const std::string basis_path = "run_lattice.mrt";
 
-  std::string read_text(const std::string &path)
-  {
-    std::ifstream     file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
+  using test::json_number;
+  using test::read_text;
 
   void write_text(const std::string &path, const std::string &text) { std::ofstream(path) << text; }
 
   bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
 
-  // Runs `modal-rt run` with `arguments`; returns the exit status and the output (stdout, stderr).
-  int run(const std::string &arguments, std::string &output)
-  {
-    const std::string command = std::string(MODAL_RT_PROGRAM) + " run " + arguments + " > run_output.txt 2>&1";
-    const int         status  = std::system(command.c_str());
-    output                    = read_text("run_output.txt");
-    std::remove("run_output.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-
-  // Runs `modal-rt` with `arguments` (the command included); returns the exit status and the output.
+  // Runs `modal-rt` with `arguments` (the command included); returns the exit status and the output
+  // (stdout, stderr).
   int tool(const std::string &arguments, std::string &output)
   {
     const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > tool_output.txt 2>&1";
@@ -54,12 +40,8 @@ namespace
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
 
-  // The number after "key": in a stats.json text (NaN if absent).
-  double json_number(const std::string &json, const std::string &key, std::size_t from = 0)
-  {
-    const std::size_t at = json.find("\"" + key + "\": ", from);
-    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-  }
+  // Runs `modal-rt run` with `arguments`.
+  int run(const std::string &arguments, std::string &output) { return tool("run " + arguments, output); }
 
   // The 3-vector after "key": [ in the first entry of "final".
   void json_final_vector(const std::string &json, const std::string &key, double out[3])

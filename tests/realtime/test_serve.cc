@@ -31,6 +31,9 @@
 
 namespace
 {
+  using test::json_number;
+  using test::read_text;
+
   constexpr std::uint32_t fail_safe_flag = 1u, refused_flag = 2u, bad_version_flag = 4u;
   constexpr std::uint32_t hello = 1u, bye = 2u;
 
@@ -43,20 +46,6 @@ namespace
     double        force[3];
     std::uint32_t in_contact, hip_flags;
   };
-
-  std::string read_text(const std::string &path)
-  {
-    std::ifstream     file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
-
-  double json_number(const std::string &json, const std::string &key)
-  {
-    const std::size_t at = json.find("\"" + key + "\": ");
-    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-  }
 
   int udp_socket()
   {

@@ -34,21 +34,10 @@
 
 namespace
 {
+  using test::json_number;
+  using test::read_text;
+
   using Clock = std::chrono::steady_clock;
-
-  std::string read_text(const std::string &path)
-  {
-    std::ifstream     file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
-
-  double json_number(const std::string &json, const std::string &key)
-  {
-    const std::size_t at = json.find("\"" + key + "\": ");
-    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-  }
 
   // Resident memory of a process [kB] from /proc/PID/status (0 if unreadable).
   double rss_kb(pid_t pid)
