@@ -583,12 +583,12 @@ namespace modalrt
 
       // Reads a section of known count into a typed array, checking count and CRC.
       template <typename T>
-      std::vector<T> read(const SectionRecord *s, std::uint64_t expected_count, const char *count_formula)
+      modalrt::Vector<T> read(const SectionRecord *s, std::uint64_t expected_count, const char *count_formula)
       {
         if (s->count != expected_count)
           fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section ", label(*s), ": ", s->count,
                                          " scalars, expected ", count_formula, " = ", expected_count));
-        std::vector<T> values(std::size_t(s->count));
+        modalrt::Vector<T> values(std::size_t(s->count));
         const std::size_t bytes = values.size() * sizeof(T);
         if (bytes > 0 && !source_.read(s->offset, values.data(), bytes))
           fail(MODALRT_ERROR_IO, cat(basis_.source, ": cannot read section ", label(*s)));
@@ -598,7 +598,7 @@ namespace modalrt
 
       // A missing optional section reads as count 0.
       template <typename T>
-      std::vector<T> read_optional(std::uint32_t kind, std::uint32_t space, std::uint64_t expected_count,
+      modalrt::Vector<T> read_optional(std::uint32_t kind, std::uint32_t space, std::uint64_t expected_count,
                                    const char *count_formula)
       {
         const SectionRecord *s = find(kind, space);
@@ -621,7 +621,7 @@ namespace modalrt
       }
 
       template <typename T>
-      void check_finite(const std::vector<T> &values, std::uint32_t kind, std::uint32_t space = format::scene_wide) const
+      void check_finite(const modalrt::Vector<T> &values, std::uint32_t kind, std::uint32_t space = format::scene_wide) const
       {
         // Finite is not enough: a value beyond max_magnitude is absurd for any part (eigenvalues up to
         // omega = 1e10 rad/s, mode entries of parts down to 1e-40 kg), and products of a few such
@@ -635,7 +635,7 @@ namespace modalrt
                                           is_finite(values[i]) ? " is beyond +-1e20 (absurd)" : " is not finite"));
       }
 
-      void check_below(const std::vector<std::uint32_t> &values, std::uint32_t bound, std::uint32_t kind,
+      void check_below(const modalrt::Vector<std::uint32_t> &values, std::uint32_t bound, std::uint32_t kind,
                        const char *what, std::uint32_t space = format::scene_wide) const
       {
         for (std::size_t i = 0; i < values.size(); ++i)

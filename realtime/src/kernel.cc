@@ -102,7 +102,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
       const ModalSpace &space = basis.spaces[s];
       integrators_[s].setup(space.eigenvalues.data(), space.damping_ratios.data(), space.mode_count, def.time_step);
     }
-  for (std::vector<double> *buffer : {&q_, &v_, &f_, &q_free_, &v_free_, &transfer_scratch_})
+  for (modalrt::Vector<double> *buffer : {&q_, &v_, &f_, &q_free_, &v_free_, &transfer_scratch_})
     buffer->assign(R, 0.0);
   rows_.assign(std::size_t(H) * 3 * R, 0.0);
   contacts_.resize(H);
@@ -114,7 +114,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   for (modalrt_hip_output &o : last_outputs_)
     o.active_vertex = MODALRT_NONE;
   active_.assign(H, 0);
-  for (std::vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
+  for (modalrt::Vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
   snap_candidates_.resize(def.snap_candidate_budget);

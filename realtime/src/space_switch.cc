@@ -49,7 +49,7 @@ void modalrt_kernel::change_space(std::uint32_t target) noexcept
     if (contacts_[h].in_contact)
       felt_displacement(contacts_[h], q_.data(), before + 3 * h);
 
-  const std::vector<double> &T = basis.transfer(target, source);
+  const modalrt::Vector<double> &T = basis.transfer(target, source);
   if (def.carry_state_on_switch && !T.empty())
     {
       double *q_to = transfer_scratch_.data(), *v_to = f_.data();

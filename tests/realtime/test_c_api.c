@@ -8,9 +8,33 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static int failures = 0;
+
+/* Counting allocator hooks: every block the library takes must come back, with its size. */
+static long   hook_allocations = 0, hook_frees = 0;
+static size_t hook_bytes = 0;
+
+static void *counting_allocate(size_t bytes, size_t alignment, void *user)
+{
+  (void)user;
+  if (alignment > 16) /* malloc's guarantee on this platform */
+    return NULL;
+  ++hook_allocations;
+  hook_bytes += bytes;
+  return malloc(bytes > 0 ? bytes : 1);
+}
+
+static void counting_deallocate(void *pointer, size_t bytes, size_t alignment, void *user)
+{
+  (void)alignment;
+  (void)user;
+  ++hook_frees;
+  hook_bytes -= bytes;
+  free(pointer);
+}
 
 static void expect_failure(int status, int expected, const char *culprit, const char *call)
 {
@@ -57,6 +81,12 @@ int main(int argc, char **argv)
   float               surface[3];
   uint32_t            modes = 0;
   const char          *path  = argc > 1 ? argv[1] : "c_api_lattice.mrt";
+  modalrt_allocator    hooks = {counting_allocate, counting_deallocate, NULL};
+  modalrt_allocator    half  = {counting_allocate, NULL, NULL};
+
+  /* Allocator hooks, set at load time (nothing exists yet). */
+  EXPECT_FAILURE(modalrt_set_allocator(&half), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_set_allocator");
+  CHECK(modalrt_set_allocator(&hooks) == MODALRT_OK);
 
   /* The defaults the header writes in brackets. */
   CHECK(def.time_step == 1e-3 && def.hip_capacity == 4 && def.coupling_stiffness == 1000.0 &&
@@ -79,6 +109,8 @@ int main(int argc, char **argv)
       fprintf(stderr, "cannot load %s: %s\n", path, modalrt_last_error_message());
       return 1;
     }
+  CHECK(hook_allocations > 10 && hook_bytes > 1000); /* the basis's arrays came from the hooks */
+  EXPECT_FAILURE(modalrt_set_allocator(NULL), MODALRT_ERROR_STATE, "modalrt_set_allocator");
   EXPECT_FAILURE(modalrt_basis_get_info(NULL, &info), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_basis_get_info");
   EXPECT_FAILURE(modalrt_basis_get_space_info(basis, 99, &space_info), MODALRT_ERROR_INVALID_ARGUMENT,
                  "modalrt_basis_get_space_info");
@@ -155,6 +187,11 @@ int main(int argc, char **argv)
   modalrt_snapshot_destroy(snapshot);
   modalrt_kernel_destroy(kernel);
   modalrt_basis_destroy(basis);
+  /* Everything returned to the hooks that gave it; then the default again. */
+  printf("  allocator hooks: %ld allocations, %ld frees, %lu bytes outstanding\n", hook_allocations, hook_frees,
+         (unsigned long)hook_bytes);
+  CHECK(hook_allocations > 0 && hook_allocations == hook_frees && hook_bytes == 0);
+  CHECK(modalrt_set_allocator(NULL) == MODALRT_OK);
   printf("test_c_api: %s\n", failures == 0 ? "all checks passed" : "FAILED");
   return failures == 0 ? 0 : 1;
 }

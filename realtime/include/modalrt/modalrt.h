@@ -143,6 +143,25 @@ MODALRT_API uint32_t modalrt_version(void);
  * Returns 1 when the flags were set, 0 on platforms without them. */
 MODALRT_API int modalrt_thread_enable_flush_to_zero(void);
 
+/* Optional allocator hooks. Every array of a basis, a kernel and a snapshot, and the objects
+ * themselves, are allocated through `allocate(bytes, alignment, user)` and returned through
+ * `deallocate(pointer, bytes, alignment, user)` (the same bytes and alignment). Set them at load time:
+ * before the first basis is loaded, or once every basis, kernel and snapshot is destroyed. NULL (or
+ * both function pointers NULL) restores the default (operator new and delete). `allocate` returns
+ * NULL on failure (the call then returns MODALRT_ERROR_OUT_OF_MEMORY). Small strings (file names,
+ * messages) and the loader's temporary buffers use the standard allocator. Ticks allocate nothing.
+ * Not thread-safe against calls that create or destroy objects. */
+typedef struct modalrt_allocator
+{
+  void *(*allocate)(size_t bytes, size_t alignment, void *user);
+  void (*deallocate)(void *pointer, size_t bytes, size_t alignment, void *user);
+  void *user; /* passed to both */
+} modalrt_allocator;
+
+/* Returns: OK, ERROR_INVALID_ARGUMENT (only one of the two functions set), ERROR_STATE (a basis,
+ * kernel or snapshot exists). */
+MODALRT_API int modalrt_set_allocator(const modalrt_allocator *allocator);
+
 /* ------------------------------------------------------------------------------------------------
  * Basis: one loaded .mrt file
  * --------------------------------------------------------------------------------------------- */
