@@ -42,10 +42,10 @@ namespace modalrt_view
       void              close() override { inner_->close(); }
       const modalrt_tool::DeviceSpec &spec() const override { return inner_->spec(); }
       std::uint32_t     hip_count() const override { return hips_; }
-      void read_state(double t, modalrt_hip_input *inputs) override
+      bool read_state(double t, modalrt_hip_input *inputs) override
       {
         begin_ = Clock::now();
-        inner_->read_state(t, inputs);
+        return inner_->read_state(t, inputs);
       }
       void write_force(std::uint32_t hip, const double force[3]) override { inner_->write_force(hip, force); }
       void track_position(std::uint32_t hip, const double position[3], const double velocity[3],

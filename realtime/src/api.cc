@@ -36,25 +36,26 @@ namespace
           G[3 * c + d] += B[c * r + i] * B[d * r + i] / lambda[i];
   }
 
-  // Same for a vertex without a stored block: b_i = sum_j w_j Phi_j(:, i) over its patch, as the
-  // kernel's contact row. Mode by mode, so that no 3 x r buffer is needed.
+  // Same for a vertex without a stored block: the kernel's contact row (patch_row), taken in pieces
+  // of `piece` modes so that no 3 x r buffer is allocated.
   void add_patch_compliance(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t vertex, double G[9])
   {
-    const std::size_t r = space.mode_count;
-    for (std::size_t i = 0; i < r; ++i)
+    constexpr std::uint32_t piece = 32;
+    double                  B[3 * piece];
+    for (std::uint32_t begin = 0; begin < space.mode_count; begin += piece)
       {
-        double b[3] = {0.0, 0.0, 0.0};
-        for (std::uint32_t k = basis.patch_offsets[vertex]; k < basis.patch_offsets[vertex + 1]; ++k)
-          {
-            const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r + i;
-            for (int c = 0; c < 3; ++c)
-              b[c] += basis.patch_weights[k] * (basis.float64_modes() ? space.display_modes_f64[first + c * r]
-                                                                      : double(space.display_modes_f32[first + c * r]));
-          }
-        for (int c = 0; c < 3; ++c)
-          for (int d = 0; d < 3; ++d)
-            G[3 * c + d] += b[c] * b[d] / space.eigenvalues[i];
+        const std::uint32_t end = std::min(space.mode_count, begin + piece), n = end - begin;
+        patch_row(basis, space, vertex, begin, end, B);
+        for (std::uint32_t i = 0; i < n; ++i)
+          for (int c = 0; c < 3; ++c)
+            for (int d = 0; d < 3; ++d)
+              G[3 * c + d] += B[c * n + i] * B[d * n + i] / space.eigenvalues[begin + i];
       }
+  }
+
+  int null_kernel(const char *function)
+  {
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, function);
   }
 } // namespace
 
@@ -292,6 +293,10 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.auto_release           = 1;
   d.snapshot_interval      = 1;
   d.enable_profile         = 0;
+  d.reserved               = 0;
+  d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
+  d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
+  d.fail_safe_ramp         = 0.05; // s
   return d;
 }
 
@@ -311,7 +316,7 @@ void modalrt_kernel_destroy(modalrt_kernel *kernel) { delete kernel; }
 int modalrt_kernel_reset(modalrt_kernel *kernel)
 {
   if (!kernel)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return null_kernel("modalrt_kernel_reset: null kernel");
   kernel->reset();
   return MODALRT_OK;
 }
@@ -319,13 +324,18 @@ int modalrt_kernel_reset(modalrt_kernel *kernel)
 int modalrt_kernel_tick_admittance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
                                    modalrt_hip_output *outputs)
 {
-  return kernel ? kernel->tick(inputs, count, outputs, false) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->tick(inputs, count, outputs, false) : null_kernel("modalrt_kernel_tick_admittance: null kernel");
 }
 
 int modalrt_kernel_tick_impedance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
                                   modalrt_hip_output *outputs)
 {
-  return kernel ? kernel->tick(inputs, count, outputs, true) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->tick(inputs, count, outputs, true) : null_kernel("modalrt_kernel_tick_impedance: null kernel");
+}
+
+int modalrt_kernel_tick_missing(modalrt_kernel *kernel, uint32_t count, modalrt_hip_output *outputs)
+{
+  return kernel ? kernel->tick_missing(count, outputs) : null_kernel("modalrt_kernel_tick_missing: null kernel");
 }
 
 modalrt_frame_state modalrt_frame_state_identity(void)
@@ -337,39 +347,40 @@ modalrt_frame_state modalrt_frame_state_identity(void)
 
 int modalrt_kernel_set_frame(modalrt_kernel *kernel, const modalrt_frame_state *frame)
 {
-  return kernel && frame ? kernel->set_frame(*frame) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel && frame ? kernel->set_frame(*frame) : null_kernel("modalrt_kernel_set_frame: null argument");
 }
 
 int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hip, uint32_t vertex)
 {
-  return kernel ? kernel->contact_begin(hip, vertex) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->contact_begin(hip, vertex) : null_kernel("modalrt_kernel_contact_begin: null kernel");
 }
 
 int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip)
 {
-  return kernel ? kernel->release(hip) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->release(hip) : null_kernel("modalrt_kernel_release_hip: null kernel");
 }
 
 int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space)
 {
-  return kernel ? kernel->switch_space(space) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->switch_space(space) : null_kernel("modalrt_kernel_switch_space: null kernel");
 }
 
 int modalrt_kernel_settle(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count)
 {
-  return kernel ? kernel->settle(inputs, count) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return kernel ? kernel->settle(inputs, count) : null_kernel("modalrt_kernel_settle: null kernel");
 }
 
 int modalrt_kernel_get_modal_state(const modalrt_kernel *kernel, double *coordinates, double *velocities,
                                    uint32_t capacity, uint32_t *mode_count)
 {
   if (!kernel)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return null_kernel("modalrt_kernel_get_modal_state: null kernel");
   const uint32_t r = kernel->mode_count();
   if (mode_count)
     *mode_count = r;
   if ((coordinates || velocities) && capacity < r)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_get_modal_state: capacity below the active "
+                                                  "space's mode count (*mode_count)");
   if (coordinates)
     std::copy_n(kernel->coordinates(), r, coordinates);
   if (velocities)
@@ -380,7 +391,7 @@ int modalrt_kernel_get_modal_state(const modalrt_kernel *kernel, double *coordin
 int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_kernel_stats *stats)
 {
   if (!kernel || !stats)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return null_kernel("modalrt_kernel_get_stats: null argument");
   *stats = kernel->stats;
   return MODALRT_OK;
 }
@@ -407,14 +418,15 @@ int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snaps
 {
   if (!kernel || !snapshot || snapshot->basis != &kernel->basis ||
       snapshot->state.contact_vertices.size() != kernel->def.hip_capacity)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT,
+                  "modalrt_kernel_snapshot_read: null argument, or a snapshot created for another kernel");
   return read_snapshot(*kernel, *snapshot);
 }
 
 int modalrt_snapshot_get_info(const modalrt_snapshot *snapshot, modalrt_snapshot_info *info)
 {
   if (!snapshot || !info)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return null_kernel("modalrt_snapshot_get_info: null argument");
   modalrt_snapshot_info i{};
   i.tick          = snapshot->state.tick;
   i.time          = snapshot->state.time;
@@ -436,7 +448,7 @@ int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t cap
                                   double *corrections, uint32_t *count)
 {
   if (!snapshot || !count || (capacity > 0 && (!vertices || !corrections)))
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_contacts");
   const modalrt::SnapshotState &s = snapshot->state;
   const std::uint32_t           n = std::min(capacity, s.contact_count);
   std::copy_n(s.contact_vertices.data(), n, vertices);
@@ -444,17 +456,39 @@ int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t cap
   *count = n;
   return MODALRT_OK;
 }
+} // extern "C"
+
+namespace
+{
+// The checks of both precisions; reconstruct() itself only guards its range.
+  template <typename Out>
+  int checked_reconstruct(const char *function, const modalrt_snapshot *snapshot, uint32_t vertex_begin,
+                          uint32_t vertex_end, uint32_t flags, Out *out)
+  {
+    const uint32_t known = MODALRT_DISPLAY_POSITIONS | MODALRT_DISPLAY_WORLD | MODALRT_DISPLAY_NO_CORRECTION;
+    if (!snapshot || (flags & ~known) || vertex_begin > vertex_end || vertex_end > snapshot->basis->vertex_count ||
+        (!out && vertex_end > vertex_begin))
+      return failed(MODALRT_ERROR_INVALID_ARGUMENT, function);
+    return reconstruct(*snapshot, vertex_begin, vertex_end, flags, out);
+  }
+} // namespace
+
+extern "C" {
 
 int modalrt_display_reconstruct(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
                                 uint32_t flags, float *out)
 {
-  return snapshot ? reconstruct(*snapshot, vertex_begin, vertex_end, flags, out) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return checked_reconstruct("modalrt_display_reconstruct: null argument, vertex range beyond the display surface "
+                             "or unknown flag",
+                             snapshot, vertex_begin, vertex_end, flags, out);
 }
 
 int modalrt_display_reconstruct_f64(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
                                     uint32_t flags, double *out)
 {
-  return snapshot ? reconstruct(*snapshot, vertex_begin, vertex_end, flags, out) : MODALRT_ERROR_INVALID_ARGUMENT;
+  return checked_reconstruct("modalrt_display_reconstruct_f64: null argument, vertex range beyond the display "
+                             "surface or unknown flag",
+                             snapshot, vertex_begin, vertex_end, flags, out);
 }
 
 } // extern "C"

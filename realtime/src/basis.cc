@@ -112,4 +112,26 @@ namespace modalrt
           ? max_block_norm(space.display_modes_f64.data(), basis.vertex_count, space.mode_count)
           : max_block_norm(space.display_modes_f32.data(), basis.vertex_count, space.mode_count);
   }
+
+  void patch_row(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, std::uint32_t mode_begin,
+                 std::uint32_t mode_end, double *out)
+  {
+    const std::size_t r = space.mode_count, n = mode_end - mode_begin;
+    std::fill_n(out, 3 * n, 0.0);
+    for (std::uint32_t k = basis.patch_offsets[v]; k < basis.patch_offsets[v + 1]; ++k)
+      {
+        const double      w     = basis.patch_weights[k];
+        const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r + mode_begin;
+        for (std::size_t c = 0; c < 3; ++c)
+          {
+            double *row = out + c * n;
+            if (basis.float64_modes())
+              for (std::size_t i = 0; i < n; ++i)
+                row[i] += w * space.display_modes_f64[first + c * r + i];
+            else
+              for (std::size_t i = 0; i < n; ++i)
+                row[i] += w * double(space.display_modes_f32[first + c * r + i]);
+          }
+      }
+  }
 } // namespace modalrt

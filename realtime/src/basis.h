@@ -2,6 +2,7 @@
 // at load (vertex normals, the spatial index, bounds used by the snap search).
 #pragma once
 
+#include "allocator.h"
 #include "spatial_grid.h"
 
 #include <modalrt/modalrt.h>
@@ -26,17 +27,17 @@ namespace modalrt
     std::uint32_t validation_count = 0; // nval
     std::uint32_t cross_count      = 0; // n_cross: 0 or nc
 
-    std::vector<double>        eigenvalues;      // r, lambda = omega^2 [rad^2/s^2]
-    std::vector<double>        damping_ratios;   // r
-    std::vector<float>         display_modes_f32; // 3 nv r (one of the two is filled)
-    std::vector<double>        display_modes_f64;
-    std::vector<std::uint32_t> candidates;           // nc, ascending
-    std::vector<double>        candidate_modes;      // 3 nc r, B_v per candidate
-    std::vector<double>        candidate_compliance; // 9 nc, C_v
-    std::vector<double>        cross_compliance;     // (3 n_cross)^2
-    std::vector<double>        participation;        // 6 r (empty: not stored)
-    std::vector<std::uint32_t> validation_cases;     // 2 nval
-    std::vector<double>        validation_response;  // 3 nval
+    modalrt::Vector<double>        eigenvalues;      // r, lambda = omega^2 [rad^2/s^2]
+    modalrt::Vector<double>        damping_ratios;   // r
+    modalrt::Vector<float>         display_modes_f32; // 3 nv r (one of the two is filled)
+    modalrt::Vector<double>        display_modes_f64;
+    modalrt::Vector<std::uint32_t> candidates;           // nc, ascending
+    modalrt::Vector<double>        candidate_modes;      // 3 nc r, B_v per candidate
+    modalrt::Vector<double>        candidate_compliance; // 9 nc, C_v
+    modalrt::Vector<double>        cross_compliance;     // (3 n_cross)^2
+    modalrt::Vector<double>        participation;        // 6 r (empty: not stored)
+    modalrt::Vector<std::uint32_t> validation_cases;     // 2 nval
+    modalrt::Vector<double>        validation_response;  // 3 nval
 
     // max over display vertices of the Frobenius norm of the vertex's 3 x r mode block, so that
     // |u_v| <= max_vertex_mode_norm |q| bounds every displacement (the snap search radius).
@@ -44,6 +45,12 @@ namespace modalrt
 
     // Index of `vertex` among the candidates, -1 if it has no static correction.
     int candidate_index(std::uint32_t vertex) const;
+  };
+
+  struct TransferMatrix
+  {
+    std::uint32_t       to, from;
+    modalrt::Vector<double> matrix; // r_to x r_from, row-major
   };
 
   struct SectionRecord
@@ -54,7 +61,7 @@ namespace modalrt
   };
 } // namespace modalrt
 
-struct modalrt_basis
+struct modalrt_basis : modalrt::HookAllocated
 {
   std::string   source; // file name (or "<memory>") for messages
   std::uint32_t version_major = 0, version_minor = 0;
@@ -65,28 +72,44 @@ struct modalrt_basis
   std::uint32_t max_patch_size      = 0;
   std::uint32_t mode_scalar_type    = 0; // format::f32 or format::f64
 
-  std::vector<double>        vertices;  // 3 nv [m]
-  std::vector<std::uint32_t> triangles; // 3 nt
-  std::vector<std::uint32_t> region;    // nv
-  std::vector<std::uint32_t> patch_offsets, patch_vertices;
-  std::vector<double>        patch_weights;
+  modalrt::Vector<double>        vertices;  // 3 nv [m]
+  modalrt::Vector<std::uint32_t> triangles; // 3 nt
+  modalrt::Vector<std::uint32_t> region;    // nv
+  modalrt::Vector<std::uint32_t> patch_offsets, patch_vertices;
+  modalrt::Vector<double>        patch_weights;
   std::array<double, 14>     scene_scalars{}; // rho, mass, centre of mass (3), inertia (9)
 
-  std::vector<modalrt::ModalSpace>  spaces;
-  std::vector<std::vector<double>>  transfers; // [to * n_spaces + from], empty if absent
-  std::vector<modalrt::SectionRecord> sections;
+  modalrt::Vector<modalrt::ModalSpace>  spaces;
+  // The TRANSFER matrices the file holds, sorted by (to, from): memory in proportion to the file,
+  // not to n_spaces^2 (a crafted table of many spaces cannot make the load allocate a square).
+  modalrt::Vector<modalrt::TransferMatrix> transfers;
+  modalrt::Vector<double>                  no_transfer; // empty: what transfer() returns for a missing pair
+  modalrt::Vector<modalrt::SectionRecord> sections;
 
   // Derived at load.
-  std::vector<double>  normals; // 3 nv unit outward (area-weighted), 0 for isolated vertices
+  modalrt::Vector<double>  normals; // 3 nv unit outward (area-weighted), 0 for isolated vertices
   double               bounds_min[3] = {0, 0, 0}, bounds_max[3] = {0, 0, 0};
   modalrt::SpatialGrid grid;
 
   std::uint32_t space_count() const { return std::uint32_t(spaces.size()); }
   double        patch_radius() const { return scene_scalars[0]; }
   bool          float64_modes() const { return mode_scalar_type == 3; }
-  const std::vector<double> &transfer(std::uint32_t to, std::uint32_t from) const
+  // T from space `from` into space `to` (r_to x r_from, row-major), empty if absent. Binary search,
+  // no allocation (a tick may call it).
+  const modalrt::Vector<double> &transfer(std::uint32_t to, std::uint32_t from) const
   {
-    return transfers[std::size_t(to) * spaces.size() + from];
+    std::size_t low = 0, high = transfers.size();
+    while (low < high)
+      {
+        const std::size_t middle = (low + high) / 2;
+        const auto       &t      = transfers[middle];
+        if (t.to < to || (t.to == to && t.from < from))
+          low = middle + 1;
+        else
+          high = middle;
+      }
+    return low < transfers.size() && transfers[low].to == to && transfers[low].from == from ? transfers[low].matrix
+                                                                                             : no_transfer;
   }
 };
 
@@ -94,6 +117,13 @@ namespace modalrt
 {
   // Everything derived from the file once its numbers are checked: normals, bounds, grid, norms.
   void finish_basis(modalrt_basis &basis);
+
+  // The contact row of display vertex v in space s without a stored candidate block: the patch
+  // average sum_j w_j Phi_j over v's contact patch, modes [mode_begin, mode_end) only (so that a
+  // caller without a 3 x r buffer can take it in pieces): out[c (mode_end - mode_begin) + i - mode_begin].
+  // The kernel's contact row and modalrt_basis_contact_compliance both take it from here.
+  void patch_row(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, std::uint32_t mode_begin,
+                 std::uint32_t mode_end, double *out);
 
   // Row block of the display modes of vertex v in space s, converted to double: out[c r + i].
   void vertex_mode_block(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, double *out);

@@ -245,6 +245,25 @@ namespace modalrt
                                              " appears more than once"));
             basis_.sections.push_back(s);
           }
+        check_no_overlap();
+      }
+
+      // Sections must not share bytes. Each section is copied once into the basis, so this bounds
+      // the memory of a load by the file's size (plus about 0.5 kB per declared space): sections
+      // pointing at the same bytes, one per space of a crafted table, could otherwise make a 1 MB file
+      // take gigabytes (docs/reliability.md).
+      void check_no_overlap() const
+      {
+        std::vector<std::pair<std::uint64_t, std::uint64_t>> spans; // [begin, end) in bytes
+        for (const SectionRecord &s : basis_.sections)
+          if (s.count > 0)
+            spans.emplace_back(s.offset, s.offset + s.count * format::scalar_bytes(s.scalar_type));
+        std::sort(spans.begin(), spans.end());
+        for (std::size_t k = 1; k < spans.size(); ++k)
+          if (spans[k].first < spans[k - 1].second)
+            fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": sections overlap: bytes [", spans[k - 1].first, ", ",
+                                           spans[k - 1].second, ") and [", spans[k].first, ", ", spans[k].second,
+                                           ") (each section must have bytes of its own)"));
       }
 
       void check_entry(std::uint32_t k, const SectionRecord &s, std::uint64_t table_end)
@@ -529,7 +548,9 @@ namespace modalrt
 
       void read_transfers()
       {
-        basis_.transfers.assign(std::size_t(space_count_) * space_count_, {});
+        // Only the pairs the file holds (a square table of n_spaces^2 entries was the crafted-file
+        // memory bound of docs/reliability.md).
+        basis_.transfers.clear();
         for (const SectionRecord &s : basis_.sections)
           {
             if (s.kind != format::transfer)
@@ -538,8 +559,11 @@ namespace modalrt
             const std::uint64_t cols = basis_.spaces[s.source_space].mode_count;
             auto                t    = read<double>(&s, rows * cols, "r_k r_j");
             check_finite(t, format::transfer, s.space);
-            basis_.transfers[std::size_t(s.space) * space_count_ + s.source_space] = std::move(t);
+            basis_.transfers.push_back({s.space, s.source_space, std::move(t)});
           }
+        std::sort(basis_.transfers.begin(), basis_.transfers.end(), [](const auto &a, const auto &b) {
+          return a.to < b.to || (a.to == b.to && a.from < b.from);
+        });
       }
 
       // ----- helpers --------------------------------------------------------------------------
@@ -563,12 +587,12 @@ namespace modalrt
 
       // Reads a section of known count into a typed array, checking count and CRC.
       template <typename T>
-      std::vector<T> read(const SectionRecord *s, std::uint64_t expected_count, const char *count_formula)
+      modalrt::Vector<T> read(const SectionRecord *s, std::uint64_t expected_count, const char *count_formula)
       {
         if (s->count != expected_count)
           fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section ", label(*s), ": ", s->count,
                                          " scalars, expected ", count_formula, " = ", expected_count));
-        std::vector<T> values(std::size_t(s->count));
+        modalrt::Vector<T> values(std::size_t(s->count));
         const std::size_t bytes = values.size() * sizeof(T);
         if (bytes > 0 && !source_.read(s->offset, values.data(), bytes))
           fail(MODALRT_ERROR_IO, cat(basis_.source, ": cannot read section ", label(*s)));
@@ -578,7 +602,7 @@ namespace modalrt
 
       // A missing optional section reads as count 0.
       template <typename T>
-      std::vector<T> read_optional(std::uint32_t kind, std::uint32_t space, std::uint64_t expected_count,
+      modalrt::Vector<T> read_optional(std::uint32_t kind, std::uint32_t space, std::uint64_t expected_count,
                                    const char *count_formula)
       {
         const SectionRecord *s = find(kind, space);
@@ -601,16 +625,21 @@ namespace modalrt
       }
 
       template <typename T>
-      void check_finite(const std::vector<T> &values, std::uint32_t kind, std::uint32_t space = format::scene_wide) const
+      void check_finite(const modalrt::Vector<T> &values, std::uint32_t kind, std::uint32_t space = format::scene_wide) const
       {
+        // Finite is not enough: a value beyond max_magnitude is absurd for any part (eigenvalues up to
+        // omega = 1e10 rad/s, mode entries of parts down to 1e-40 kg), and products of a few such
+        // values stay finite in the kernel.
+        constexpr double max_magnitude = 1e20;
         for (std::size_t i = 0; i < values.size(); ++i)
-          if (!is_finite(values[i]))
+          if (!is_finite(values[i]) || std::fabs(double(values[i])) > max_magnitude)
             fail(MODALRT_ERROR_VALUE, cat(basis_.source, ": section ", format::kind_name(kind),
                                           space == format::scene_wide ? std::string() : " of " + space_label(space),
-                                          ": value ", double(values[i]), " at index ", i, " is not finite"));
+                                          ": value ", double(values[i]), " at index ", i,
+                                          is_finite(values[i]) ? " is beyond +-1e20 (absurd)" : " is not finite"));
       }
 
-      void check_below(const std::vector<std::uint32_t> &values, std::uint32_t bound, std::uint32_t kind,
+      void check_below(const modalrt::Vector<std::uint32_t> &values, std::uint32_t bound, std::uint32_t kind,
                        const char *what, std::uint32_t space = format::scene_wide) const
       {
         for (std::size_t i = 0; i < values.size(); ++i)

@@ -1,8 +1,10 @@
 // Contacts of the haptic loop: the snap search on the deformed surface, the release rules, the row
-// B of each active vertex, the residual compliances between contacts, and the switch of modal space.
+// B of each active vertex and the residual compliances between contacts. The switch of modal space
+// is in space_switch.cc.
 #include "kernel.h"
 
 #include "dense.h"
+#include "error.h"
 #include "vector3.h"
 
 #include <algorithm>
@@ -13,8 +15,9 @@ using namespace modalrt;
 // =================================================================================================
 // Release, snap and switch rules (tick phases)
 // =================================================================================================
-// Impedance: released when pulled out beyond release_distance along the outward normal.
-// Admittance: released when the user's force pulls outward by more than release_force.
+// Impedance: released when pulled out beyond release_distance along the outward normal, or dragged
+// beyond release_drag_distance across it. Admittance: released when the user's force pulls outward
+// by more than release_force.
 // HIPs beyond `count` are absent this tick and released.
 void modalrt_kernel::apply_release_rules(std::uint32_t count, bool impedance) noexcept
 {
@@ -38,7 +41,11 @@ void modalrt_kernel::apply_release_rules(std::uint32_t count, bool impedance) no
           felt_displacement(c, q_.data(), u);
           for (int d = 0; d < 3; ++d)
             gap[d] = in.x[d] - (c.rest[d] + u[d] + c.correction[d]);
-          release_now = dot3(gap, c.normal) > def.release_distance;
+          const double normal_part = dot3(gap, c.normal);
+          double       across[3];
+          for (int d = 0; d < 3; ++d)
+            across[d] = gap[d] - c.anchor[d] - normal_part * c.normal[d];
+          release_now = normal_part > def.release_distance || norm3(across) > def.release_drag_distance;
         }
       else
         release_now = dot3(in.force, c.normal) > def.release_force;
@@ -76,30 +83,6 @@ bool modalrt_kernel::detect_contacts(std::uint32_t count) noexcept
         }
     }
   return started;
-}
-
-// At a contact start the active space becomes the one whose VOI holds every active vertex, else
-// the global space.
-void modalrt_kernel::apply_switch_rule() noexcept
-{
-  if (!contact_started_)
-    return;
-  contact_started_ = false;
-  if (def.switch_rule != MODALRT_SWITCH_AT_CONTACT_START)
-    return;
-  std::uint32_t desired = MODALRT_NONE;
-  for (const Contact &c : contacts_)
-    {
-      if (!c.in_contact)
-        continue;
-      const std::uint32_t region = basis.region[c.vertex];
-      desired                    = desired == MODALRT_NONE || desired == region ? region : 0u;
-    }
-  if (desired == MODALRT_NONE || desired == space_)
-    return;
-  change_space(desired);
-  for (std::uint32_t &f : flags_)
-    f |= MODALRT_HIP_SPACE_SWITCHED;
 }
 
 // =================================================================================================
@@ -155,18 +138,7 @@ void modalrt_kernel::build_row(Contact &c) noexcept
       std::copy_n(&space.candidate_modes[3 * std::size_t(r) * std::size_t(c.candidate)], 3 * std::size_t(r), c.B);
       return;
     }
-  std::fill_n(c.B, 3 * std::size_t(r), 0.0);
-  for (std::uint32_t k = basis.patch_offsets[c.vertex]; k < basis.patch_offsets[c.vertex + 1]; ++k)
-    {
-      const double      w     = basis.patch_weights[k];
-      const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r;
-      if (basis.float64_modes())
-        for (std::size_t i = 0; i < 3 * std::size_t(r); ++i)
-          c.B[i] += w * space.display_modes_f64[first + i];
-      else
-        for (std::size_t i = 0; i < 3 * std::size_t(r); ++i)
-          c.B[i] += w * double(space.display_modes_f32[first + i]);
-    }
+  patch_row(basis, space, c.vertex, 0, r, c.B);
 }
 
 // The closest vertex of the deformed surface. The grid gives the vertices whose rest position is
@@ -318,61 +290,12 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
 }
 
 // =================================================================================================
-// Switch of modal space
-// =================================================================================================
-
-// Changes the active space, carrying the state with TRANSFER (or restarting at rest), and records
-// how far the active vertices jumped.
-void modalrt_kernel::change_space(std::uint32_t target) noexcept
-{
-  const std::uint32_t source = space_;
-  const std::uint32_t r_from = basis.spaces[source].mode_count, r_to = basis.spaces[target].mode_count;
-  double              before[3 * max_hip_capacity];
-  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
-    if (contacts_[h].in_contact)
-      felt_displacement(contacts_[h], q_.data(), before + 3 * h);
-
-  const std::vector<double> &T = basis.transfer(target, source);
-  if (def.carry_state_on_switch && !T.empty())
-    {
-      double *q_to = transfer_scratch_.data(), *v_to = f_.data();
-      for (std::uint32_t a = 0; a < r_to; ++a)
-        dot_pair(&T[std::size_t(a) * r_from], q_.data(), v_.data(), r_from, q_to[a], v_to[a]);
-      std::copy_n(q_to, r_to, q_.data());
-      std::copy_n(v_to, r_to, v_.data());
-    }
-  else
-    {
-      std::fill_n(q_.data(), r_to, 0.0);
-      std::fill_n(v_.data(), r_to, 0.0);
-    }
-  std::fill(q_.begin() + r_to, q_.end(), 0.0);
-  std::fill(v_.begin() + r_to, v_.end(), 0.0);
-
-  space_             = target;
-  stats.active_space = target;
-  ++stats.switch_count;
-  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
-    {
-      Contact &c = contacts_[h];
-      if (!c.in_contact)
-        continue;
-      build_row(c);
-      double after[3];
-      felt_displacement(c, q_.data(), after);
-      const double jump[3] = {after[0] - before[3 * h], after[1] - before[3 * h + 1], after[2] - before[3 * h + 2]};
-      stats.max_switch_jump = std::max(stats.max_switch_jump, norm3(jump));
-    }
-  contacts_changed_ = true;
-}
-
-// =================================================================================================
 // Calls of the tick thread outside the tick
 // =================================================================================================
 int modalrt_kernel::contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept
 {
   if (hip >= def.hip_capacity || vertex >= basis.vertex_count)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_contact_begin: hip or vertex out of range");
   if (contacts_[hip].in_contact)
     end_contact(hip);
   begin_contact(hip, vertex, nullptr);
@@ -384,19 +307,10 @@ int modalrt_kernel::contact_begin(std::uint32_t hip, std::uint32_t vertex) noexc
 int modalrt_kernel::release(std::uint32_t hip) noexcept
 {
   if (hip >= def.hip_capacity)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_release_hip: hip out of range");
   if (contacts_[hip].in_contact)
     end_contact(hip);
   refresh_contact_set();
   return MODALRT_OK;
 }
 
-int modalrt_kernel::switch_space(std::uint32_t space) noexcept
-{
-  if (space >= basis.space_count())
-    return MODALRT_ERROR_INVALID_ARGUMENT;
-  if (space != space_)
-    change_space(space);
-  refresh_contact_set();
-  return MODALRT_OK;
-}

@@ -20,7 +20,13 @@ namespace modalrt
     last_error[n] = '\0';
   }
 
-  void clear_last_error() { last_error[0] = '\0'; }
+  int failed(int status, const char *message) noexcept
+  {
+    const std::size_t n = std::min(std::strlen(message), sizeof(last_error) - 1);
+    std::memcpy(last_error, message, n);
+    last_error[n] = '\0';
+    return status;
+  }
 } // namespace modalrt
 
 extern "C" const char *modalrt_last_error_message(void) { return modalrt::last_error; }

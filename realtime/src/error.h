@@ -29,7 +29,8 @@ namespace modalrt
   }
 
   void set_last_error(const std::string &message);
-  void clear_last_error();
+  // Without allocation, for the calls of the tick thread: sets the message, returns `status`.
+  int failed(int status, const char *message) noexcept;
 
   // Runs `body` (returning a status), mapping thrown errors to their status and message.
   template <typename Body>
@@ -37,7 +38,6 @@ namespace modalrt
   {
     try
       {
-        clear_last_error();
         return body();
       }
     catch (const Error &e)

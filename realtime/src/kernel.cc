@@ -75,6 +75,15 @@ namespace
             cat("snap_candidate_budget = ", d.snap_candidate_budget, ", expected 1 .. 256"));
     require(d.switch_rule <= MODALRT_SWITCH_NEVER, MODALRT_ERROR_INVALID_ARGUMENT, "unknown switch_rule");
     require(d.snapshot_interval >= 1, MODALRT_ERROR_INVALID_ARGUMENT, "snapshot_interval must be >= 1");
+    require(d.reserved == 0, MODALRT_ERROR_INVALID_ARGUMENT, cat("reserved = ", d.reserved, " must be 0"));
+    require(std::isfinite(d.release_drag_distance) && d.release_drag_distance > 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("release_drag_distance = ", d.release_drag_distance, " m must be finite and > 0"));
+    require(std::isfinite(d.fail_safe_hold) && d.fail_safe_hold >= 0.0 && d.fail_safe_hold <= 10.0,
+            MODALRT_ERROR_INVALID_ARGUMENT, cat("fail_safe_hold = ", d.fail_safe_hold, " s, expected 0 .. 10"));
+    require(std::isfinite(d.fail_safe_ramp) && d.fail_safe_ramp > 0.0 && d.fail_safe_ramp <= 10.0,
+            MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("fail_safe_ramp = ", d.fail_safe_ramp, " s, expected > 0 and <= 10: the force must ramp to zero, "
+                "never step"));
   }
 } // namespace
 
@@ -93,7 +102,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
       const ModalSpace &space = basis.spaces[s];
       integrators_[s].setup(space.eigenvalues.data(), space.damping_ratios.data(), space.mode_count, def.time_step);
     }
-  for (std::vector<double> *buffer : {&q_, &v_, &f_, &q_free_, &v_free_, &transfer_scratch_})
+  for (modalrt::Vector<double> *buffer : {&q_, &v_, &f_, &q_free_, &v_free_, &transfer_scratch_})
     buffer->assign(R, 0.0);
   rows_.assign(std::size_t(H) * 3 * R, 0.0);
   contacts_.resize(H);
@@ -105,13 +114,17 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   for (modalrt_hip_output &o : last_outputs_)
     o.active_vertex = MODALRT_NONE;
   active_.assign(H, 0);
-  for (std::vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
+  for (modalrt::Vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
   snap_candidates_.resize(def.snap_candidate_budget);
   snapshots.allocate(R, H);
   space_              = def.initial_space;
   stats.active_space  = space_;
+  // The fail-safe rule in whole ticks (no rounding drift between the hold and the ramp); the ramp
+  // lasts at least two ticks, so the force never steps to zero.
+  hold_ticks_ = std::uint64_t(std::llround(def.fail_safe_hold / def.time_step));
+  ramp_ticks_ = std::max<std::uint64_t>(2, std::uint64_t(std::llround(def.fail_safe_ramp / def.time_step)));
 }
 
 // =================================================================================================
@@ -121,19 +134,17 @@ int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, m
                          bool impedance) noexcept
 {
   if ((count > 0 && (!inputs || !outputs)))
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_tick: null inputs or outputs with count > 0");
   const std::uint64_t start = def.enable_profile ? now_ns() : 0;
   ++stats.tick_count;
 
   if (const std::uint32_t reasons = validate(inputs, count, impedance))
     {
-      // The state does not move; the device gets the last outputs that were safe.
       ++stats.rejected_ticks;
       stats.last_reject_reasons = reasons;
-      for (std::uint32_t h = 0; h < std::min(count, def.hip_capacity); ++h)
-        outputs[h] = last_outputs_[h];
-      return MODALRT_INPUT_REJECTED;
+      return fail_safe(std::min(count, def.hip_capacity), outputs);
     }
+  stats.fail_safe_run = 0;
 
   std::fill(flags_.begin(), flags_.end(), 0u);
   to_body(inputs, count);
@@ -154,6 +165,39 @@ int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, m
       stats.max_tick_seconds  = std::max(stats.max_tick_seconds, stats.last_tick_seconds);
     }
   return MODALRT_OK;
+}
+
+int modalrt_kernel::tick_missing(std::uint32_t count, modalrt_hip_output *outputs) noexcept
+{
+  if (count > def.hip_capacity || (count > 0 && !outputs))
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT,
+                  "modalrt_kernel_tick_missing: count above hip_capacity, or null outputs with count > 0");
+  ++stats.tick_count;
+  ++stats.missing_ticks;
+  stats.last_reject_reasons = MODALRT_REJECT_MISSING;
+  return fail_safe(count, outputs);
+}
+
+// The state does not move; the device gets the last outputs that were safe, flagged, with their
+// force held for fail_safe_hold and then ramped linearly to zero over fail_safe_ramp.
+int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept
+{
+  ++stats.fail_safe_ticks;
+  ++stats.fail_safe_run;
+  const std::uint64_t n     = stats.fail_safe_run;
+  const double        scale = n <= hold_ticks_ ? 1.0 : std::max(0.0, 1.0 - double(n - hold_ticks_) / double(ramp_ticks_));
+  bool held_force = false;
+  for (std::uint32_t h = 0; h < count; ++h)
+    {
+      held_force = held_force || norm3(last_outputs_[h].force) > 0.0;
+      outputs[h] = last_outputs_[h];
+      for (int d = 0; d < 3; ++d)
+        outputs[h].force[d] *= scale;
+      outputs[h].flags = MODALRT_HIP_FAIL_SAFE;
+    }
+  if (scale < 1.0 && held_force)
+    ++stats.dropout_ticks;
+  return MODALRT_INPUT_REJECTED;
 }
 
 // Every device input is checked before anything moves.
@@ -372,9 +416,10 @@ void modalrt_kernel::add_contact_forces(double *f) const noexcept
 int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count) noexcept
 {
   if (count > 0 && !inputs)
-    return MODALRT_ERROR_INVALID_ARGUMENT;
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_settle: null inputs with count > 0");
   if (validate(inputs, count, false) != 0)
-    return MODALRT_ERROR_VALUE;
+    return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_settle: an input is not finite or beyond its limit "
+                                       "(workspace_radius, max_input_velocity, max_input_force) or count > hip_capacity");
   to_body(inputs, count);
   refresh_contact_set();
   for (std::uint32_t k = 0; k < active_count_; ++k)
@@ -410,9 +455,10 @@ void modalrt_kernel::reset() noexcept
     }
   std::fill(q_.begin(), q_.end(), 0.0);
   std::fill(v_.begin(), v_.end(), 0.0);
-  space_             = def.initial_space;
-  stats.active_space = space_;
-  stats.time         = 0.0;
+  space_              = def.initial_space;
+  stats.active_space  = space_;
+  stats.time          = 0.0;
+  stats.fail_safe_run = 0;
   contact_started_   = false;
   refresh_contact_set();
 }

@@ -2,6 +2,7 @@
 // are noexcept and only index into those buffers.
 #pragma once
 
+#include "allocator.h"
 #include "basis.h"
 #include "modal_integrator.h"
 #include "snapshot.h"
@@ -61,12 +62,13 @@ namespace modalrt
   };
 } // namespace modalrt
 
-struct modalrt_kernel
+struct modalrt_kernel : modalrt::HookAllocated
 {
   modalrt_kernel(const modalrt_basis &basis, const modalrt_kernel_def &def);
 
   // The C API's operations; ticks and the calls documented as tick-thread calls never allocate.
   int  tick(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
+  int  tick_missing(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   int  set_frame(const modalrt_frame_state &state) noexcept;
   int  contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept;
   int  release(std::uint32_t hip) noexcept;
@@ -98,6 +100,8 @@ private:
   void          update_corrections() noexcept;
   void          write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
   void          publish_snapshot() noexcept;
+  // The fail-safe rule (modalrt.h): the last safe outputs, force held then ramped, flagged.
+  int           fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
 
   // Contacts.
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
@@ -117,23 +121,24 @@ private:
   bool solve_coupling(std::uint32_t n) noexcept;
 
   modalrt::Frame                 frame_;
-  std::vector<modalrt::ModalIntegrator> integrators_; // one per space, for def.time_step
+  modalrt::Vector<modalrt::ModalIntegrator> integrators_; // one per space, for def.time_step
   std::uint32_t                  space_ = 0;
-  std::vector<double>            q_, v_, f_, q_free_, v_free_, transfer_scratch_; // max_modes each
-  std::vector<double>            rows_;          // hip_capacity x 3 x max_modes
-  std::vector<Contact>           contacts_;      // hip_capacity
-  std::vector<modalrt::BodyInput> body_inputs_;  // hip_capacity
-  std::vector<std::uint32_t>     flags_;         // hip_capacity, MODALRT_HIP_* of this tick
-  std::vector<modalrt_hip_output> last_outputs_; // hip_capacity: the last safe outputs
-  std::vector<std::uint32_t>     active_;        // HIPs in contact, in HIP order
+  modalrt::Vector<double>            q_, v_, f_, q_free_, v_free_, transfer_scratch_; // max_modes each
+  modalrt::Vector<double>            rows_;          // hip_capacity x 3 x max_modes
+  modalrt::Vector<Contact>           contacts_;      // hip_capacity
+  modalrt::Vector<modalrt::BodyInput> body_inputs_;  // hip_capacity
+  modalrt::Vector<std::uint32_t>     flags_;         // hip_capacity, MODALRT_HIP_* of this tick
+  modalrt::Vector<modalrt_hip_output> last_outputs_; // hip_capacity: the last safe outputs
+  modalrt::Vector<std::uint32_t>     active_;        // HIPs in contact, in HIP order
   std::uint32_t                  active_count_ = 0;
-  std::vector<double>            compliance_;    // (3 hip_capacity)^2: C between active contacts
-  std::vector<double>            coupling_;      // (3 hip_capacity)^2: B_a G B_b^T + C_ab
-  std::vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
-  std::vector<double>            system_, rhs_;  // the coupling solve
-  std::vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
+  modalrt::Vector<double>            compliance_;    // (3 hip_capacity)^2: C between active contacts
+  modalrt::Vector<double>            coupling_;      // (3 hip_capacity)^2: B_a G B_b^T + C_ab
+  modalrt::Vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
+  modalrt::Vector<double>            system_, rhs_;  // the coupling solve
+  modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
   bool                           contacts_changed_ = true;
   bool                           coupling_dirty_   = true;
   bool                           contact_started_  = false;
   std::uint64_t                  ticks_since_publish_ = 0;
+  std::uint64_t                  hold_ticks_ = 0, ramp_ticks_ = 2; // the fail-safe rule in ticks
 };

@@ -107,7 +107,7 @@ namespace modalrt
 
   void ModalIntegrator::setup(const double *eigenvalues, const double *damping_ratios, std::uint32_t r, double T)
   {
-    for (std::vector<double> *c : {&d11_, &a12_, &a21_, &d22_, &g1_, &g2_})
+    for (modalrt::Vector<double> *c : {&d11_, &a12_, &a21_, &d22_, &g1_, &g2_})
       c->resize(r);
     for (std::uint32_t i = 0; i < r; ++i)
       {

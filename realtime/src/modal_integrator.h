@@ -10,6 +10,8 @@
 // the double integrator; any T is stable.
 #pragma once
 
+#include "allocator.h"
+
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -48,6 +50,6 @@ namespace modalrt
     void step_to(const double *q, const double *v, const double *f, double *q_out, double *v_out) const;
 
   private:
-    std::vector<double> d11_, a12_, a21_, d22_, g1_, g2_;
+    modalrt::Vector<double> d11_, a12_, a21_, d22_, g1_, g2_;
   };
 } // namespace modalrt

@@ -2,6 +2,7 @@
 // are taken into the body frame; the frame's acceleration drives the modes through PARTICIPATION.
 #include "kernel.h"
 
+#include "error.h"
 #include "vector3.h"
 
 #include <algorithm>
@@ -56,7 +57,9 @@ int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
     {
       ++stats.rejected_frames;
       stats.last_reject_reasons = MODALRT_REJECT_FRAME;
-      return MODALRT_INPUT_REJECTED;
+      return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_set_frame: the frame is not finite, its quaternion is not "
+                                         "near unit length, or it is beyond workspace_radius, max_input_velocity or "
+                                         "max_frame_acceleration: refused, the old frame kept");
     }
   Frame &fr = frame_;
   for (int k = 0; k < 4; ++k)

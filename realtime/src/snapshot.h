@@ -3,6 +3,8 @@
 // display never sees a half-written state).
 #pragma once
 
+#include "allocator.h"
+
 #include <modalrt/modalrt.h>
 
 #include <atomic>
@@ -23,9 +25,9 @@ namespace modalrt
     double        frame_position[3]    = {0.0, 0.0, 0.0};
     double        frame_orientation[4] = {1.0, 0.0, 0.0, 0.0};
     double        frame_rotation[9]    = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // row-major, body to world
-    std::vector<double>        q;                  // max_modes
-    std::vector<std::uint32_t> contact_vertices;   // hip_capacity, first contact_count used
-    std::vector<double>        contact_corrections; // 3 hip_capacity [m] body frame
+    modalrt::Vector<double>        q;                  // max_modes
+    modalrt::Vector<std::uint32_t> contact_vertices;   // hip_capacity, first contact_count used
+    modalrt::Vector<double>        contact_corrections; // 3 hip_capacity [m] body frame
 
     void allocate(std::uint32_t max_modes, std::uint32_t hip_capacity);
     void copy_from(const SnapshotState &other); // no allocation
@@ -57,9 +59,9 @@ namespace modalrt
 } // namespace modalrt
 
 // The display thread's copy of a published state.
-struct modalrt_snapshot
+struct modalrt_snapshot : modalrt::HookAllocated
 {
   const modalrt_basis   *basis = nullptr;
   modalrt::SnapshotState state;
-  std::vector<float>     q_f32; // q in float, for the float32 display modes
+  modalrt::Vector<float>     q_f32; // q in float, for the float32 display modes
 };

@@ -37,7 +37,7 @@ namespace modalrt
       }
 
     const std::size_t          n_cells = std::size_t(dims_[0]) * dims_[1] * dims_[2];
-    std::vector<std::uint32_t> cell_of(n);
+    modalrt::Vector<std::uint32_t> cell_of(n);
     cell_start_.assign(n_cells + 1, 0);
     for (std::uint32_t i = 0; i < n; ++i)
       {
@@ -50,7 +50,7 @@ namespace modalrt
     for (std::size_t c = 0; c < n_cells; ++c)
       cell_start_[c + 1] += cell_start_[c];
     items_.resize(n);
-    std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+    modalrt::Vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
     for (std::uint32_t i = 0; i < n; ++i)
       items_[fill[cell_of[i]]++] = i;
   }

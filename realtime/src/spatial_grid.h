@@ -2,6 +2,8 @@
 // HIP may snap to. Built once at load (CSR of vertex indices per cell), queried without allocation.
 #pragma once
 
+#include "allocator.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -50,7 +52,7 @@ namespace modalrt
     double                     cell_size_        = 1.0;
     double                     inverse_cell_size_ = 1.0;
     std::uint32_t              dims_[3]          = {1, 1, 1};
-    std::vector<std::uint32_t> cell_start_; // CSR: items of cell c are [cell_start_[c], cell_start_[c + 1])
-    std::vector<std::uint32_t> items_;
+    modalrt::Vector<std::uint32_t> cell_start_; // CSR: items of cell c are [cell_start_[c], cell_start_[c + 1])
+    modalrt::Vector<std::uint32_t> items_;
   };
 } // namespace modalrt

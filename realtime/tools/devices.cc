@@ -43,7 +43,7 @@ namespace modalrt_tool
       const DeviceSpec &spec() const override { return spec_; }
       std::uint32_t     hip_count() const override { return script_.hip_count(); }
 
-      void read_state(double t, modalrt_hip_input *inputs) override
+      bool read_state(double t, modalrt_hip_input *inputs) override
       {
         for (std::uint32_t h = 0; h < script_.hip_count(); ++h)
           {
@@ -57,6 +57,7 @@ namespace modalrt_tool
                 inputs[h].force[d]    = force.value[d];
               }
           }
+        return true;
       }
       // A rigid probe: what it renders or tracks does not move it.
       void write_force(std::uint32_t, const double *) override {}
@@ -88,7 +89,7 @@ namespace modalrt_tool
       const DeviceSpec &spec() const override { return spec_; }
       std::uint32_t     hip_count() const override { return script_.hip_count(); }
 
-      void read_state(double t, modalrt_hip_input *inputs) override
+      bool read_state(double t, modalrt_hip_input *inputs) override
       {
         for (std::uint32_t h = 0; h < script_.hip_count(); ++h)
           {
@@ -111,6 +112,7 @@ namespace modalrt_tool
               }
           }
         started_ = true;
+        return true;
       }
 
       void write_force(std::uint32_t hip, const double *force) override

@@ -45,8 +45,10 @@ namespace modalrt_tool
     virtual std::uint32_t     hip_count() const        = 0;
 
     // Every HIP's state at session time t [s] (non-decreasing between calls): position [m] and
-    // velocity [m/s] in the world, the force the user applies [N].
-    virtual void read_state(double t, modalrt_hip_input *inputs) = 0;
+    // velocity [m/s] in the world, the force the user applies [N]. Returns false when the device
+    // has no fresh state this tick (a network device whose packet is late): the loop then ticks
+    // the kernel with modalrt_kernel_tick_missing (the fail-safe rule) and `inputs` is not used.
+    virtual bool read_state(double t, modalrt_hip_input *inputs) = 0;
     // Impedance: the force [N] the device renders on HIP `hip`.
     virtual void write_force(std::uint32_t hip, const double force[3]) = 0;
     // Admittance: the position [m] and velocity [m/s] the device makes HIP `hip` follow while it is

@@ -10,7 +10,7 @@
 //   modal-rt serve --basis FILE --output-dir DIR ...
 //                                  the same loop for a device that talks UDP (udp_device.cc)
 //
-// Exit status: 0 success, 1 bad basis or failed check, 2 bad command line.
+// Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
 #include "run_command.h"
 #ifdef MODAL_RT_WITH_VIEW
 #  include "view_command.h" // view/: the browser view, built when Boost.Beast is found
@@ -28,13 +28,17 @@ namespace
 {
   const double two_pi = 6.283185307179586476925;
 
-  int usage()
+  // The usage of every command: on stderr with exit status 2 after a bad command line, on stdout
+  // with 0 for --help.
+  int usage(bool help = false)
   {
-    std::fprintf(stderr, "usage: modal-rt info --basis FILE\n"
-                         "       modal-rt verify --basis FILE [--quiet]\n%s%s"
-                         "       modal-rt view --basis FILE [--port P] (view/README.md)\n",
-                 modalrt_tool::run_usage(), modalrt_tool::serve_usage());
-    return 2;
+    std::fprintf(help ? stdout : stderr,
+                 "usage: modal-rt info --basis FILE\n"
+                 "       modal-rt verify --basis FILE [--quiet]\n%s%s"
+                 "       modal-rt view --basis FILE [--port P] (view/README.md)\n"
+                 "       modal-rt COMMAND --help\n",
+                 modalrt_tool::run_usage().c_str(), modalrt_tool::serve_usage().c_str());
+    return help ? 0 : 2;
   }
 
   struct Basis
@@ -169,6 +173,8 @@ int main(int argc, char **argv)
   if (argc < 2)
     return usage();
   const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help")
+    return usage(true);
   if (command == "run" || command == "serve")
     return modalrt_tool::run_command(argc - 2, argv + 2, command == "serve");
   if (command == "view")
@@ -189,6 +195,8 @@ int main(int argc, char **argv)
         path = argv[++k];
       else if (std::strcmp(argv[k], "--quiet") == 0)
         quiet = true;
+      else if (std::strcmp(argv[k], "--help") == 0)
+        return usage(true);
       else
         return usage();
     }

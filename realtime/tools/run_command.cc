@@ -12,6 +12,7 @@
 #include <modalrt/modalrt.h>
 
 #include <algorithm>
+#include <arpa/inet.h>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -36,12 +37,15 @@ namespace modalrt_tool
       double      duration      = -1.0;   // [s] < 0: the session's end (serve: 600 s)
       bool        impedance     = true;
       DeviceKind  device        = DeviceKind::hand;
-      double      frame_rate    = 10.0;  // [Hz] of simulated time
+      double      frame_rate    = 10.0;  // [Hz] of simulated time (serve: 0, no frames)
       double      trace_rate    = 100.0; // [Hz] of simulated time
       double      snap_distance = -1.0;  // [m] < 0: automatic
       double      spin_us       = 100.0; // [us] spin before each deadline
+      double      hold          = modalrt_kernel_default_def().fail_safe_hold; // [s]
+      double      ramp          = modalrt_kernel_default_def().fail_safe_ramp; // [s]
       bool        quiet         = false;
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
+      bool        help          = false;
       UdpSettings udp;                   // serve only
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
     };
@@ -75,76 +79,127 @@ namespace modalrt_tool
       return std::uint32_t(value);
     }
 
-    // An option of one command only is an unknown option of the other.
-    void parse_serve_option(RunOptions &o, const std::string &option, const char *value)
+    // Every option of `run` and `serve` in one table: its name, the commands that take it, its value
+    // (null for a flag), its default as the usage prints it, and what it sets. A new option is one
+    // row here.
+    enum : unsigned
     {
-      if (option == "--bind")
-        o.udp.bind_address = value;
-      else if (option == "--port")
-        o.udp.port = std::uint16_t(integer_option(option, value, 1, 65535));
-      else if (option == "--hips")
-        o.udp.hips = integer_option(option, value, 1, udp::max_hips);
-      else if (option == "--silence-ticks")
-        o.udp.silence_ticks = integer_option(option, value, 1, 1e6);
-      else
-        throw UsageError{"unknown option '" + option + "'"};
+      for_run   = 1u,
+      for_serve = 2u,
+      for_both  = 3u
+    };
+    struct OptionSpec
+    {
+      const char *name;
+      unsigned    commands;
+      const char *value;        // "HZ", "FILE.mrt", ...; nullptr: a flag without a value
+      const char *shown_default; // nullptr: none printed; "!": required
+      void (*apply)(RunOptions &o, const std::string &option, const char *value);
+    };
+
+    const OptionSpec option_table[] = {
+      {"--basis", for_both, "FILE.mrt", "!", [](RunOptions &o, const std::string &, const char *v) { o.basis = v; }},
+      {"--session", for_run, "SESSION.csv", "!",
+       [](RunOptions &o, const std::string &, const char *v) { o.session = v; }},
+      {"--output-dir", for_both, "DIR", "!", [](RunOptions &o, const std::string &, const char *v) { o.output_dir = v; }},
+      {"--bind", for_serve, "ADDRESS", "127.0.0.1",
+       [](RunOptions &o, const std::string &n, const char *v) {
+         in_addr address{};
+         if (inet_pton(AF_INET, v, &address) != 1)
+           throw UsageError{n + ": '" + v + "' is not an IPv4 address"};
+         o.udp.bind_address = v;
+       }},
+      {"--port", for_serve, "N", "47000",
+       [](RunOptions &o, const std::string &n, const char *v) { o.udp.port = std::uint16_t(integer_option(n, v, 1, 65535)); }},
+      {"--hips", for_serve, "N", "1",
+       [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
+      {"--peer-timeout", for_serve, "S", "1",
+       [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
+      {"--rate", for_both, "HZ", "1000",
+       [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
+      {"--duration", for_both, "S", nullptr,
+       [](RunOptions &o, const std::string &n, const char *v) { o.duration = number_option(n, v, 1e-3, 1e6, "s"); }},
+      {"--mode", for_both, "impedance|admittance", "impedance",
+       [](RunOptions &o, const std::string &n, const char *v) {
+         const std::string text = v;
+         if (text != "impedance" && text != "admittance")
+           throw UsageError{n + " '" + text + "' is not impedance or admittance"};
+         o.impedance = text == "impedance";
+       }},
+      {"--device", for_run, "hand|probe", "hand",
+       [](RunOptions &o, const std::string &n, const char *v) {
+         const std::string text = v;
+         if (text != "hand" && text != "probe")
+           throw UsageError{n + " '" + text + "' is not hand or probe"};
+         o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
+       }},
+      {"--hold", for_both, "S", "0.5",
+       [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
+      {"--ramp", for_both, "S", "0.05",
+       [](RunOptions &o, const std::string &n, const char *v) { o.ramp = number_option(n, v, 1e-6, 10.0, "s"); }},
+      {"--frame-rate", for_both, "HZ", "run 10, serve 0",
+       [](RunOptions &o, const std::string &n, const char *v) { o.frame_rate = number_option(n, v, 0.0, display_rate, "Hz"); }},
+      {"--trace-rate", for_both, "HZ", "100",
+       [](RunOptions &o, const std::string &n, const char *v) { o.trace_rate = number_option(n, v, 1e-3, max_rate, "Hz"); }},
+      {"--snap-distance", for_both, "M", nullptr,
+       [](RunOptions &o, const std::string &n, const char *v) { o.snap_distance = number_option(n, v, 1e-6, 1.0, "m"); }},
+      {"--spin-us", for_both, "US", "100",
+       [](RunOptions &o, const std::string &n, const char *v) { o.spin_us = number_option(n, v, 0.0, 1e6, "us"); }},
+      {"--view", for_both, "PORT", nullptr, // the browser view on loopback port PORT (0: any free port), view/README.md
+       [](RunOptions &o, const std::string &n, const char *v) { o.view_port = int(integer_option(n, v, 0, 65535)); }},
+      {"--no-plot", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.plot = false; }},
+      {"--quiet", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.quiet = true; }},
+      {"--help", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.help = true; }},
+    };
+
+    std::string usage_text(bool serve)
+    {
+      const unsigned command = serve ? for_serve : for_run;
+      std::string    text    = serve ? "modal-rt serve" : "modal-rt run", line = text;
+      for (const OptionSpec &spec : option_table)
+        {
+          if (!(spec.commands & command))
+            continue;
+          std::string item = spec.name;
+          if (spec.value)
+            item += std::string(" ") + spec.value;
+          const bool required = spec.shown_default && std::string(spec.shown_default) == "!";
+          if (spec.shown_default && !required)
+            item += std::string(" (") + spec.shown_default + ")";
+          if (!required)
+            item = "[" + item + "]";
+          if (line.size() + 1 + item.size() > 100)
+            {
+              text += "\n";
+              line = std::string(20, ' ');
+              text += line;
+            }
+          text += " " + item;
+          line += " " + item;
+        }
+      return "       " + text + "\n";
     }
 
     RunOptions parse_options(int argc, char **argv, bool serve)
     {
       RunOptions o;
-      o.serve = serve;
+      o.serve      = serve;
+      o.frame_rate = serve ? 0.0 : 10.0; // serve runs for minutes by default: no frames unless asked
       for (int k = 0; k < argc; ++k)
         {
           const std::string option = argv[k];
-          if (option == "--quiet")
-            {
-              o.quiet = true;
-              continue;
-            }
-          if (option == "--no-plot")
-            {
-              o.plot = false;
-              continue;
-            }
-          if (option.rfind("--", 0) != 0)
-            throw UsageError{"unexpected argument '" + option + "'"};
-          if (k + 1 >= argc)
+          const OptionSpec *spec   = nullptr;
+          for (const OptionSpec &candidate : option_table)
+            if (option == candidate.name && (candidate.commands & (serve ? for_serve : for_run)))
+              spec = &candidate;
+          if (!spec)
+            throw UsageError{option.rfind("--", 0) == 0 ? "unknown option '" + option + "'"
+                                                         : "unexpected argument '" + option + "'"};
+          if (spec->value && k + 1 >= argc)
             throw UsageError{option + " needs a value"};
-          const char       *value = argv[++k];
-          const std::string text  = value;
-          if (option == "--basis")
-            o.basis = text;
-          else if (option == "--session" && !serve)
-            o.session = text;
-          else if (option == "--output-dir")
-            o.output_dir = text;
-          else if (option == "--rate")
-            o.rate = number_option(option, value, min_rate, max_rate, "Hz");
-          else if (option == "--duration")
-            o.duration = number_option(option, value, 1e-3, 1e6, "s");
-          else if (option == "--frame-rate")
-            o.frame_rate = number_option(option, value, 0.0, display_rate, "Hz");
-          else if (option == "--trace-rate")
-            o.trace_rate = number_option(option, value, 1e-3, max_rate, "Hz");
-          else if (option == "--spin-us")
-            o.spin_us = number_option(option, value, 0.0, 1e6, "us");
-          else if (option == "--snap-distance")
-            o.snap_distance = number_option(option, value, 1e-6, 1.0, "m");
-          else if (option == "--mode" && (text == "impedance" || text == "admittance"))
-            o.impedance = text == "impedance";
-          else if (option == "--mode")
-            throw UsageError{"--mode '" + text + "' is not impedance or admittance"};
-          else if (option == "--device" && !serve && (text == "hand" || text == "probe"))
-            o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
-          else if (option == "--device" && !serve)
-            throw UsageError{"--device '" + text + "' is not hand or probe"};
-          else if (option == "--view")
-            o.view_port = int(integer_option(option, value, 0, 65535));
-          else if (serve)
-            parse_serve_option(o, option, value);
-          else
-            throw UsageError{"unknown option '" + option + "'"};
+          spec->apply(o, option, spec->value ? argv[++k] : nullptr);
+          if (o.help)
+            return o;
         }
       if (o.basis.empty())
         throw UsageError{"missing --basis"};
@@ -152,6 +207,7 @@ namespace modalrt_tool
         throw UsageError{"missing --session"};
       if (o.output_dir.empty())
         throw UsageError{"missing --output-dir"};
+      o.udp.rate = o.rate;
       return o;
     }
 
@@ -191,6 +247,8 @@ namespace modalrt_tool
       def.coupling_damping        = std::min(def.coupling_damping, spec.max_damping);
       const double passive        = 0.9 * 2.0 * (spec.physical_damping + def.coupling_damping) / def.time_step;
       def.coupling_stiffness      = std::min({def.coupling_stiffness, spec.max_stiffness, passive});
+      def.fail_safe_hold          = o.hold;
+      def.fail_safe_ramp          = o.ramp;
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
       return def;
     }
@@ -394,21 +452,8 @@ namespace modalrt_tool
   }
   } // namespace
 
-  const char *run_usage()
-  {
-    return "       modal-rt run --basis FILE.mrt --session SESSION.csv --output-dir DIR [--rate HZ (1000)]\n"
-           "                    [--duration S] [--mode impedance|admittance] [--device hand|probe]\n"
-           "                    [--frame-rate HZ (10)] [--trace-rate HZ (100)] [--snap-distance M]\n"
-           "                    [--spin-us US (100)] [--view PORT] [--no-plot] [--quiet]\n";
-  }
-
-  const char *serve_usage()
-  {
-    return "       modal-rt serve --basis FILE.mrt --output-dir DIR [--bind ADDRESS (127.0.0.1)] [--port N (47000)]\n"
-           "                    [--hips N (1)] [--silence-ticks N (1)] [--rate HZ (1000)] [--duration S (600)]\n"
-           "                    [--mode impedance|admittance] [--frame-rate HZ] [--trace-rate HZ]\n"
-           "                    [--snap-distance M] [--spin-us US] [--view PORT] [--no-plot] [--quiet]\n";
-  }
+  std::string run_usage() { return usage_text(false); }
+  std::string serve_usage() { return usage_text(true); }
 
   int run_command(int argc, char **argv, bool serve)
   {
@@ -420,8 +465,13 @@ namespace modalrt_tool
     catch (const UsageError &e)
       {
         std::fprintf(stderr, "modal-rt %s: %s\nusage:\n%s", serve ? "serve" : "run", e.message.c_str(),
-                     serve ? serve_usage() : run_usage());
+                     usage_text(serve).c_str());
         return 2;
+      }
+    if (o.help)
+      {
+        std::printf("usage:\n%s", usage_text(serve).c_str());
+        return 0;
       }
     return execute(o);
   }

@@ -121,8 +121,9 @@ namespace modalrt_tool
       {
         apply_events(t);
         apply_frame(t);
-        device_.read_state(t, inputs_.data());
-        if (settings_.impedance)
+        if (!device_.read_state(t, inputs_.data()))
+          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
+        else if (settings_.impedance)
           modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
         else
           modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());

@@ -534,6 +534,8 @@ namespace modalrt_tool
       << ",\n  \"overruns\": " << h.overruns << ",\n  \"missed_periods\": " << h.missed_periods
       << ",\n  \"switches\": " << r.kernel.switch_count << ",\n  \"max_switch_jump_m\": " << number(r.kernel.max_switch_jump)
       << ",\n  \"rejected_inputs\": " << r.kernel.rejected_ticks << ",\n  \"rejected_frames\": " << r.kernel.rejected_frames
+      << ",\n  \"missing_inputs\": " << r.kernel.missing_ticks << ",\n  \"fail_safe_ticks\": " << r.kernel.fail_safe_ticks
+      << ",\n  \"dropout_ticks\": " << r.kernel.dropout_ticks
       << ",\n  \"clamped_forces\": " << r.kernel.clamped_forces << ",\n  \"non_finite_outputs\": " << h.non_finite_outputs
       << ",\n  \"max_press_distance_m\": " << number(r.max_press_distance)
       << ",\n  \"events_applied\": " << h.events_applied << ",\n  \"failed_events\": " << h.failed_events

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <arpa/inet.h>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -24,6 +25,7 @@ namespace modalrt_tool
         const modalrt_device_def d = modalrt_device_default_def();
         spec_ = DeviceSpec{"udp bridge (" + settings.bind_address + ":" + std::to_string(settings.port) + ")",
                            d.max_force, d.max_stiffness, d.max_damping, d.physical_damping};
+        timeout_ticks_ = std::max<std::uint64_t>(1, std::uint64_t(std::llround(settings.peer_timeout * settings.rate)));
         for (HipState &s : state_)
           for (int k = 0; k < 3; ++k)
             s.position[k] = settings.park[k], s.velocity[k] = 0.0, s.force[k] = 0.0;
@@ -62,32 +64,39 @@ namespace modalrt_tool
       const DeviceSpec &spec() const override { return spec_; }
       std::uint32_t     hip_count() const override { return settings_.hips; }
 
-      void read_state(double, modalrt_hip_input *inputs) override
+      bool read_state(double, modalrt_hip_input *inputs) override
       {
         bool fresh = false;
         for (;;)
           {
-            sockaddr_in    from{};
-            socklen_t      length = sizeof from;
-            const ssize_t  size   = recvfrom(socket_, buffer_, sizeof buffer_, MSG_DONTWAIT,
-                                             reinterpret_cast<sockaddr *>(&from), &length);
+            sockaddr_in   from{};
+            socklen_t     length = sizeof from;
+            const ssize_t size   = recvfrom(socket_, buffer_, sizeof buffer_, MSG_DONTWAIT,
+                                            reinterpret_cast<sockaddr *>(&from), &length);
             if (size < 0)
               break; // EAGAIN: drained (or an error: nothing to read either way)
             ++received_;
             fresh = accept(from, std::size_t(size)) || fresh;
           }
         ticks_since_fresh_ = fresh ? 0 : ticks_since_fresh_ + 1;
-        silent_            = ticks_since_fresh_ >= settings_.silence_ticks;
-        if (silent_)
-          ++silent_ticks_;
+        if (has_peer_ && ticks_since_fresh_ >= timeout_ticks_)
+          {
+            has_peer_ = false; // the peer is gone: the next device may take the slot
+            ++peer_timeouts_;
+          }
+        if (!fresh)
+          {
+            ++missing_;
+            return false;
+          }
         for (std::uint32_t h = 0; h < settings_.hips; ++h)
           for (int k = 0; k < 3; ++k)
             {
               inputs[h].position[k] = state_[h].position[k];
-              // A silent device has no velocity to report and its user applies nothing we know of.
-              inputs[h].velocity[k] = silent_ ? 0.0 : state_[h].velocity[k];
-              inputs[h].force[k]    = silent_ ? 0.0 : state_[h].force[k];
+              inputs[h].velocity[k] = state_[h].velocity[k];
+              inputs[h].force[k]    = state_[h].force[k];
             }
+        return true;
       }
 
       // The command packet carries the kernel's whole output; the mode only decides what the device
@@ -101,42 +110,77 @@ namespace modalrt_tool
         ++tick_;
         if (!has_peer_)
           return;
-        const std::size_t size = udp::encode_command(buffer_, settings_.hips, sequence_, silent_, tick_, command_.data());
-        if (sendto(socket_, buffer_, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr *>(&peer_), sizeof peer_) ==
+        send(peer_, udp::encode_command(buffer_, settings_.hips, sequence_, tick_, command_.data()));
+      }
+
+      std::vector<std::pair<std::string, std::uint64_t>> counters() const override
+      {
+        return {{"packets_received", received_}, {"states_accepted", accepted_}, {"stale_packets", stale_},
+                {"foreign_packets", foreign_},   {"bad_packets", bad_},          {"bad_version_packets", bad_version_},
+                {"refusals_sent", refusals_},    {"sessions", sessions_},        {"hellos", hellos_},
+                {"byes", byes_},                 {"peer_timeouts", peer_timeouts_}, {"missing_ticks", missing_},
+                {"commands_sent", sent_},        {"send_errors", send_errors_}};
+      }
+
+    private:
+      void send(const sockaddr_in &to, std::size_t size)
+      {
+        if (sendto(socket_, buffer_, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr *>(&to), sizeof to) ==
             ssize_t(size))
           ++sent_;
         else
           ++send_errors_;
       }
 
-      std::vector<std::pair<std::string, std::uint64_t>> counters() const override
+      void refuse(const sockaddr_in &to, std::uint32_t flags)
       {
-        return {{"packets_received", received_},   {"states_accepted", accepted_}, {"stale_packets", stale_},
-                {"foreign_packets", foreign_},     {"bad_packets", bad_},          {"silent_ticks", silent_ticks_},
-                {"commands_sent", sent_},          {"send_errors", send_errors_}};
+        ++refusals_;
+        send(to, udp::encode_refusal(buffer_, 0, flags, tick_));
       }
 
-    private:
       // One datagram in buffer_: true if it is a fresh state from the peer (then copied in).
       bool accept(const sockaddr_in &from, std::size_t size)
       {
-        if (has_peer_ && (from.sin_addr.s_addr != peer_.sin_addr.s_addr || from.sin_port != peer_.sin_port))
+        const bool    from_peer = has_peer_ && from.sin_addr.s_addr == peer_.sin_addr.s_addr &&
+                                  from.sin_port == peer_.sin_port;
+        std::uint32_t sequence = 0, flags = 0;
+        HipState      decoded[udp::max_hips];
+        switch (udp::decode_state(buffer_, size, settings_.hips, sequence, flags, decoded))
+          {
+            case udp::Verdict::bad_version:
+              ++bad_version_;
+              refuse(from, udp::command_bad_version);
+              return false;
+            case udp::Verdict::bad:
+              ++bad_;
+              return false;
+            case udp::Verdict::good:
+              break;
+          }
+        if (has_peer_ && !from_peer)
           {
             ++foreign_;
+            refuse(from, udp::command_refused);
             return false;
           }
-        std::uint32_t sequence = 0;
-        HipState      decoded[udp::max_hips];
-        if (!udp::decode_state(buffer_, size, settings_.hips, sequence, decoded))
+        if (flags & udp::state_bye)
           {
-            ++bad_;
+            if (from_peer)
+              {
+                has_peer_ = false;
+                ++byes_;
+              }
             return false;
           }
-        if (has_peer_ && !udp::is_newer(sequence, sequence_))
+        const bool hello = (flags & udp::state_hello) != 0;
+        hellos_ += hello ? 1 : 0;
+        if (from_peer && !hello && !udp::in_window(sequence, sequence_))
           {
             ++stale_;
             return false;
           }
+        if (!from_peer)
+          ++sessions_;
         std::copy_n(decoded, settings_.hips, state_.begin());
         sequence_ = sequence;
         peer_     = from;
@@ -155,9 +199,10 @@ namespace modalrt_tool
       bool                  has_peer_ = false;
       std::uint32_t         sequence_ = 0;
       std::uint64_t         tick_     = 0;
-      std::uint32_t         ticks_since_fresh_ = 0;
-      bool                  silent_            = true;
-      std::uint64_t received_ = 0, accepted_ = 0, stale_ = 0, foreign_ = 0, bad_ = 0, silent_ticks_ = 0, sent_ = 0,
+      std::uint64_t         ticks_since_fresh_ = 0;
+      std::uint64_t         timeout_ticks_     = 1;
+      std::uint64_t received_ = 0, accepted_ = 0, stale_ = 0, foreign_ = 0, bad_ = 0, bad_version_ = 0, refusals_ = 0,
+                    sessions_ = 0, hellos_ = 0, byes_ = 0, peer_timeouts_ = 0, missing_ = 0, sent_ = 0,
                     send_errors_ = 0;
     };
   } // namespace

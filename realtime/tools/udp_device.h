@@ -1,14 +1,18 @@
 // The device of `modal-rt serve`: a haptic device in another process (or on another machine) that
 // talks to the bridge over UDP. Packet layouts: realtime/README.md, "modal-rt serve".
 //
-// Each tick the bridge drains its socket without blocking. The first well-formed state packet
-// chooses the peer (its address and port); packets from any other sender are ignored and counted.
-// A packet whose sequence number is not newer than the last accepted one (serial-number arithmetic,
-// so the 32-bit counter may wrap) is stale: ignored and counted. Malformed packets (size, magic,
-// version, HIP count, non-finite numbers) are ignored and counted. When no fresh state has arrived
-// during the last `silence_ticks` ticks the device is silent: the HIPs hold their last position at
-// zero velocity with zero user force, and the command sent back carries zero force and the SILENT
-// flag, from that very tick on.
+// One device at a time holds the bridge (the slot). Each tick the bridge drains its socket without
+// blocking and applies the session rules (realtime/README.md, "modal-rt serve"):
+//   - a well-formed state from any sender takes a free slot; its sender becomes the peer;
+//   - a state from another sender while the slot is held gets a refusal packet (REFUSED) and is
+//     counted; an "MRTS" packet of another protocol version gets a refusal (BAD_VERSION);
+//   - from the peer: HELLO restarts its session (any sequence number is accepted and becomes the
+//     reference); BYE frees the slot; otherwise a sequence number 1 .. sequence_window ahead of the
+//     last accepted one is fresh, anything else is stale (counted): no packet can lock a device out;
+//   - the slot frees itself when the peer has sent no accepted state for `peer_timeout` seconds
+//     (a device that died, restarted on another port or restarted its counter without HELLO);
+//   - a tick without a fresh state is a missing tick: read_state returns false and the loop applies
+//     the kernel's fail-safe rule (the last safe force held, then ramped to zero).
 #pragma once
 
 #include "devices.h"
@@ -25,7 +29,8 @@ namespace modalrt_tool
     std::string   bind_address  = "127.0.0.1"; // loopback only unless asked otherwise
     std::uint16_t port          = 47000;
     std::uint32_t hips          = 1;
-    std::uint32_t silence_ticks = 1;
+    double        peer_timeout  = 1.0; // [s] without an accepted state from the peer, the slot frees
+    double        rate          = 1000.0; // [Hz] of the loop (turns peer_timeout into ticks)
     double        park[3]       = {0.0, 0.0, 1.0}; // [m] where the HIPs wait before the first state
   };
 

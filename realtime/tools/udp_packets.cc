@@ -17,18 +17,31 @@ namespace modalrt_tool
         return value;
       }
       template <typename T> void store(unsigned char *p, T value) { std::memcpy(p, &value, sizeof value); }
+
+      void header(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, std::uint32_t flags,
+                  std::uint64_t tick)
+      {
+        std::memcpy(packet, "MRTC", 4);
+        store<std::uint16_t>(packet + 4, version);
+        store<std::uint16_t>(packet + 6, std::uint16_t(hips));
+        store<std::uint32_t>(packet + 8, sequence);
+        store<std::uint32_t>(packet + 12, flags);
+        store<std::uint64_t>(packet + 16, tick);
+      }
     } // namespace
 
-    bool decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
-                      HipState *states)
+    Verdict decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
+                         std::uint32_t &flags, HipState *states)
     {
+      if (size >= 8 && std::memcmp(packet, "MRTS", 4) == 0 && load<std::uint16_t>(packet + 4) != version)
+        return Verdict::bad_version;
       if (size != state_header + hips * state_per_hip || std::memcmp(packet, "MRTS", 4) != 0 ||
-          load<std::uint16_t>(packet + 4) != version || load<std::uint16_t>(packet + 6) != hips)
-        return false;
+          load<std::uint16_t>(packet + 6) != hips || (load<std::uint32_t>(packet + 12) & ~state_flags) != 0)
+        return Verdict::bad;
       // Every number is checked before any is copied: a refused packet changes nothing.
       for (std::size_t k = 0; k < 9 * hips; ++k)
         if (!std::isfinite(load<double>(packet + state_header + 8 * k)))
-          return false;
+          return Verdict::bad;
       for (std::uint32_t h = 0; h < hips; ++h)
         {
           const unsigned char *q = packet + state_header + h * state_per_hip;
@@ -40,34 +53,40 @@ namespace modalrt_tool
             }
         }
       sequence = load<std::uint32_t>(packet + 8);
-      return true;
+      flags    = load<std::uint32_t>(packet + 12);
+      return Verdict::good;
     }
 
-    std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, bool silent,
-                               std::uint64_t tick, const modalrt_hip_output *outputs)
+    std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, std::uint64_t tick,
+                               const modalrt_hip_output *outputs)
     {
-      std::memcpy(packet, "MRTC", 4);
-      store<std::uint16_t>(packet + 4, version);
-      store<std::uint16_t>(packet + 6, std::uint16_t(hips));
-      store<std::uint32_t>(packet + 8, sequence);
-      store<std::uint32_t>(packet + 12, silent ? flag_silent : 0u);
-      store<std::uint64_t>(packet + 16, tick);
+      std::uint32_t flags = 0;
+      for (std::uint32_t h = 0; h < hips; ++h)
+        if (outputs[h].flags & MODALRT_HIP_FAIL_SAFE)
+          flags |= command_fail_safe;
+      header(packet, hips, sequence, flags, tick);
       for (std::uint32_t h = 0; h < hips; ++h)
         {
           unsigned char            *q = packet + command_header + h * command_per_hip;
           const modalrt_hip_output &c = outputs[h];
           for (int k = 0; k < 3; ++k)
             {
-              store<double>(q + 8 * k, silent ? 0.0 : c.force[k]);
+              store<double>(q + 8 * k, c.force[k]);
               store<double>(q + 24 + 8 * k, c.position[k]);
               store<double>(q + 48 + 8 * k, c.velocity[k]);
             }
           store<std::uint32_t>(q + 72, c.in_contact);
           store<std::uint32_t>(q + 76, c.active_vertex);
           store<std::uint32_t>(q + 80, c.space);
-          store<std::uint32_t>(q + 84, 0u);
+          store<std::uint32_t>(q + 84, c.flags);
         }
       return command_header + hips * command_per_hip;
+    }
+
+    std::size_t encode_refusal(unsigned char *packet, std::uint32_t sequence, std::uint32_t flags, std::uint64_t tick)
+    {
+      header(packet, 0, sequence, flags, tick);
+      return command_header;
     }
   } // namespace udp
 } // namespace modalrt_tool

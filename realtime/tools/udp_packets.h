@@ -1,6 +1,7 @@
 // The datagrams of `modal-rt serve` (layouts: realtime/README.md, "modal-rt serve"): decoding a
-// device's state packet and encoding the bridge's command packet. Pure functions on byte buffers,
-// no socket and no allocation, so the decoder can be fuzzed on its own (tests/fuzz/fuzz_udp_packets.cc).
+// device's state packet and encoding the bridge's command and refusal packets. Pure functions on
+// byte buffers, no socket and no allocation, so the decoder can be fuzzed on its own
+// (tests/fuzz/fuzz_udp_packets.cc).
 #pragma once
 
 #include <modalrt/modalrt.h>
@@ -12,32 +13,61 @@ namespace modalrt_tool
 {
   namespace udp
   {
-    constexpr std::uint16_t version          = 1;
-    constexpr std::size_t   state_header     = 16; // "MRTS", u16 version, u16 hips, u32 sequence, u32 0
-    constexpr std::size_t   state_per_hip    = 72; // position[3], velocity[3], force[3]: f64
-    constexpr std::size_t   command_header   = 24; // "MRTC", u16 version, u16 hips, u32 sequence, u32 flags, u64 tick
-    constexpr std::size_t   command_per_hip  = 88; // force[3], position[3], velocity[3]: f64; contact, vertex, space, 0: u32
-    constexpr std::uint32_t flag_silent      = 1u; // no fresh state: the forces are zero
-    constexpr std::uint32_t max_hips         = 16;
-    constexpr std::size_t   max_packet       = command_header + max_hips * command_per_hip;
+    constexpr std::uint16_t version         = 2;
+    constexpr std::size_t   state_header    = 16; // "MRTS", u16 version, u16 hips, u32 sequence, u32 flags
+    constexpr std::size_t   state_per_hip   = 72; // position[3], velocity[3], force[3]: f64
+    constexpr std::size_t   command_header  = 24; // "MRTC", u16 version, u16 hips, u32 sequence, u32 flags, u64 tick
+    constexpr std::size_t   command_per_hip = 88; // force[3], position[3], velocity[3]: f64; contact, vertex, space, flags: u32
+    constexpr std::uint32_t max_hips        = 16;
+    constexpr std::size_t   max_packet      = command_header + max_hips * command_per_hip;
+
+    // Flags of a state packet (device -> bridge); any other bit makes the packet bad.
+    constexpr std::uint32_t state_hello = 1u << 0; // a new session: the sequence starts again from this packet
+    constexpr std::uint32_t state_bye   = 1u << 1; // the device leaves: the slot is free from now on
+    constexpr std::uint32_t state_flags = state_hello | state_bye;
+
+    // Flags of a command packet (bridge -> device).
+    constexpr std::uint32_t command_fail_safe   = 1u << 0; // an input was missing or rejected: the forces are
+                                                           // the last safe ones, held or ramping to zero
+    constexpr std::uint32_t command_refused     = 1u << 1; // refusal: another device holds the bridge (no HIPs)
+    constexpr std::uint32_t command_bad_version = 1u << 2; // refusal: the state packet's version is not ours (no HIPs)
+
+    // The number of sequence numbers ahead of the last accepted one that are accepted: a packet
+    // 1 .. window ahead is fresh; anything else (the same, older, or farther ahead) is stale.
+    constexpr std::uint32_t sequence_window = 1u << 16;
 
     struct HipState
     {
       double position[3], velocity[3], force[3];
     };
 
-    // Decodes a datagram of `size` bytes as the state of `hips` HIPs (1 .. max_hips): true if it is
-    // well formed (exact size, magic, version, HIP count, every number finite), then `sequence` and
-    // `states[0 .. hips)` are set; false leaves both untouched.
-    bool decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
-                      HipState *states);
+    enum class Verdict
+    {
+      good,        // well formed: sequence, flags and states are set
+      bad,         // size, magic, HIP count, non-finite number or unknown flag bit
+      bad_version  // "MRTS" with another version: the sender gets a refusal saying so
+    };
 
-    // True if `sequence` comes after `last` in serial-number arithmetic (the 32-bit counter may wrap).
-    inline bool is_newer(std::uint32_t sequence, std::uint32_t last) { return std::int32_t(sequence - last) > 0; }
+    // Decodes a datagram of `size` bytes as the state of `hips` HIPs (1 .. max_hips): good if it is
+    // well formed (exact size, magic, version, HIP count, only known flags, every number finite),
+    // then `sequence`, `flags` and `states[0 .. hips)` are set; otherwise all three are untouched.
+    Verdict decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
+                         std::uint32_t &flags, HipState *states);
+
+    // True if `sequence` is 1 .. sequence_window ahead of `last` (the 32-bit counter may wrap).
+    inline bool in_window(std::uint32_t sequence, std::uint32_t last)
+    {
+      const std::uint32_t ahead = sequence - last;
+      return ahead >= 1 && ahead <= sequence_window;
+    }
 
     // Writes the command of `hips` HIPs into `packet` (at least command_header + hips * command_per_hip
-    // bytes) and returns its size. A silent command carries zero forces and flag_silent.
-    std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, bool silent,
-                               std::uint64_t tick, const modalrt_hip_output *outputs);
+    // bytes) and returns its size. The header's fail-safe flag is set when any HIP's output has
+    // MODALRT_HIP_FAIL_SAFE; each HIP carries its output's flags.
+    std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, std::uint64_t tick,
+                               const modalrt_hip_output *outputs);
+
+    // A refusal: a command header with no HIPs and `flags` (command_refused or command_bad_version).
+    std::size_t encode_refusal(unsigned char *packet, std::uint32_t sequence, std::uint32_t flags, std::uint64_t tick);
   } // namespace udp
 } // namespace modalrt_tool

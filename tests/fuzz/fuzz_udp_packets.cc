@@ -36,17 +36,20 @@ namespace
     return value;
   }
 
-  // The layout, read independently of the decoder: "MRTS", u16 version 1, u16 HIP count, u32
-  // sequence, u32 (not checked), then 9 finite f64 per HIP.
-  bool well_formed(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
+  // The layout, read independently of the decoder: "MRTS", u16 version 2, u16 HIP count, u32
+  // sequence, u32 flags (bits 0 HELLO and 1 BYE only), then 9 finite f64 per HIP. An "MRTS" packet
+  // of at least 8 bytes with another version is told apart (the sender gets a refusal).
+  udp::Verdict documented_verdict(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
   {
-    if (size != 16 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 4) != 1 ||
-        get<std::uint16_t>(data, 6) != hips)
-      return false;
+    if (size >= 8 && std::memcmp(data, "MRTS", 4) == 0 && get<std::uint16_t>(data, 4) != 2)
+      return udp::Verdict::bad_version;
+    if (size != 16 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 6) != hips ||
+        get<std::uint32_t>(data, 12) > 3u)
+      return udp::Verdict::bad;
     for (std::size_t k = 0; k < 9 * std::size_t(hips); ++k)
       if (!std::isfinite(get<double>(data, 16 + 8 * k)))
-        return false;
-    return true;
+        return udp::Verdict::bad;
+    return udp::Verdict::good;
   }
 
   void decode_as(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
@@ -54,18 +57,19 @@ namespace
     // Sentinels: a refused packet must leave the outputs as they were.
     udp::HipState states[udp::max_hips];
     std::memset(states, 0xA5, sizeof states);
-    std::uint32_t sequence = 0xDEADBEEF;
-    const bool    accepted = udp::decode_state(data, size, hips, sequence, states);
-    expect(accepted == well_formed(data, size, hips), "the verdict differs from the documented layout");
-    if (!accepted)
+    std::uint32_t      sequence = 0xDEADBEEF, flags = 0xDEADBEEF;
+    const udp::Verdict verdict  = udp::decode_state(data, size, hips, sequence, flags, states);
+    expect(verdict == documented_verdict(data, size, hips), "the verdict differs from the documented layout");
+    if (verdict != udp::Verdict::good)
       {
         udp::HipState untouched[udp::max_hips];
         std::memset(untouched, 0xA5, sizeof untouched);
-        expect(sequence == 0xDEADBEEF && std::memcmp(states, untouched, sizeof states) == 0,
+        expect(sequence == 0xDEADBEEF && flags == 0xDEADBEEF && std::memcmp(states, untouched, sizeof states) == 0,
                "a refused packet changed the outputs");
         return;
       }
     expect(sequence == get<std::uint32_t>(data, 8), "the sequence number is not the packet's");
+    expect(flags == get<std::uint32_t>(data, 12), "the flags are not the packet's");
     for (std::uint32_t h = 0; h < hips; ++h)
       for (int k = 0; k < 3; ++k)
         {
@@ -74,11 +78,13 @@ namespace
                    states[h].force[k] == get<double>(data, at + 48),
                  "a decoded number is not the packet's");
         }
-    // Serial-number order: a packet is never newer than itself, and of two different numbers at most
-    // one is newer than the other.
-    const std::uint32_t other = get<std::uint32_t>(data, 12);
-    expect(!udp::is_newer(sequence, sequence), "a sequence number is newer than itself");
-    expect(!(udp::is_newer(sequence, other) && udp::is_newer(other, sequence)), "two sequence numbers are each newer");
+    // The sequence window: a number is never fresh after itself, of two numbers at most one is fresh
+    // after the other, and exactly 1 .. 65536 ahead is fresh (wrapping).
+    const std::uint32_t other = get<std::uint32_t>(data, 16) ^ get<std::uint32_t>(data, 20);
+    expect(!udp::in_window(sequence, sequence), "a sequence number is fresh after itself");
+    expect(!(udp::in_window(sequence, other) && udp::in_window(other, sequence)), "two sequence numbers are each fresh");
+    const std::uint32_t ahead = other - sequence;
+    expect(udp::in_window(other, sequence) == (ahead >= 1 && ahead <= 65536u), "the window is not 1 .. 65536 ahead");
   }
 } // namespace
 

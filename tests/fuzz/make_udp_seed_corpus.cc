@@ -1,6 +1,7 @@
 // Writes the seed corpus of fuzz_udp_packets (tests/fuzz/corpus/udp/, committed): state packets as a
-// device driver sends them (1, 2 and 16 HIPs, a wrapping sequence number) and one variant per check
-// of the decoder (size, magic, version, HIP count, a NaN and an infinity). Packets are encoded here
+// device driver sends them (1, 2 and 16 HIPs, a wrapping sequence number, HELLO, BYE) and one variant
+// per check of the decoder (size, magic, version 1 and 3, HIP count, an unknown flag, a NaN and an
+// infinity). Packets are encoded here
 // from the layout of realtime/README.md, not with the tool's code.
 //
 //   make_udp_seed_corpus DIR     (run again only when the packet layout changes)
@@ -24,13 +25,14 @@ namespace
     std::memcpy(bytes.data() + offset, &value, sizeof value);
   }
 
-  // "MRTS", u16 version 1, u16 HIP count, u32 sequence, u32 0, then per HIP position, velocity and
-  // force (f64), each HIP a little apart from the previous one.
-  Bytes state_packet(std::uint16_t hips, std::uint32_t sequence)
+  // "MRTS", u16 version 2, u16 HIP count, u32 sequence, u32 flags, then per HIP position, velocity
+  // and force (f64), each HIP a little apart from the previous one.
+  Bytes state_packet(std::uint16_t hips, std::uint32_t sequence, std::uint32_t flags = 0)
   {
     Bytes p(16 + 72 * std::size_t(hips), 0);
     std::memcpy(p.data(), "MRTS", 4);
-    put<std::uint16_t>(p, 4, 1);
+    put<std::uint16_t>(p, 4, 2);
+    put<std::uint32_t>(p, 12, flags);
     put<std::uint16_t>(p, 6, hips);
     put<std::uint32_t>(p, 8, sequence);
     for (std::uint16_t h = 0; h < hips; ++h)
@@ -56,6 +58,12 @@ int main(int argc, char **argv)
   ok &= save(dir, "two_hips.bin", state_packet(2, 1000));
   ok &= save(dir, "sixteen_hips.bin", state_packet(16, 1));
   ok &= save(dir, "sequence_wraps.bin", state_packet(1, 0xFFFFFFFFu));
+  ok &= save(dir, "hello.bin", state_packet(1, 0, 1u));
+  ok &= save(dir, "bye.bin", state_packet(1, 20, 2u));
+  ok &= save(dir, "bad_flag.bin", state_packet(1, 21, 1u << 5));
+  Bytes old_client = state_packet(1, 22);
+  put<std::uint16_t>(old_client, 4, 1); // protocol version 1: refused with BAD_VERSION
+  ok &= save(dir, "old_version.bin", old_client);
 
   Bytes short_packet = state_packet(1, 8);
   short_packet.resize(short_packet.size() - 1);
@@ -67,7 +75,7 @@ int main(int argc, char **argv)
   magic[3] = 'C'; // a command packet's magic sent back
   ok &= save(dir, "bad_magic.bin", magic);
   Bytes version = state_packet(1, 11);
-  put<std::uint16_t>(version, 4, 2);
+  put<std::uint16_t>(version, 4, 3);
   ok &= save(dir, "bad_version.bin", version);
   Bytes count = state_packet(1, 12);
   put<std::uint16_t>(count, 6, 2); // declares two HIPs, carries one

@@ -197,6 +197,23 @@ namespace
     modalrt::refresh_checksums(bytes);
     ensure_rejected(bytes, MODALRT_ERROR_VALUE, "EIGENVALUES of space 0 'global': value nan at index 1 is not finite");
 
+    // Two sections sharing their bytes (the crafted-file memory bound of docs/reliability.md): the
+    // damping ratios of space 0 pointed at its eigenvalues (same count and type, valid CRCs).
+    bytes = good;
+    put<std::uint64_t>(bytes, entry_of(good, damping_ratios, 0) + 16, get<std::uint64_t>(good, entry_of(good, eigenvalues, 0) + 16));
+    modalrt::refresh_checksums(bytes);
+    ensure_rejected(bytes, MODALRT_ERROR_FORMAT, "sections overlap");
+
+    // Finite but absurd (issue 21): an eigenvalue of 1e300 and a mode entry of 1e200 are refused.
+    bytes = good;
+    put<double>(bytes, get<std::uint64_t>(good, entry_of(good, eigenvalues, 0) + 16) + 8, 1e300);
+    modalrt::refresh_checksums(bytes);
+    ensure_rejected(bytes, MODALRT_ERROR_VALUE, "EIGENVALUES of space 0 'global': value 1.0000000000000001e+300 at index 1 is beyond +-1e20");
+    bytes = good;
+    put<double>(bytes, get<std::uint64_t>(good, entry_of(good, display_modes, 0) + 16) + 8 * 5, -1e200);
+    modalrt::refresh_checksums(bytes);
+    ensure_rejected(bytes, MODALRT_ERROR_VALUE, "DISPLAY_MODES of space 0 'global': value -9.9999999999999997e+199 at index 5 is beyond +-1e20");
+
     bytes = good;
     put<double>(bytes, get<std::uint64_t>(good, entry_of(good, display_modes, 0) + 16) + 8 * 5, HUGE_VAL);
     modalrt::refresh_checksums(bytes);

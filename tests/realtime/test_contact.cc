@@ -132,6 +132,39 @@ namespace
     modalrt_basis_destroy(b);
   }
 
+  // Release that follows the hand: a HIP dragged sideways while pressing stays in contact within
+  // release_drag_distance (the coupling pulls the contact along), and is released beyond it, however
+  // far (2 cm, or 1 m as in issue 21); pressing deeper never releases.
+  void release_by_drag(double drag)
+  {
+    modalrt_basis     *b   = test::load(modalrt::make_lattice_cantilever(lattice));
+    modalrt_kernel_def def = modalrt_kernel_default_def();
+    modalrt_kernel    *k   = test::create(b, def);
+    const std::uint32_t v  = vertex(4, 1);
+    modalrt_hip_input   in = above(b, v, -0.002);
+    modalrt_hip_output  out;
+    for (int n = 0; n < 20; ++n)
+      modalrt_kernel_tick_impedance(k, &in, 1, &out);
+    ENSURE(out.in_contact == 1 && out.active_vertex == v);
+    in.position[2] = rest(b, v)[2] - 0.05; // 5 cm deep: clamped, never released
+    for (int n = 0; n < 20; ++n)
+      modalrt_kernel_tick_impedance(k, &in, 1, &out);
+    ENSURE(out.in_contact == 1 && (out.flags & MODALRT_HIP_FORCE_CLAMPED));
+    in.position[2] = rest(b, v)[2] - 0.002;
+    in.position[0] += 0.5 * def.release_drag_distance; // half the distance sideways: kept, pulled along
+    for (int n = 0; n < 20; ++n)
+      modalrt_kernel_tick_impedance(k, &in, 1, &out);
+    ENSURE(out.in_contact == 1 && out.force[0] < 0.0); // the device is pulled back towards the contact
+    in.position[0] = rest(b, v)[0] + drag;
+    modalrt_kernel_tick_impedance(k, &in, 1, &out);
+    ENSURE(out.in_contact == 0 && (out.flags & MODALRT_HIP_RELEASED));
+    ENSURE(out.force[0] == 0.0 && out.force[1] == 0.0 && out.force[2] == 0.0);
+    std::printf("  dragged %g m sideways at 2 mm depth: released (release_drag_distance %g m)\n", drag,
+                def.release_drag_distance);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(b);
+  }
+
   // The tip is bent in the tip space, then a contact starts in the global region: the kernel
   // switches to the global space. With the transfer, the active vertex barely moves; without, the
   // modal state restarts at rest and the vertex jumps back by its whole displacement.
@@ -235,6 +268,8 @@ int main()
   snap_and_release_admittance();
   snap_to_the_deformed_surface();
   release_impedance();
+  release_by_drag(0.02); // the contact point follows the pull by a few mm on this soft lattice
+  release_by_drag(1.0);
   switch_with_and_without_transfer();
   two_hips();
   return test::finish("test_contact");

@@ -1,6 +1,9 @@
-// Bad device input: NaN, infinity, absurd forces, far positions, too many HIPs, a broken frame.
-// Each rejected tick leaves the state where it was, repeats the last safe outputs (finite) and is
-// counted.
+// Bad device input: NaN, infinity, absurd forces, far positions, too many HIPs, a broken frame, and
+// missing input. Each rejected tick leaves the state where it was, repeats the last safe outputs
+// (finite) with the FAIL_SAFE flag and is counted. The fail-safe rule over time: a finite absurd
+// input (a position of 1e30 m, a velocity of 101 m/s) and a silent device (tick_missing) hold the
+// last safe force for fail_safe_hold, ramp it to zero over fail_safe_ramp without a step, and keep
+// it at zero; good input ends the run.
 #include "test_support.h"
 
 #include <cstring>
@@ -43,7 +46,10 @@ namespace
     for (std::uint32_t h = 0; h < std::min<std::uint32_t>(count, 2); ++h)
       {
         ENSURE(test::finite(out[h]));
-        ENSURE(std::memcmp(&out[h], &run.last[h], sizeof out[h]) == 0);
+        ENSURE(out[h].flags == MODALRT_HIP_FAIL_SAFE);
+        modalrt_hip_output expected = run.last[h];
+        expected.flags              = MODALRT_HIP_FAIL_SAFE; // within the hold window: the same force
+        ENSURE(std::memcmp(&out[h], &expected, sizeof out[h]) == 0);
       }
   }
 
@@ -91,10 +97,11 @@ namespace
     // A broken frame is refused and counted; the old frame stays.
     modalrt_frame_state frame = modalrt_frame_state_identity();
     frame.linear_acceleration[2] = nan;
-    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_INPUT_REJECTED);
+    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_ERROR_VALUE);
+    ENSURE(std::string(modalrt_last_error_message()).find("modalrt_kernel_set_frame") != std::string::npos);
     frame = modalrt_frame_state_identity();
     frame.angular_acceleration[0] = 1e30;
-    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_INPUT_REJECTED);
+    ENSURE(modalrt_kernel_set_frame(run.kernel, &frame) == MODALRT_ERROR_VALUE);
 
     // Good input again: the loop goes on from where it was.
     modalrt_hip_output out[2];
@@ -109,6 +116,74 @@ namespace
                 (unsigned long long)stats.rejected_ticks, (unsigned long long)stats.rejected_frames);
     modalrt_kernel_destroy(run.kernel);
     modalrt_basis_destroy(run.basis);
+  }
+
+  // The fail-safe rule over time, for one kind of bad input (`kind`: 0 a position of 1e30 m, 1 a
+  // velocity of 101 m/s, 2 no input at all) in impedance while pressing.
+  void fail_safe_timeline(int kind)
+  {
+    modalrt_basis     *basis = test::load(modalrt::make_lattice_cantilever());
+    modalrt_kernel_def d     = modalrt_kernel_default_def();
+    d.hip_capacity           = 1;
+    modalrt_kernel    *k     = test::create(basis, d);
+    const double      *x     = modalrt_basis_display_vertices(basis);
+    modalrt_hip_input  good  = test::hip_at(x + 3 * 15, 0.0, 0.0, 0.0);
+    good.position[2] -= 0.002;
+    modalrt_hip_output out{};
+    for (int n = 0; n < 50; ++n)
+      modalrt_kernel_tick_impedance(k, &good, 1, &out);
+    const double held = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
+    ENSURE(out.in_contact == 1 && held > 0.5);
+
+    modalrt_hip_input bad = good;
+    if (kind == 0)
+      bad.position[0] = 1e30;
+    if (kind == 1)
+      bad.velocity[0] = 101.0;
+    const int hold_ticks = int(std::lround(d.fail_safe_hold / d.time_step));
+    const int ramp_ticks = int(std::lround(d.fail_safe_ramp / d.time_step));
+    double    previous   = held, largest_step = 0.0;
+    bool      flagged = true, held_exactly = true, monotone = true;
+    int       first_zero = -1;
+    for (int n = 1; n <= 5000; ++n) // 5 s: "never forever" and never back up
+      {
+        const int status = kind == 2 ? modalrt_kernel_tick_missing(k, 1, &out) : modalrt_kernel_tick_impedance(k, &bad, 1, &out);
+        const double f = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
+        flagged        = flagged && status == MODALRT_INPUT_REJECTED && out.flags == MODALRT_HIP_FAIL_SAFE && test::finite(out);
+        if (n <= hold_ticks)
+          held_exactly = held_exactly && f == held;
+        monotone     = monotone && f <= previous;
+        largest_step = std::max(largest_step, previous - f);
+        if (f == 0.0 && first_zero < 0)
+          first_zero = n;
+        previous = f;
+      }
+    ENSURE(flagged && held_exactly && monotone);
+    ENSURE(first_zero == hold_ticks + ramp_ticks); // zero exactly when the ramp ends
+    ENSURE(previous == 0.0);
+    ENSURE(largest_step <= held / ramp_ticks * (1.0 + 1e-9)); // a linear ramp: no step
+    modalrt_kernel_stats stats;
+    modalrt_kernel_get_stats(k, &stats);
+    ENSURE(stats.fail_safe_run == 5000 && stats.fail_safe_ticks == 5000);
+    ENSURE(stats.dropout_ticks == std::uint64_t(5000 - hold_ticks));
+    ENSURE(kind == 2 ? stats.missing_ticks == 5000 && stats.last_reject_reasons == MODALRT_REJECT_MISSING
+                     : stats.rejected_ticks == 5000 &&
+                         stats.last_reject_reasons == (kind == 0 ? MODALRT_REJECT_POSITION : MODALRT_REJECT_VELOCITY));
+    // Good input ends the run: the contact goes on.
+    ENSURE(modalrt_kernel_tick_impedance(k, &good, 1, &out) == MODALRT_OK && !(out.flags & MODALRT_HIP_FAIL_SAFE) &&
+           out.in_contact == 1);
+    modalrt_kernel_get_stats(k, &stats);
+    ENSURE(stats.fail_safe_run == 0);
+    std::printf("  fail-safe (%s): %.3f N held %d ticks, ramped to 0 over %d ticks, largest step %.4f N\n",
+                kind == 0 ? "position 1e30 m" : kind == 1 ? "velocity 101 m/s" : "missing input", held, hold_ticks,
+                ramp_ticks, largest_step);
+    // A definition without a ramp is refused (a step to zero is not a fail-safe).
+    d.fail_safe_ramp       = 0.0;
+    modalrt_kernel *no_ramp = nullptr;
+    ENSURE(modalrt_kernel_create(basis, &d, &no_ramp) == MODALRT_ERROR_INVALID_ARGUMENT && !no_ramp);
+    ENSURE(std::string(modalrt_last_error_message()).find("fail_safe_ramp") != std::string::npos);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(basis);
   }
 
   // API misuse fails safely.
@@ -136,6 +211,8 @@ int main()
 {
   bad_inputs(false);
   bad_inputs(true);
+  for (int kind = 0; kind < 3; ++kind)
+    fail_safe_timeline(kind);
   misuse();
   return test::finish("test_device_input");
 }

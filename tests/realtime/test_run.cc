@@ -22,34 +22,26 @@ namespace
 {
   const std::string basis_path = "run_lattice.mrt";
 
-  std::string read_text(const std::string &path)
-  {
-    std::ifstream     file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
+  using test::json_number;
+  using test::read_text;
 
   void write_text(const std::string &path, const std::string &text) { std::ofstream(path) << text; }
 
   bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
 
-  // Runs `modal-rt run` with `arguments`; returns the exit status and the output (stdout, stderr).
-  int run(const std::string &arguments, std::string &output)
+  // Runs `modal-rt` with `arguments` (the command included); returns the exit status and the output
+  // (stdout, stderr).
+  int tool(const std::string &arguments, std::string &output)
   {
-    const std::string command = std::string(MODAL_RT_PROGRAM) + " run " + arguments + " > run_output.txt 2>&1";
+    const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > tool_output.txt 2>&1";
     const int         status  = std::system(command.c_str());
-    output                    = read_text("run_output.txt");
-    std::remove("run_output.txt");
+    output                    = read_text("tool_output.txt");
+    std::remove("tool_output.txt");
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
 
-  // The number after "key": in a stats.json text (NaN if absent).
-  double json_number(const std::string &json, const std::string &key, std::size_t from = 0)
-  {
-    const std::size_t at = json.find("\"" + key + "\": ", from);
-    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-  }
+  // Runs `modal-rt run` with `arguments`.
+  int run(const std::string &arguments, std::string &output) { return tool("run " + arguments, output); }
 
   // The 3-vector after "key": [ in the first entry of "final".
   void json_final_vector(const std::string &json, const std::string &key, double out[3])
@@ -421,6 +413,62 @@ time,hip,event,x,y,z
     expect_failure(files + " --output-dir x --frobnicate 1", 2, {"--frobnicate"});
     expect_failure(files + " --output-dir x --duration", 2, {"--duration needs a value"});
     expect_failure("--basis no_such.mrt --session run_two_hips.csv --output-dir x", 1, {"no_such.mrt"});
+    expect_failure(files + " --output-dir x --port 47000", 2, {"unknown option '--port'"}); // serve only
+
+    // serve: its own rules, each with the status the README documents.
+    const std::string serve = "serve --basis " + basis_path + " --output-dir x";
+    const struct
+    {
+      std::string                         arguments;
+      std::initializer_list<const char *> culprits;
+    } serve_cases[] = {
+      {serve + " --bind not-an-ip", {"--bind", "'not-an-ip'", "IPv4"}},
+      {serve + " --port 70000", {"--port 70000", "out of range"}},
+      {serve + " --hips 17", {"--hips 17", "out of range"}},
+      {serve + " --session s.csv", {"unknown option '--session'"}},
+      {serve + " --silence-ticks 1", {"unknown option '--silence-ticks'"}},
+      {serve + " --hold -1", {"--hold -1", "out of range"}},
+      {serve + " --ramp 0", {"--ramp 0", "out of range"}},
+      {serve + " --peer-timeout x", {"--peer-timeout", "'x'"}},
+      {"serve --output-dir x", {"missing --basis"}},
+      {"frobnicate", {"usage"}},
+    };
+    for (const auto &c : serve_cases)
+      {
+        std::string out;
+        const int   status = tool(c.arguments, out);
+        ENSURE(status == 2);
+        for (const char *culprit : c.culprits)
+          ENSURE(contains(out, culprit));
+        std::printf("  exit %d: %s", status, out.substr(0, out.find('\n') + 1).c_str());
+      }
+
+    // --help on every command: the usage on stdout, exit 0.
+    for (const char *command : {"--help", "info --help", "verify --help", "run --help", "serve --help"})
+      {
+        std::string out;
+        ENSURE(tool(command, out) == 0 && contains(out, "usage"));
+      }
+    std::string out;
+    ENSURE(tool("run --help", out) == 0 && contains(out, "--session") && contains(out, "--hold S (0.5)"));
+    ENSURE(tool("serve --help", out) == 0 && contains(out, "--peer-timeout S (1)") && !contains(out, "--session") &&
+           contains(out, "--frame-rate HZ (run 10, serve 0)"));
+  }
+
+  // serve's defaults cannot fill a disk: without --frame-rate it writes no frame.
+  void serve_writes_no_frames_by_default()
+  {
+    std::string out;
+    const int   port   = 20000 + int(getpid() % 20000) + 1;
+    const int   status = tool("serve --basis " + basis_path + " --output-dir serve_default --duration 0.3 --quiet --no-plot "
+                              "--port " + std::to_string(port), out);
+    ENSURE(status == 0);
+    const std::string stats = read_text("serve_default/stats.json");
+    ENSURE(json_number(stats, "ticks") == 300);
+    std::size_t frames = 0;
+    for (const auto &entry : std::filesystem::directory_iterator("serve_default/frames"))
+      frames += entry.path().extension() == ".vtu" ? 1 : 0;
+    ENSURE(frames == 0);
   }
 
   void bad_session_files()
@@ -464,6 +512,7 @@ int main()
   stop_on_sigint();
   multi_contact_full_fe();
   bad_command_lines();
+  serve_writes_no_frames_by_default();
   bad_session_files();
   return test::finish("test_run");
 }

@@ -1,11 +1,17 @@
-// modal-rt serve, the UDP bridge, on loopback with a synthetic basis. A client (this test) presses
-// the lattice's tip through the bridge; while pressing, its HIP teleports 1 m into the part (the
-// force stays within the device's limit), packets arrive out of order, twice, or with an infinite
-// position; then a second sender, an old sequence number and malformed packets arrive (all ignored
-// and counted), then the client falls silent: from the first tick without a fresh state every
-// command carries zero force and the SILENT flag, and the commands keep coming at the loop's rate.
-// Packets are encoded here from the layout documented in realtime/README.md, not with the tool's
-// code. The only timing asserted is that rate, within a factor of 2.
+// modal-rt serve, the UDP bridge, on loopback with a synthetic basis. Packets are encoded here from
+// the layout documented in realtime/README.md (protocol version 2), not with the tool's code.
+//   1. A client says HELLO and presses the lattice's tip; while pressing, its HIP teleports 1 m into
+//      the part (the force stays within the device's limit), packets arrive out of order, twice,
+//      with an infinite position or with an unknown flag bit (ignored and counted).
+//   2. Lock-outs that must not happen: a packet 2^31 - 1 ahead is stale, not adopted (the next
+//      ordinary packet is accepted); a counter restarted at 0 with HELLO is accepted at once.
+//   3. A second device gets a refusal packet (REFUSED); an old client (version 1) gets BAD_VERSION.
+//   4. The client falls silent mid-press: every command from the next tick on carries the FAIL_SAFE
+//      flag; the force is held, then ramps down to zero without a step; commands keep coming at the
+//      loop's rate until the peer timeout (1 s) frees the slot.
+//   5. The second device (a restart on another port) then takes the slot, leaves with BYE, and the
+//      first client comes back with a counter restarted at 0 without HELLO: accepted (slot free).
+// The only timing asserted is the command rate, within a factor of 2.
 #include "test_support.h"
 
 #include <algorithm>
@@ -25,27 +31,21 @@
 
 namespace
 {
+  using test::json_number;
+  using test::read_text;
+
+  constexpr std::uint32_t fail_safe_flag = 1u, refused_flag = 2u, bad_version_flag = 4u;
+  constexpr std::uint32_t hello = 1u, bye = 2u;
+
   struct Reply
   {
+    std::size_t   size;
+    std::uint16_t version, hips;
     std::uint32_t sequence, flags;
     std::uint64_t tick;
     double        force[3];
-    std::uint32_t in_contact;
+    std::uint32_t in_contact, hip_flags;
   };
-
-  std::string read_text(const std::string &path)
-  {
-    std::ifstream     file(path);
-    std::stringstream text;
-    text << file.rdbuf();
-    return text.str();
-  }
-
-  double json_number(const std::string &json, const std::string &key)
-  {
-    const std::size_t at = json.find("\"" + key + "\": ");
-    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-  }
 
   int udp_socket()
   {
@@ -58,16 +58,18 @@ namespace
     return s;
   }
 
-  // A state packet for one HIP: "MRTS", u16 version 1, u16 HIP count, u32 sequence, u32 0, then
+  // A state packet for one HIP: "MRTS", u16 version 2, u16 HIP count, u32 sequence, u32 flags, then
   // position, velocity, force as f64 (little endian).
-  std::vector<unsigned char> state_packet(std::uint32_t sequence, const double position[3])
+  std::vector<unsigned char> state_packet(std::uint32_t sequence, const double position[3], std::uint32_t flags = 0,
+                                          std::uint16_t version = 2)
   {
     std::vector<unsigned char> p(16 + 72, 0);
     std::memcpy(p.data(), "MRTS", 4);
-    const std::uint16_t version = 1, hips = 1;
+    const std::uint16_t hips = 1;
     std::memcpy(&p[4], &version, 2);
     std::memcpy(&p[6], &hips, 2);
     std::memcpy(&p[8], &sequence, 4);
+    std::memcpy(&p[12], &flags, 4);
     std::memcpy(&p[16], position, 24);
     return p;
   }
@@ -86,8 +88,9 @@ namespace
     sendto(s, packet.data(), packet.size(), 0, reinterpret_cast<const sockaddr *>(&to), sizeof to);
   }
 
-  // Every command waiting on the socket: "MRTC", u16, u16, u32 sequence, u32 flags, u64 tick, then
-  // per HIP force[3], position[3], velocity[3] f64, in_contact, vertex, space, 0 u32.
+  // Every packet waiting on the socket: "MRTC", u16 version, u16 n, u32 sequence, u32 flags, u64
+  // tick, then per HIP force[3], position[3], velocity[3] f64, in_contact, vertex, space, flags u32.
+  // A refusal has n = 0 (24 bytes).
   void drain(int s, std::vector<Reply> &replies)
   {
     unsigned char buffer[512];
@@ -96,17 +99,29 @@ namespace
         const ssize_t size = recv(s, buffer, sizeof buffer, 0);
         if (size < 0)
           return;
-        if (size != 24 + 88 || std::memcmp(buffer, "MRTC", 4) != 0)
+        Reply r{};
+        r.size = std::size_t(size);
+        if (size < 24 || std::memcmp(buffer, "MRTC", 4) != 0)
           {
             test::report(false, __FILE__, __LINE__, "malformed command packet");
             continue;
           }
-        Reply r;
+        std::memcpy(&r.version, buffer + 4, 2);
+        std::memcpy(&r.hips, buffer + 6, 2);
         std::memcpy(&r.sequence, buffer + 8, 4);
         std::memcpy(&r.flags, buffer + 12, 4);
         std::memcpy(&r.tick, buffer + 16, 8);
-        std::memcpy(r.force, buffer + 24, 24);
-        std::memcpy(&r.in_contact, buffer + 24 + 72, 4);
+        if (r.size != 24 + 88 * std::size_t(r.hips) || r.version != 2)
+          {
+            test::report(false, __FILE__, __LINE__, "command packet of the wrong size or version");
+            continue;
+          }
+        if (r.hips == 1)
+          {
+            std::memcpy(r.force, buffer + 24, 24);
+            std::memcpy(&r.in_contact, buffer + 24 + 72, 4);
+            std::memcpy(&r.hip_flags, buffer + 24 + 84, 4);
+          }
         replies.push_back(r);
       }
   }
@@ -126,6 +141,12 @@ namespace
       }
     return child;
   }
+
+  void pause_and_drain(int s, std::vector<Reply> &replies, int microseconds)
+  {
+    std::this_thread::sleep_for(std::chrono::microseconds(microseconds));
+    drain(s, replies);
+  }
 } // namespace
 
 int main()
@@ -142,37 +163,35 @@ int main()
   server.sin_port        = htons(std::uint16_t(port));
   server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   const int          client = udp_socket(), stranger = udp_socket();
-  std::vector<Reply> replies;
+  std::vector<Reply> replies, stranger_replies;
 
-  // Hover above the tip until the bridge answers, then press 2 mm into the top face (z = 0.01 m).
-  std::uint32_t sequence = 0;
+  // 1. HELLO, hover above the tip until the bridge answers, then press 7 mm down onto the top face.
+  std::uint32_t sequence = 1000;
   double        x[3]     = {0.125, 0.025, 0.015};
-  for (int k = 0; k < 20000 && replies.empty(); ++k)
+  for (int k = 0; k < 20000 && replies.empty(); ++k) // HELLO until the bridge, starting, answers
     {
-      send_to(client, server, state_packet(++sequence, x));
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
-      drain(client, replies);
+      send_to(client, server, state_packet(++sequence, x, hello));
+      pause_and_drain(client, replies, 500);
     }
   ENSURE(!replies.empty());
   for (int k = 0; k <= 800; ++k)
     {
       x[2] = 0.015 - 0.007 * std::min(1.0, k / 400.0);
       send_to(client, server, state_packet(++sequence, x));
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
-      drain(client, replies);
+      pause_and_drain(client, replies, 500);
     }
   auto hold = [&](const double *at, int packets) {
     for (int k = 0; k < packets; ++k)
       {
         send_to(client, server, state_packet(++sequence, at));
-        std::this_thread::sleep_for(std::chrono::microseconds(500));
-        drain(client, replies);
+        pause_and_drain(client, replies, 500);
       }
   };
 
   // Faults while pressing. The HIP teleports 1 m into the part: the force felt must stay within the
   // device's limit from the first tick that sees it. Then, back on the surface, packets arrive out
-  // of order and twice (both stale: ignored and counted), and one with an infinite position (bad).
+  // of order and twice (both stale), one with an infinite position and one with an unknown flag bit
+  // (both bad).
   const double        deep[3] = {x[0], x[1], x[2] - 1.0};
   const std::uint32_t teleport_first = sequence + 1;
   hold(deep, 40);
@@ -183,47 +202,105 @@ int main()
   send_to(client, server, state_packet(sequence + 2, deep)); // the same number again
   sequence += 2;
   send_to(client, server, with_number(state_packet(++sequence, x), 0, std::numeric_limits<double>::infinity()));
+  send_to(client, server, state_packet(++sequence, x, 1u << 7)); // a reserved flag bit
+  hold(x, 50);
+
+  // 2. No lock-out: a packet 2^31 - 1 ahead is stale (a "newer than the last" rule would have adopted
+  // it and ignored the device for 24.8 days); the next ordinary packet is accepted.
+  send_to(client, server, state_packet(sequence + 0x7FFFFFFFu, deep));
+  hold(x, 50);
+  // A device that restarts its counter at 0 says HELLO: accepted at once.
+  sequence = 0;
+  send_to(client, server, state_packet(sequence, x, hello));
   hold(x, 100);
   const std::uint32_t last = sequence;
 
-  // Ignored and counted: another sender, an old sequence number, a short and a non-finite packet.
-  send_to(stranger, server, state_packet(last + 100, x));
-  send_to(client, server, state_packet(last - 5, x));
-  send_to(client, server, std::vector<unsigned char>(10, 0));
-  send_to(client, server, with_number(state_packet(last + 1, x), 8, std::nan("")));
-  // The client falls silent (a device unplugged mid-press): the loop must keep its rate.
+  // 3. A second device is refused with a packet saying so; an old client (version 1) too.
+  send_to(stranger, server, state_packet(7, x));
+  send_to(stranger, server, state_packet(8, x, 0, 1));
+  for (int k = 0; k < 20; ++k)
+    pause_and_drain(stranger, stranger_replies, 500);
+  ENSURE(stranger_replies.size() == 2);
+  ENSURE(stranger_replies.size() == 2 && stranger_replies[0].hips == 0 && stranger_replies[0].flags == refused_flag);
+  ENSURE(stranger_replies.size() == 2 && stranger_replies[1].hips == 0 && stranger_replies[1].flags == bad_version_flag);
+
+  // 4. The client falls silent (a device unplugged mid-press): the loop keeps its rate; after the
+  // peer timeout (1 s) no command is sent any more.
   const auto silence_start = std::chrono::steady_clock::now();
-  for (int k = 0; k < 400; ++k)
-    {
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
-      drain(client, replies);
-    }
+  for (int k = 0; k < 2600; ++k) // 1.3 s
+    pause_and_drain(client, replies, 500);
   const double silence_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
+  const std::size_t commands_at_silence_end = replies.size();
+  for (int k = 0; k < 200; ++k)
+    pause_and_drain(client, replies, 500);
+  ENSURE(replies.size() == commands_at_silence_end); // the slot is free: nobody to command
+
+  // 5. The second device takes the free slot (a device restarted on another port), then leaves with
+  // BYE; the first comes back with its counter restarted at 0 and no HELLO: accepted, the slot being
+  // free.
+  stranger_replies.clear();
+  for (int k = 0; k < 100; ++k)
+    {
+      send_to(stranger, server, state_packet(100 + k, x));
+      pause_and_drain(stranger, stranger_replies, 500);
+    }
+  send_to(stranger, server, state_packet(200, x, bye));
+  for (int k = 0; k < 20; ++k)
+    pause_and_drain(stranger, stranger_replies, 500);
+  const bool stranger_served = !stranger_replies.empty() && stranger_replies.back().hips == 1;
+  ENSURE(stranger_served);
+  const std::size_t before_return = replies.size();
+  for (std::uint32_t k = 0; k < 100; ++k)
+    {
+      send_to(client, server, state_packet(k, x));
+      pause_and_drain(client, replies, 500);
+    }
+  // Served again: commands whose tick had one of these states (not fail-safe), whatever the timing.
+  std::size_t served_again = 0;
+  for (std::size_t k = before_return; k < replies.size(); ++k)
+    served_again += replies[k].hips == 1 && !(replies[k].flags & fail_safe_flag) && replies[k].sequence < 100 ? 1 : 0;
+  ENSURE(served_again >= 20);
+
   kill(bridge, SIGINT);
   int status = 0;
   waitpid(bridge, &status, 0);
   std::printf("%s", read_text("serve_output.txt").c_str());
   ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 
-  // The tick that took the last state pressed; every later tick is silent with zero force, from the
-  // very next tick on.
-  const Reply *fresh = nullptr, *first_silent = nullptr;
-  bool         all_zero = true;
-  for (const Reply &r : replies)
-    if (r.sequence == last && !(r.flags & 1u) && !fresh)
-      fresh = &r;
-    else if (fresh && r.tick > fresh->tick)
-      {
-        all_zero = all_zero && (r.flags & 1u) && r.force[0] == 0.0 && r.force[1] == 0.0 && r.force[2] == 0.0;
-        if (!first_silent)
-          first_silent = &r;
-      }
+  // The tick that took the last state pressed; every later tick of the silence carries FAIL_SAFE,
+  // from the very next tick on; the force is held, then ramps down without a step, and reaches 0.
+  const Reply *fresh = nullptr;
+  std::vector<double> silent_forces;
+  bool                all_flagged = true;
+  for (std::size_t k = 0; k < commands_at_silence_end; ++k)
+    {
+      const Reply &r = replies[k];
+      if (r.sequence == last && !(r.flags & fail_safe_flag) && !fresh)
+        fresh = &r;
+      else if (fresh && r.tick > fresh->tick)
+        {
+          all_flagged = all_flagged && (r.flags & fail_safe_flag) && (r.hip_flags & 32u);
+          silent_forces.push_back(norm(r.force));
+        }
+    }
   ENSURE(fresh && fresh->in_contact == 1 && fresh->force[2] > 0.0);
-  ENSURE(first_silent && fresh && first_silent->tick == fresh->tick + 1);
-  ENSURE(all_zero);
-  // Silent commands kept coming at the loop's rate (1 kHz; half of it allows for a loaded machine).
-  const std::size_t silent = std::size_t(std::count_if(replies.begin(), replies.end(), [](const Reply &r) { return r.flags & 1u; }));
-  ENSURE(double(silent) >= 0.5 * 1000.0 * silence_seconds);
+  ENSURE(all_flagged && !silent_forces.empty());
+  if (fresh && !silent_forces.empty())
+    {
+      const double held = norm(fresh->force);
+      ENSURE_NEAR(silent_forces.front(), held, 1e-12 * held); // held, not dropped
+      double largest_step = 0.0, previous = held;
+      for (double f : silent_forces)
+        largest_step = std::max(largest_step, previous - f), previous = f;
+      ENSURE(silent_forces.back() == 0.0);
+      // A ramp of 50 ms: at most held / 50 per tick, twice that if the loop missed a period.
+      ENSURE(largest_step <= 2.0 * held / 50.0);
+      std::printf("silence: %.3f N held, then ramped to 0 (largest step %.4f N, %zu fail-safe commands)\n", held,
+                  largest_step, silent_forces.size());
+    }
+  // Commands kept coming at the loop's rate until the peer timeout (1 kHz for 1 s; half of it
+  // allows for a loaded machine).
+  ENSURE(double(silent_forces.size()) >= 0.5 * 1000.0 * std::min(1.0, silence_seconds));
 
   // Teleported 1 m deep: every force finite and within the device's limit, the limit reached.
   const double max_force = modalrt_device_default_def().max_force;
@@ -232,7 +309,7 @@ int main()
   for (const Reply &r : replies)
     {
       within_limit = within_limit && std::isfinite(norm(r.force)) && norm(r.force) <= max_force * (1.0 + 1e-12);
-      if (r.sequence >= teleport_first && r.sequence <= teleport_last)
+      if (r.sequence >= teleport_first && r.sequence <= teleport_last && r.sequence > 1000)
         teleport_seen = true, teleport_force = std::max(teleport_force, norm(r.force));
     }
   ENSURE(teleport_seen && within_limit);
@@ -240,14 +317,20 @@ int main()
 
   const std::string stats = read_text("serve_out/stats.json");
   ENSURE(json_number(stats, "foreign_packets") == 1);
+  ENSURE(json_number(stats, "bad_version_packets") == 1);
+  ENSURE(json_number(stats, "refusals_sent") == 2);
   ENSURE(json_number(stats, "stale_packets") == 3);
-  ENSURE(json_number(stats, "bad_packets") == 3);
+  ENSURE(json_number(stats, "bad_packets") == 2);
+  ENSURE(json_number(stats, "hellos") >= 2); // until the bridge answered, and the counter restart
+  ENSURE(json_number(stats, "byes") == 1);
+  ENSURE(json_number(stats, "peer_timeouts") == 1);
+  ENSURE(json_number(stats, "sessions") == 3); // the client, the second device, the client again
   ENSURE(json_number(stats, "clamped_forces") > 0);
   ENSURE(json_number(stats, "states_accepted") >= 800);
-  ENSURE(json_number(stats, "silent_ticks") > 0);
+  ENSURE(json_number(stats, "missing_ticks") > 0);
   ENSURE(json_number(stats, "allocations_after_start") == 0);
   ENSURE(json_number(stats, "non_finite_outputs") == 0);
-  ENSURE(read_text("serve_out/stats.json").find("\"stopped_by\": \"signal\"") != std::string::npos);
+  ENSURE(stats.find("\"stopped_by\": \"signal\"") != std::string::npos);
   close(client);
   close(stranger);
   return test::finish("test_serve");

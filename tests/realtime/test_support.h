@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -104,6 +106,22 @@ namespace test
       if (!std::isfinite(o.position[d]) || !std::isfinite(o.velocity[d]) || !std::isfinite(o.force[d]))
         return false;
     return true;
+  }
+
+  // The whole text of a file ("" if it cannot be read).
+  inline std::string read_text(const std::string &path)
+  {
+    std::ifstream     file(path);
+    std::stringstream text;
+    text << file.rdbuf();
+    return text.str();
+  }
+
+  // The number after "key": in a stats.json text, searched from `from` (NaN if absent).
+  inline double json_number(const std::string &json, const std::string &key, std::size_t from = 0)
+  {
+    const std::size_t at = json.find("\"" + key + "\": ", from);
+    return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
   }
 
   inline double distance(const double *a, const double *b)

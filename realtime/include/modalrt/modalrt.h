@@ -13,12 +13,25 @@
  *                    concurrently with the ticks (it never blocks them).
  *   modalrt_snapshot owned by the display thread.
  *
- * Guarantees of a tick (modalrt_kernel_tick_admittance / _impedance): no allocation, no lock, no
- * I/O, no exception, bounded work (capacities are fixed by modalrt_kernel_create). Every device input
- * is checked; a tick with a non-finite or absurd input is rejected as a whole: the state does not
- * move, the outputs are the last safe ones (before any accepted tick: zero force, not in contact),
- * the call returns MODALRT_INPUT_REJECTED and a counter (modalrt_kernel_stats.rejected_ticks) says
- * how many were rejected.
+ * Guarantees of a tick (modalrt_kernel_tick_admittance / _impedance / _missing): no allocation, no
+ * lock, no I/O, no exception, bounded work (capacities are fixed by modalrt_kernel_create).
+ *
+ * The fail-safe rule (one rule for every rejected or missing input). Every device input is checked;
+ * a tick with a non-finite or absurd input is rejected as a whole, and a tick whose input did not
+ * arrive (modalrt_kernel_tick_missing) is treated the same way: the state does not move, the
+ * outputs are the last safe ones (before any accepted tick: zero force, not in contact) with the
+ * MODALRT_HIP_FAIL_SAFE flag, and their force is
+ *   - held at the last safe force for fail_safe_hold seconds of consecutive fail-safe ticks
+ *     (default 0.5 s: above the scheduling gaps of an ordinary 1 kHz client process, 105 to 428 ms,
+ *     measured in 20-120 s runs on a 2-core machine at load average 6 to 10; a 1200 s run met one
+ *     of 547 ms, docs/reliability.md; a client with real-time priority needs far less), then
+ *   - ramped linearly to zero over fail_safe_ramp seconds (default 0.05 s; at least two ticks: never
+ *     a step), then zero for as long as no good input comes.
+ * Fail-safe tick n of a run (n = 1, 2, ...) scales the last safe force by 1 while n <= H, then by
+ * max(0, 1 - (n - H) / R), with H = round(fail_safe_hold / time_step) and
+ * R = max(2, round(fail_safe_ramp / time_step)) ticks.
+ * The call returns MODALRT_INPUT_REJECTED; modalrt_kernel_stats counts rejected and missing ticks
+ * and the current run of fail-safe ticks. The next accepted tick ends the run.
  *
  * Frames: the part's body frame is the frame of the basis file. It may move in the world
  * (modalrt_kernel_set_frame); all tick inputs and outputs are in world coordinates.
@@ -33,7 +46,11 @@
  *     contact start (zero for modalrt_kernel_contact_begin): a HIP landing between vertices feels
  *     no lateral jerk, and an admittance device is not pulled sideways onto the vertex.
  *   - Release, impedance tick: when the HIP is pulled out of the surface, i.e. its signed distance
- *     from the deformed active vertex along the outward normal exceeds release_distance.
+ *     from the felt contact point along the outward normal exceeds release_distance, or dragged
+ *     away from it sideways, i.e. its distance from the contact point across the normal exceeds
+ *     release_drag_distance (default 0.01 m, where the default coupling of 1000 N/m reaches the
+ *     default device's 10 N): a HIP far from its contact in any direction but into the part is
+ *     released. Pressing deeper into the part never releases.
  *   - Release, admittance tick: when the force the user applies pulls outward, i.e. its component
  *     along the outward normal exceeds release_force (a contact can push, not pull).
  *   - modalrt_kernel_release_hip releases at once; with auto_release = 0 it is the only release.
@@ -67,7 +84,7 @@
 extern "C" {
 #endif
 
-#define MODALRT_VERSION_MAJOR 1
+#define MODALRT_VERSION_MAJOR 2
 #define MODALRT_VERSION_MINOR 0
 
 /* Highest major and minor version of the .mrt format this library reads. */
@@ -79,12 +96,14 @@ extern "C" {
 
 /* ------------------------------------------------------------------------------------------------
  * Status codes: 0 is success, a positive code is a warning whose outputs are valid, a negative code
- * is an error. After an error from a non-tick call, modalrt_last_error_message() tells what failed.
+ * is an error. Every call that returns a negative status (tick calls included) sets the message that
+ * modalrt_last_error_message() returns; a successful call leaves it as it was. Each function below
+ * lists the statuses it can return ("Returns: ..."); it returns no other.
  * --------------------------------------------------------------------------------------------- */
 enum
 {
   MODALRT_OK                     = 0,
-  MODALRT_INPUT_REJECTED         = 1,  /* tick: an input was rejected, outputs are the last safe ones */
+  MODALRT_INPUT_REJECTED         = 1,  /* tick only: input rejected or missing; fail-safe outputs */
   MODALRT_ERROR_INVALID_ARGUMENT = -1, /* null pointer, index out of range, bad definition field */
   MODALRT_ERROR_IO               = -2, /* the file could not be opened or read */
   MODALRT_ERROR_FORMAT           = -3, /* magic, version, sizes, layout or indices of a basis file */
@@ -104,10 +123,12 @@ enum
   MODALRT_REJECT_POSITION       = 1u << 2, /* |position| > workspace_radius */
   MODALRT_REJECT_VELOCITY       = 1u << 3, /* |velocity| > max_input_velocity */
   MODALRT_REJECT_FRAME          = 1u << 4, /* the frame state is not finite or absurd */
-  MODALRT_REJECT_HIP_COUNT      = 1u << 5  /* more HIPs than the kernel's capacity */
+  MODALRT_REJECT_HIP_COUNT      = 1u << 5, /* more HIPs than the kernel's capacity */
+  MODALRT_REJECT_MISSING        = 1u << 6  /* no input this tick (modalrt_kernel_tick_missing) */
 };
 
-/* Message of the last failed non-tick call in this thread ("" if none). Never NULL. */
+/* Message of the last call that failed (negative status) in this thread ("" if none). Never NULL;
+ * valid until the next failing call in this thread (a fixed buffer, never freed). */
 MODALRT_API const char *modalrt_last_error_message(void);
 
 /* Constant name of a status code ("MODALRT_ERROR_CHECKSUM", ...). */
@@ -122,16 +143,39 @@ MODALRT_API uint32_t modalrt_version(void);
  * Returns 1 when the flags were set, 0 on platforms without them. */
 MODALRT_API int modalrt_thread_enable_flush_to_zero(void);
 
+/* Optional allocator hooks. Every array of a basis, a kernel and a snapshot, and the objects
+ * themselves, are allocated through `allocate(bytes, alignment, user)` and returned through
+ * `deallocate(pointer, bytes, alignment, user)` (the same bytes and alignment). Set them at load time:
+ * before the first basis is loaded, or once every basis, kernel and snapshot is destroyed. NULL (or
+ * both function pointers NULL) restores the default (operator new and delete). `allocate` returns
+ * NULL on failure (the call then returns MODALRT_ERROR_OUT_OF_MEMORY). Small strings (file names,
+ * messages) and the loader's temporary buffers use the standard allocator. Ticks allocate nothing.
+ * Not thread-safe against calls that create or destroy objects. */
+typedef struct modalrt_allocator
+{
+  void *(*allocate)(size_t bytes, size_t alignment, void *user);
+  void (*deallocate)(void *pointer, size_t bytes, size_t alignment, void *user);
+  void *user; /* passed to both */
+} modalrt_allocator;
+
+/* Returns: OK, ERROR_INVALID_ARGUMENT (only one of the two functions set), ERROR_STATE (a basis,
+ * kernel or snapshot exists). */
+MODALRT_API int modalrt_set_allocator(const modalrt_allocator *allocator);
+
 /* ------------------------------------------------------------------------------------------------
  * Basis: one loaded .mrt file
  * --------------------------------------------------------------------------------------------- */
 typedef struct modalrt_basis modalrt_basis;
 
 /* Reads and checks a .mrt file: magic, version, sizes, every CRC-32, finite numbers, index ranges,
- * patch weights summing to 1. On failure *basis is NULL and the message names the file and the
- * section. */
+ * patch weights summing to 1, numbers within their ranges (docs/basis-format.md). On failure *basis
+ * is NULL and the message names the file and the section. Memory: about the file's size plus the
+ * derived arrays (normals, grid); nothing grows faster than the file.
+ * Returns: OK, ERROR_INVALID_ARGUMENT, ERROR_IO, ERROR_FORMAT, ERROR_CHECKSUM, ERROR_VALUE,
+ * ERROR_OUT_OF_MEMORY. */
 MODALRT_API int  modalrt_basis_load(const char *path, modalrt_basis **basis);
-/* Same from bytes in memory (copied; `bytes` may be freed after the call). */
+/* Same from bytes in memory (copied; `bytes` may be freed after the call). Returns: as
+ * modalrt_basis_load but never ERROR_IO. */
 MODALRT_API int  modalrt_basis_load_memory(const void *bytes, size_t size, modalrt_basis **basis);
 MODALRT_API void modalrt_basis_destroy(modalrt_basis *basis);
 
@@ -156,6 +200,7 @@ typedef struct modalrt_basis_info
   double   bounds_max[3];          /* [m] */
 } modalrt_basis_info;
 
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
 MODALRT_API int modalrt_basis_get_info(const modalrt_basis *basis, modalrt_basis_info *info);
 
 typedef struct modalrt_space_info
@@ -171,6 +216,7 @@ typedef struct modalrt_space_info
   double   highest_frequency; /* [Hz] */
 } modalrt_space_info;
 
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument, space out of range). */
 MODALRT_API int modalrt_basis_get_space_info(const modalrt_basis *basis, uint32_t space, modalrt_space_info *info);
 
 /* Arrays owned by the basis, valid until modalrt_basis_destroy; NULL if out of range. */
@@ -187,8 +233,9 @@ MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *b
  * C_v, which is exactly the full static FE compliance W_v^T K^-1 W_v of its patch, and *full_fe is
  * set to 1; elsewhere only the modal part B_v Lambda^-1 B_v^T (B_v from the vertex-lumped patch, as
  * the kernel builds it) is available and *full_fe is 0. The stiffness felt along a unit direction n
- * is 1 / (n^T G n). `full_fe` may be NULL. No allocation. MODALRT_ERROR_VALUE if the space has a mode
- * with omega = 0 (a part that is not held has no static compliance). */
+ * is 1 / (n^T G n). `full_fe` may be NULL. No allocation.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, space or vertex out of range), ERROR_VALUE (the
+ * space has a mode with omega = 0: a part that is not held has no static compliance). */
 MODALRT_API int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space, uint32_t vertex,
                                                  double compliance[9], uint32_t *full_fe);
 /* 1 if the file holds TRANSFER from space `from` into space `to`, else 0. */
@@ -207,6 +254,7 @@ typedef struct modalrt_section_info
   uint64_t bytes;        /* [bytes] */
 } modalrt_section_info;
 
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument, index out of range). */
 MODALRT_API int modalrt_basis_get_section(const modalrt_basis *basis, uint32_t index, modalrt_section_info *info);
 
 /* ------------------------------------------------------------------------------------------------
@@ -235,24 +283,29 @@ typedef struct modalrt_verify_report
  * settled to its exact static equilibrium, then one admittance tick) and compares u_c to the
  * reference. A space with rigid-body modes (lambda = 0, a free-floating part) runs in the frame that
  * follows the part's rigid acceleration under the force (inertia relief). `index` counts cases over
- * all spaces in file order. */
+ * all spaces in file order.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, index out of range), ERROR_STATE (a free-floating
+ * space's case away from a candidate, or singular rigid-body participation), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int modalrt_basis_verify_case(const modalrt_basis *basis, uint32_t index, modalrt_verify_case *result);
-/* All cases; returns MODALRT_ERROR_VERIFY_FAILED if the max error exceeds the tolerance. */
+/* All cases. Returns: OK, ERROR_VERIFY_FAILED (the max error exceeds the tolerance; the report is
+ * filled), ERROR_INVALID_ARGUMENT, ERROR_STATE (as modalrt_basis_verify_case), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *report);
 
 /* ------------------------------------------------------------------------------------------------
  * Kernel definition
  * --------------------------------------------------------------------------------------------- */
 
-/* What the device can render (after CHAI3D's cHapticDeviceInfo). */
+/* What the device can render (after CHAI3D's cHapticDeviceInfo). Defaults of
+ * modalrt_device_default_def() in brackets. */
 typedef struct modalrt_device_def
 {
-  double max_force;        /* [N] largest force the device renders; impedance outputs are clamped to it */
-  double max_stiffness;    /* [N/m] largest stiffness the device renders stably at the tick rate */
-  double max_damping;      /* [N s/m] largest damping the device renders stably */
-  double physical_damping; /* [N s/m] the device's own viscous damping b (0 if unknown) */
+  double max_force;        /* [N] largest force the device renders; impedance outputs are clamped to it [10] */
+  double max_stiffness;    /* [N/m] largest stiffness the device renders stably at the tick rate [3000] */
+  double max_damping;      /* [N s/m] largest damping the device renders stably [10] */
+  double physical_damping; /* [N s/m] the device's own viscous damping b (0 if unknown) [0] */
 } modalrt_device_def;
 
+/* Returns the defaults above; never fails. */
 MODALRT_API modalrt_device_def modalrt_device_default_def(void);
 
 enum
@@ -261,32 +314,38 @@ enum
   MODALRT_SWITCH_NEVER            = 1  /* stay in the space set by the application */
 };
 
+/* The kernel's definition. Defaults of modalrt_kernel_default_def() in brackets; modalrt_kernel_create
+ * checks every field (MODALRT_ERROR_INVALID_ARGUMENT or _DEVICE_LIMIT and a message naming it). */
 typedef struct modalrt_kernel_def
 {
-  double   time_step;             /* [s] tick period T, 1e-6 .. 1 */
-  uint32_t hip_capacity;          /* [-] HIPs the kernel handles, 1 .. 16 */
-  uint32_t initial_space;         /* [-] active space before any contact */
-  modalrt_device_def device;      /* the device's limits */
-  double   coupling_stiffness;    /* [N/m] impedance virtual coupling K, <= device.max_stiffness */
-  double   coupling_damping;      /* [N s/m] impedance virtual coupling D, <= device.max_damping */
-  double   snap_distance;         /* [m] a HIP snaps to a vertex only within this distance */
-  double   contact_tolerance;     /* [m] signed distance along the normal at or below which a HIP touches */
-  double   release_distance;      /* [m] impedance release and re-arm distance outside the surface */
-  double   release_force;         /* [N] admittance release: outward pulling force above this */
-  double   max_input_force;       /* [N] a larger input force is absurd: the tick is rejected */
-  double   workspace_radius;      /* [m] a HIP farther than this from the world origin is rejected */
-  double   max_input_velocity;    /* [m/s] a faster HIP is rejected */
-  double   max_frame_acceleration; /* [m/s^2, rad/s^2] a larger frame acceleration is rejected */
-  uint32_t snap_candidate_budget; /* [-] vertices evaluated deformed per snap query, 1 .. 256 */
-  uint32_t switch_rule;           /* MODALRT_SWITCH_AT_CONTACT_START or MODALRT_SWITCH_NEVER */
-  uint32_t carry_state_on_switch; /* 1: q_new = T q_old at a switch; 0: restart at rest */
-  uint32_t use_static_correction; /* 1: add the residual compliance C_v F at candidates */
-  uint32_t auto_release;          /* 1: apply the release rules; 0: only modalrt_kernel_release_hip */
-  uint32_t snapshot_interval;     /* [ticks] publish a display snapshot every this many ticks, >= 1 */
-  uint32_t enable_profile;        /* 1: time every tick (two clock reads) into modalrt_kernel_stats */
-  uint32_t reserved;              /* 0 */
+  double   time_step;             /* [s] tick period T, 1e-6 .. 1 [1e-3] */
+  uint32_t hip_capacity;          /* [-] HIPs the kernel handles, 1 .. 16 [4] */
+  uint32_t initial_space;         /* [-] active space before any contact [0] */
+  modalrt_device_def device;      /* the device's limits [modalrt_device_default_def()] */
+  double   coupling_stiffness;    /* [N/m] impedance virtual coupling K, <= device.max_stiffness [1000] */
+  double   coupling_damping;      /* [N s/m] impedance virtual coupling D, <= device.max_damping [2] */
+  double   snap_distance;         /* [m] a HIP snaps to a vertex only within this distance, > 0 [0.01] */
+  double   contact_tolerance;     /* [m] signed distance along the normal at or below which a HIP touches [0] */
+  double   release_distance;      /* [m] impedance release and re-arm distance outside the surface, >= 0 [1e-3] */
+  double   release_force;         /* [N] admittance release: outward pulling force above this, >= 0 [0.05] */
+  double   max_input_force;       /* [N] a larger input force is absurd: the tick is rejected [1000] */
+  double   workspace_radius;      /* [m] a HIP farther than this from the world origin is rejected [10] */
+  double   max_input_velocity;    /* [m/s] a faster HIP is rejected [100] */
+  double   max_frame_acceleration; /* [m/s^2, rad/s^2] a larger frame acceleration is rejected [1e4] */
+  uint32_t snap_candidate_budget; /* [-] vertices evaluated deformed per snap query, 1 .. 256 [16] */
+  uint32_t switch_rule;           /* MODALRT_SWITCH_AT_CONTACT_START or MODALRT_SWITCH_NEVER [AT_CONTACT_START] */
+  uint32_t carry_state_on_switch; /* 1: q_new = T q_old at a switch; 0: restart at rest [1] */
+  uint32_t use_static_correction; /* 1: add the residual compliance C_v F at candidates [1] */
+  uint32_t auto_release;          /* 1: apply the release rules; 0: only modalrt_kernel_release_hip [1] */
+  uint32_t snapshot_interval;     /* [ticks] publish a display snapshot every this many ticks, >= 1 [1] */
+  uint32_t enable_profile;        /* 1: time every tick (two clock reads) into modalrt_kernel_stats [0] */
+  uint32_t reserved;              /* must be 0 [0] */
+  double   release_drag_distance; /* [m] impedance release: HIP this far from its contact across the normal, > 0 [0.01] */
+  double   fail_safe_hold;        /* [s] fail-safe: the last safe force is held this long, 0 .. 10 [0.5] */
+  double   fail_safe_ramp;        /* [s] fail-safe: then ramped to zero over this time (at least 2 ticks), > 0 .. 10 [0.05] */
 } modalrt_kernel_def;
 
+/* Returns the defaults above; never fails. */
 MODALRT_API modalrt_kernel_def modalrt_kernel_default_def(void);
 
 /* ------------------------------------------------------------------------------------------------
@@ -298,11 +357,13 @@ typedef struct modalrt_kernel modalrt_kernel;
  * stiffness, D <= max damping, and the sampled-passivity condition K T / 2 < b + D (Colgate: the
  * energy a zero-order-held spring can generate per tick must be dissipated by the device's damping b
  * and the coupling damper, whose velocity is the device's measured one). The basis must outlive the
- * kernel. */
+ * kernel. Returns: OK, ERROR_INVALID_ARGUMENT (null argument, a field out of its range),
+ * ERROR_DEVICE_LIMIT (coupling beyond the device or not passive), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int  modalrt_kernel_create(const modalrt_basis *basis, const modalrt_kernel_def *def, modalrt_kernel **kernel);
 MODALRT_API void modalrt_kernel_destroy(modalrt_kernel *kernel);
 
-/* Modal state to rest, every HIP released, active space = initial_space, counters kept. */
+/* Modal state to rest, every HIP released, active space = initial_space, the fail-safe run ended,
+ * counters kept. Returns: OK, ERROR_INVALID_ARGUMENT (null kernel). */
 MODALRT_API int modalrt_kernel_reset(modalrt_kernel *kernel);
 
 typedef struct modalrt_hip_input
@@ -318,7 +379,9 @@ enum
   MODALRT_HIP_RELEASED        = 1u << 1, /* released during this tick */
   MODALRT_HIP_FORCE_CLAMPED   = 1u << 2, /* impedance force limited to device.max_force */
   MODALRT_HIP_CORRECTED       = 1u << 3, /* the active vertex is a candidate: static correction applied */
-  MODALRT_HIP_SPACE_SWITCHED  = 1u << 4  /* the active space changed during this tick */
+  MODALRT_HIP_SPACE_SWITCHED  = 1u << 4, /* the active space changed during this tick */
+  MODALRT_HIP_FAIL_SAFE       = 1u << 5  /* input rejected or missing: the last safe output, force held
+                                            or ramping down (the fail-safe rule above) */
 };
 
 typedef struct modalrt_hip_output
@@ -338,13 +401,16 @@ typedef struct modalrt_hip_output
 
 /* Admittance step (the original method, for admittance devices): forces at the HIPs in, positions
  * and velocities of the active vertices out: u_c = B_v q (+ C_v F + cross terms at candidates).
- * `count` HIPs (<= hip_capacity) in `inputs` and `outputs`; HIPs from `count` on are released. */
+ * `count` HIPs (<= hip_capacity) in `inputs` and `outputs`; HIPs from `count` on are released.
+ * Returns: OK, INPUT_REJECTED (the fail-safe rule; reasons in modalrt_kernel_stats),
+ * ERROR_INVALID_ARGUMENT (null kernel, or null inputs/outputs with count > 0). */
 MODALRT_API int modalrt_kernel_tick_admittance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
                                                modalrt_hip_output *outputs);
 
 /* Impedance step (Phantom/Touch-type devices): HIP positions and velocities in, forces out through
  * the virtual coupling F = K (x_hip - x_v) + D (v_hip - v_v), solved together with the modal step so
- * that a stiff coupling on a compliant part stays stable, and clamped to device.max_force. */
+ * that a stiff coupling on a compliant part stays stable, and clamped to device.max_force.
+ * Returns: as modalrt_kernel_tick_admittance. */
 MODALRT_API int modalrt_kernel_tick_impedance(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count,
                                               modalrt_hip_output *outputs);
 
@@ -361,22 +427,36 @@ typedef struct modalrt_frame_state
   double angular_acceleration[3]; /* [rad/s^2] world */
 } modalrt_frame_state;
 
+/* A frame at rest at the world origin, identity orientation; never fails. */
 MODALRT_API modalrt_frame_state modalrt_frame_state_identity(void);
 
-/* Applies from the next tick. A non-finite or absurd frame is rejected (counted, old frame kept). */
+/* A tick whose input did not arrive (a device packet late or lost): the fail-safe rule, as for a
+ * rejected input (reason MODALRT_REJECT_MISSING, counted in modalrt_kernel_stats.missing_ticks).
+ * Writes `count` outputs. Returns: INPUT_REJECTED, ERROR_INVALID_ARGUMENT (null kernel, null outputs
+ * with count > 0, count > hip_capacity). */
+MODALRT_API int modalrt_kernel_tick_missing(modalrt_kernel *kernel, uint32_t count, modalrt_hip_output *outputs);
+
+/* Applies from the next tick. A non-finite or absurd frame is refused (counted in rejected_frames,
+ * old frame kept). Returns: OK, ERROR_VALUE (frame refused), ERROR_INVALID_ARGUMENT (null argument). */
 MODALRT_API int modalrt_kernel_set_frame(modalrt_kernel *kernel, const modalrt_frame_state *frame);
 
-/* Snaps HIP `hip` to display vertex `vertex` now (as a detected contact would, switch included). */
+/* Snaps HIP `hip` to display vertex `vertex` now (as a detected contact would, switch included).
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null kernel, hip or vertex out of range). */
 MODALRT_API int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hip, uint32_t vertex);
-/* Releases HIP `hip` now (no effect if not in contact). */
+/* Releases HIP `hip` now (no effect if not in contact). Returns: OK, ERROR_INVALID_ARGUMENT (null
+ * kernel, hip out of range). */
 MODALRT_API int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip);
-/* Makes `space` the active space now, carrying the state as a switch does. */
+/* Makes `space` the active space now, carrying the state as a switch does. Returns: OK,
+ * ERROR_INVALID_ARGUMENT (null kernel, space out of range). */
 MODALRT_API int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space);
 /* Puts the modal state at the exact static equilibrium under the given admittance forces (and the
- * frame's acceleration): q = Lambda^-1 f, velocities 0. Modes with omega = 0 keep their state. */
+ * frame's acceleration): q = Lambda^-1 f, velocities 0. Modes with omega = 0 keep their state.
+ * Returns: OK, ERROR_VALUE (an input is not finite or absurd), ERROR_INVALID_ARGUMENT (null kernel,
+ * null inputs with count > 0). */
 MODALRT_API int modalrt_kernel_settle(modalrt_kernel *kernel, const modalrt_hip_input *inputs, uint32_t count);
 
-/* Copies the modal state of the active space: coordinates [m sqrt(kg)] and velocities. */
+/* Copies the modal state of the active space: coordinates [m sqrt(kg)] and velocities; either may
+ * be NULL. Returns: OK, ERROR_INVALID_ARGUMENT (null kernel, capacity below the mode count). */
 MODALRT_API int modalrt_kernel_get_modal_state(const modalrt_kernel *kernel, double *coordinates, double *velocities,
                                                uint32_t capacity, uint32_t *mode_count);
 
@@ -387,6 +467,11 @@ typedef struct modalrt_kernel_stats
   uint64_t rejected_frames;     /* [-] frame states rejected by modalrt_kernel_set_frame */
   uint64_t clamped_forces;      /* [-] impedance forces limited to device.max_force */
   uint64_t switch_count;        /* [-] changes of active space */
+  uint64_t missing_ticks;       /* [-] modalrt_kernel_tick_missing calls */
+  uint64_t fail_safe_ticks;     /* [-] ticks under the fail-safe rule (rejected + missing) */
+  uint64_t fail_safe_run;       /* [-] consecutive fail-safe ticks up to the last tick (0 after an accepted one) */
+  uint64_t dropout_ticks;       /* [-] fail-safe ticks past fail_safe_hold with a non-zero last safe force: the
+                                   force the device got was below it (ramping or zero) */
   uint32_t last_reject_reasons; /* MODALRT_REJECT_* bits of the last rejected tick */
   uint32_t active_space;        /* [-] */
   double   time;                /* [s] simulated time */
@@ -395,6 +480,7 @@ typedef struct modalrt_kernel_stats
   double   max_switch_jump;     /* [m] largest displacement jump of an active vertex at a switch */
 } modalrt_kernel_stats;
 
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
 MODALRT_API int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_kernel_stats *stats);
 
 /* ------------------------------------------------------------------------------------------------
@@ -402,13 +488,14 @@ MODALRT_API int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_k
  * --------------------------------------------------------------------------------------------- */
 typedef struct modalrt_snapshot modalrt_snapshot;
 
-/* A snapshot sized for the kernel's capacities (allocates; call it outside the loops). */
+/* A snapshot sized for the kernel's capacities (allocates; call it outside the loops). Returns: OK,
+ * ERROR_INVALID_ARGUMENT (null argument), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int  modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_snapshot **snapshot);
 MODALRT_API void modalrt_snapshot_destroy(modalrt_snapshot *snapshot);
 
 /* Copies the latest published state into `snapshot` (triple buffer: wait-free for both sides, one
- * reader thread at a time). Returns 1 if the state is newer than the previous read, 0 if not, or a
- * negative error. */
+ * reader thread at a time). Returns 1 if the state is newer than the previous read, 0 if not, or
+ * ERROR_INVALID_ARGUMENT (null argument, a snapshot of another kernel). */
 MODALRT_API int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot);
 
 typedef struct modalrt_snapshot_info
@@ -423,6 +510,7 @@ typedef struct modalrt_snapshot_info
   double   frame_orientation[4]; /* [-] w, x, y, z */
 } modalrt_snapshot_info;
 
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
 MODALRT_API int modalrt_snapshot_get_info(const modalrt_snapshot *snapshot, modalrt_snapshot_info *info);
 /* The modal coordinates of the snapshot (mode_count values) [m sqrt(kg)]. */
 MODALRT_API const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapshot);
@@ -444,7 +532,8 @@ enum
 /* u = Phi q over display vertices [vertex_begin, vertex_end) plus, near each contact at a candidate,
  * its static correction C F spread over the contact patch with the profile (1 - (d/rho)^2)^2 (so the
  * active vertex is drawn where it is felt). Writes 3 floats per vertex to `out` (out[0] is vertex
- * vertex_begin). Callable from any thread; splitting the range splits the work. */
+ * vertex_begin). Callable from any thread; splitting the range splits the work. Returns: OK,
+ * ERROR_INVALID_ARGUMENT (null argument, range not within 0 .. vertex count, unknown flag). */
 MODALRT_API int modalrt_display_reconstruct(const modalrt_snapshot *snapshot, uint32_t vertex_begin, uint32_t vertex_end,
                                             uint32_t flags, float *out);
 /* Same with double output. */
