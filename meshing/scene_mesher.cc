@@ -64,7 +64,9 @@ namespace modal_haptics::meshing
           kind(input_kind(settings.geometry))
       {}
 
-      SceneMeshes run()
+      // The settings, the geometry file (or the built-in panel's dimensions) and the VOIs, before
+      // anything is loaded or meshed.
+      void check_inputs() const
       {
         check_settings(settings);
         if (kind != InputKind::builtin_panel)
@@ -72,6 +74,11 @@ namespace modal_haptics::meshing
         else
           check_ribbed_panel(settings.ribbed_panel);
         check_volumes_of_interest(vois, settings, kind);
+      }
+
+      SceneMeshes run()
+      {
+        check_inputs();
         create_output_directory();
         inputs = common_inputs();
 
@@ -85,12 +92,7 @@ namespace modal_haptics::meshing
 
       GeometryReport inspect(const std::vector<std::string> &clamp_groups, const double length_unit)
       {
-        check_settings(settings);
-        if (kind != InputKind::builtin_panel)
-          require_readable(settings.geometry, "geometry file");
-        else
-          check_ribbed_panel(settings.ribbed_panel);
-        check_volumes_of_interest(vois, settings, kind);
+        check_inputs();
         GeometryReport report;
         if (kind == InputKind::cad)
           report.unit = declared_length_unit(settings.geometry);

@@ -173,12 +173,19 @@ namespace
     const double   *x          = modalrt_basis_display_vertices(basis);
     const double   *normals    = modalrt_basis_display_normals(basis);
     const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
+    modalrt_space_info space;
+    modalrt_basis_get_space_info(basis, 0, &space);
+    // HIP h presses candidate 3 + 7h, wrapped into the space's candidates (a small lattice has 16:
+    // the unwrapped index read past the array for the third and fourth HIP).
+    std::uint32_t site[4];
+    for (std::uint32_t h = 0; h < hips; ++h)
+      site[h] = candidates[(3 + 7 * h) % space.candidate_count];
     modalrt_hip_input  in[4];
     modalrt_hip_output out[4];
     std::memset(in, 0, sizeof in);
     for (std::uint32_t h = 0; h < hips; ++h)
       {
-        const std::uint32_t v = candidates[3 + 7 * h];
+        const std::uint32_t v = site[h];
         for (int d = 0; d < 3; ++d) // 1 mm in along the normal, or hovering 2 mm out
           in[h].position[d] = x[3 * v + d] + (scenario == Scenario::hover ? 0.002 : -0.001) * normals[3 * v + d];
         if (scenario != Scenario::hover)
@@ -191,7 +198,7 @@ namespace
         const double t = 1e-3 * double(n);
         for (std::uint32_t h = 0; h < hips; ++h)
           {
-            const double *n = normals + 3 * candidates[3 + 7 * h];
+            const double *n = normals + 3 * site[h];
             for (int d = 0; d < 3; ++d)
               {
                 in[h].force[d]    = (-0.5 - 0.3 * std::sin(3.0 * t + h)) * n[d];

@@ -1,5 +1,6 @@
 // The length unit a STEP or IGES file declares (meshing::declared_length_unit): the files are written
 // here, as small as the parser needs (a STEP unit entity, an IGES start and global section).
+#include "meshing_check.h"
 #include "scene_mesher.h"
 
 #include <unistd.h>
@@ -13,17 +14,11 @@
 using namespace modal_haptics::meshing;
 namespace fs = std::filesystem;
 
+using meshing_test::check;
+using meshing_test::failures;
+
 namespace
 {
-  int failures = 0;
-
-  void check(const bool condition, const std::string &what)
-  {
-    std::cout << (condition ? "  ok    " : "  FAIL  ") << what << std::endl;
-    if (!condition)
-      ++failures;
-  }
-
   const fs::path folder = fs::temp_directory_path() / ("cad_units_" + std::to_string(::getpid()));
 
   std::string write(const std::string &name, const std::string &text)

@@ -1,5 +1,6 @@
 // Tests of the meshing stage (meshing/scene_mesher.h) on the built-in ribbed panel, coarse enough
 // to run in seconds: files, groups, grading, quality, display surface, cache, and the user errors.
+#include "meshing_check.h"
 #include "scene_mesher.h"
 
 #include <unistd.h>
@@ -16,17 +17,11 @@
 using namespace modal_haptics::meshing;
 namespace fs = std::filesystem;
 
+using meshing_test::check;
+using meshing_test::failures;
+
 namespace
 {
-  int failures = 0;
-
-  void check(const bool condition, const std::string &what)
-  {
-    std::cout << (condition ? "  ok    " : "  FAIL  ") << what << std::endl;
-    if (!condition)
-      ++failures;
-  }
-
   // Expects a MeshingError whose message contains every one of 'words'.
   void check_throws(const std::function<void()> &action, const std::vector<std::string> &words, const std::string &what)
   {
