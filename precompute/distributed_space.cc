@@ -276,7 +276,7 @@ namespace modal_haptics
     {
       const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       log(std::string("Modes/Eigensolver (") + (scene.modes.block_krylov ? "block-krylov" : "arpack") +
-          ") and Modes/Operator (" + (scene.modes.eigen_operator == EigenOperator::cholmod ? "cholmod" : "umfpack") +
+          ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
           ") choose the serial solvers; the distributed path uses PARPACK over MUMPS");
       log("factorizing K with MUMPS (Trilinos Amesos_Mumps)");
       if (shift != 0.)

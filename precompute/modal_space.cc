@@ -184,8 +184,8 @@ namespace modal_haptics
     void SerialSpace::solve_eigenproblem()
     {
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
-      log("factorizing K (" + std::string(scene.modes.eigen_operator == EigenOperator::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
-      factorization = scene.modes.eigen_operator == EigenOperator::cholmod ?
+      log("factorizing K (" + std::string(scene.modes.factorization_kind == FactorizationKind::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
+      factorization = scene.modes.factorization_kind == FactorizationKind::cholmod ?
                         make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift) :
                         make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
       const auto &f = factorization->statistics();

@@ -388,7 +388,7 @@ namespace modal_haptics
                       "per solve). Both converge to the same modes. Units: none.");
     prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
                       "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
-    prm.declare_entry("Operator", m.eigen_operator == EigenOperator::umfpack ? "umfpack" : "cholmod",
+    prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
                       Patterns::Selection("cholmod|umfpack"),
                       "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
                       "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
@@ -406,7 +406,7 @@ namespace modal_haptics
     haptic_rate    = prm.get_double("Haptic rate");
     shift          = prm.get_double("Shift");
     tolerance      = prm.get_double("Tolerance");
-    eigen_operator = prm.get("Operator") == "umfpack" ? EigenOperator::umfpack : EigenOperator::cholmod;
+    factorization_kind = prm.get("Operator") == "umfpack" ? FactorizationKind::umfpack : FactorizationKind::cholmod;
     block_krylov   = prm.get("Eigensolver") == "block-krylov";
     block_size     = prm.get_integer("Block size");
     prm.leave_subsection();

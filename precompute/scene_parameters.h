@@ -35,7 +35,7 @@ namespace modal_haptics
     haptic   // drop modes above half the haptic rate (the Nyquist frequency of the haptic loop)
   };
 
-  enum class EigenOperator
+  enum class FactorizationKind
   {
     cholmod, // supernodal Cholesky with METIS ordering (SuiteSparse): the default
     umfpack  // deal.II's SparseDirectUMFPACK LU: slow, kept as a peer
@@ -50,7 +50,7 @@ namespace modal_haptics
     double       haptic_rate   = 1000.; // [Hz]
     double       shift         = 0.;    // shift-invert shift [Hz]
     double       tolerance     = 1e-10; // ARPACK relative tolerance on Ritz values
-    EigenOperator eigen_operator = EigenOperator::cholmod;
+    FactorizationKind factorization_kind = FactorizationKind::cholmod;
     bool         block_krylov  = true;  // block Krylov (blocks of solves) instead of ARPACK's one-at-a-time
     unsigned int block_size    = 4;     // right-hand sides per block solve of the block Krylov method
 

@@ -132,10 +132,10 @@ int modalrt_basis_get_info(const modalrt_basis *basis, modalrt_basis_info *info)
   i.max_modes              = basis->max_modes;
   i.max_patch_size         = basis->max_patch_size;
   i.mode_scalar_bytes      = basis->float64_modes() ? 8 : 4;
-  i.patch_radius           = basis->scene_scalars[0];
-  i.mass                   = basis->scene_scalars[1];
-  std::copy_n(&basis->scene_scalars[2], 3, i.centre_of_mass);
-  std::copy_n(&basis->scene_scalars[5], 9, i.inertia);
+  i.patch_radius           = basis->patch_radius();
+  i.mass                   = basis->mass();
+  std::copy_n(basis->centre_of_mass(), 3, i.centre_of_mass);
+  std::copy_n(basis->inertia(), 9, i.inertia);
   std::copy_n(basis->bounds_min, 3, i.bounds_min);
   std::copy_n(basis->bounds_max, 3, i.bounds_max);
   *info = i;

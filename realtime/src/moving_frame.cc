@@ -71,7 +71,7 @@ int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
 
   // Acceleration of the centre of mass: a + alpha x c + omega x (omega x c), c = R c_body.
   double c[3], alpha_c[3], omega_c[3], centripetal[3], a_com[3];
-  rotate(fr.rotation, &basis.scene_scalars[2], c);
+  rotate(fr.rotation, basis.centre_of_mass(), c);
   cross3(s.angular_acceleration, c, alpha_c);
   cross3(s.angular_velocity, c, omega_c);
   cross3(s.angular_velocity, omega_c, centripetal);

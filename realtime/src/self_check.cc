@@ -62,7 +62,7 @@ namespace modalrt
         fail(MODALRT_ERROR_STATE, "the rigid-body modes' participation factors are singular");
       // The frame takes its origin's acceleration: a_origin = a_com - alpha x c.
       double alpha_c[3];
-      cross3(&body_acceleration[3], &basis.scene_scalars[2], alpha_c);
+      cross3(&body_acceleration[3], basis.centre_of_mass(), alpha_c);
       for (int d = 0; d < 3; ++d)
         {
           frame.linear_acceleration[d]  = body_acceleration[d] - alpha_c[d];
