@@ -85,20 +85,6 @@ namespace modal_haptics::meshing::detail
       return entities;
     }
 
-    // Tag and name of every physical group of dimension 'dim'.
-    std::vector<std::pair<int, std::string>> physical_groups(int dim)
-    {
-      DimTags groups;
-      gmsh::model::getPhysicalGroups(groups, dim);
-      std::vector<std::pair<int, std::string>> named;
-      for (const auto &[d, tag] : groups)
-        {
-          std::string name;
-          gmsh::model::getPhysicalName(d, tag, name);
-          named.emplace_back(tag, name);
-        }
-      return named;
-    }
 
     // Adds 'faces' to the surface group "free", creating it when it does not exist.
     void add_to_free_group(const std::vector<int> &faces)
@@ -122,6 +108,20 @@ namespace modal_haptics::meshing::detail
       add_named_group(2, members, "free", free_tag);
     }
   } // namespace
+
+  std::vector<std::pair<int, std::string>> physical_groups(const int dim)
+  {
+    DimTags groups;
+    gmsh::model::getPhysicalGroups(groups, dim);
+    std::vector<std::pair<int, std::string>> named;
+    for (const auto &[d, tag] : groups)
+      {
+        std::string name;
+        gmsh::model::getPhysicalName(d, tag, name);
+        named.emplace_back(tag, name);
+      }
+    return named;
+  }
 
   GmshSession::GmshSession(const bool verbose)
   {

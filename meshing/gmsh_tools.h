@@ -41,6 +41,9 @@ namespace modal_haptics::meshing::detail
   // The faces that bound the model's volumes (faces shared by two volumes are not boundary).
   std::vector<int> boundary_faces();
 
+  // Tag and name of every physical group of dimension 'dim' of the current model.
+  std::vector<std::pair<int, std::string>> physical_groups(int dim);
+
   // Adds a named physical group; does nothing for an empty entity list (an empty group would be
   // written as a group without elements, which readers then silently accept).
   void add_named_group(int dim, const std::vector<int> &entities, const std::string &name, int tag);

@@ -90,7 +90,7 @@ namespace modal_haptics::meshing
         return meshes;
       }
 
-      GeometryReport inspect(const std::vector<std::string> &clamp_groups, const double length_unit)
+      GeometryReport inspect(const std::vector<std::pair<int, std::string>> &named_groups, const double length_unit)
       {
         check_inputs();
         GeometryReport report;
@@ -121,8 +121,8 @@ namespace modal_haptics::meshing
                 report.volumes_of_interest.push_back(inspect_voi(voi));
               }
           });
-        for (const auto &name : clamp_groups)
-          report.clamp_groups.push_back(inspect_surface(name));
+        for (const auto &[dim, name] : named_groups)
+          report.named_groups.push_back(inspect_group(dim, name));
         return report;
       }
 
@@ -344,15 +344,18 @@ namespace modal_haptics::meshing
         return area;
       }
 
-      // A clamp group: a named physical surface of the model (or of the .msh file), its faces, area.
-      SelectionReport inspect_surface(const std::string &name)
+      // A named physical group of the model (or of the .msh file): its entities, a surface's area.
+      SelectionReport inspect_group(const int group_dim, const std::string &name)
       {
-        SelectionReport caught;
-        caught.name = "Clamp group '" + name + "'";
+        static const char *const kinds[3] = {"point", "curve", "surface"};
+        const std::string        kind_name = kinds[group_dim];
+        SelectionReport          caught;
+        caught.name   = "Group '" + name + "' (a physical " + kind_name + ")";
+        caught.entity = group_dim == 2 ? "face" : kind_name;
         std::vector<std::string> known;
         call_gmsh(context("groups"), [&] {
           DimTags groups;
-          gmsh::model::getPhysicalGroups(groups, 2);
+          gmsh::model::getPhysicalGroups(groups, group_dim);
           // Areas from OpenCASCADE, from a .msh's triangles; none for gmsh's built-in kernel.
           const bool occ = kind != InputKind::msh && part_volume() > 0.;
           for (const auto &[dim, tag] : groups)
@@ -362,11 +365,12 @@ namespace modal_haptics::meshing
               known.push_back(group_name);
               if (group_name != name)
                 continue;
-              std::vector<int> faces;
-              gmsh::model::getEntitiesForPhysicalGroup(dim, tag, faces);
-              caught.n_faces = faces.size();
-              for (const int face : faces)
-                caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
+              std::vector<int> entities;
+              gmsh::model::getEntitiesForPhysicalGroup(dim, tag, entities);
+              caught.n_faces = entities.size();
+              if (dim == 2)
+                for (const int face : entities)
+                  caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
             }
         });
         if (caught.n_faces == 0)
@@ -374,11 +378,13 @@ namespace modal_haptics::meshing
             std::string list;
             for (const auto &k : known)
               list += (list.empty() ? "'" : ", '") + k + "'";
-            throw MeshingError(caught.name + " ('Geometry/Clamp groups') is not a physical surface of geometry '" +
-                               settings.geometry + "' (its physical surfaces: " + (list.empty() ? "none" : list) +
-                               (kind == InputKind::cad ? "; STEP/IGES/BREP files get 'clamp' from 'Clamp boxes' "
-                                                         "and 'free' for the rest" :
-                                                         "") +
+            throw MeshingError("Group '" + name + "' ('Geometry/Supports' or 'Clamp groups') is not a physical " +
+                               kind_name + " of geometry '" + settings.geometry + "' (its physical " + kind_name +
+                               "s: " + (list.empty() ? "none" : list) +
+                               (kind == InputKind::cad && group_dim == 2 ?
+                                  "; STEP/IGES/BREP files get 'clamp' from 'Clamp boxes' and 'free' for the rest; "
+                                  "select their faces with box, plane or normal supports" :
+                                  "") +
                                ")");
           }
         return caught;
@@ -842,11 +848,11 @@ namespace modal_haptics::meshing
   }
 
   GeometryReport inspect_geometry(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,
-                                  const std::vector<std::string> &clamp_groups, const double length_unit)
+                                  const std::vector<std::pair<int, std::string>> &named_groups, const double length_unit)
   {
     SceneMesher  mesher(settings, volumes_of_interest, "", false, true);
     GmshSession  session(false);
-    return mesher.inspect(clamp_groups, length_unit);
+    return mesher.inspect(named_groups, length_unit);
   }
 
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file)
@@ -887,5 +893,49 @@ namespace modal_haptics::meshing
       mesh = read_current_mesh(true, false);
     });
     return tet_statistics(mesh, min_quality, "mesh file '" + msh_file + "'");
+  }
+
+  GroupMesh read_physical_group(const std::string &msh_file, const int dim, const std::string &name)
+  {
+    require_readable(msh_file, "mesh file");
+    GmshSession session(false);
+    GroupMesh   group;
+    call_gmsh("reading group '" + name + "' of mesh file '" + msh_file + "'", [&] {
+      gmsh::clear();
+      gmsh::open(msh_file);
+      std::string known;
+      for (const auto &[tag, group_name] : physical_groups(dim))
+        {
+          known += (known.empty() ? "'" : ", '") + group_name + "'";
+          if (group_name != name)
+            continue;
+          std::vector<std::size_t> node_tags;
+          std::vector<double>      coordinates;
+          gmsh::model::mesh::getNodesForPhysicalGroup(dim, tag, node_tags, coordinates);
+          std::map<std::size_t, unsigned int> index_of_tag;
+          for (std::size_t i = 0; i < node_tags.size(); ++i)
+            {
+              index_of_tag[node_tags[i]] = static_cast<unsigned int>(i);
+              group.nodes.push_back({coordinates[3 * i], coordinates[3 * i + 1], coordinates[3 * i + 2]});
+            }
+          std::vector<int> entities;
+          gmsh::model::getEntitiesForPhysicalGroup(dim, tag, entities);
+          for (const int entity : entities)
+            {
+              std::vector<int>                      types;
+              std::vector<std::vector<std::size_t>> element_tags, element_nodes;
+              gmsh::model::mesh::getElements(types, element_tags, element_nodes, dim, entity);
+              for (std::size_t t = 0; t < types.size(); ++t)
+                if (types[t] == 1) // 2-node line
+                  for (std::size_t e = 0; e + 1 < element_nodes[t].size(); e += 2)
+                    group.segments.push_back({index_of_tag.at(element_nodes[t][e]), index_of_tag.at(element_nodes[t][e + 1])});
+            }
+          return;
+        }
+      throw MeshingError("mesh file '" + msh_file + "' has no physical " + (dim == 1 ? "curve" : "point") + " '" +
+                         name + "' (its physical " + (dim == 1 ? "curves" : "points") + ": " +
+                         (known.empty() ? "none" : known) + ")");
+    });
+    return group;
   }
 } // namespace modal_haptics::meshing

@@ -156,7 +156,8 @@ namespace modal_haptics::meshing
   struct SelectionReport
   {
     std::string name;       // "Clamp group 'clamp'", "Clamp boxes entry 1 (...)"
-    std::size_t n_faces = 0;
+    std::size_t n_faces = 0;      // entities caught: faces, or the curves or points of a named group
+    std::string entity  = "face"; // what n_faces counts: "face", "curve", "point"
     double      area    = 0.; // [unit^2]; 0 for a .msh input (no geometry)
   };
 
@@ -166,7 +167,7 @@ namespace modal_haptics::meshing
     DeclaredUnit unit;            // what the file declares (empty: 'Length unit' applies)
     Point3       lower{}, upper{}; // bounding box [unit]
     double       volume = 0.;     // [unit^3]; 0 when unknown (a .geo of gmsh's built-in kernel)
-    std::vector<SelectionReport> clamp_groups; // one per required surface, in order
+    std::vector<SelectionReport> named_groups; // one per named group, in order (n_faces: its entities)
     std::vector<SelectionReport> clamp_boxes;  // one per 'Clamp boxes' entry (STEP/IGES/BREP only)
     // Per VOI, the boundary faces whose bounding box meets the VOI's (none for a .msh input, which
     // takes no VOI); their whole areas, so an upper bound of the surface inside. The mesh vertices
@@ -177,15 +178,25 @@ namespace modal_haptics::meshing
   // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:
   // the settings and VOIs (a VOI outside the part's bounding box), the file's declared length unit
   // against 'length_unit' (metres per unit, refused when they differ), every clamp box (one that
-  // catches no boundary face is refused, naming the nearest face), every name of 'clamp_groups'
+  // catches no boundary face is refused, naming the nearest face), every named group (dimension, name)
   // (a physical surface of the model). Seconds, not minutes: nothing is meshed (a .msh is read).
   GeometryReport inspect_geometry(const MeshingSettings &settings,
                                   const std::vector<VolumeOfInterest> &volumes_of_interest,
-                                  const std::vector<std::string> &clamp_groups,
+                                  const std::vector<std::pair<int, std::string>> &named_groups,
                                   double length_unit);
 
   // Reads the $PhysicalNames of a MSH file: dimension -> (name -> tag).
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file);
+
+  // The mesh of a named physical curve (dim 1) or point (dim 0) of a MSH file: its nodes [unit] and,
+  // for a curve, its linear segments (indices into nodes). Throws MeshingError naming the file and the
+  // groups of that dimension it has when there is none of that name.
+  struct GroupMesh
+  {
+    std::vector<Point3>                      nodes;
+    std::vector<std::array<unsigned int, 2>> segments;
+  };
+  GroupMesh read_physical_group(const std::string &msh_file, int dim, const std::string &name);
 
   // Checks a MSH file's tets (for user-supplied .msh input): throws MeshingError naming the file
   // and the first bad element when a tet is inverted or degenerate.

@@ -105,6 +105,8 @@ namespace modal_haptics
       void solve_static(Block &X) const;
       const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }
       void sum_over_processes(std::vector<double> &values) const;
+      void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
+      Field output_field(const Field &u) const;
       std::array<Field, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
       void write_vtu(DataOut<3> &data_out) const { data_out.write_vtu_in_parallel(vtu_file, comm); }
@@ -137,6 +139,7 @@ namespace modal_haptics
       std::vector<std::array<types::global_dof_index, 3>> owned_vertex_dofs; // of result.owned_rows->vertices
       IndexSet                                     owned_dofs, relevant_dofs;
       AffineConstraints<double>                    constraints;
+      bool                                         coupled_constraints = false; // on any process
       TrilinosWrappers::SparseMatrix               shifted_matrix;
       std::unique_ptr<MumpsInverse>                inverse;
       std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
@@ -219,18 +222,23 @@ namespace modal_haptics
           owned_vertex_dofs.push_back(vertex.second);
         }
 
-      // The phases (space_phases.h) would handle a free part as the serial path does, by inertia
-      // relief (relieve_load) and static_gain; what this backend lacks is the eigensolve's side: the
-      // identification of the six rigid-body modes against the exact rigid span, and static solves
-      // refined against K itself where MUMPS factorizes K - shift M (the serial solve_static).
-      AssertThrow(!scene.free_floating(),
-                  ExcMessage("A free-floating part (no 'Geometry/Clamp groups') runs on the serial path only: the "
-                             "distributed path neither identifies the rigid-body modes nor refines its static solves "
-                             "against K. Run modal-precompute without mpirun or --distributed."));
       constraints.clear();
       constraints.reinit(relevant_dofs);
-      space_parts::add_clamp_constraints(scene, task, mapping, dof_handler, constraints, comm);
+      supports = space_parts::apply_supports(scene, task, mapping, dof_handler, constraints,
+                                             [this](const std::string &line) { log(line); }, comm);
       constraints.close();
+      result.supports_summary = supports.summary(scene.supports);
+      coupled_constraints     = Utilities::MPI::max(int(has_coupling_constraints(constraints)), comm) > 0;
+      // The phases (space_phases.h) would handle free motions as the serial path does, by inertia
+      // relief (relieve_load) and static_gain; what this backend lacks is the eigensolve's side: the
+      // identification of the rigid-body modes against the exact free motions, and static solves
+      // that keep their answers M-orthogonal to them.
+      const FreeMotions free = supports.free_motions(Point<3>(), comm);
+      AssertThrow(free.motions.empty(),
+                  ExcMessage("Space '" + task.name + "': the supports leave " + std::to_string(free.motions.size()) +
+                             " rigid-body motions free (" + free.describe() + "); such a part runs on the serial "
+                             "path only: the distributed path neither identifies the rigid-body modes nor keeps its "
+                             "static answers free of them. Run modal-precompute without mpirun or --distributed."));
       std::vector<unsigned int> clamped;
       for (const auto i : owned_dofs)
         if (constraints.is_constrained(i))
@@ -254,8 +262,9 @@ namespace modal_haptics
 
     void DistributedSpace::assemble_system()
     {
-      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells, constraints,
-                                                              stiffness_matrix, mass_matrix);
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells,
+                                                              supports.elastic_faces, constraints, stiffness_matrix,
+                                                              mass_matrix);
       stiffness_matrix.compress(VectorOperation::add);
       mass_matrix.compress(VectorOperation::add);
 
@@ -420,6 +429,17 @@ namespace modal_haptics
       return u;
     }
 
+    // Ghosted, the constrained entries filled in (the DoFs of a node, which the constraints couple,
+    // are owned by one process).
+    DistributedVector DistributedSpace::output_field(const DistributedVector &u) const
+    {
+      DistributedVector owned(owned_dofs, comm);
+      owned = u;
+      if (coupled_constraints)
+        constraints.distribute(owned);
+      return ghosted(owned);
+    }
+
     void DistributedSpace::solve_static(DistributedVector &u) const
     {
       DistributedVector x(owned_dofs, comm);
@@ -473,9 +493,12 @@ namespace modal_haptics
       const std::size_t  n_rows = owned_vertex_dofs.size();
       result.modes_at_vertices.resize(std::size_t(r) * n_rows * 3);
       for (unsigned int i = 0; i < r; ++i)
-        for (std::size_t k = 0; k < n_rows; ++k)
-          for (unsigned int c = 0; c < 3; ++c)
-            result.modes_at_vertices[(std::size_t(i) * n_rows + k) * 3 + c] = modes[i][owned_vertex_dofs[k][c]];
+        {
+          const DistributedVector mode = coupled_constraints ? output_field(modes[i]) : modes[i];
+          for (std::size_t k = 0; k < n_rows; ++k)
+            for (unsigned int c = 0; c < 3; ++c)
+              result.modes_at_vertices[(std::size_t(i) * n_rows + k) * 3 + c] = mode[owned_vertex_dofs[k][c]];
+        }
     }
 
     // The rigid-body motions about 'centre' at this process's DoFs.

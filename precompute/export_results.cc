@@ -457,8 +457,10 @@ namespace modal_haptics
       for (const auto &dm : s.dropped_modes)
         json.begin_object().value("index", dm.index).value("frequency_hz", dm.frequency).value("reason", dm.reason).end_object();
       json.end_array();
+      json.value("supports", s.supports_summary);
       json.begin_object("rigid_body_modes")
         .value("count", s.n_rigid_body_modes)
+        .value("free_motions", s.free_motions)
         .array("computed_frequencies_hz", s.rigid_computed_frequencies_hz)
         .value("subspace_distance", s.rigid_subspace_sine)
         .end_object();

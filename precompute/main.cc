@@ -236,8 +236,14 @@ namespace
   // process 0 when `print`; the warnings always.
   void inspect_geometry(const modal_haptics::SceneParameters &scene, const bool print)
   {
+    std::vector<std::pair<int, std::string>> named_groups;
+    for (const auto &support : scene.supports)
+      if (support.selection.kind == modal_haptics::SupportSelection::Kind::surface ||
+          support.selection.kind == modal_haptics::SupportSelection::Kind::curve ||
+          support.selection.kind == modal_haptics::SupportSelection::Kind::point)
+        named_groups.emplace_back(support.selection.named_dimension(), support.selection.name);
     const auto report = modal_haptics::meshing::inspect_geometry(scene.meshing, scene.volumes_of_interest,
-                                                                 scene.clamp_groups, scene.length_unit);
+                                                                 named_groups, scene.length_unit);
     const double unit   = scene.length_unit;
     double       extent = std::numeric_limits<double>::max();
     for (int i = 0; i < 3; ++i)
@@ -260,11 +266,11 @@ namespace
           << scene.material.density << " kg/m^3)\n";
     else
       out << "[geometry] volume unknown before meshing (gmsh's built-in geometry kernel)\n";
-    for (const auto &groups : {report.clamp_groups, report.clamp_boxes})
+    for (const auto &groups : {report.named_groups, report.clamp_boxes})
       for (const auto &selection : groups)
         {
-          out << "[geometry] " << selection.name << ": " << selection.n_faces
-              << (selection.n_faces == 1 ? " face" : " faces");
+          out << "[geometry] " << selection.name << ": " << selection.n_faces << " " << selection.entity
+              << (selection.n_faces == 1 ? "" : "s");
           if (selection.area > 0.)
             out << ", area " << selection.area * unit * unit << " m^2";
           out << "\n";

@@ -79,6 +79,14 @@ namespace modal_haptics
       void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
       const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
       void sum_over_processes(std::vector<double> &) const {}
+      void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
+      Field output_field(const Field &u) const
+      {
+        Field field = u;
+        if (coupled_constraints)
+          constraints.distribute(field);
+        return field;
+      }
       std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
       void write_vtu(DataOut<3> &data_out) const
@@ -112,6 +120,8 @@ namespace modal_haptics
       void assemble_system();
       void select_modes();
       void identify_rigid_body_modes();
+      std::vector<Vector<double>> free_motion_fields(const FreeMotions &free) const;
+      std::vector<unsigned int>   dof_components() const; // the displacement component of each DoF
       void relieve_load(double *load) const;
       void remove_rigid_motion(double *field) const;
       void solve_static(double *columns, unsigned int n_rhs);
@@ -125,7 +135,8 @@ namespace modal_haptics
       std::unique_ptr<Factorization> factorization; // of K - shift M
       double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
-      // A free-floating part: the rigid-body motions, M-orthonormal, and M times each.
+      bool                      coupled_constraints = false; // constrained entries must be filled in for output
+      // The rigid-body motions the supports leave free, M-orthonormal, and M times each.
       std::vector<Vector<double>> rigid_modes, mass_times_rigid;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
     };
@@ -147,8 +158,11 @@ namespace modal_haptics
       result.n_dofs = dof_handler.n_dofs();
 
       constraints.clear();
-      space_parts::add_clamp_constraints(scene, task, mapping, dof_handler, constraints);
+      supports = space_parts::apply_supports(scene, task, mapping, dof_handler, constraints,
+                                             [this](const std::string &line) { log(line); });
       constraints.close();
+      result.supports_summary = supports.summary(scene.supports);
+      coupled_constraints     = has_coupling_constraints(constraints);
       result.n_clamped_dofs = constraints.n_constraints();
       for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
         if (constraints.is_constrained(i))
@@ -169,8 +183,9 @@ namespace modal_haptics
     void SerialSpace::assemble_system()
     {
       const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
-                                                              dof_handler.active_cell_iterators(), constraints,
-                                                              stiffness_matrix, mass_matrix);
+                                                              dof_handler.active_cell_iterators(),
+                                                              supports.elastic_faces, constraints, stiffness_matrix,
+                                                              mass_matrix);
 
       // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
       // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
@@ -206,11 +221,11 @@ namespace modal_haptics
         {
           // A free part's rigid-body modes are the shifted inverse's largest eigenvalues, 1 / |shift|:
           // with a tiny shift they dwarf the elastic ones and the block solver stalls (ARPACK does not).
-          if (!scene.free_floating())
+          if (supports.free_motions(Point<3>()).motions.empty())
             throw;
           std::ostringstream message;
           e.print_info(message);
-          AssertThrow(false, ExcMessage(message.str() + " The part is free-floating: a shift of larger magnitude "
+          AssertThrow(false, ExcMessage(message.str() + " The part has free rigid-body motions: a shift of larger magnitude "
                                         "(about a tenth of the first elastic frequency) or 'Modes/Eigensolver = "
                                         "arpack' converges where a shift close to 0 does not."));
         }
@@ -247,18 +262,20 @@ namespace modal_haptics
           std::to_string(result.dropped_modes.size()));
     }
 
-    // A free part's six lowest computed modes must span its rigid-body motions (more zero-energy modes
-    // mean a mesh in pieces or a mechanism). They are then replaced by the exact motions (lambda = 0,
-    // M-orthonormal) and the elastic modes are made exactly M-orthogonal to them, so that no rigid
-    // drift hides in an elastic mode and the kernel's omega = 0 modes are pure rigid motion.
+    // The n lowest computed modes of a part whose supports leave n rigid-body motions free (a
+    // free-floating part: six) must span those motions (more zero-energy modes mean a mesh in pieces
+    // or a mechanism). They are then replaced by the exact motions (lambda = 0, M-orthonormal) and the
+    // elastic modes are made exactly M-orthogonal to them, so that no rigid drift hides in an elastic
+    // mode and the kernel's omega = 0 modes are pure rigid motion.
     void SerialSpace::identify_rigid_body_modes()
     {
-      if (!scene.free_floating())
-        return;
       const Point<3> centre(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
+      const FreeMotions free = supports.free_motions(centre);
+      if (free.motions.empty())
+        return;
       rigid_modes.clear();
       mass_times_rigid.clear();
-      for (auto &motion : rigid_body_motions(centre))
+      for (auto &motion : free_motion_fields(free))
         {
           for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt twice in the M inner product
             remove_rigid_motion(motion.begin());
@@ -286,11 +303,12 @@ namespace modal_haptics
       result.rigid_subspace_sine = std::sqrt(outside);
       const double first_elastic_hz = std::sqrt(std::max(lambda[n_rigid], 0.)) / two_pi;
       AssertThrow(result.rigid_subspace_sine < 1e-6 && largest_rigid < 1e-6 * lambda[n_rigid],
-                  ExcMessage("Space '" + task.name + "' is free-floating, but its six lowest modes (" + found.str() +
-                             " Hz; the seventh at " + std::to_string(first_elastic_hz) + " Hz) are not its rigid-body "
-                             "motions (M-distance " + std::to_string(result.rigid_subspace_sine) + "). A mesh in "
-                             "several pieces or a mechanism has more zero-energy modes: check the geometry, or clamp "
-                             "the part ('Geometry/Clamp groups')."));
+                  ExcMessage("Space '" + task.name + "': its supports leave " + std::to_string(n_rigid) +
+                             " rigid-body motions free (" + free.describe() + "), but its " + std::to_string(n_rigid) +
+                             " lowest modes (" + found.str() + " Hz; the next at " + std::to_string(first_elastic_hz) +
+                             " Hz) are not those motions (M-distance " + std::to_string(result.rigid_subspace_sine) +
+                             "). A mesh in several pieces or a mechanism has more zero-energy modes: check the "
+                             "geometry and the supports ('Geometry/Supports')."));
       for (unsigned int i = 0; i < phi.size(); ++i)
         if (i < n_rigid)
           phi[i] = rigid_modes[i], lambda[i] = 0.;
@@ -300,11 +318,31 @@ namespace modal_haptics
             phi[i] /= std::sqrt(mass_matrix.matrix_norm_square(phi[i]));
           }
       result.n_rigid_body_modes = n_rigid;
+      result.free_motions       = free.describe();
       std::ostringstream line;
-      line << "free-floating: the six lowest modes are rigid-body motions (computed" << found.str()
-           << " Hz, M-distance from the exact rigid span " << result.rigid_subspace_sine
+      line << n_rigid << " free rigid-body motions (" << result.free_motions << "): the lowest modes (computed"
+           << found.str() << " Hz, M-distance from the exact motions " << result.rigid_subspace_sine
            << "), replaced by the exact motions at 0 Hz; first elastic mode " << first_elastic_hz << " Hz";
       log(line.str());
+    }
+
+    // The free motions as DoF fields, zero on the constrained DoFs (as every field of the constrained
+    // system): a free motion satisfies the constraints, so it is filled in exactly for output.
+    std::vector<Vector<double>> SerialSpace::free_motion_fields(const FreeMotions &free) const
+    {
+      std::vector<Point<3>> support(dof_handler.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
+      const auto                  component = dof_components();
+      std::vector<Vector<double>> fields;
+      for (unsigned int m = 0; m < free.motions.size(); ++m)
+        {
+          Vector<double> field(dof_handler.n_dofs());
+          for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+            if (!constraints.is_constrained(i))
+              field[i] = free.displacement(m, support[i])[component[i]];
+          fields.push_back(std::move(field));
+        }
+      return fields;
     }
 
     // x -= sum_k to_k (from_k . x): the two projections below, which are each other's transposes.
@@ -433,6 +471,11 @@ namespace modal_haptics
     void SerialSpace::fill_modes_at_vertices()
     {
       const unsigned int r = eigen.eigenvectors.size();
+      std::vector<Field> filled_in; // with coupling constraints: the constrained entries' values
+      if (coupled_constraints)
+        for (const auto &mode : eigen.eigenvectors)
+          filled_in.push_back(output_field(mode));
+      const auto &modes = coupled_constraints ? filled_in : eigen.eigenvectors;
       result.modes_at_vertices.assign(std::size_t(r) * result.n_vertices * 3, 0.);
       for (const auto &cell : dof_handler.active_cell_iterators())
         for (unsigned int vtx = 0; vtx < 4; ++vtx)
@@ -441,8 +484,21 @@ namespace modal_haptics
               const auto dof = cell->vertex_dof_index(vtx, c);
               for (unsigned int i = 0; i < r; ++i)
                 result.modes_at_vertices[(std::size_t(i) * result.n_vertices + cell->vertex_index(vtx)) * 3 + c] =
-                  eigen.eigenvectors[i][dof];
+                  modes[i][dof];
             }
+    }
+
+    std::vector<unsigned int> SerialSpace::dof_components() const
+    {
+      std::vector<unsigned int>            component(dof_handler.n_dofs());
+      std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        {
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            component[dofs[i]] = fe.system_to_component_index(i).first;
+        }
+      return component;
     }
 
     // Translations along x, y, z, then rotations about the axes through 'centre', as DoF fields: the
@@ -452,14 +508,7 @@ namespace modal_haptics
     {
       std::vector<Point<3>> support(dof_handler.n_dofs());
       DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
-      std::vector<unsigned int>            component(dof_handler.n_dofs());
-      std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
-      for (const auto &cell : dof_handler.active_cell_iterators())
-        {
-          cell->get_dof_indices(dofs);
-          for (unsigned int i = 0; i < dofs.size(); ++i)
-            component[dofs[i]] = fe.system_to_component_index(i).first;
-        }
+      const auto component = dof_components();
       std::array<Vector<double>, 6> motions;
       for (unsigned int k = 0; k < 6; ++k)
         {

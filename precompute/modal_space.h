@@ -6,6 +6,7 @@
 #include "display_surface.h"
 #include "eigensolver.h"
 #include "scene_parameters.h"
+#include "supports.h"
 
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
@@ -120,7 +121,10 @@ namespace modal_haptics
     std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
     double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
 
-    // A free-floating part (no clamp groups): its six lowest modes are the rigid-body motions.
+    // What the supports caught, and the rigid-body motions they leave free (a free-floating part:
+    // all six): the lowest modes, stored as the exact motions at 0 Hz.
+    std::string         supports_summary;
+    std::string         free_motions; // "translation along x, rotation about z"; empty: none
     unsigned int        n_rigid_body_modes = 0;
     std::vector<double> rigid_computed_frequencies_hz; // what the eigensolver found, signed sqrt(lambda) / 2 pi
     double              rigid_subspace_sine = 0.;      // >= sin of the largest angle, computed vs exact rigid span
@@ -144,6 +148,7 @@ namespace modal_haptics
       field("dropped_modes", d.dropped_modes), field("cut_off_hz", d.cut_off_hz), field("self_check", d.self_check);
       field("n_spurious_rows", d.n_spurious_rows), field("full_compliance", d.full_compliance);
       field("two_contact_rel_error_corrected", d.two_contact_rel_error_corrected);
+      field("supports_summary", d.supports_summary), field("free_motions", d.free_motions);
       field("n_rigid_body_modes", d.n_rigid_body_modes);
       field("rigid_computed_frequencies_hz", d.rigid_computed_frequencies_hz);
       field("rigid_subspace_sine", d.rigid_subspace_sine), field("static_solve_iterations", d.static_solve_iterations);
@@ -217,12 +222,13 @@ namespace modal_haptics
     void read_mesh(const SceneParameters &scene, const SpaceTask &task, dealii::Triangulation<3> &mesh,
                    ModalSpaceResult &result);
 
-    // Homogeneous Dirichlet conditions on the clamp groups, checked against the whole mesh (the
-    // boundary ids of the cells this process owns, united over 'comm'): a missing group or one
-    // without a face is a user error. The caller closes the constraints.
-    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const dealii::Mapping<3> &mapping,
-                               const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
-                               MPI_Comm comm = MPI_COMM_SELF);
+    // The scene's supports on a space's FE space (supports.h): their constraints added to
+    // 'constraints' (closed by the caller), what each caught logged, and the motions they leave free
+    // checked against the eigensolve's settings: a free motion needs a negative shift and a maximum
+    // number of modes above the number of free motions.
+    ResolvedSupports apply_supports(const SceneParameters &scene, const SpaceTask &task, const dealii::Mapping<3> &mapping,
+                                    const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
+                                    const std::function<void(std::string)> &log, MPI_Comm comm = MPI_COMM_SELF);
 
     // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), accumulating the
     // rigid-body mass moments of the cells it sees.
@@ -294,14 +300,21 @@ namespace modal_haptics
       const dealii::MappingFE<3>    mapping;
       const dealii::QGaussSimplex<3> quadrature;
       ModalSpaceResult              result;
+      ResolvedSupports              supports; // set with the constraints (apply_supports)
     };
 
-    // K and M from the given DoF cells; returns the assembler with the cells' mass moments.
+    // The stiffness of an elastic support on one face: the integral over the face of
+    // k_n (phi_i . n)(phi_j . n) + k_t (phi_i . phi_j - (phi_i . n)(phi_j . n)).
+    void elastic_face_matrix(const dealii::Mapping<3> &mapping, const dealii::FiniteElement<3> &fe,
+                             const ElasticFace &face, dealii::FullMatrix<double> &face_K);
+
+    // K and M from the given DoF cells and K's share of the elastic supports on the given faces;
+    // returns the assembler with the cells' mass moments.
     template <typename CellRange, typename MatrixType>
     CellAssembler assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
                                       const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
-                                      const CellRange &cells, const dealii::AffineConstraints<double> &constraints,
-                                      MatrixType &K, MatrixType &M)
+                                      const CellRange &cells, const std::vector<ElasticFace> &elastic_faces,
+                                      const dealii::AffineConstraints<double> &constraints, MatrixType &K, MatrixType &M)
     {
       dealii::FEValues<3> fe_values(mapping, fe, quadrature,
                                     dealii::update_values | dealii::update_gradients |
@@ -317,6 +330,12 @@ namespace modal_haptics
           cell->get_dof_indices(dof_indices);
           constraints.distribute_local_to_global(cell_K, dof_indices, K);
           constraints.distribute_local_to_global(cell_M, dof_indices, M);
+        }
+      for (const auto &face : elastic_faces)
+        {
+          elastic_face_matrix(mapping, fe, face, cell_K);
+          face.cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, K);
         }
       return assembler;
     }

@@ -72,7 +72,7 @@ namespace modal_haptics
   namespace
   {
     // The first line of every partial result file; a new layout of the archive gets a new number.
-    const std::string format_line = "modal-haptics partial result, format 2";
+    const std::string format_line = "modal-haptics partial result, format 3";
   } // namespace
 
   std::string partial_result_file(const std::string &directory, const std::string &scenario)

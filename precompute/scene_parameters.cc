@@ -150,11 +150,25 @@ namespace modal_haptics
                         "Metres per length unit of the geometry and of every length in this file "
                         "(0.001: the geometry is in mm). A STEP/IGES file that declares its unit must be given "
                         "that unit here (1 for metres): a contradicting value is refused. Units: m.");
-      prm.declare_entry("Clamp groups", text(scene.clamp_groups), Patterns::List(Patterns::Anything()),
-                        "Names of the physical surfaces that are clamped (zero displacement). The "
-                        "built-in panel names the top faces of its screw bosses 'clamp'. Empty: the part is "
-                        "free-floating: its six lowest modes are the rigid-body motions (frequency 0), which "
-                        "needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
+      prm.declare_entry("Supports", "", Patterns::Anything(),
+                        "How the part is held: entries '<selection> : <restraint>' separated by ';' (docs/supports.md). "
+                        "Selections: 'surface NAME', 'curve NAME', 'point NAME' (named physical groups), 'box x0 y0 z0 "
+                        "x1 y1 z1' (boundary faces inside), 'nodes x0 y0 z0 x1 y1 z1' (boundary FE nodes inside), "
+                        "'plane px py pz nx ny nz' (boundary faces in the plane), 'normal nx ny nz ANGLE' (faces whose "
+                        "outward normal lies within ANGLE degrees). Restraints: 'clamp', 'fix COMPONENTS' (of x y z, "
+                        "or in a local frame: 'fix COMPONENTS in frame e1x e1y e1z e2x e2y e2z', 'fix COMPONENTS in "
+                        "cylinder px py pz ax ay az' with components of r t z), 'roller' (the normal component), "
+                        "'symmetry' (the normal of a planar selection), 'elastic KN KT' (normal and tangential "
+                        "stiffness per area, N/m^3). The rigid-body motions the supports leave free are found and "
+                        "handled by inertia relief (they need a negative 'Modes/Shift'). Empty: the clamps of 'Clamp "
+                        "groups'. Units: coordinates in the geometry's length unit, stiffness in N/m^3, angles in "
+                        "degrees.");
+      prm.declare_entry("Clamp groups", "clamp", Patterns::List(Patterns::Anything()),
+                        "The older spelling of clamps, used when 'Supports' is empty: names of the physical surfaces "
+                        "that are clamped ('a, b' is 'Supports = surface a : clamp; surface b : clamp'). The "
+                        "built-in panel names the top faces of its screw bosses 'clamp'. Empty (and no 'Supports'): "
+                        "the part is free-floating: its six lowest modes are the rigid-body motions (frequency 0), "
+                        "which needs a negative 'Modes/Shift', and static answers are those of inertia relief. "
                         "Units: none.");
       prm.declare_entry("Clamp boxes", "", Patterns::Anything(),
                         "For STEP/IGES/BREP input (which carries no names): boundary faces whose bounding box "
@@ -185,12 +199,28 @@ namespace modal_haptics
       return resolved;
     }
 
+    // 'Supports', or when it is empty the older 'Clamp groups' as clamps. Both given: the clamp groups
+    // must be the default (unused then) or empty, else the user is shown the one spelling.
+    std::vector<Support> supports_of(const std::string &supports, const std::vector<std::string> &clamp_groups)
+    {
+      if (supports.empty())
+        return clamp_group_supports(clamp_groups);
+      const bool default_groups = clamp_groups == std::vector<std::string>{"clamp"};
+      std::string as_supports;
+      for (const auto &group : clamp_groups)
+        as_supports += "surface " + group + " : clamp; ";
+      AssertThrow(clamp_groups.empty() || default_groups,
+                  ExcMessage("'Geometry/Supports' and 'Geometry/Clamp groups' are both set: write the clamps as "
+                             "supports, 'Supports = " + as_supports + supports + "', and remove 'Clamp groups'."));
+      return parse_supports(supports);
+    }
+
     void parse_geometry(ParameterHandler &prm, SceneParameters &scene)
     {
       prm.enter_subsection("Geometry");
       scene.meshing.geometry = geometry_source(prm.get("Source"), scene.parameter_file);
       scene.length_unit      = prm.get_double("Length unit");
-      scene.clamp_groups     = dealii::Utilities::split_string_list(prm.get("Clamp groups"), ',');
+      scene.supports = supports_of(prm.get("Supports"), dealii::Utilities::split_string_list(prm.get("Clamp groups"), ','));
       for (const auto &box_text : dealii::Utilities::split_string_list(prm.get("Clamp boxes"), ';'))
         {
           const auto v = parse_doubles(box_text);
@@ -529,7 +559,7 @@ namespace modal_haptics
     void check_across_subsections(const SceneParameters &scene)
     {
       AssertThrow(!scene.free_floating() || scene.modes.shift < 0.,
-                  ExcMessage("The part is free-floating ('Geometry/Clamp groups' is empty), so K is singular: set "
+                  ExcMessage("The part is free-floating (no 'Geometry/Supports' and no 'Clamp groups'), so K is singular: set "
                              "'Modes/Shift' below zero (e.g. -0.1 times the first elastic frequency), not " +
                              text(scene.modes.shift) + " Hz."));
       AssertThrow(!scene.free_floating() || scene.modes.maximum_count > 6,

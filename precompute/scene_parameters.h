@@ -12,6 +12,7 @@
 #include <deal.II/base/parameter_handler.h>
 
 #include "scene_mesher.h"
+#include "supports.h"
 
 #include <string>
 #include <vector>
@@ -110,8 +111,8 @@ namespace modal_haptics
     meshing::MeshingSettings                meshing;
     std::vector<meshing::VolumeOfInterest>  volumes_of_interest;
     double       length_unit   = 1e-3; // metres per geometry unit
-    std::vector<std::string> clamp_groups = {"clamp"}; // empty: a free-floating part
-    bool free_floating() const { return clamp_groups.empty(); }
+    std::vector<Support> supports = clamp_group_supports({"clamp"}); // empty: a free-floating part
+    bool free_floating() const { return supports.empty(); }
     unsigned int element_degree = 2;
 
     MaterialParameters material;

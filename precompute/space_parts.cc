@@ -151,35 +151,52 @@ namespace modal_haptics
           result.mesh_tets.push_back(cell->vertex_index(i));
     }
 
-    // A group that is missing from the mesh, or present but with no face, is a user error: silently
-    // clamping nothing would give a free-floating part. No group at all is a free-floating part.
-    void add_clamp_constraints(const SceneParameters &scene, const SpaceTask &task, const Mapping<3> &mapping,
-                               const DoFHandler<3> &dof_handler, AffineConstraints<double> &constraints,
-                               const MPI_Comm comm)
+    ResolvedSupports apply_supports(const SceneParameters &scene, const SpaceTask &task, const Mapping<3> &mapping,
+                                    const DoFHandler<3> &dof_handler, AffineConstraints<double> &constraints,
+                                    const std::function<void(std::string)> &log, const MPI_Comm comm)
     {
-      std::vector<types::boundary_id> owned_ids;
-      for (const auto &cell : dof_handler.active_cell_iterators())
-        if (cell->is_locally_owned())
-          for (const auto face : cell->face_indices())
-            if (cell->face(face)->at_boundary())
-              owned_ids.push_back(cell->face(face)->boundary_id());
-      std::sort(owned_ids.begin(), owned_ids.end());
-      owned_ids.erase(std::unique(owned_ids.begin(), owned_ids.end()), owned_ids.end());
-      const auto                         all_ids = Utilities::MPI::compute_set_union(owned_ids, comm);
-      const std::set<types::boundary_id> present_ids(all_ids.begin(), all_ids.end());
-      for (const std::string &group : scene.clamp_groups)
+      ResolvedSupports supports = resolve_supports(scene.supports, task.msh_file, task.physical_surfaces,
+                                                   scene.length_unit, mapping, dof_handler, constraints, comm);
+      if (!scene.supports.empty())
+        log(supports.summary(scene.supports));
+      const FreeMotions free = supports.free_motions(Point<3>(), comm);
+      if (free.motions.empty())
+        return supports;
+      const std::string which = std::to_string(free.motions.size()) + " rigid-body motion" +
+                                (free.motions.size() > 1 ? "s" : "") + " free (" + free.describe() + ")";
+      log("the supports leave " + which);
+      AssertThrow(scene.modes.shift < 0.,
+                  ExcMessage("Space '" + task.name + "': the supports ('Geometry/Supports') leave " + which +
+                             ", so K is singular: set 'Modes/Shift' below zero (e.g. -0.1 times the first elastic "
+                             "frequency), not " + std::to_string(scene.modes.shift) + " Hz, or hold the part."));
+      AssertThrow(scene.modes.maximum_count > free.motions.size(),
+                  ExcMessage("Space '" + task.name + "': the supports leave " + which + ", so 'Modes/Maximum number "
+                             "of modes' = " + std::to_string(scene.modes.maximum_count) + " leaves no elastic mode."));
+      return supports;
+    }
+
+    void elastic_face_matrix(const Mapping<3> &mapping, const FiniteElement<3> &fe, const ElasticFace &face,
+                             FullMatrix<double> &face_K)
+    {
+      FEFaceValues<3> values(mapping, fe, QGaussSimplex<2>(fe.degree + 1),
+                             update_values | update_normal_vectors | update_JxW_values);
+      values.reinit(face.cell, face.face);
+      const FEValuesExtractors::Vector displacement(0);
+      face_K = 0.;
+      for (const unsigned int q : values.quadrature_point_indices())
         {
-          const auto it = task.physical_surfaces.find(group);
-          std::string known;
-          for (const auto &[name, tag] : task.physical_surfaces)
-            known += " '" + name + "'";
-          AssertThrow(it != task.physical_surfaces.end(),
-                      ExcMessage("Clamp group '" + group + "' (parameter 'Geometry/Clamp groups') is not a physical "
-                                 "surface of mesh '" + task.msh_file + "'; it has:" + known + "."));
-          AssertThrow(present_ids.count(it->second) == 1,
-                      ExcMessage("Clamp group '" + group + "' of mesh '" + task.msh_file + "' has no boundary face."));
-          VectorTools::interpolate_boundary_values(mapping, dof_handler, it->second,
-                                                   Functions::ZeroFunction<3>(3), constraints);
+          const Tensor<1, 3> &n = values.normal_vector(q);
+          for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+            {
+              const Tensor<1, 3> phi_i = values[displacement].value(i, q);
+              for (unsigned int j = 0; j < fe.n_dofs_per_cell(); ++j)
+                {
+                  const Tensor<1, 3> phi_j = values[displacement].value(j, q);
+                  const double       normal_part = (phi_i * n) * (phi_j * n);
+                  face_K(i, j) += (face.normal_stiffness * normal_part +
+                                   face.tangential_stiffness * (phi_i * phi_j - normal_part)) * values.JxW(q);
+                }
+            }
         }
     }
 

@@ -22,11 +22,17 @@
 //   void solve_static(Block &)
 //   const auto &block_column(const Block &, unsigned column) const               ghosted
 //   void sum_over_processes(std::vector<double> &) const
+//   void condense(DofWeights &) const  weights on constrained DoFs moved to the DoFs they follow (C^T w)
+//   Field output_field(const Field &) const   ghosted, the constrained entries filled in (for output)
 //   std::array<Field, 6> rigid_body_motions(const dealii::Point<3> &centre) const
 //   void fill_modes_at_vertices()     the kept modes at the result's rows of mesh vertices
 //   void write_vtu(dealii::DataOut<3> &) const
 //   SurfaceOperators surface;         filled by the phases below
-//   std::vector<Field> validation_fields;   full - modal, one per validation case, ghosted
+//   std::vector<Field> validation_fields;   full - modal, one per validation case, as output_field gives
+//
+// Every field of the phases is a vector of the constrained system: zero on constrained DoFs. Loads
+// and readings (display rows, patch loads) are condensed once, so they act on and read such fields
+// as the full fields they stand for; only the output fills the constrained entries in.
 #pragma once
 
 #include "modal_space.h"
@@ -101,6 +107,7 @@ namespace modal_haptics
               b.surface.display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
               space_parts::add_shape_values(evaluated[v].cell, evaluated[v].unit, c, 1.,
                                             b.surface.display_rows.back().second);
+              b.condense(b.surface.display_rows.back().second);
             }
 
       const auto        &modes = b.kept_modes();
@@ -145,10 +152,14 @@ namespace modal_haptics
     {
       for (const unsigned int v : vertices)
         if (!b.surface.patch_loads.count(v))
-          b.surface.patch_loads[v] =
-            space_parts::make_patch_load(in.display, v, [&](const std::vector<meshing::Point3> &points) {
+          {
+            auto &load = b.surface.patch_loads[v];
+            load = space_parts::make_patch_load(in.display, v, [&](const std::vector<meshing::Point3> &points) {
               return b.evaluation_points(points, nullptr);
             });
+            for (auto &direction : load)
+              b.condense(direction);
+          }
     }
 
     // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
@@ -304,7 +315,7 @@ namespace modal_haptics
               vc, result, in.display, in.scene.contact.correction_field_tolerance, uc_full, uc_modal,
               std::vector<double>(values.begin() + 6, values.begin() + 6 + 3 * nv),
               std::vector<double>(values.begin() + 6 + 3 * nv, values.end()), modal_coefficients);
-            b.validation_fields.push_back(b.ghosted(difference));
+            b.validation_fields.push_back(b.output_field(difference));
             result.validation.push_back(vc);
           }
       validate_two_contacts(b, in, result);
@@ -323,8 +334,12 @@ namespace modal_haptics
         3, dealii::DataComponentInterpretation::component_is_part_of_vector);
       const auto        &modes = b.kept_modes();
       const unsigned int n_vtu = std::min<unsigned int>(in.scene.output.vtu_modes, modes.size());
+      std::vector<typename Backend::Field> mode_fields; // with the constrained entries filled in
+      mode_fields.reserve(n_vtu);
       for (unsigned int i = 0; i < n_vtu; ++i)
-        data_out.add_data_vector(b.ghosted_mode(i),
+        mode_fields.push_back(b.output_field(modes[i]));
+      for (unsigned int i = 0; i < n_vtu; ++i)
+        data_out.add_data_vector(mode_fields[i],
                                  std::vector<std::string>(3, space_parts::mode_field_name(i, result.frequencies_hz[i])),
                                  dealii::DataOut<3>::type_dof_data, vector_field);
       for (unsigned int k = 0; k < b.validation_fields.size(); ++k)

@@ -148,7 +148,7 @@ check(code != 0 and "VOI 'buried'" in out and "the nearest is face" in out,
 
 # A group name that is not a physical surface is refused by --validate.
 code, out, _ = run(work, "no_group", scene(step_m, 1, clamp="set Clamp groups = ss"), "--validate")
-check(code != 0 and "Clamp group 'ss'" in out and "is not a physical surface" in out,
+check(code != 0 and "Group 'ss'" in out and "is not a physical surface" in out,
       "unknown clamp group refused by --validate")
 
 # Full runs, 4 modes (fewer than the default minimum of 10): the same frequencies in both units.
@@ -174,7 +174,7 @@ if len(first) == 2:
 msh = os.path.join(work, "run_m", "mesh_global.msh")
 if os.path.exists(msh):
     code, out, _ = run(work, "msh", scene(msh, 1, clamp="set Clamp groups = clamp"), "--validate")
-    check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Clamp group 'clamp': 1 face, area 0.0001 m^2" in out
+    check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Group 'clamp' (a physical surface): 1 face, area 0.0001 m^2" in out
           and abs(number_after("mass", out) - DENSITY * VOLUME) < 1e-6,
           "a .msh input: bounding box, mass and the clamp group's area from the mesh")
 
