@@ -1,0 +1,84 @@
+#!/usr/bin/python3
+"""The README's second example (parameters/bracket.prm): a STEP bracket in mm held by a bolt clamp, a
+slotted bolt (fix yz) and an elastic mount under its base.
+
+Asserted:
+* each support catches what it should: the mount's faces add up to the base's underside (60 x 40 mm
+  less two 3 mm holes, within 1 %: the holes are polygons), both bolt boxes catch faces and nodes;
+* nothing is left free (0 rigid-body modes), the corrected contact responses equal the full static
+  solves (relative error <= 1e-8);
+* the mount is a spring, between no mount and a rigid one: f1(bolts only) < f1(elastic mount) <
+  f1(base clamped), for the same meshes.
+"""
+import argparse
+import glob
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+failures = []
+
+
+def check(condition, what):
+    print(("  ok    " if condition else "  FAIL  ") + what)
+    if not condition:
+        failures.append(what)
+
+
+def run(binary, prm_text, folder, meshes_from=None):
+    os.makedirs(folder, exist_ok=True)
+    if meshes_from: # the same meshes: gmsh is not bit-reproducible
+        for f in glob.glob(os.path.join(meshes_from, "*.msh")) + glob.glob(os.path.join(meshes_from, "*.key")):
+            shutil.copy(f, folder)
+    prm = os.path.join(folder, "bracket.prm")
+    with open(prm, "w") as f:
+        f.write(prm_text)
+    done = subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True)
+    if done.returncode != 0:
+        print(done.stdout[-2000:])
+        sys.exit(1)
+    with open(os.path.join(folder, "report.json")) as f:
+        return json.load(f)
+
+
+parser = argparse.ArgumentParser()
+parser.add_argument("--binary", required=True)
+parser.add_argument("--prm", required=True)
+parser.add_argument("--workdir", required=True)
+args = parser.parse_args()
+shutil.rmtree(args.workdir, ignore_errors=True)
+with open(args.prm) as f:
+    text = f.read().replace("bracket/bracket.step", os.path.join(os.path.dirname(os.path.abspath(args.prm)),
+                                                                  "bracket", "bracket.step"))
+supports = re.search(r"set Supports\s*=\s*(.*?)\s*(#|\n)", text).group(1)
+bolts = "; ".join(supports.split(";")[:2])
+
+report = run(args.binary, text, os.path.join(args.workdir, "example"))
+for space in report["spaces"]:
+    caught = [tuple(map(float, m)) for m in re.findall(r": (\d+) faces, ([\d.e+-]+) m\^2, (\d+) nodes", space["supports"])]
+    check(len(caught) == 3 and all(c[0] > 0 and c[2] > 0 for c in caught),
+          f"{space['name']}: every support catches faces and nodes ({caught})")
+    underside = (60 * 40 - 2 * math.pi * 3 ** 2) * 1e-6
+    check(abs(caught[2][1] / underside - 1) < 0.01,
+          f"{space['name']}: the mount's area {caught[2][1]:.6g} m^2 = the base's underside {underside:.6g} m^2 (1 %)")
+    check(space["rigid_body_modes"]["count"] == 0, f"{space['name']}: nothing left free")
+    if space["validation"]:
+        worst = max(c["contact_rel_error_corrected"] for c in space["validation"])
+        check(worst <= 1e-8, f"{space['name']}: corrected contact = full static FE ({len(space['validation'])} "
+                             f"cases, worst relative error {worst:.2e} <= 1e-8)")
+check(any(space["validation"] for space in report["spaces"]), "the flange's top is validated")
+
+example = os.path.join(args.workdir, "example")
+bolts_only = run(args.binary, text.replace(supports, bolts), os.path.join(args.workdir, "bolts_only"), example)
+rigid = run(args.binary, text.replace(supports, bolts + "; normal 0 0 -1 1 : clamp"), os.path.join(args.workdir, "rigid"),
+            example)
+f1 = [r["spaces"][0]["frequencies_hz"][0] for r in (bolts_only, report, rigid)]
+check(f1[0] < f1[1] < f1[2], f"f1: bolts only {f1[0]:.1f} Hz < elastic mount {f1[1]:.1f} Hz < clamped base {f1[2]:.1f} Hz")
+
+print(f"{len(failures)} failure(s)")
+sys.exit(1 if failures else 0)
