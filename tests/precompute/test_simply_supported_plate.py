@@ -49,7 +49,7 @@ class Checks:
     def below(self, name, value, limit):
         passed = value <= limit
         self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.0e}) {'ok' if passed else 'FAILED'}")
+        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
 
     def relative(self, name, value, reference, tolerance):
         self.below(f"{name}: {value:.3f} Hz vs {reference:.3f}", abs(value - reference) / reference, tolerance)

@@ -149,7 +149,7 @@ class Checks:
     def below(self, name, value, limit):
         passed = value <= limit
         self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.0e}) {'ok' if passed else 'FAILED'}")
+        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
 
 
 def main():
