@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -90,7 +91,8 @@ namespace modal_haptics::meshing
         return meshes;
       }
 
-      GeometryReport inspect(const std::vector<std::pair<int, std::string>> &named_groups, const double length_unit)
+      GeometryReport inspect(const std::vector<std::pair<int, std::string>> &named_groups,
+                             const std::vector<RegionSelection> &regions, const double length_unit)
       {
         check_inputs();
         GeometryReport report;
@@ -120,6 +122,8 @@ namespace modal_haptics::meshing
                 check_against_bounding_box(voi);
                 report.volumes_of_interest.push_back(inspect_voi(voi));
               }
+            for (const auto &region : regions)
+              report.regions.push_back(inspect_region(region));
           });
         for (const auto &[dim, name] : named_groups)
           report.named_groups.push_back(inspect_group(dim, name));
@@ -285,39 +289,92 @@ namespace modal_haptics::meshing
             region[0][i]   = box ? voi.box_lower[i] : voi.ball_centre[i] - voi.ball_radius;
             region[1][i]   = box ? voi.box_upper[i] : voi.ball_centre[i] + voi.ball_radius;
           }
+        std::string why;
+        auto caught = faces_meeting("VOI '" + voi.name + "' (" + describe_region(voi) + ")",
+                                    [&](const std::array<Point3, 2> &f) { return box_gap(region, f); }, why);
+        if (caught.n_faces == 0)
+          throw MeshingError(not_intersecting_message(voi, why));
+        return caught;
+      }
+
+      // A support's box or plane (supports are resolved on each mesh; here only whether it can catch
+      // anything): the boundary faces whose bounding box meets it, refused when there is none.
+      SelectionReport inspect_region(const RegionSelection &selection) const
+      {
+        const auto   part      = bounding_box();
+        double       diagonal2 = 0.;
+        for (int i = 0; i < 3; ++i)
+          diagonal2 += std::pow(part[1][i] - part[0][i], 2);
+        const double tolerance = 1e-5 * std::sqrt(diagonal2);
+        const auto   gap       = [&](const std::array<Point3, 2> &f) {
+          if (selection.kind == RegionSelection::Kind::box)
+            return box_gap({selection.lower, selection.upper}, f) - tolerance;
+          double n2 = 0., lowest = std::numeric_limits<double>::max(), highest = -lowest;
+          for (int i = 0; i < 3; ++i)
+            n2 += selection.normal[i] * selection.normal[i];
+          for (int corner = 0; corner < 8; ++corner)
+            {
+              double distance = 0.;
+              for (int i = 0; i < 3; ++i)
+                distance += (((corner >> i & 1) ? f[1][i] : f[0][i]) - selection.point[i]) * selection.normal[i];
+              distance /= std::sqrt(n2);
+              lowest  = std::min(lowest, distance);
+              highest = std::max(highest, distance);
+            }
+          return (lowest <= 0. && highest >= 0. ? 0. : std::min(std::abs(lowest), std::abs(highest))) - tolerance;
+        };
+        std::string why;
+        auto        caught = faces_meeting(selection.label, gap, why);
+        if (caught.n_faces == 0)
+          throw MeshingError(selection.label + " of geometry '" + settings.geometry + "' catches no boundary face: " +
+                             why + " (units of the geometry)");
+        return caught;
+      }
+
+      // How far apart two boxes are (<= 0: they meet).
+      static double box_gap(const std::array<Point3, 2> &region, const std::array<Point3, 2> &f)
+      {
+        double gap = -std::numeric_limits<double>::max();
+        for (int i = 0; i < 3; ++i)
+          gap = std::max({gap, f[0][i] - region[1][i], region[0][i] - f[1][i]});
+        return gap;
+      }
+
+      // The boundary faces whose bounding box is within gap(box) <= 0; when there is none, 'why'
+      // names the nearest.
+      SelectionReport faces_meeting(const std::string &name, const std::function<double(const std::array<Point3, 2> &)> &gap,
+                                    std::string &why) const
+      {
         SelectionReport caught;
-        caught.name    = "VOI '" + voi.name + "' (" + describe_region(voi) + ")";
+        caught.name        = name;
         int        nearest = 0;
-        double     gap     = std::numeric_limits<double>::max();
+        double     nearest_gap = std::numeric_limits<double>::max();
         const bool occ     = part_volume() > 0.; // areas from OpenCASCADE, none for gmsh's built-in kernel
         for (const int face : boundary_faces())
           {
-            const auto f         = bounding_box(2, face);
-            double     face_gap  = 0.;
-            for (int i = 0; i < 3; ++i)
-              face_gap = std::max({face_gap, f[0][i] - region[1][i], region[0][i] - f[1][i]});
+            const double face_gap = gap(bounding_box(2, face));
             if (face_gap <= 0.)
               {
                 ++caught.n_faces;
                 caught.area += occ ? face_area(face) : 0.;
               }
-            else if (face_gap < gap)
+            else if (face_gap < nearest_gap)
               {
-                gap     = face_gap;
-                nearest = face;
+                nearest_gap = face_gap;
+                nearest     = face;
               }
           }
         if (caught.n_faces == 0)
           {
-            std::ostringstream why;
-            why << "no boundary face's bounding box meets it";
+            std::ostringstream text;
+            text << "no boundary face's bounding box meets it";
             if (nearest > 0)
               {
                 const auto f = bounding_box(2, nearest);
-                why << "; the nearest is face " << nearest << " with bounding box " << readable_point(f[0]) << "-"
-                    << readable_point(f[1]) << ", " << gap << " away";
+                text << "; the nearest is face " << nearest << " with bounding box " << readable_point(f[0]) << "-"
+                     << readable_point(f[1]) << ", " << nearest_gap << " away";
               }
-            throw MeshingError(not_intersecting_message(voi, why.str()));
+            why = text.str();
           }
         return caught;
       }
@@ -848,11 +905,12 @@ namespace modal_haptics::meshing
   }
 
   GeometryReport inspect_geometry(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,
-                                  const std::vector<std::pair<int, std::string>> &named_groups, const double length_unit)
+                                  const std::vector<std::pair<int, std::string>> &named_groups,
+                                  const std::vector<RegionSelection> &regions, const double length_unit)
   {
     SceneMesher  mesher(settings, volumes_of_interest, "", false, true);
     GmshSession  session(false);
-    return mesher.inspect(named_groups, length_unit);
+    return mesher.inspect(named_groups, regions, length_unit);
   }
 
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file)

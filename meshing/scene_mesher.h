@@ -161,6 +161,17 @@ namespace modal_haptics::meshing
     double      area    = 0.; // [unit^2]; 0 for a .msh input (no geometry)
   };
 
+  // A support's box or plane, checked against the geometry before meshing (supports select mesh
+  // faces and nodes at run time; here: whether any boundary face's bounding box meets it).
+  struct RegionSelection
+  {
+    enum class Kind { box, plane };
+    std::string label;             // "support 2 ('box 0 0 0 1 1 1 : clamp')"
+    Kind        kind = Kind::box;
+    Point3      lower{}, upper{};  // box [unit]
+    Point3      point{}, normal{}; // plane [unit]
+  };
+
   // The geometry as loaded (not meshed), for --validate and the start of every run.
   struct GeometryReport
   {
@@ -173,6 +184,7 @@ namespace modal_haptics::meshing
     // takes no VOI); their whole areas, so an upper bound of the surface inside. The mesh vertices
     // inside a VOI are counted in the meshing log.
     std::vector<SelectionReport> volumes_of_interest;
+    std::vector<SelectionReport> regions; // one per RegionSelection: the faces whose bounding box meets it
   };
 
   // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:
@@ -183,7 +195,7 @@ namespace modal_haptics::meshing
   GeometryReport inspect_geometry(const MeshingSettings &settings,
                                   const std::vector<VolumeOfInterest> &volumes_of_interest,
                                   const std::vector<std::pair<int, std::string>> &named_groups,
-                                  double length_unit);
+                                  const std::vector<RegionSelection> &regions, double length_unit);
 
   // Reads the $PhysicalNames of a MSH file: dimension -> (name -> tag).
   std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file);

@@ -236,14 +236,22 @@ namespace
   // process 0 when `print`; the warnings always.
   void inspect_geometry(const modal_haptics::SceneParameters &scene, const bool print)
   {
+    using Kind   = modal_haptics::SupportSelection::Kind;
+    using Region = modal_haptics::meshing::RegionSelection;
     std::vector<std::pair<int, std::string>> named_groups;
+    std::vector<Region>                      regions;
     for (const auto &support : scene.supports)
-      if (support.selection.kind == modal_haptics::SupportSelection::Kind::surface ||
-          support.selection.kind == modal_haptics::SupportSelection::Kind::curve ||
-          support.selection.kind == modal_haptics::SupportSelection::Kind::point)
-        named_groups.emplace_back(support.selection.named_dimension(), support.selection.name);
+      {
+        const auto &s = support.selection;
+        if (s.kind == Kind::surface || s.kind == Kind::curve || s.kind == Kind::point)
+          named_groups.emplace_back(s.named_dimension(), s.name);
+        else if (s.kind == Kind::box || s.kind == Kind::nodes)
+          regions.push_back({"The selection of " + support.label(), Region::Kind::box, s.lower, s.upper, {}, {}});
+        else if (s.kind == Kind::plane)
+          regions.push_back({"The selection of " + support.label(), Region::Kind::plane, {}, {}, s.point, s.direction});
+      }
     const auto report = modal_haptics::meshing::inspect_geometry(scene.meshing, scene.volumes_of_interest,
-                                                                 named_groups, scene.length_unit);
+                                                                 named_groups, regions, scene.length_unit);
     const double unit   = scene.length_unit;
     double       extent = std::numeric_limits<double>::max();
     for (int i = 0; i < 3; ++i)
@@ -275,6 +283,9 @@ namespace
             out << ", area " << selection.area * unit * unit << " m^2";
           out << "\n";
         }
+    for (const auto &region : report.regions)
+      out << "[geometry] " << region.name << ": meets " << region.n_faces << " boundary face"
+          << (region.n_faces == 1 ? "" : "s") << " (it selects the mesh's faces or nodes inside)\n";
     for (const auto &voi : report.volumes_of_interest)
       {
         out << "[geometry] " << voi.name << ": meets " << voi.n_faces << " boundary face"
