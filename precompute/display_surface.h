@@ -24,6 +24,10 @@ namespace modal_haptics
     std::vector<unsigned int> patch_vertices;
     std::vector<double>       patch_weights;
     unsigned int              max_patch_size = 0;
+    // A patch over this many display vertices is warned about: the patch radius is large against
+    // the display surface's fine size (a radius in the wrong unit, say), the .mrt grows with it and
+    // every contact's tick reads that many vertices. The default scene's patches hold up to 12.
+    static constexpr unsigned int patch_size_warning = 64;
     // The triangles around each vertex, CSR: entries [vertex_triangle_offsets[v], ...[v+1]).
     std::vector<unsigned int> vertex_triangle_offsets;
     std::vector<unsigned int> vertex_triangles;

@@ -310,6 +310,12 @@ namespace modal_haptics
     if (verbose)
       std::cout << "[display] " << results.display.n_vertices() << " vertices, " << results.display.triangles.size()
                 << " triangles, contact patches of up to " << results.display.max_patch_size << " vertices" << std::endl;
+    if (results.display.max_patch_size > ContactSurface::patch_size_warning)
+      std::cerr << "Warning: a contact patch holds " << results.display.max_patch_size << " display vertices (more than "
+                << ContactSurface::patch_size_warning << "): 'Contact/Patch radius' = " << scene.contact.patch_radius
+                << " geometry units (" << scene.contact.patch_radius * scene.length_unit
+                << " m) is large for the display surface's fine size; the .mrt and each contact's tick grow with it."
+                << std::endl;
   }
 
   namespace

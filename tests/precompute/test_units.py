@@ -118,6 +118,12 @@ code, out, _ = run(work, "big_patch", scene(step_m, 1).replace(f"Patch radius = 
                    "--validate")
 check(code == 0 and "Warning: 'Contact/Patch radius' = 2 (geometry units, 2 m) exceeds a tenth" in out,
       "a patch radius over a tenth of the smallest extent is warned about")
+# A run with it: its patches cover the whole bar, far over the documented 64 display vertices.
+code, out, _ = run(work, "big_patch_run", scene(step_m, 1, modes="set Maximum number of modes = 4").replace(
+    f"Patch radius = {0.2 / 250}", "Patch radius = 2"), "--quiet")
+held = number_after("Warning: a contact patch holds", out)
+check(code == 0 and held > 64 and "(more than 64)" in out,
+      f"a patch over 64 display vertices is warned about in a run (it holds {held:.0f})")
 
 # A clamp box that catches nothing is refused, naming it and the nearest face.
 code, out, _ = run(work, "empty_box", scene(step_m, 1, clamp="set Clamp boxes = 0.1, 0, 0, 0.1, 0.01, 0.01"),
