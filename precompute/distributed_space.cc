@@ -99,10 +99,10 @@ namespace modal_haptics
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
       // A free-floating part is refused before assembly (setup_system): no load needs relief.
       void relieve_load(Field &) const {}
-      void solve_static(Field &u) const;
+      void solve_static(Field &u);
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
-      void solve_static(Block &X) const;
+      void solve_static(Block &X);
       const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }
       void sum_over_processes(std::vector<double> &values) const;
       void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
@@ -140,6 +140,7 @@ namespace modal_haptics
       IndexSet                                     owned_dofs, relevant_dofs;
       AffineConstraints<double>                    constraints;
       bool                                         coupled_constraints = false; // on any process
+      double                                       shift = 0.; // MUMPS factorizes K - shift M [1/s^2]
       TrilinosWrappers::SparseMatrix               shifted_matrix;
       std::unique_ptr<MumpsInverse>                inverse;
       std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
@@ -283,7 +284,7 @@ namespace modal_haptics
     // runs on different process counts build nearly the same Krylov space.
     void DistributedSpace::solve_eigenproblem()
     {
-      const double shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       log(std::string("Modes/Eigensolver (") + (scene.modes.block_krylov ? "block-krylov" : "arpack") +
           ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
           ") choose the serial solvers; the distributed path uses PARPACK over MUMPS");
@@ -440,10 +441,32 @@ namespace modal_haptics
       return ghosted(owned);
     }
 
-    void DistributedSpace::solve_static(DistributedVector &u) const
+    // K u = f in place, with the MUMPS factorization of A = K - shift M: one solve without a shift,
+    // refined against K with one (space_parts::refine_static_solve, as the serial solve_static). The
+    // residual is kept as K x - f, so each step is x -= A^-1 (K x - f).
+    void DistributedSpace::solve_static(DistributedVector &u)
     {
       DistributedVector x(owned_dofs, comm);
-      inverse->vmult(x, u);
+      if (shift == 0.)
+        {
+          inverse->vmult(x, u);
+          u.swap(x);
+          return;
+        }
+      const DistributedVector &f         = u;
+      const double             load_norm = f.l2_norm();
+      DistributedVector        residual(owned_dofs, comm), correction(owned_dofs, comm);
+      residual -= f;
+      const unsigned int steps = space_parts::refine_static_solve(
+        [&] {
+          inverse->vmult(correction, residual);
+          x -= correction;
+          stiffness_matrix.vmult(residual, x);
+          residual -= f;
+          return load_norm > 0. ? residual.l2_norm() / load_norm : 0.;
+        },
+        task.name, scene.modes.shift);
+      result.static_solve_iterations = std::max(result.static_solve_iterations, steps);
       u.swap(x);
     }
 
@@ -458,7 +481,7 @@ namespace modal_haptics
         }
     }
 
-    void DistributedSpace::solve_static(Block &X) const
+    void DistributedSpace::solve_static(Block &X)
     {
       for (auto &column : X.columns)
         {

@@ -412,6 +412,15 @@ namespace modal_haptics
                                 const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged);
     std::string static_correction_summary(const ModalSpaceResult &result, std::size_t n_loads);
 
+    // A static solve with the factorization of A = K - shift M is refined against K itself: 'refine'
+    // makes one step u += A^-1 (f - K u) on its right-hand sides (the first from u = 0) and returns
+    // the worst relative residual ||f - K u|| / ||f|| after it. Each step shrinks an elastic mode's
+    // error by |shift| / |lambda - shift|. Steps until the residual is <= 1e-12, or until it stops
+    // shrinking (the rounding floor) at <= 1e-6; anything else throws, naming the space and
+    // 'Modes/Shift' (shift_hz). Returns the number of steps. Both backends' solve_static use it.
+    unsigned int refine_static_solve(const std::function<double()> &refine, const std::string &space_name,
+                                     double shift_hz);
+
     // The validation errors of one case from the patch averages (uc) and the fields at the display
     // vertices (3 nv each, component-fastest) of the full and the modal solution, the latter the sum
     // of modal_coefficients[i] times mode i.

@@ -15,11 +15,14 @@
 //
 // Output: study.csv (a row per point and r), reference.csv, points/<point>/ (each run's results), and
 // study.md with the plots, written by scripts/study_report.py (unless --no-report).
+//
+// This file is the study's sweep (its parameters, the points, the pipeline run at each, the
+// errors against the reference); modal_study.h holds the records it fills, study_kernel_cost.cc
+// times the kernel and study_output.cc writes the tables and runs the report script.
 #include "atomic_file.h"
 #include "modal_precompute.h"
+#include "modal_study.h"
 #include "scene_parameters.h"
-
-#include <modalrt/modalrt.h>
 
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
@@ -27,7 +30,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -37,11 +39,6 @@
 #include <string>
 #include <tuple>
 #include <vector>
-
-#include <spawn.h>
-#include <sys/wait.h>
-
-extern char **environ;
 
 namespace modal_haptics
 {
@@ -156,23 +153,6 @@ namespace modal_haptics
     return study;
   }
 
-  // One run of the pipeline: which mesh, which discretization, which contact and eigensolver.
-  struct PointSettings
-  {
-    std::string  mesh; // "graded", "uniform" or "reference"
-    unsigned int degree = 2;
-    double       coarse_size = 0., fine_size = 0., patch_radius = 0.; // [geometry units]
-    std::string  eigensolver = "block-krylov";
-    unsigned int modes = 0;
-
-    std::string label() const
-    {
-      std::ostringstream name;
-      name << mesh << "_p" << degree << "_c" << coarse_size << "_f" << fine_size << "_rho" << patch_radius << "_"
-           << eigensolver;
-      return name.str();
-    }
-  };
 
   void set_entry(dealii::ParameterHandler &prm, const std::string &subsection, const std::string &entry,
                  const std::string &value)
@@ -226,36 +206,6 @@ namespace modal_haptics
     return parse_scene_parameters(prm, study.scene_file, output_directory);
   }
 
-  using Compliance = std::array<double, 9>; // 3 x 3 row-major [m/N]
-
-  double along(const Compliance &G, const std::array<double, 3> &n)
-  {
-    double value = 0.;
-    for (unsigned int i = 0; i < 3; ++i)
-      for (unsigned int j = 0; j < 3; ++j)
-        value += n[i] * G[3 * i + j] * n[j];
-    return value;
-  }
-
-  double frobenius_distance(const Compliance &A, const Compliance &B)
-  {
-    double d = 0.;
-    for (unsigned int k = 0; k < 9; ++k)
-      d += (A[k] - B[k]) * (A[k] - B[k]);
-    return std::sqrt(d);
-  }
-
-  double frobenius_norm(const Compliance &A) { return frobenius_distance(A, Compliance{}); }
-
-  // A sampled contact in one point's run: its display vertex, push direction and compliances.
-  struct Contact
-  {
-    unsigned int          vertex = 0, candidate = 0;
-    std::array<double, 3> direction{}; // the study's push direction
-    Compliance            full{};     // W^T K^-1 W of this point's mesh
-    Compliance            corrected{}; // B Lambda^-1 B^T + C_v: what the kernel renders at the candidate
-  };
-
   // The modal-only compliance with the first r modes: B_r Lambda_r^-1 B_r^T.
   Compliance modal_compliance(const ModalSpaceResult &space, const unsigned int candidate, const unsigned int r)
   {
@@ -294,115 +244,6 @@ namespace modal_haptics
     return contacts;
   }
 
-  // What the real-time kernel costs on one basis file: admittance ticks of one HIP pressing with
-  // 1 N along the push direction on `vertex`, and a whole display reconstruction.
-  struct KernelCost
-  {
-    double tick_p50_ns = 0., tick_p99_ns = 0., corrected_tick_p50_ns = 0., corrected_tick_p99_ns = 0.;
-    double display_ms = 0.;
-    unsigned int display_vertices = 0;
-  };
-
-  void check_kernel(const int status, const std::string &what)
-  {
-    AssertThrow(status >= 0, ExcMessage("modalrt: " + what + " failed: " + modalrt_last_error_message()));
-  }
-
-  template <typename Work>
-  double median_seconds(const unsigned int repetitions, const Work &work)
-  {
-    std::vector<double> seconds;
-    for (unsigned int k = 0; k < repetitions; ++k)
-      {
-        const auto start = std::chrono::steady_clock::now();
-        work();
-        seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-      }
-    std::sort(seconds.begin(), seconds.end());
-    return seconds[seconds.size() / 2];
-  }
-
-  // A kernel on `basis` with one HIP in contact at `vertex`, pushing with 1 N along `direction`.
-  struct PressingKernel
-  {
-    modalrt_kernel   *kernel = nullptr;
-    modalrt_hip_input input{};
-
-    PressingKernel(const modalrt_basis *basis, const unsigned int vertex, const std::array<double, 3> &direction,
-                   const bool corrected)
-    {
-      modalrt_kernel_def def    = modalrt_kernel_default_def();
-      def.time_step             = 1e-3;
-      def.hip_capacity          = 1;
-      def.auto_release          = 0;
-      def.use_static_correction = corrected ? 1 : 0;
-      check_kernel(modalrt_kernel_create(basis, &def, &kernel), "kernel_create");
-      check_kernel(modalrt_kernel_contact_begin(kernel, 0, vertex), "kernel_contact_begin");
-      const double *rest = modalrt_basis_display_vertices(basis) + 3 * std::size_t(vertex);
-      for (unsigned int c = 0; c < 3; ++c)
-        input.position[c] = rest[c], input.force[c] = -direction[c];
-    }
-    ~PressingKernel() { modalrt_kernel_destroy(kernel); }
-    PressingKernel(const PressingKernel &) = delete;
-    PressingKernel &operator=(const PressingKernel &) = delete;
-
-    int tick()
-    {
-      modalrt_hip_output output{};
-      return modalrt_kernel_tick_admittance(kernel, &input, 1, &output);
-    }
-
-    // p50 and p99 [ns] of `ticks` ticks after a warm-up (caches, branch predictors, clock).
-    std::array<double, 2> time_ticks(const unsigned int ticks)
-    {
-      for (unsigned int k = 0; k < ticks / 10; ++k)
-        check_kernel(tick(), "kernel_tick_admittance");
-      std::vector<double> nanoseconds(ticks);
-      for (auto &ns : nanoseconds)
-        {
-          const auto start  = std::chrono::steady_clock::now();
-          const int  status = tick();
-          ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count();
-          check_kernel(status, "kernel_tick_admittance");
-        }
-      std::sort(nanoseconds.begin(), nanoseconds.end());
-      return {nanoseconds[ticks / 2], nanoseconds[std::size_t(ticks) * 99 / 100]};
-    }
-  };
-
-  KernelCost measure_kernel(const std::string &basis_file, const Contact &contact, const unsigned int ticks)
-  {
-    modalrt_thread_enable_flush_to_zero();
-    modalrt_basis *basis = nullptr;
-    check_kernel(modalrt_basis_load(basis_file.c_str(), &basis), "basis_load(" + basis_file + ")");
-    KernelCost cost;
-    {
-      PressingKernel plain(basis, contact.vertex, contact.direction, false);
-      const auto     p = plain.time_ticks(ticks);
-      cost.tick_p50_ns = p[0], cost.tick_p99_ns = p[1];
-    }
-    PressingKernel corrected(basis, contact.vertex, contact.direction, true);
-    const auto     p = corrected.time_ticks(ticks);
-    cost.corrected_tick_p50_ns = p[0], cost.corrected_tick_p99_ns = p[1];
-
-    // The display of the pressed part: every vertex, static correction near the contact included.
-    modalrt_basis_info info{};
-    check_kernel(modalrt_basis_get_info(basis, &info), "basis_get_info");
-    cost.display_vertices = info.display_vertex_count;
-    modalrt_snapshot *snapshot = nullptr;
-    check_kernel(modalrt_snapshot_create(corrected.kernel, &snapshot), "snapshot_create");
-    check_kernel(modalrt_kernel_snapshot_read(corrected.kernel, snapshot), "kernel_snapshot_read");
-    std::vector<float> displacements(3 * std::size_t(info.display_vertex_count));
-    cost.display_ms = 1e3 * median_seconds(15, [&] {
-                        check_kernel(modalrt_display_reconstruct(snapshot, 0, info.display_vertex_count, 0,
-                                                                 displacements.data()),
-                                     "display_reconstruct");
-                      });
-    modalrt_snapshot_destroy(snapshot);
-    modalrt_basis_destroy(basis);
-    return cost;
-  }
-
   // The whole results with every space cut to at most r modes and the transfers between them redone.
   PrecomputeResults truncated_results(const PrecomputeResults &results, const unsigned int r)
   {
@@ -417,35 +258,6 @@ namespace modal_haptics
     return truncated;
   }
 
-  struct ReferenceSolution
-  {
-    double                  patch_radius = 0.;
-    unsigned int            n_dofs = 0;
-    double                  seconds = 0.;
-    std::vector<Contact>    contacts;
-    std::vector<double>     frequencies_hz;
-  };
-
-  // One row of study.csv.
-  struct StudyRow
-  {
-    PointSettings point;
-    std::string   r_rule; // "count" or the cut-off rule that chose r
-    unsigned int  r = 0, n_dofs = 0, candidates = 0;
-    double felt_error_modal = 0., felt_error_corrected = 0.;         // felt compliance d^T G d vs reference (max over contacts)
-    double felt_error_modal_3x3 = 0., felt_error_corrected_3x3 = 0.; // Frobenius, relative
-    double truncation_error = 0.;    // felt compliance, modal vs this mesh's full FE (max over contacts)
-    double correction_residual = 0.; // |B Lambda^-1 B^T + C_v - W^T K^-1 W| / |W^T K^-1 W|
-    double display_error_modal = 0.; // l2 display field, modal vs this mesh's full FE (max over cases)
-    double frequency_error_first = 0., frequency_error_max = 0.;
-    unsigned int frequencies_compared = 0;
-    std::map<std::string, double> seconds; // meshing, assembly, eigensolve, static_correction, validation, total
-    double correction_ms_per_candidate = 0.;
-    std::uintmax_t mrt_bytes = 0;
-    KernelCost kernel;
-    std::vector<double> corrected_felt_compliance; // per contact [m/N]
-  };
-
   class ModalStudy
   {
   public:
@@ -458,13 +270,13 @@ namespace modal_haptics
       fs::create_directories(output_directory + "/points");
       for (const double rho : study.patch_radii)
         references.push_back(compute_reference(rho));
-      write_references();
+      write_reference_table(output_directory, references);
       const auto points = study_points();
       for (std::size_t k = 0; k < points.size(); ++k)
         {
           std::cout << "[study] point " << k + 1 << "/" << points.size() << ": " << points[k].label() << std::endl;
           evaluate_point(points[k]);
-          write_rows(); // after every point: a long study that stops keeps what it measured
+          write_study_table(output_directory, rows); // after every point: a long study that stops keeps what it measured
         }
     }
 
@@ -654,100 +466,12 @@ namespace modal_haptics
       fs::remove(file);
     }
 
-    void write_references() const
-    {
-      write_file_atomically(output_directory + "/reference.csv", [&](std::ostream &out) {
-        out << "patch_radius,n_dofs,seconds,contact,vertex,felt_compliance_m_per_n,frequencies_hz\n"
-            << std::setprecision(10);
-        for (const auto &reference : references)
-          for (std::size_t k = 0; k < reference.contacts.size(); ++k)
-            {
-              out << reference.patch_radius << ',' << reference.n_dofs << ',' << reference.seconds << ',' << k + 1
-                  << ',' << reference.contacts[k].vertex << ','
-                  << along(reference.contacts[k].full, reference.contacts[k].direction) << ',';
-              for (std::size_t i = 0; i < reference.frequencies_hz.size(); ++i)
-                out << (i ? ";" : "") << reference.frequencies_hz[i];
-              out << '\n';
-            }
-      });
-    }
-
-    void write_rows() const
-    {
-      write_file_atomically(output_directory + "/study.csv", [&](std::ostream &out) {
-        out << "point,mesh,degree,coarse_size,fine_size,patch_radius,eigensolver,r_rule,modes,n_dofs,candidates,"
-               "felt_error_modal,felt_error_corrected,felt_error_modal_3x3,felt_error_corrected_3x3,"
-               "truncation_error,correction_residual,display_error_modal,frequency_error_first,frequency_error_max,"
-               "frequencies_compared,meshing_s,assembly_s,eigensolve_s,static_correction_s,validation_s,offline_total_s,"
-               "correction_ms_per_candidate,mrt_bytes,tick_p50_ns,tick_p99_ns,corrected_tick_p50_ns,"
-               "corrected_tick_p99_ns,display_ms,display_vertices,corrected_felt_compliance_m_per_n\n"
-            << std::setprecision(8);
-        for (const auto &row : rows)
-          {
-            const auto &p = row.point;
-            out << p.label() << ',' << p.mesh << ',' << p.degree << ',' << p.coarse_size << ',' << p.fine_size << ','
-                << p.patch_radius << ',' << p.eigensolver << ',' << row.r_rule << ',' << row.r << ',' << row.n_dofs
-                << ',' << row.candidates << ',' << row.felt_error_modal << ',' << row.felt_error_corrected << ','
-                << row.felt_error_modal_3x3 << ',' << row.felt_error_corrected_3x3 << ',' << row.truncation_error
-                << ',' << row.correction_residual << ',' << row.display_error_modal << ','
-                << row.frequency_error_first << ',' << row.frequency_error_max << ',' << row.frequencies_compared;
-            for (const auto phase : {"meshing", "assembly", "eigensolve", "static_correction", "validation", "total"})
-              out << ',' << row.seconds.at(phase);
-            out << ',' << row.correction_ms_per_candidate << ',' << row.mrt_bytes << ',' << row.kernel.tick_p50_ns << ','
-                << row.kernel.tick_p99_ns << ',' << row.kernel.corrected_tick_p50_ns << ','
-                << row.kernel.corrected_tick_p99_ns << ',' << row.kernel.display_ms << ','
-                << row.kernel.display_vertices << ',';
-            for (std::size_t k = 0; k < row.corrected_felt_compliance.size(); ++k)
-              out << (k ? ";" : "") << row.corrected_felt_compliance[k];
-            out << '\n';
-          }
-      });
-    }
-
     const StudyParameters         &study;
     const std::string              output_directory;
     const bool                     verbose;
     std::vector<ReferenceSolution> references;
     std::vector<StudyRow>          rows;
   };
-
-  // study_report.py installed beside this program (<prefix>/bin/modal-study finds
-  // <prefix>/share/modal-haptics/scripts), else in the scripts/ folder of the source tree this program
-  // was built from (the build passes both places).
-  fs::path find_report_script()
-  {
-    std::error_code code;
-    const fs::path  exe = fs::read_symlink("/proc/self/exe", code);
-    std::string     tried;
-    for (const fs::path &folder : {code ? fs::path() : exe.parent_path() / MODAL_HAPTICS_SCRIPTS_FROM_BIN,
-                                   fs::path(MODAL_HAPTICS_SCRIPTS_DIR)})
-      {
-        const fs::path script = (folder / "study_report.py").lexically_normal();
-        if (!folder.empty() && fs::is_regular_file(script, code))
-          return script;
-        tried += (tried.empty() ? "" : " nor ") + script.string();
-      }
-    AssertThrow(false, ExcMessage("Cannot find study_report.py: neither " + tried + " exists (use --no-report)."));
-    return {};
-  }
-
-  // scripts/study_report.py: study.md and the plots.
-  int write_report(const std::string &output_directory)
-  {
-    const fs::path script = find_report_script();
-    const std::string        python = "/usr/bin/python3";
-    std::vector<std::string> arguments{python, script.string(), output_directory};
-    std::vector<char *>      argv;
-    for (auto &argument : arguments)
-      argv.push_back(argument.data());
-    argv.push_back(nullptr);
-    pid_t pid = 0;
-    AssertThrow(posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ) == 0,
-                ExcMessage("Cannot start " + python + " for " + script.string() + " (use --no-report)."));
-    int status = 0;
-    waitpid(pid, &status, 0);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
-  }
 } // namespace modal_haptics
 
 int main(int argc, char **argv)

@@ -512,6 +512,29 @@ namespace modal_haptics
       return line.str();
     }
 
+    unsigned int refine_static_solve(const std::function<double()> &refine, const std::string &space_name,
+                                     const double shift_hz)
+    {
+      double previous = std::numeric_limits<double>::infinity();
+      for (unsigned int step = 1;; ++step)
+        {
+          const double worst = refine();
+          if (worst <= 1e-12)
+            return step;
+          // No longer shrinking: the rounding floor (a direct solve of K itself reaches about 1e-9
+          // on a slender part), or no convergence at all.
+          const bool stalled = worst >= 0.5 * previous;
+          AssertThrow((!stalled || worst <= 1e-6) && step < 200,
+                      ExcMessage("Space '" + space_name + "': the static solves do not converge with 'Modes/Shift' = " +
+                                 std::to_string(shift_hz) + " Hz (relative residual " + [&] { std::ostringstream r; r << worst; return r.str(); }() +
+                                 " after " + std::to_string(step) + " refinements): choose a shift of smaller magnitude, "
+                                 "well below the first elastic frequency."));
+          if (stalled)
+            return step;
+          previous = worst;
+        }
+    }
+
     // Display field: modal vs full. The correction field d = full - modal is local; kept only where
     // |d| >= tolerance * max |d| (how it would be stored sparsely), the corrected field misses the
     // dropped part.

@@ -51,44 +51,58 @@ namespace modal_haptics
     assign_subtrees(std::max(1u, threads));
   }
 
-  // Splits the elimination tree of the supernodes into subtrees for the threads, weighed by their
-  // entries of L (what a solve reads). The subtrees of the roots are packed onto the threads
-  // (largest first, each onto the least loaded thread); then, again and again, the heaviest
-  // subtree is cut off its root, which joins the top (solved by one thread, after the subtrees),
-  // and its children's subtrees are packed instead. A solve then costs about top + the most
-  // loaded thread: the cut that minimizes it is kept; cutting stops once the top alone costs
-  // more than that best (a chain-like tree has no parallelism to give).
-  void SupernodalSolve::assign_subtrees(const unsigned int threads)
+  namespace
   {
-    std::vector<Index>  supernode_of_column(n), parent(n_supernodes, -1);
-    std::vector<double> entries(n_supernodes), subtree_entries(n_supernodes);
-    std::vector<std::vector<Index>> children(n_supernodes);
-    std::vector<Index>  candidates; // roots of the subtrees outside the top
-    for (Index s = 0; s < n_supernodes; ++s)
-      for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
-        supernode_of_column[c] = s;
-    for (Index s = 0; s < n_supernodes; ++s)
-      {
-        const Index n_columns = first_column[s + 1] - first_column[s], n_rows = row_start[s + 1] - row_start[s];
-        entries[s] = double(n_rows) * n_columns;
-        total_entries += entries[s];
-        if (n_rows > n_columns)
-          {
-            parent[s] = supernode_of_column[rows[row_start[s] + n_columns]];
-            children[parent[s]].push_back(s);
-          }
-        else
-          candidates.push_back(s);
-      }
-    // A parent comes after its children (elimination tree): one ascending pass sums the subtrees.
-    subtree_entries = entries;
-    for (Index s = 0; s < n_supernodes; ++s)
-      if (parent[s] >= 0)
-        subtree_entries[parent[s]] += subtree_entries[s];
+    using Index = SuiteSparse_long;
 
-    // Packs the subtrees of 'roots' onto the threads (sorting the roots, heaviest first); returns
-    // the largest load, and each root's thread in thread_of when given.
-    const auto pack = [&](std::vector<Index> &roots, std::vector<int> *thread_of) {
+    // The elimination tree of the supernodes, weighed by their entries of L (what a solve reads).
+    struct SupernodeTree
+    {
+      std::vector<Index>              parent;   // -1 at a root
+      std::vector<std::vector<Index>> children;
+      std::vector<double>             entries, subtree_entries;
+      std::vector<Index>              roots;    // ascending
+      double                          total_entries = 0.;
+    };
+
+    SupernodeTree supernode_tree(const Index n, const Index n_supernodes, const Index *first_column,
+                                 const Index *row_start, const Index *rows)
+    {
+      SupernodeTree      tree;
+      std::vector<Index> supernode_of_column(n);
+      tree.parent.assign(n_supernodes, -1);
+      tree.children.resize(n_supernodes);
+      tree.entries.resize(n_supernodes);
+      for (Index s = 0; s < n_supernodes; ++s)
+        for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+          supernode_of_column[c] = s;
+      for (Index s = 0; s < n_supernodes; ++s)
+        {
+          const Index n_columns = first_column[s + 1] - first_column[s], n_rows = row_start[s + 1] - row_start[s];
+          tree.entries[s] = double(n_rows) * n_columns;
+          tree.total_entries += tree.entries[s];
+          if (n_rows > n_columns)
+            {
+              tree.parent[s] = supernode_of_column[rows[row_start[s] + n_columns]];
+              tree.children[tree.parent[s]].push_back(s);
+            }
+          else
+            tree.roots.push_back(s);
+        }
+      // A parent comes after its children (elimination tree): one ascending pass sums the subtrees.
+      tree.subtree_entries = tree.entries;
+      for (Index s = 0; s < n_supernodes; ++s)
+        if (tree.parent[s] >= 0)
+          tree.subtree_entries[tree.parent[s]] += tree.subtree_entries[s];
+      return tree;
+    }
+
+    // Packs the subtrees of 'roots' onto the threads (sorting the roots, heaviest first, each onto
+    // the least loaded thread); returns the largest load, and each root's thread in thread_of when given.
+    double pack_subtrees(const SupernodeTree &tree, const unsigned int threads, std::vector<Index> &roots,
+                         std::vector<int> *thread_of)
+    {
+      const auto &subtree_entries = tree.subtree_entries;
       std::sort(roots.begin(), roots.end(),
                 [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; });
       std::vector<double> load(threads, 0.);
@@ -100,43 +114,75 @@ namespace modal_haptics
             (*thread_of)[s] = int(lightest);
         }
       return *std::max_element(load.begin(), load.end());
-    };
-    std::vector<Index> cuts; // the supernodes cut, in order
-    std::size_t        best_n_cuts = 0;
-    double             top = 0., best_cost = pack(candidates, nullptr);
-    while (threads > 1 && !candidates.empty() && !children[candidates.front()].empty() && top < best_cost)
-      {
-        const Index heaviest = candidates.front();
-        candidates.erase(candidates.begin());
-        candidates.insert(candidates.end(), children[heaviest].begin(), children[heaviest].end());
-        cuts.push_back(heaviest);
-        top += entries[heaviest];
-        const double cost = top + pack(candidates, nullptr);
-        if (cost < best_cost)
-          {
-            best_cost   = cost;
-            best_n_cuts = cuts.size();
-          }
-      }
+    }
 
-    // The best cut again: the top, the roots of the subtrees and their threads.
+    // The top of the tree: again and again the heaviest subtree is cut off its root, which joins
+    // the top, and its children's subtrees are packed instead; the cut that minimizes top + the most
+    // loaded thread is kept. Cutting stops once the top alone costs more than that best (a
+    // chain-like tree has no parallelism to give). Returns the supernodes of the top, in cut order.
+    std::vector<Index> best_top(const SupernodeTree &tree, const unsigned int threads)
+    {
+      std::vector<Index> candidates = tree.roots; // roots of the subtrees outside the top
+      std::vector<Index> cuts;                    // the supernodes cut, in order
+      std::size_t        best_n_cuts = 0;
+      double             top = 0., best_cost = pack_subtrees(tree, threads, candidates, nullptr);
+      while (threads > 1 && !candidates.empty() && !tree.children[candidates.front()].empty() && top < best_cost)
+        {
+          const Index heaviest = candidates.front();
+          candidates.erase(candidates.begin());
+          candidates.insert(candidates.end(), tree.children[heaviest].begin(), tree.children[heaviest].end());
+          cuts.push_back(heaviest);
+          top += tree.entries[heaviest];
+          const double cost = top + pack_subtrees(tree, threads, candidates, nullptr);
+          if (cost < best_cost)
+            {
+              best_cost   = cost;
+              best_n_cuts = cuts.size();
+            }
+        }
+      cuts.resize(best_n_cuts);
+      return cuts;
+    }
+
+    // The thread of every supernode outside the top: the roots of the subtrees below the top are
+    // packed onto the threads, every other supernode goes with its subtree's root. Returns the most
+    // loaded thread's entries.
+    double assign_threads(const SupernodeTree &tree, const unsigned int threads, const std::vector<bool> &in_top,
+                          std::vector<int> &thread_of)
+    {
+      const Index        n_supernodes = tree.parent.size();
+      std::vector<Index> roots;
+      for (Index s = 0; s < n_supernodes; ++s)
+        if (!in_top[s] && (tree.parent[s] < 0 || in_top[tree.parent[s]]))
+          roots.push_back(s);
+      thread_of.assign(n_supernodes, -1);
+      const double largest = pack_subtrees(tree, threads, roots, &thread_of);
+      for (Index s = n_supernodes - 1; s >= 0; --s)
+        if (!in_top[s] && thread_of[s] < 0)
+          thread_of[s] = thread_of[tree.parent[s]];
+      return largest;
+    }
+  } // namespace
+
+  // Splits the elimination tree of the supernodes into subtrees for the threads, weighed by their
+  // entries of L (what a solve reads). The subtrees of the roots are packed onto the threads
+  // (largest first, each onto the least loaded thread); then, again and again, the heaviest
+  // subtree is cut off its root, which joins the top (solved by one thread, after the subtrees),
+  // and its children's subtrees are packed instead. A solve then costs about top + the most
+  // loaded thread: the cut that minimizes it is kept (best_top).
+  void SupernodalSolve::assign_subtrees(const unsigned int threads)
+  {
+    const SupernodeTree tree = supernode_tree(n, n_supernodes, first_column, row_start, rows);
+    total_entries            = tree.total_entries;
     std::vector<bool> in_top(n_supernodes, false);
-    for (std::size_t i = 0; i < best_n_cuts; ++i)
+    for (const Index s : best_top(tree, threads))
       {
-        in_top[cuts[i]] = true;
-        top_entries += entries[cuts[i]];
+        in_top[s] = true;
+        top_entries += tree.entries[s];
       }
-    std::vector<Index> roots;
-    for (Index s = 0; s < n_supernodes; ++s)
-      if (!in_top[s] && (parent[s] < 0 || in_top[parent[s]]))
-        roots.push_back(s);
-    std::vector<int> thread_of(n_supernodes, -1);
-    largest_thread_entries = pack(roots, &thread_of);
+    std::vector<int> thread_of;
+    largest_thread_entries = assign_threads(tree, threads, in_top, thread_of);
 
-    // Every other supernode outside the top belongs to the thread of its subtree's root.
-    for (Index s = n_supernodes - 1; s >= 0; --s)
-      if (!in_top[s] && thread_of[s] < 0)
-        thread_of[s] = thread_of[parent[s]];
     subtrees_of_thread.assign(threads, {});
     top_position.assign(n, -1);
     for (Index s = 0; s < n_supernodes; ++s)

@@ -1,0 +1,114 @@
+// modal-study's records and its parts that need no deal.II. What a study point is and what it
+// measures (the rows of study.csv, the references of reference.csv); the real-time kernel's cost
+// on a basis file (study_kernel_cost.cc); the study's outputs (study_output.cc: the two tables, then
+// study.md and the plots by scripts/study_report.py). The sweep itself, which needs the precompute,
+// is modal_study.cc.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  // One run of the pipeline: which mesh, which discretization, which contact and eigensolver.
+  struct PointSettings
+  {
+    std::string  mesh; // "graded", "uniform" or "reference"
+    unsigned int degree = 2;
+    double       coarse_size = 0., fine_size = 0., patch_radius = 0.; // [geometry units]
+    std::string  eigensolver = "block-krylov";
+    unsigned int modes = 0;
+
+    std::string label() const
+    {
+      std::ostringstream name;
+      name << mesh << "_p" << degree << "_c" << coarse_size << "_f" << fine_size << "_rho" << patch_radius << "_"
+           << eigensolver;
+      return name.str();
+    }
+  };
+
+  using Compliance = std::array<double, 9>; // 3 x 3 row-major [m/N]
+
+  inline double along(const Compliance &G, const std::array<double, 3> &n)
+  {
+    double value = 0.;
+    for (unsigned int i = 0; i < 3; ++i)
+      for (unsigned int j = 0; j < 3; ++j)
+        value += n[i] * G[3 * i + j] * n[j];
+    return value;
+  }
+
+  inline double frobenius_distance(const Compliance &A, const Compliance &B)
+  {
+    double d = 0.;
+    for (unsigned int k = 0; k < 9; ++k)
+      d += (A[k] - B[k]) * (A[k] - B[k]);
+    return std::sqrt(d);
+  }
+
+  inline double frobenius_norm(const Compliance &A) { return frobenius_distance(A, Compliance{}); }
+
+  // A sampled contact in one point's run: its display vertex, push direction and compliances.
+  struct Contact
+  {
+    unsigned int          vertex = 0, candidate = 0;
+    std::array<double, 3> direction{}; // the study's push direction
+    Compliance            full{};     // W^T K^-1 W of this point's mesh
+    Compliance            corrected{}; // B Lambda^-1 B^T + C_v: what the kernel renders at the candidate
+  };
+
+  // What the real-time kernel costs on one basis file: admittance ticks of one HIP pressing with
+  // 1 N along the push direction on `vertex`, and a whole display reconstruction.
+  struct KernelCost
+  {
+    double tick_p50_ns = 0., tick_p99_ns = 0., corrected_tick_p50_ns = 0., corrected_tick_p99_ns = 0.;
+    double display_ms = 0.;
+    unsigned int display_vertices = 0;
+  };
+
+  struct ReferenceSolution
+  {
+    double                  patch_radius = 0.;
+    unsigned int            n_dofs = 0;
+    double                  seconds = 0.;
+    std::vector<Contact>    contacts;
+    std::vector<double>     frequencies_hz;
+  };
+
+  // One row of study.csv.
+  struct StudyRow
+  {
+    PointSettings point;
+    std::string   r_rule; // "count" or the cut-off rule that chose r
+    unsigned int  r = 0, n_dofs = 0, candidates = 0;
+    double felt_error_modal = 0., felt_error_corrected = 0.;         // felt compliance d^T G d vs reference (max over contacts)
+    double felt_error_modal_3x3 = 0., felt_error_corrected_3x3 = 0.; // Frobenius, relative
+    double truncation_error = 0.;    // felt compliance, modal vs this mesh's full FE (max over contacts)
+    double correction_residual = 0.; // |B Lambda^-1 B^T + C_v - W^T K^-1 W| / |W^T K^-1 W|
+    double display_error_modal = 0.; // l2 display field, modal vs this mesh's full FE (max over cases)
+    double frequency_error_first = 0., frequency_error_max = 0.;
+    unsigned int frequencies_compared = 0;
+    std::map<std::string, double> seconds; // meshing, assembly, eigensolve, static_correction, validation, total
+    double correction_ms_per_candidate = 0.;
+    std::uintmax_t mrt_bytes = 0;
+    KernelCost kernel;
+    std::vector<double> corrected_felt_compliance; // per contact [m/N]
+  };
+
+  // study_kernel_cost.cc: the kernel loading `basis_file` and pressing on `contact` for `ticks`
+  // admittance ticks, without and with the static correction.
+  KernelCost measure_kernel(const std::string &basis_file, const Contact &contact, unsigned int ticks);
+
+  // study_output.cc: <output_directory>/reference.csv and study.csv, each written atomically.
+  void write_reference_table(const std::string &output_directory, const std::vector<ReferenceSolution> &references);
+  void write_study_table(const std::string &output_directory, const std::vector<StudyRow> &rows);
+
+  // study_output.cc: scripts/study_report.py on the tables (study.md and the plots); its exit status.
+  int write_report(const std::string &output_directory);
+} // namespace modal_haptics
