@@ -6,7 +6,9 @@
 #include "gmsh_tools.h"
 #include "scene_mesher.h"
 
+#include <array>
 #include <cstddef>
+#include <functional>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -31,6 +33,21 @@ namespace modal_haptics::meshing::detail
   MeshStatistics tet_statistics(const PlainMesh &mesh, double min_quality, const std::string &what);
   bool           any_node_inside(const PlainMesh &mesh, const VolumeOfInterest &voi);
   std::string    not_intersecting_message(const VolumeOfInterest &voi, const std::string &why);
+
+  // ---- geometry_queries.cc (the loaded gmsh model) ------------------------------------------------
+  double                part_volume(); // [unit^3] from OpenCASCADE; 0 for gmsh's built-in kernel
+  std::array<Point3, 2> bounding_box(int dim = -1, int tag = -1); // the part's, or an entity's [unit]
+  double growth_to_catch(const std::array<Point3, 2> &box, const std::array<Point3, 2> &face);
+  double face_area(int face);  // from OpenCASCADE
+  double mesh_area(int face);  // from a .msh's triangles
+  double box_gap(const std::array<Point3, 2> &region, const std::array<Point3, 2> &box); // <= 0: they meet
+  // The boundary faces whose bounding box b has gap(b) <= 0; with none, 'why' names the nearest.
+  SelectionReport faces_meeting(const std::string &name, const std::function<double(const std::array<Point3, 2> &)> &gap,
+                                std::string &why);
+  // A named physical group of dimension 'dim' (refused when missing, listing those that exist).
+  SelectionReport inspect_group(InputKind kind, const std::string &geometry, int dim, const std::string &name);
+  // A support's box or plane: refused when no boundary face's bounding box meets it.
+  SelectionReport inspect_region(const RegionSelection &selection, const std::string &geometry);
 
   // ---- mesh_cache.cc -----------------------------------------------------------------------------
   // FNV-1a, 64 bit: enough to tell whether the inputs of a mesh changed (not a security hash).

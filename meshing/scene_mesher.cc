@@ -123,10 +123,10 @@ namespace modal_haptics::meshing
                 report.volumes_of_interest.push_back(inspect_voi(voi));
               }
             for (const auto &region : regions)
-              report.regions.push_back(inspect_region(region));
+              report.regions.push_back(inspect_region(region, settings.geometry));
           });
         for (const auto &[dim, name] : named_groups)
-          report.named_groups.push_back(inspect_group(dim, name));
+          report.named_groups.push_back(inspect_group(kind, settings.geometry, dim, name));
         return report;
       }
 
@@ -227,28 +227,6 @@ namespace modal_haptics::meshing
 
       // --- inspecting the geometry without meshing ---------------------------------------------------
 
-      // The part's volume [unit^3] from OpenCASCADE; 0 for gmsh's built-in kernel, which has none.
-      static double part_volume()
-      {
-        DimTags volumes;
-        gmsh::model::getEntities(volumes, 3);
-        double total = 0.;
-        try
-          {
-            for (const auto &[dim, tag] : volumes)
-              {
-                double volume = 0.;
-                gmsh::model::occ::getMass(dim, tag, volume);
-                total += volume;
-              }
-          }
-        catch (...)
-          {
-            return 0.;
-          }
-        return total;
-      }
-
       // A .msh input: its bounding box and volume from its tets, its groups from $PhysicalNames.
       void inspect_mesh_file(GeometryReport &report)
       {
@@ -297,156 +275,6 @@ namespace modal_haptics::meshing
         return caught;
       }
 
-      // A support's box or plane (supports are resolved on each mesh; here only whether it can catch
-      // anything): the boundary faces whose bounding box meets it, refused when there is none.
-      SelectionReport inspect_region(const RegionSelection &selection) const
-      {
-        const auto   part      = bounding_box();
-        double       diagonal2 = 0.;
-        for (int i = 0; i < 3; ++i)
-          diagonal2 += std::pow(part[1][i] - part[0][i], 2);
-        const double tolerance = 1e-5 * std::sqrt(diagonal2);
-        const auto   gap       = [&](const std::array<Point3, 2> &f) {
-          if (selection.kind == RegionSelection::Kind::box)
-            return box_gap({selection.lower, selection.upper}, f) - tolerance;
-          double n2 = 0., lowest = std::numeric_limits<double>::max(), highest = -lowest;
-          for (int i = 0; i < 3; ++i)
-            n2 += selection.normal[i] * selection.normal[i];
-          for (int corner = 0; corner < 8; ++corner)
-            {
-              double distance = 0.;
-              for (int i = 0; i < 3; ++i)
-                distance += (((corner >> i & 1) ? f[1][i] : f[0][i]) - selection.point[i]) * selection.normal[i];
-              distance /= std::sqrt(n2);
-              lowest  = std::min(lowest, distance);
-              highest = std::max(highest, distance);
-            }
-          return (lowest <= 0. && highest >= 0. ? 0. : std::min(std::abs(lowest), std::abs(highest))) - tolerance;
-        };
-        std::string why;
-        auto        caught = faces_meeting(selection.label, gap, why);
-        if (caught.n_faces == 0)
-          throw MeshingError(selection.label + " of geometry '" + settings.geometry + "' catches no boundary face: " +
-                             why + " (units of the geometry)");
-        return caught;
-      }
-
-      // How far apart two boxes are (<= 0: they meet).
-      static double box_gap(const std::array<Point3, 2> &region, const std::array<Point3, 2> &f)
-      {
-        double gap = -std::numeric_limits<double>::max();
-        for (int i = 0; i < 3; ++i)
-          gap = std::max({gap, f[0][i] - region[1][i], region[0][i] - f[1][i]});
-        return gap;
-      }
-
-      // The boundary faces whose bounding box is within gap(box) <= 0; when there is none, 'why'
-      // names the nearest.
-      SelectionReport faces_meeting(const std::string &name, const std::function<double(const std::array<Point3, 2> &)> &gap,
-                                    std::string &why) const
-      {
-        SelectionReport caught;
-        caught.name        = name;
-        int        nearest = 0;
-        double     nearest_gap = std::numeric_limits<double>::max();
-        const bool occ     = part_volume() > 0.; // areas from OpenCASCADE, none for gmsh's built-in kernel
-        for (const int face : boundary_faces())
-          {
-            const double face_gap = gap(bounding_box(2, face));
-            if (face_gap <= 0.)
-              {
-                ++caught.n_faces;
-                caught.area += occ ? face_area(face) : 0.;
-              }
-            else if (face_gap < nearest_gap)
-              {
-                nearest_gap = face_gap;
-                nearest     = face;
-              }
-          }
-        if (caught.n_faces == 0)
-          {
-            std::ostringstream text;
-            text << "no boundary face's bounding box meets it";
-            if (nearest > 0)
-              {
-                const auto f = bounding_box(2, nearest);
-                text << "; the nearest is face " << nearest << " with bounding box " << readable_point(f[0]) << "-"
-                     << readable_point(f[1]) << ", " << nearest_gap << " away";
-              }
-            why = text.str();
-          }
-        return caught;
-      }
-
-      // The area of a mesh surface entity's triangles (a .msh input).
-      static double mesh_area(const int face)
-      {
-        std::vector<std::size_t> elements, element_nodes, node_tags;
-        std::vector<double>      coordinates, parametric;
-        gmsh::model::mesh::getElementsByType(2, elements, element_nodes, face);
-        gmsh::model::mesh::getNodes(node_tags, coordinates, parametric, 2, face, true, false);
-        std::unordered_map<std::size_t, std::size_t> position;
-        for (std::size_t i = 0; i < node_tags.size(); ++i)
-          position[node_tags[i]] = 3 * i;
-        double area = 0.;
-        for (std::size_t t = 0; t + 2 < element_nodes.size(); t += 3)
-          {
-            const double *a = &coordinates[position[element_nodes[t]]], *b = &coordinates[position[element_nodes[t + 1]]],
-                         *c = &coordinates[position[element_nodes[t + 2]]];
-            const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-            area += 0.5 * std::sqrt(std::pow(u[1] * v[2] - u[2] * v[1], 2) + std::pow(u[2] * v[0] - u[0] * v[2], 2) +
-                                    std::pow(u[0] * v[1] - u[1] * v[0], 2));
-          }
-        return area;
-      }
-
-      // A named physical group of the model (or of the .msh file): its entities, a surface's area.
-      SelectionReport inspect_group(const int group_dim, const std::string &name)
-      {
-        static const char *const kinds[3] = {"point", "curve", "surface"};
-        const std::string        kind_name = kinds[group_dim];
-        SelectionReport          caught;
-        caught.name   = "Group '" + name + "' (a physical " + kind_name + ")";
-        caught.entity = group_dim == 2 ? "face" : kind_name;
-        std::vector<std::string> known;
-        call_gmsh(context("groups"), [&] {
-          DimTags groups;
-          gmsh::model::getPhysicalGroups(groups, group_dim);
-          // Areas from OpenCASCADE, from a .msh's triangles; none for gmsh's built-in kernel.
-          const bool occ = kind != InputKind::msh && part_volume() > 0.;
-          for (const auto &[dim, tag] : groups)
-            {
-              std::string group_name;
-              gmsh::model::getPhysicalName(dim, tag, group_name);
-              known.push_back(group_name);
-              if (group_name != name)
-                continue;
-              std::vector<int> entities;
-              gmsh::model::getEntitiesForPhysicalGroup(dim, tag, entities);
-              caught.n_faces = entities.size();
-              if (dim == 2)
-                for (const int face : entities)
-                  caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
-            }
-        });
-        if (caught.n_faces == 0)
-          {
-            std::string list;
-            for (const auto &k : known)
-              list += (list.empty() ? "'" : ", '") + k + "'";
-            throw MeshingError("Group '" + name + "' ('Geometry/Supports' or 'Clamp groups') is not a physical " +
-                               kind_name + " of geometry '" + settings.geometry + "' (its physical " + kind_name +
-                               "s: " + (list.empty() ? "none" : list) +
-                               (kind == InputKind::cad && group_dim == 2 ?
-                                  "; STEP/IGES/BREP files get 'clamp' from 'Clamp boxes' and 'free' for the rest; "
-                                  "select their faces with box, plane or normal supports" :
-                                  "") +
-                               ")");
-          }
-        return caught;
-      }
-
       // --- the gmsh model -------------------------------------------------------------------------
 
       void load_model()
@@ -492,30 +320,6 @@ namespace modal_haptics::meshing
         gmsh::model::occ::synchronize();
         add_clamp_from_boxes();
         complete_physical_groups();
-      }
-
-      // The part's bounding box [unit] (OpenCASCADE pads it by about 1e-7).
-      static std::array<Point3, 2> bounding_box(const int dim = -1, const int tag = -1)
-      {
-        std::array<Point3, 2> box{};
-        gmsh::model::getBoundingBox(dim, tag, box[0][0], box[0][1], box[0][2], box[1][0], box[1][1], box[1][2]);
-        return box;
-      }
-
-      // How far a selection box must be widened to catch a whole face.
-      static double growth_to_catch(const std::array<Point3, 2> &box, const std::array<Point3, 2> &face)
-      {
-        double growth = 0.;
-        for (int i = 0; i < 3; ++i)
-          growth = std::max({growth, box[0][i] - face[0][i], face[1][i] - box[1][i]});
-        return growth;
-      }
-
-      static double face_area(const int face)
-      {
-        double area = 0.;
-        gmsh::model::occ::getMass(2, face, area);
-        return area;
       }
 
       // Each box's boundary faces form the surface "clamp"; a box that catches none is refused,
@@ -911,89 +715,5 @@ namespace modal_haptics::meshing
     SceneMesher  mesher(settings, volumes_of_interest, "", false, true);
     GmshSession  session(false);
     return mesher.inspect(named_groups, regions, length_unit);
-  }
-
-  std::map<int, std::map<std::string, int>> read_physical_names(const std::string &msh_file)
-  {
-    std::ifstream input(msh_file);
-    if (!input)
-      throw MeshingError("mesh file '" + msh_file + "' does not exist or cannot be read");
-    std::map<int, std::map<std::string, int>> names;
-    std::string                               line;
-    while (std::getline(input, line) && line.rfind("$PhysicalNames", 0) != 0)
-      ;
-    if (!input)
-      return names; // no names in this file
-    std::size_t count = 0;
-    input >> count;
-    std::getline(input, line);
-    for (std::size_t i = 0; i < count && std::getline(input, line); ++i)
-      {
-        std::istringstream entry(line);
-        int                dim = -1, tag = 0;
-        entry >> dim >> tag;
-        const auto first = line.find('"'), last = line.rfind('"');
-        if (!entry || first == std::string::npos || last <= first)
-          throw MeshingError("mesh file '" + msh_file + "': malformed $PhysicalNames line '" + line + "'");
-        names[dim][line.substr(first + 1, last - first - 1)] = tag;
-      }
-    return names;
-  }
-
-  MeshStatistics check_mesh_quality(const std::string &msh_file, const double min_quality)
-  {
-    require_readable(msh_file, "mesh file");
-    GmshSession session(false);
-    PlainMesh   mesh;
-    call_gmsh("reading mesh file '" + msh_file + "'", [&] {
-      gmsh::clear();
-      gmsh::open(msh_file);
-      mesh = read_current_mesh(true, false);
-    });
-    return tet_statistics(mesh, min_quality, "mesh file '" + msh_file + "'");
-  }
-
-  GroupMesh read_physical_group(const std::string &msh_file, const int dim, const std::string &name)
-  {
-    require_readable(msh_file, "mesh file");
-    GmshSession session(false);
-    GroupMesh   group;
-    call_gmsh("reading group '" + name + "' of mesh file '" + msh_file + "'", [&] {
-      gmsh::clear();
-      gmsh::open(msh_file);
-      std::string known;
-      for (const auto &[tag, group_name] : physical_groups(dim))
-        {
-          known += (known.empty() ? "'" : ", '") + group_name + "'";
-          if (group_name != name)
-            continue;
-          std::vector<std::size_t> node_tags;
-          std::vector<double>      coordinates;
-          gmsh::model::mesh::getNodesForPhysicalGroup(dim, tag, node_tags, coordinates);
-          std::map<std::size_t, unsigned int> index_of_tag;
-          for (std::size_t i = 0; i < node_tags.size(); ++i)
-            {
-              index_of_tag[node_tags[i]] = static_cast<unsigned int>(i);
-              group.nodes.push_back({coordinates[3 * i], coordinates[3 * i + 1], coordinates[3 * i + 2]});
-            }
-          std::vector<int> entities;
-          gmsh::model::getEntitiesForPhysicalGroup(dim, tag, entities);
-          for (const int entity : entities)
-            {
-              std::vector<int>                      types;
-              std::vector<std::vector<std::size_t>> element_tags, element_nodes;
-              gmsh::model::mesh::getElements(types, element_tags, element_nodes, dim, entity);
-              for (std::size_t t = 0; t < types.size(); ++t)
-                if (types[t] == 1) // 2-node line
-                  for (std::size_t e = 0; e + 1 < element_nodes[t].size(); e += 2)
-                    group.segments.push_back({index_of_tag.at(element_nodes[t][e]), index_of_tag.at(element_nodes[t][e + 1])});
-            }
-          return;
-        }
-      throw MeshingError("mesh file '" + msh_file + "' has no physical " + (dim == 1 ? "curve" : "point") + " '" +
-                         name + "' (its physical " + (dim == 1 ? "curves" : "points") + ": " +
-                         (known.empty() ? "none" : known) + ")");
-    });
-    return group;
   }
 } // namespace modal_haptics::meshing
