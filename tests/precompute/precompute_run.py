@@ -21,6 +21,22 @@ def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
         return json.load(f), done.stderr
 
 
+class Checks:
+    """Each check prints its value against its limit; ok is False once one fails."""
+
+    def __init__(self):
+        self.ok = True
+
+    def below(self, name, value, limit):
+        passed = value <= limit
+        self.ok &= passed
+        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
+
+    def relative(self, name, value, reference, tolerance, unit="Hz"):
+        """|value - reference| / |reference| <= tolerance, both printed in the name."""
+        self.below(f"{name}: {value:.3f} {unit} vs {reference:.3f}", abs(value - reference) / abs(reference), tolerance)
+
+
 def binary_and_fresh_workdir(mpirun_help=None):
     """The arguments of a precompute test: --binary and --workdir, the latter emptied and created
     (and an optional --mpirun, when mpirun_help says what the test does with it)."""

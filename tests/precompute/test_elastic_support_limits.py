@@ -23,7 +23,7 @@ import sys
 import numpy as np
 import scipy.linalg
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU, RHO = 2e11, 0.3, 7850.0
@@ -66,16 +66,6 @@ subsection Output
   set VTU modes      = 0
 end
 """
-
-
-class Checks:
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
 
 
 def frequencies(binary, workdir, name, *scene_args, **scene_kwargs):

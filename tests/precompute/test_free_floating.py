@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse.linalg
 
 import mrt_reader
-from precompute_run import run_precompute
+from precompute_run import Checks, run_precompute
 from test_cantilever import timoshenko_frequencies
 
 # The reader of modal-precompute's exported K and M (Output/Export matrices), shared with the benchmark.
@@ -40,19 +40,6 @@ from scipy_peer import read_csr  # noqa: E402
 E, NU, RHO = 2e11, 0.3, 7850.0
 L, A_SIDE = 0.2, 0.01
 N_RIGID = 6
-
-
-class Checks:
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:58s} {value:12.3e}  (<= {limit:.0e}) {'ok' if passed else 'FAILED'}")
-
-    def relative(self, name, value, reference, tolerance):
-        self.below(name, abs(value - reference) / abs(reference), tolerance)
 
 
 def check_modes(checks, space, workdir):

@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU, RHO = 2e11, 0.3, 7850.0
@@ -72,19 +72,6 @@ subsection Output
   set VTU modes      = 0
 end
 """
-
-
-class Checks:
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
-
-    def relative(self, name, value, reference, tolerance):
-        self.below(f"{name}: {value:.1f} Hz vs {reference:.1f}", abs(value - reference) / reference, tolerance)
 
 
 def run(binary, folder, supports, coarse_size):

@@ -34,26 +34,13 @@ import sys
 
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU, RHO, A = 2e11, 0.3, 8000.0, 10.0
 FLEXURAL = [45.897, 109.44, 109.44, 167.89, 206.19, 206.19]  # Hz, FV52 modes 4-7, 9, 10
 IN_PLANE = 193.59                                              # Hz, FV52 mode 8
 C_SHEAR = math.sqrt(E / (2 * (1 + NU)) / RHO)
-
-
-class Checks:
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
-
-    def relative(self, name, value, reference, tolerance):
-        self.below(f"{name}: {value:.3f} Hz vs {reference:.3f}", abs(value - reference) / reference, tolerance)
 
 
 def edge_support(checks, space):

@@ -24,7 +24,7 @@ import sys
 
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 LX, LY, LZ = 20.0, 20.0, 10.0   # mm: the half's extent (the whole is x in [-LX, LX])
 H = 2.5                         # mm: the cubes' edge
@@ -140,16 +140,6 @@ subsection Output
   set VTU modes      = 0
 end
 """
-
-
-class Checks:
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
 
 
 def main():
