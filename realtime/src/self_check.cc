@@ -35,9 +35,44 @@ namespace modalrt
       return def;
     }
 
+    // The rigid motion (translation t, rotation w about the centre of mass) that rigid-body mode i is:
+    // the least-squares fit of t + w x (x_v - c) to the mode at the display vertices (exact but for
+    // the stored precision).
+    void rigid_motion_of_mode(const modalrt_basis &basis, const ModalSpace &s, std::uint32_t i, double motion[6])
+    {
+      const std::uint32_t r = s.mode_count;
+      double              normal[36] = {};
+      std::fill_n(motion, 6, 0.0);
+      for (std::uint32_t v = 0; v < basis.vertex_count; ++v)
+        {
+          double d[3];
+          for (int c = 0; c < 3; ++c)
+            d[c] = basis.vertices[3 * std::size_t(v) + c] - basis.centre_of_mass()[c];
+          // Row c of A_v = [I, -[d]x]: (w x d)_c = -(d x w)_c.
+          const double A[3][6] = {{1, 0, 0, 0, d[2], -d[1]}, {0, 1, 0, -d[2], 0, d[0]}, {0, 0, 1, d[1], -d[0], 0}};
+          for (int c = 0; c < 3; ++c)
+            {
+              const std::size_t at = 3 * std::size_t(r) * v + std::size_t(c) * r + i;
+              const double u = s.display_modes_f64.empty() ? double(s.display_modes_f32[at]) : s.display_modes_f64[at];
+              for (int k = 0; k < 6; ++k)
+                {
+                  motion[k] += A[c][k] * u;
+                  for (int l = 0; l < 6; ++l)
+                    normal[6 * k + l] += A[c][k] * A[c][l];
+                }
+            }
+        }
+      if (!solve_in_place(normal, motion, 6))
+        fail(MODALRT_ERROR_STATE, "the display surface cannot tell the rigid-body modes apart");
+    }
+
     // The frame acceleration under which the rigid-body modes (lambda = 0) of the space feel no net
     // modal force from the force F at a candidate: with the frame's modal force -Gamma a (moving_frame.cc),
-    // Gamma_R a = B_R^T F for the rows R of those modes. Identity frame when the space has none.
+    // Gamma_R a = B_R^T F for the rows R of those modes. A free part's six: solved from the
+    // participation factors. Fewer (supports hold the part partly): the modes are the free motions,
+    // M-orthonormal, and the frame accelerates along them only, a = sum_m motion_m (B_m^T F) (the
+    // constrained system's rigid mass, which Gamma_R holds, is not in the file). Identity frame when
+    // the space has none.
     modalrt_frame_state inertia_relief_frame(const modalrt_basis &basis, const ModalSpace &s, int candidate,
                                              const double force[3])
     {
@@ -48,18 +83,31 @@ namespace modalrt
         ++n_rigid;
       if (n_rigid == 0)
         return frame;
-      if (n_rigid != 6 || candidate < 0 || s.participation.empty())
+      if (candidate < 0 || (n_rigid == 6 && s.participation.empty()))
         fail(MODALRT_ERROR_STATE, cat("a space with ", n_rigid, " rigid-body modes can only be verified at a candidate "
-                                      "with six rigid-body modes and participation factors"));
+                                      "(with participation factors when there are six)"));
       const double *B = &s.candidate_modes[3 * std::size_t(r) * std::size_t(candidate)];
-      double        A[36], body_acceleration[6];
-      for (std::uint32_t i = 0; i < 6; ++i)
+      double        body_acceleration[6] = {};
+      if (n_rigid == 6)
         {
-          body_acceleration[i] = B[i] * force[0] + B[r + i] * force[1] + B[2 * r + i] * force[2];
-          std::copy_n(&s.participation[6 * std::size_t(i)], 6, &A[6 * i]);
+          double A[36];
+          for (std::uint32_t i = 0; i < 6; ++i)
+            {
+              body_acceleration[i] = B[i] * force[0] + B[r + i] * force[1] + B[2 * r + i] * force[2];
+              std::copy_n(&s.participation[6 * std::size_t(i)], 6, &A[6 * i]);
+            }
+          if (!solve_in_place(A, body_acceleration, 6))
+            fail(MODALRT_ERROR_STATE, "the rigid-body modes' participation factors are singular");
         }
-      if (!solve_in_place(A, body_acceleration, 6))
-        fail(MODALRT_ERROR_STATE, "the rigid-body modes' participation factors are singular");
+      else
+        for (std::uint32_t i = 0; i < n_rigid; ++i)
+          {
+            double       motion[6];
+            const double b = B[i] * force[0] + B[r + i] * force[1] + B[2 * r + i] * force[2];
+            rigid_motion_of_mode(basis, s, i, motion);
+            for (int k = 0; k < 6; ++k)
+              body_acceleration[k] += motion[k] * b;
+          }
       // The frame takes its origin's acceleration: a_origin = a_com - alpha x c.
       double alpha_c[3];
       cross3(&body_acceleration[3], basis.centre_of_mass(), alpha_c);
