@@ -219,15 +219,16 @@ namespace modal_haptics
         }
       catch (const ExceptionBase &e)
         {
-          // A free part's rigid-body modes are the shifted inverse's largest eigenvalues, 1 / |shift|:
-          // with a tiny shift they dwarf the elastic ones and the block solver stalls (ARPACK does not).
-          if (supports.free_motions(Point<3>()).motions.empty())
-            throw;
+          // Rigid-body modes (or nearly rigid ones, on soft elastic supports) are the shifted inverse's
+          // largest eigenvalues, about 1 / |shift|: with a tiny shift they dwarf the elastic ones and
+          // the block solver stalls (ARPACK does not).
           std::ostringstream message;
           e.print_info(message);
-          AssertThrow(false, ExcMessage(message.str() + " The part has free rigid-body motions: a shift of larger magnitude "
-                                        "(about a tenth of the first elastic frequency) or 'Modes/Eigensolver = "
-                                        "arpack' converges where a shift close to 0 does not."));
+          const bool free = !supports.free_motions(Point<3>()).motions.empty();
+          AssertThrow(false, ExcMessage(message.str() + (free ? " The part has free rigid-body motions: " :
+                                                                " If the part is nearly free (soft elastic supports): ") +
+                                        "a shift of larger magnitude (about a tenth of the first elastic frequency) or "
+                                        "'Modes/Eigensolver = arpack' converges where a shift close to 0 does not."));
         }
       result.eigensolver_method = scene.modes.block_krylov ?
                                     "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
