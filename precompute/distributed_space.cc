@@ -1,5 +1,7 @@
 #include "distributed_space.h"
 
+#include "amg_eigensolver.h"
+
 #include "space_phases.h"
 
 #include <deal.II/base/exceptions.h>
@@ -125,6 +127,21 @@ namespace modal_haptics
         assemble_system();
       }
       void solve_eigenproblem() override;
+      void finish() override
+      {
+        if (amg)
+          result.factorization = amg->statistics();
+      }
+      std::map<types::global_dof_index, unsigned int> dof_components() const;
+      void parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      void lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      void apply_inverse(DistributedVector &x, const DistributedVector &b)
+      {
+        if (amg)
+          amg->solve(x, b);
+        else
+          inverse->vmult(x, b);
+      }
 
       void read_and_partition_mesh();
       void setup_system();
@@ -143,6 +160,7 @@ namespace modal_haptics
       double                                       shift = 0.; // MUMPS factorizes K - shift M [1/s^2]
       TrilinosWrappers::SparseMatrix               shifted_matrix;
       std::unique_ptr<MumpsInverse>                inverse;
+      std::unique_ptr<AmgShiftedInverse>           amg; // instead of 'inverse' with Eigensolver = lobpcg-amg
       std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
       std::unique_ptr<space_parts::PointLocator>   locator; // in the owned cells
       std::vector<DistributedVector>               modes, ghosted_modes;        // kept, M-orthonormal
@@ -282,12 +300,10 @@ namespace modal_haptics
     // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
     // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
     // runs on different process counts build nearly the same Krylov space.
-    void DistributedSpace::solve_eigenproblem()
+    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
-      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
-      log(std::string("Modes/Eigensolver (") + (scene.modes.block_krylov ? "block-krylov" : "arpack") +
-          ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
-          ") choose the serial solvers; the distributed path uses PARPACK over MUMPS");
+      log("Modes/Eigensolver (" + eigensolver_name(scene.modes.eigensolver) + ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
+          ") choose the serial solvers; the distributed path uses PARPACK over MUMPS (or 'lobpcg-amg')");
       log("factorizing K with MUMPS (Trilinos Amesos_Mumps)");
       if (shift != 0.)
         {
@@ -333,8 +349,6 @@ namespace modal_haptics
       std::vector<unsigned int> order(nev);
       std::iota(order.begin(), order.end(), 0);
       std::sort(order.begin(), order.end(), [&](unsigned a, unsigned b) { return lambda[a].real() < lambda[b].real(); });
-      std::vector<double>            eigenvalues;
-      std::vector<DistributedVector> eigenvectors;
       for (const unsigned int i : order)
         {
           eigenvalues.push_back(lambda[i].real());
@@ -342,6 +356,58 @@ namespace modal_haptics
           vectors[i] /= std::sqrt(mass_matrix.matrix_norm_square(vectors[i]));
           eigenvectors.push_back(std::move(vectors[i]));
         }
+    }
+
+    // LOBPCG + AMG on this backend's Trilinos matrices (amg_eigensolver.h), every process its rows.
+    void DistributedSpace::lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
+    {
+      const auto motions       = rigid_body_motions(Point<3>());
+      const auto dof_component = dof_components();
+      const std::size_t         n_local = owned_dofs.n_elements();
+      std::vector<double>       near_null_space(6 * n_local);
+      std::vector<unsigned int> constrained;
+      bool                      node_blocked = true;
+      for (std::size_t k = 0; k < n_local; ++k)
+        {
+          const auto i = owned_dofs.nth_index_in_set(k);
+          for (unsigned int j = 0; j < 6; ++j)
+            near_null_space[j * n_local + k] = motions[j][i];
+          if (constraints.is_constrained(i))
+            constrained.push_back(k);
+          node_blocked = node_blocked && dof_component.at(i) == i % 3;
+        }
+      node_blocked = Utilities::MPI::min(int(node_blocked), comm) == 1;
+      amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
+                                                constrained, node_blocked, scene.element_degree > 1);
+      log("AMG (ML, rigid-body near-null space) set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
+          " modes, distributed");
+      Timer timer;
+      EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                [this](const std::string &line) { log(line); });
+      result.eigensolve_iteration_seconds = timer.wall_time();
+      result.n_operator_applications      = solution.n_operator_applications;
+      result.eigensolver_method           = "LOBPCG (Trilinos Anasazi) + AMG (Trilinos ML), no factorization, distributed";
+      eigenvalues = solution.eigenvalues;
+      for (const auto &local : solution.eigenvectors)
+        {
+          DistributedVector phi(owned_dofs, comm);
+          for (std::size_t k = 0; k < n_local; ++k)
+            phi[owned_dofs.nth_index_in_set(k)] = local[k];
+          phi.compress(VectorOperation::insert);
+          eigenvectors.push_back(std::move(phi));
+        }
+    }
+
+    void DistributedSpace::solve_eigenproblem()
+    {
+      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      std::vector<double>            eigenvalues;
+      std::vector<DistributedVector> eigenvectors;
+      if (scene.modes.eigensolver == EigensolverKind::lobpcg_amg)
+        lobpcg_amg_modes(eigenvalues, eigenvectors);
+      else
+        parpack_modes(eigenvalues, eigenvectors);
+
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
       // mode below the shift says that the shift lies above the first eigenfrequency.
       AssertThrow(eigenvalues.front() > shift,
@@ -449,7 +515,7 @@ namespace modal_haptics
       DistributedVector x(owned_dofs, comm);
       if (shift == 0.)
         {
-          inverse->vmult(x, u);
+          apply_inverse(x, u);
           u.swap(x);
           return;
         }
@@ -459,7 +525,7 @@ namespace modal_haptics
       residual -= f;
       const unsigned int steps = space_parts::refine_static_solve(
         [&] {
-          inverse->vmult(correction, residual);
+          apply_inverse(correction, residual);
           x -= correction;
           stiffness_matrix.vmult(residual, x);
           residual -= f;
@@ -524,11 +590,9 @@ namespace modal_haptics
         }
     }
 
-    // The rigid-body motions about 'centre' at this process's DoFs.
-    std::array<DistributedVector, 6> DistributedSpace::rigid_body_motions(const Point<3> &centre) const
+    // The displacement component of the DoFs of this process's cells.
+    std::map<types::global_dof_index, unsigned int> DistributedSpace::dof_components() const
     {
-      std::map<types::global_dof_index, Point<3>> support;
-      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
       std::map<types::global_dof_index, unsigned int> component;
       std::vector<types::global_dof_index>            dofs(fe.n_dofs_per_cell());
       for (const auto &cell : owned_cells)
@@ -537,6 +601,15 @@ namespace modal_haptics
           for (unsigned int i = 0; i < dofs.size(); ++i)
             component[dofs[i]] = fe.system_to_component_index(i).first;
         }
+      return component;
+    }
+
+    // The rigid-body motions about 'centre' at this process's DoFs.
+    std::array<DistributedVector, 6> DistributedSpace::rigid_body_motions(const Point<3> &centre) const
+    {
+      std::map<types::global_dof_index, Point<3>> support;
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
+      const auto component = dof_components();
       std::array<DistributedVector, 6> motions;
       for (unsigned int k = 0; k < 6; ++k)
         {

@@ -11,6 +11,8 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <fstream>
+#include <limits>
 #include <string>
 
 namespace modal_haptics
@@ -61,9 +63,12 @@ namespace modal_haptics
     class CholmodFactorization : public Factorization
     {
     public:
+      // Analyzes A = K - shift M; factorizes it when the factor the analysis predicts takes at most
+      // memory_limit bytes (fits() tells).
       CholmodFactorization(const dealii::SparseMatrix<double> &K,
                            const dealii::SparseMatrix<double> *M,
-                           const double shift)
+                           const double shift,
+                           const double memory_limit)
       {
         cholmod_l_start(&common);
         // One ordering, METIS nested dissection: the fill-reducing ordering that pays on 3D meshes.
@@ -80,9 +85,12 @@ namespace modal_haptics
         const int  analysis_status = common.status;
         const bool analyzed        = factor != nullptr && analysis_status == CHOLMOD_OK;
         stats.analyze_seconds      = timer.wall_time();
+        // The supernodal analysis sizes the factor's values (xsize doubles) before any is computed.
+        stats.predicted_factor_bytes = analyzed ? 8. * double(factor->xsize) : 0.;
+        fits_in_memory               = stats.predicted_factor_bytes <= memory_limit;
         int  factorization_status  = CHOLMOD_OK;
         bool positive_definite     = false;
-        if (analyzed)
+        if (analyzed && fits_in_memory)
           {
             timer.restart();
             cholmod_l_factorize(A, factor, &common);
@@ -97,6 +105,8 @@ namespace modal_haptics
           release();
         AssertThrow(analyzed, ExcMessage("CHOLMOD's analysis failed (status " + std::to_string(analysis_status) +
                                          ", out of memory?)."));
+        if (!fits_in_memory)
+          return;
         AssertThrow(factorization_status == CHOLMOD_OK || factorization_status == CHOLMOD_NOT_POSDEF,
                     ExcMessage("CHOLMOD's factorization failed (status " + std::to_string(factorization_status) +
                                ", out of memory?)."));
@@ -113,6 +123,8 @@ namespace modal_haptics
           }
       }
 
+      bool fits() const { return fits_in_memory; }
+
       ~CholmodFactorization() override { release(); }
 
       // The triangular solves run on SupernodalSolve (subtrees of the elimination tree on parallel
@@ -127,12 +139,15 @@ namespace modal_haptics
       }
 
     private:
-      // Frees the factor (if any) and CHOLMOD's workspace: called once, by the destructor or by the
-      // constructor's failure paths (after which no destructor runs).
+      // Frees the factor (if any) and CHOLMOD's workspace, once: by the destructor, by the
+      // constructor's failure paths (after which no destructor runs) or when the factor does not fit.
       void release()
       {
+        if (released)
+          return;
         cholmod_l_free_factor(&factor, &common);
         cholmod_l_finish(&common);
+        released = true;
       }
 
       // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
@@ -173,6 +188,8 @@ namespace modal_haptics
 
       cholmod_common                   common;
       cholmod_factor                  *factor = nullptr;
+      bool                             fits_in_memory = true;
+      bool                             released       = false;
       std::unique_ptr<SupernodalSolve> triangular_solves;
     };
 
@@ -223,7 +240,33 @@ namespace modal_haptics
                                                             const dealii::SparseMatrix<double> *M,
                                                             const double shift)
   {
-    return std::make_unique<CholmodFactorization>(K, M, shift);
+    return std::make_unique<CholmodFactorization>(K, M, shift, std::numeric_limits<double>::infinity());
+  }
+
+  std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
+                                                                   const dealii::SparseMatrix<double> *M,
+                                                                   const double shift, const double memory_limit,
+                                                                   double &predicted_factor_bytes)
+  {
+    auto factorization     = std::make_unique<CholmodFactorization>(K, M, shift, memory_limit);
+    predicted_factor_bytes = factorization->statistics().predicted_factor_bytes;
+    if (!factorization->fits())
+      return nullptr;
+    return factorization;
+  }
+
+  double available_memory_bytes()
+  {
+    std::ifstream meminfo("/proc/meminfo");
+    std::string   key;
+    double        kilobytes = 0.;
+    while (meminfo >> key >> kilobytes)
+      {
+        if (key == "MemAvailable:")
+          return 1024. * kilobytes;
+        meminfo.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+      }
+    return std::numeric_limits<double>::infinity(); // not Linux: the factorization is always tried
   }
 
   std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,

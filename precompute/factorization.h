@@ -16,6 +16,7 @@ namespace modal_haptics
     double analyze_seconds   = 0.;  // ordering and symbolic analysis
     double factorize_seconds = 0.;
     double factor_nonzeros   = 0.;  // entries of L (or L + U)
+    double predicted_factor_bytes = 0.; // CHOLMOD: the factor's values as its analysis sizes them
     double factor_flops      = 0.;  // floating point operations of the numeric factorization (CHOLMOD)
     double solve_seconds     = 0.;  // accumulated over every solve
     unsigned long n_solved_vectors = 0;
@@ -67,6 +68,16 @@ namespace modal_haptics
   std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
                                                             double shift);
+  // The same, only when the analysis predicts a factor of at most memory_limit bytes; otherwise
+  // nullptr, without factorizing (predicted_factor_bytes says what it would have taken).
+  std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
+                                                                   const dealii::SparseMatrix<double> *M,
+                                                                   double shift, double memory_limit,
+                                                                   double &predicted_factor_bytes);
+
+  // MemAvailable of /proc/meminfo (infinity where there is none).
+  double available_memory_bytes();
+
   std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
                                                             double shift);

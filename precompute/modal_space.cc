@@ -3,6 +3,7 @@
 // the rigid-body modes of a free part) and the CSR export of K and M for the benchmarks.
 #include "modal_space.h"
 
+#include "amg_eigensolver.h"
 #include "atomic_file.h"
 #include "space_phases.h"
 
@@ -113,11 +114,13 @@ namespace modal_haptics
           export_matrices();
       }
       void solve_eigenproblem() override;
-      void finish() override { result.factorization = factorization->statistics(); }
+      void finish() override;
 
       void read_mesh();
       void setup_system();
       void assemble_system();
+      EigensolverKind factorize_unless_amg();
+      EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
       void identify_rigid_body_modes();
       std::vector<Vector<double>> free_motion_fields(const FreeMotions &free) const;
@@ -132,7 +135,9 @@ namespace modal_haptics
       Triangulation<3>          triangulation;
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
-      std::unique_ptr<Factorization> factorization; // of K - shift M
+      std::unique_ptr<Factorization> factorization; // of K - shift M, or the AMG-preconditioned CG
+      AmgShiftedInverse             *amg_inverse = nullptr; // the factorization, on the path without one
+      std::string                    automatic_choice;      // Eigensolver = auto: why this path
       double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
       bool                      coupled_constraints = false; // constrained entries must be filled in for output
@@ -196,29 +201,87 @@ namespace modal_haptics
       assembler.set_mass_properties(result);
     }
 
-    void SerialSpace::solve_eigenproblem()
+    // The direct path factorizes K - shift M (CHOLMOD or UMFPACK); 'auto' factorizes when CHOLMOD's
+    // analysis predicts a factor within 'Modes/Factor memory limit' (half the available memory by
+    // default), and otherwise takes the path without a factorization. Returns the eigensolver that
+    // runs.
+    EigensolverKind SerialSpace::factorize_unless_amg()
     {
-      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
-      log("factorizing K (" + std::string(scene.modes.factorization_kind == FactorizationKind::cholmod ? "CHOLMOD" : "UMFPACK") + ")");
-      factorization = scene.modes.factorization_kind == FactorizationKind::cholmod ?
-                        make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift) :
-                        make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
+      const EigensolverKind wanted = scene.modes.eigensolver;
+      if (wanted == EigensolverKind::lobpcg_amg)
+        return wanted;
+      const bool cholmod = scene.modes.factorization_kind == FactorizationKind::cholmod;
+      log("factorizing K (" + std::string(cholmod ? "CHOLMOD" : "UMFPACK") + ")");
+      if (!cholmod)
+        factorization = make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
+      else if (wanted != EigensolverKind::automatic)
+        factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
+      else
+        {
+          const double limit = scene.modes.factor_memory_limit > 0. ? 1e9 * scene.modes.factor_memory_limit :
+                                                                      0.5 * available_memory_bytes();
+          double       predicted = 0.;
+          factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
+          std::ostringstream line;
+          line << "Modes/Eigensolver = auto: CHOLMOD's analysis predicts a factor of " << predicted / 1e9
+               << " GB, the limit is " << limit / 1e9 << " GB: "
+               << (factorization ? "block-krylov" : "lobpcg-amg (no factorization)");
+          log(line.str());
+          std::ostringstream why;
+          why << " (auto: predicted factor " << predicted / 1e9 << " GB, limit " << limit / 1e9 << " GB)";
+          automatic_choice = why.str();
+          if (!factorization)
+            return EigensolverKind::lobpcg_amg;
+        }
       const auto &f = factorization->statistics();
       std::ostringstream line;
       line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
            << f.factorize_seconds << " s";
       log(line.str());
+      return wanted == EigensolverKind::automatic ? EigensolverKind::block_krylov : wanted;
+    }
 
+    // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
+    EigenSolution SerialSpace::solve_with_lobpcg_amg()
+    {
+      const auto component    = dof_components();
+      bool       node_blocked = true;
+      for (std::size_t i = 0; i < component.size(); ++i)
+        node_blocked = node_blocked && component[i] == i % 3;
+      auto amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
+                                                     rigid_body_motions(Point<3>()), result.clamped_dofs,
+                                                     node_blocked, scene.element_degree > 1);
+      std::ostringstream line;
+      line << "AMG (ML, rigid-body near-null space) set up in " << amg->amg_statistics().setup_seconds
+           << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
+      log(line.str());
+      EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                [this](const std::string &line) { log(line); });
+      amg_inverse   = amg.get();
+      factorization = std::move(amg);
+      log("LOBPCG: " + std::to_string(amg_inverse->amg_statistics().eigensolver_iterations) + " iterations");
+      return solution;
+    }
+
+    void SerialSpace::solve_eigenproblem()
+    {
+      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      const EigensolverKind method = factorize_unless_amg();
       try
         {
-          eigen = scene.modes.block_krylov ?
-                    solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
-                                             scene.modes.block_size, scene.modes.tolerance, verbose) :
-                    solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+          if (method == EigensolverKind::lobpcg_amg)
+            eigen = solve_with_lobpcg_amg();
+          else if (method == EigensolverKind::block_krylov)
+            eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
+                                             scene.modes.block_size, scene.modes.tolerance, verbose);
+          else
+            eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
                                        scene.modes.maximum_count, scene.modes.tolerance, verbose);
         }
       catch (const ExceptionBase &e)
         {
+          if (method == EigensolverKind::lobpcg_amg)
+            throw;
           // Rigid-body modes (or nearly rigid ones, on soft elastic supports) are the shifted inverse's
           // largest eigenvalues, about 1 / |shift|: with a tiny shift they dwarf the elastic ones and
           // the block solver stalls (ARPACK does not).
@@ -230,9 +293,13 @@ namespace modal_haptics
                                         "a shift of larger magnitude (about a tenth of the first elastic frequency) or "
                                         "'Modes/Eigensolver = arpack' converges where a shift close to 0 does not."));
         }
-      result.eigensolver_method = scene.modes.block_krylov ?
-                                    "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
-                                                             "ARPACK dsaupd mode 3 (shift-invert)";
+      result.eigensolver_method =
+        method == EigensolverKind::lobpcg_amg ?
+          "LOBPCG (Trilinos Anasazi) + AMG (Trilinos ML), no factorization" :
+        method == EigensolverKind::block_krylov ?
+          "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
+          "ARPACK dsaupd mode 3 (shift-invert)";
+      result.eigensolver_method += automatic_choice;
       result.n_operator_applications = eigen.n_operator_applications;
       result.eigensolve_iteration_seconds          = eigen.eigensolve_iteration_seconds;
       result.mass_product_seconds      = eigen.mass_product_seconds;
@@ -253,6 +320,19 @@ namespace modal_haptics
       select_modes();
     }
 
+    void SerialSpace::finish()
+    {
+      result.factorization = factorization->statistics();
+      if (amg_inverse == nullptr)
+        return;
+      const auto        &amg = amg_inverse->amg_statistics();
+      std::ostringstream line;
+      line << "AMG-preconditioned CG: " << amg.n_cg_solves << " static solves, " << amg.mean_cg_iterations
+           << " iterations on average, at most " << amg.max_cg_iterations << ", "
+           << factorization->statistics().solve_seconds << " s";
+      log(line.str());
+    }
+
     void SerialSpace::select_modes()
     {
       std::vector<Vector<double>> kept;
@@ -261,6 +341,8 @@ namespace modal_haptics
       eigen.eigenvectors = std::move(kept);
       log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
           std::to_string(result.dropped_modes.size()));
+      if (amg_inverse != nullptr)
+        amg_inverse->start_from_modes(result.eigenvalues, eigen.eigenvectors);
     }
 
     // The n lowest computed modes of a part whose supports leave n rigid-body motions free (a

@@ -89,8 +89,9 @@ namespace modal_haptics
                       "of the scene, among the computed ones). Units: none.");
     prm.declare_entry("Patch radii", "2", Patterns::List(Patterns::Double(0.), 1),
                       "Contact patch radii rho (each gets its own reference). Units: geometry units.");
-    prm.declare_entry("Eigensolvers", "block-krylov", Patterns::List(Patterns::Selection("block-krylov|arpack|arpack-umfpack"), 1),
-                      "Eigensolvers: block Krylov or ARPACK over CHOLMOD, or ARPACK over UMFPACK. Units: none.");
+    prm.declare_entry("Eigensolvers", "block-krylov", Patterns::List(Patterns::Selection("block-krylov|arpack|arpack-umfpack|lobpcg-amg"), 1),
+                      "Eigensolvers: block Krylov or ARPACK over CHOLMOD, ARPACK over UMFPACK, or LOBPCG + AMG "
+                      "(no factorization). Units: none.");
     prm.declare_entry("Reference size", "1", Patterns::Double(1e-9),
                       "Element size of the uniform P2 reference mesh. Units: geometry units.");
     prm.declare_entry("Reference modes", "10", Patterns::Integer(1),
@@ -196,7 +197,7 @@ namespace modal_haptics
     for (const auto entry : {"Maximum number of modes", "Minimum number of modes"})
       set_entry(prm, "Modes", entry, std::to_string(point.modes));
     set_entry(prm, "Modes", "Cut-off rule", "none");
-    set_entry(prm, "Modes", "Eigensolver", point.eigensolver == "block-krylov" ? "block-krylov" : "arpack");
+    set_entry(prm, "Modes", "Eigensolver", point.eigensolver == "arpack-umfpack" ? "arpack" : point.eigensolver);
     set_entry(prm, "Modes", "Operator", point.eigensolver == "arpack-umfpack" ? "umfpack" : "cholmod");
     set_entry(prm, "Contact", "Patch radius", number(point.patch_radius));
     set_entry(prm, "Contact", "Validation points", study.contact_points);

@@ -20,6 +20,32 @@ namespace modal_haptics
   using parameter_text::text;
   namespace Patterns = dealii::Patterns;
 
+  namespace
+  {
+    const std::array<std::pair<EigensolverKind, const char *>, 4> eigensolver_names = {
+      {{EigensolverKind::automatic, "auto"},
+       {EigensolverKind::block_krylov, "block-krylov"},
+       {EigensolverKind::arpack, "arpack"},
+       {EigensolverKind::lobpcg_amg, "lobpcg-amg"}}};
+  }
+
+  std::string eigensolver_name(const EigensolverKind kind)
+  {
+    for (const auto &[k, name] : eigensolver_names)
+      if (k == kind)
+        return name;
+    return "?";
+  }
+
+  EigensolverKind eigensolver_kind(const std::string &name)
+  {
+    for (const auto &[kind, spelling] : eigensolver_names)
+      if (name == spelling)
+        return kind;
+    AssertThrow(false, ExcMessage("'Modes/Eigensolver' is '" + name + "': not one of auto, block-krylov, arpack, lobpcg-amg."));
+    return EigensolverKind::automatic;
+  }
+
   double ModeParameters::cut_off_frequency() const
   {
     switch (cut_off_rule)
@@ -108,11 +134,25 @@ namespace modal_haptics
                       "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
     prm.declare_entry("Tolerance", text(m.tolerance), Patterns::Double(1e-16, 1e-2),
                       "ARPACK's relative tolerance on the Ritz values. Units: none.");
-    prm.declare_entry("Eigensolver", m.block_krylov ? "block-krylov" : "arpack",
-                      Patterns::Selection("block-krylov|arpack"),
-                      "The Krylov method on the shift-invert operator: 'block-krylov' (blocks of 'Block size' "
-                      "right-hand sides per solve, thick restarts) or 'arpack' (ARPACK's dsaupd, one vector "
-                      "per solve). Both converge to the same modes. Units: none.");
+    prm.declare_entry("Eigensolver", eigensolver_name(m.eigensolver), Patterns::Selection("auto|block-krylov|arpack|lobpcg-amg"),
+                      "'block-krylov': a block Krylov method on the shift-invert operator (a sparse direct "
+                      "factorization of K - shift M; blocks of 'Block size' right-hand sides per solve, thick "
+                      "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
+                      "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
+                      "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
+                      "preconditioned CG: no factorization, memory about linear in the DoFs, for parts whose "
+                      "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
+                      "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS). All "
+                      "converge to the same modes. Units: none.");
+    prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
+                      "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
+                      "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
+                      "error is about its square: 1e-6 gave frequencies equal to the direct path's to 5e-11; "
+                      "below about 1e-8 rounding stalls LOBPCG. Units: none.");
+    prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
+                      "Eigensolver = auto: the largest direct factor (as CHOLMOD's analysis predicts it) that is "
+                      "computed; a larger one switches to lobpcg-amg. 0: half the memory available when the "
+                      "space is solved. Units: GB (1e9 bytes).");
     prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
                       "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
     prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
@@ -134,7 +174,9 @@ namespace modal_haptics
     shift          = prm.get_double("Shift");
     tolerance      = prm.get_double("Tolerance");
     factorization_kind = prm.get("Operator") == "umfpack" ? FactorizationKind::umfpack : FactorizationKind::cholmod;
-    block_krylov   = prm.get("Eigensolver") == "block-krylov";
+    eigensolver    = eigensolver_kind(prm.get("Eigensolver"));
+    lobpcg_tolerance = prm.get_double("LOBPCG tolerance");
+    factor_memory_limit = prm.get_double("Factor memory limit");
     block_size     = prm.get_integer("Block size");
     prm.leave_subsection();
     // The default minimum follows a smaller requested count: asking for 5 modes must not fail on a

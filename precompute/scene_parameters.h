@@ -42,6 +42,17 @@ namespace modal_haptics
     umfpack  // deal.II's SparseDirectUMFPACK LU: slow, kept as a peer
   };
 
+  enum class EigensolverKind
+  {
+    automatic,    // block_krylov when CHOLMOD's analysis says its factor fits in memory, else lobpcg_amg
+    block_krylov, // block Krylov on the shift-invert operator (blocks of solves with the factorization)
+    arpack,       // ARPACK's dsaupd on the shift-invert operator, one vector per solve
+    lobpcg_amg    // LOBPCG preconditioned by AMG: no factorization (amg_eigensolver.h)
+  };
+
+  std::string     eigensolver_name(EigensolverKind kind); // as 'Modes/Eigensolver' spells it
+  EigensolverKind eigensolver_kind(const std::string &name);
+
   struct ModeParameters
   {
     unsigned int maximum_count = 50;
@@ -52,7 +63,9 @@ namespace modal_haptics
     double       shift         = 0.;    // shift-invert shift [Hz]
     double       tolerance     = 1e-10; // ARPACK relative tolerance on Ritz values
     FactorizationKind factorization_kind = FactorizationKind::cholmod;
-    bool         block_krylov  = true;  // block Krylov (blocks of solves) instead of ARPACK's one-at-a-time
+    EigensolverKind eigensolver = EigensolverKind::automatic;
+    double       lobpcg_tolerance = 1e-6; // lobpcg-amg: relative residual of every wanted pair
+    double       factor_memory_limit = 0.; // auto: the largest direct factor [GB]; 0: half the available memory
     unsigned int block_size    = 4;     // right-hand sides per block solve of the block Krylov method
 
     // The cut-off frequency [Hz] the rule gives, +inf for CutOffRule::none.

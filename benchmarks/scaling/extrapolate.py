@@ -2,11 +2,12 @@
 """On paper (docs/cluster.md): what the measured per-phase scaling predicts for 10 M and 100 M DoFs.
 
 Reads the measured CSVs of benchmarks/results/<host>/ (scaling.csv: the distributed precompute,
-93k, 223k and 446k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k),
+93k, 223k and 446k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k;
+eigensolver_lobpcg.csv: the path without a factorization beside the direct one, one run),
 fits growth exponents t ~ n^e from them, and extrapolates each phase with the exponent theory
 gives (stated beside the measured one) to the target sizes on a stated number of processes with a
 stated parallel efficiency. Prints markdown tables.
-  extrapolate.py [--results benchmarks/results/debian12-2core] [--efficiency 0.25]
+  extrapolate.py [--results benchmarks/results/debian12-2core] [--efficiency 0.25] [--iterative-efficiency 0.5]
 """
 import argparse
 import csv
@@ -56,6 +57,74 @@ def read_cholmod(results):
     return sorted((n, factorize[n], per_solve[n]) for n in per_solve)
 
 
+def read_paths(results):
+    """{path: [(n, seconds, peak MB per process)]} of the eigensolve by LOBPCG + AMG (serial, and
+    on 2 MPI ranks) and by the direct path (block Krylov + CHOLMOD), measured in one run
+    (eigensolver_lobpcg*.csv)."""
+    paths = {"lobpcg": [], "lobpcg2": [], "direct": []}
+    for name in sorted(os.listdir(results)):
+        if name.startswith("eigensolver_lobpcg") and name.endswith(".csv"):
+            read_path_rows(os.path.join(results, name), paths)
+    return {k: sorted(v) for k, v in paths.items()}
+
+
+def read_path_rows(path, paths):
+    for row in csv.DictReader(line for line in open(path) if not line.startswith("#")):
+        if not row.get("seconds"):
+            continue
+        key = ("lobpcg2" if "distributed" in row["solver"] else "lobpcg") if "LOBPCG" in row["solver"] else \
+            "direct" if "block Krylov" in row["solver"] else None
+        if key:
+            paths[key].append((int(row["n_dofs"]), float(row["seconds"]), float(row["peak_rss_mb_per_process"])))
+
+
+def print_iterative_path(results, efficiency):
+    """The on-paper tables redone with the measured exponents of the path without a factorization."""
+    paths = read_paths(results)
+    if len(paths["lobpcg"]) < 2:
+        return
+    print("\n### The path without a factorization (LOBPCG + AMG)\n")
+    print("| path | sizes (DoFs) | e, time | e, peak memory | at the largest size |")
+    print("|---|---|---|---|---|")
+    fits = {}
+    for key, label in [("lobpcg", "LOBPCG + AMG"), ("lobpcg2", "LOBPCG + AMG, 2 ranks (memory per rank)"),
+                       ("direct", "block Krylov + CHOLMOD")]:
+        points = paths[key]
+        if len(points) < 2:
+            continue
+        e_t = exponent([(n, t) for n, t, _ in points])
+        e_m = exponent([(n, m) for n, _, m in points])
+        fits[key] = (e_t, e_m, points[-1])
+        n, t, m = points[-1]
+        print(f"| {label} | {', '.join(str(p[0]) for p in points)} | {e_t:.2f} | {e_m:.2f} | "
+              f"{t:.1f} s, {m / 1024:.2f} GB |")
+    serial = {n: (t, m) for n, t, m in paths["lobpcg"]}
+    for n, t2, m2 in paths["lobpcg2"]:
+        if n in serial:
+            print(f"\nAt {n} DoFs, 2 ranks against 1: speedup {serial[n][0] / t2:.2f}x (efficiency "
+                  f"{serial[n][0] / t2 / 2:.2f}), memory per rank {100 * m2 / serial[n][1]:.0f} % of one rank's.")
+    # The anchor: the largest size measured, on the path measured at the most sizes; its work in
+    # process-seconds and its memory over all processes.
+    key = max(("lobpcg2", "lobpcg"), key=lambda k: (len(paths[k]), k == "lobpcg2"))
+    ranks = 2 if key == "lobpcg2" else 1
+    e_t, e_m, (n0, t0, m0) = fits[key]
+    # Below 1 only because of a fixed part (libraries, the global space): the vectors and matrices
+    # themselves grow at least like n.
+    e_m = max(e_m, 1.0)
+    print(f"\nExtrapolated from {n0} DoFs on {ranks} rank(s) with that path's exponents (time n^{e_t:.2f}), the "
+          f"work ({ranks} x {t0:.0f} s) shared out over the processes with an assumed efficiency {efficiency:g} "
+          "(measured at 2 ranks on 2 cores above; at hundreds of processes unmeasured), memory as "
+          f"n^{e_m:.2f} (the measured exponent, at least 1) divided evenly:\n")
+    t0, m0 = ranks * t0, ranks * m0
+    print("| 50 modes | " + " | ".join(f"{n / 1e6:.0f} M DoFs, {p} processes" for n, p in TARGETS) + " |")
+    print("|---|" + "---|" * len(TARGETS))
+    print("| eigensolve, LOBPCG + AMG | " + " | ".join(human(t0 * (n / n0) ** e_t / (p * efficiency))
+                                                      for n, p in TARGETS) + " |")
+    print("| memory per process | " + " | ".join(f"{m0 * (n / n0) ** e_m / p / 1024:.1f} GB" for n, p in TARGETS) + " |")
+    print("| memory, all processes | " + " | ".join(f"{m0 * (n / n0) ** e_m / 1024 ** 2:.2f} TB" for n, p in TARGETS)
+          + " |")
+
+
 def human(seconds):
     if seconds < 120:
         return f"{seconds:.0f} s"
@@ -69,6 +138,8 @@ def main():
     parser.add_argument("--results", default=os.path.join(HERE, "..", "results", "debian12-2core"))
     parser.add_argument("--efficiency", type=float, default=0.25,
                         help="assumed parallel efficiency of the sparse direct factorization and solves")
+    parser.add_argument("--iterative-efficiency", type=float, default=0.5,
+                        help="assumed parallel efficiency of LOBPCG + AMG (sparse products, V-cycles, small reductions)")
     args = parser.parse_args()
     rows = read_scaling(os.path.join(args.results, "scaling.csv"))
     sizes = {p: sorted(n for q, n in rows if q == p) for p in (1, 2)}
@@ -153,6 +224,7 @@ def main():
         print(f"\nAt {n / 1e6:.0f} M DoFs the shared part D (mostly MUMPS's LU factor) totals {total_factor_tb:.1f} TB; "
               f"the factorization is {100 * predictions['eigensolve: factorization (n^2)'][TARGETS.index((n, p))] / totals[TARGETS.index((n, p))]:.0f} % "
               "of the predicted time.")
+    print_iterative_path(args.results, args.iterative_efficiency)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,378 @@
+// LOBPCG + AMG (amg_eigensolver.h): Trilinos Anasazi's LOBPCG on (K - shift M, M), ML's
+// smoothed aggregation with the rigid-body near-null space as its preconditioner, and deal.II's CG
+// with the same preconditioner for the static solves.
+#include "amg_eigensolver.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/lac/solver_cg.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/trilinos_precondition.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
+
+#include <AnasaziBasicEigenproblem.hpp>
+#include <AnasaziEpetraAdapter.hpp>
+#include <AnasaziLOBPCGSolMgr.hpp>
+#include <Epetra_MultiVector.h>
+#include <Epetra_Operator.h>
+#include <Epetra_Vector.h>
+#include <Teuchos_ParameterList.hpp>
+#include <Teuchos_RCP.hpp>
+#include <ml_MultiLevelPreconditioner.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <string>
+#include <numeric>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+
+  namespace
+  {
+    // The AMG as the Epetra operator LOBPCG applies (Anasazi calls Apply; ML's V-cycle is its
+    // ApplyInverse), followed by zeroing the constrained DoFs: every field of the constrained
+    // system is zero there, and M's zero rows there would otherwise let LOBPCG's search directions
+    // pick up directions of infinite eigenvalue.
+    class ProjectedAmg : public Epetra_Operator
+    {
+    public:
+      ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
+                   const std::function<void(const std::string &)> &progress)
+        : amg(amg), constrained(constrained), progress(progress)
+      {}
+
+      int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
+      {
+        const int status = amg.ApplyInverse(X, Y);
+        for (int c = 0; c < Y.NumVectors(); ++c)
+          for (const unsigned int i : constrained)
+            Y[c][i] = 0.;
+        n_applications += X.NumVectors();
+        if (progress && since_progress.wall_time() > 30.)
+          {
+            progress("LOBPCG: " + std::to_string(n_applications) + " preconditioner applications, " +
+                     std::to_string(int(total.wall_time())) + " s");
+            since_progress.restart();
+          }
+        return status;
+      }
+      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      double NormInf() const override { return 0.; }
+      const char *Label() const override { return "AMG (ML), constrained DoFs zeroed"; }
+      bool UseTranspose() const override { return false; }
+      bool HasNormInf() const override { return false; }
+      const Epetra_Comm &Comm() const override { return amg.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return amg.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return amg.OperatorRangeMap(); }
+
+      mutable unsigned long n_applications = 0; // columns
+
+    private:
+      const Epetra_Operator                          &amg;
+      const std::vector<unsigned int>                &constrained;
+      const std::function<void(const std::string &)> &progress; // a line every 30 s of long work
+      mutable dealii::Timer                           total, since_progress;
+    };
+  } // namespace
+
+  namespace
+  {
+    // The mean of M's diagonal over the unconstrained rows (theirs are zero), over all processes.
+    double mean_free_diagonal(const dealii::TrilinosWrappers::SparseMatrix &M)
+    {
+      const Epetra_CrsMatrix &matrix = M.trilinos_matrix();
+      Epetra_Vector           diagonal(matrix.RowMap());
+      matrix.ExtractDiagonalCopy(diagonal);
+      double local[2] = {0., 0.}, global[2];
+      for (int k = 0; k < diagonal.MyLength(); ++k)
+        if (diagonal[k] != 0.)
+          local[0] += diagonal[k], local[1] += 1.;
+      matrix.Comm().SumAll(local, global, 2);
+      return global[1] > 0. ? global[0] / global[1] : 1.;
+    }
+
+    // This process's entries of a vector (deal.II's serial one, or Trilinos' distributed one).
+    double *local_values(dealii::Vector<double> &v) { return v.data(); }
+    double *local_values(dealii::TrilinosWrappers::MPI::Vector &v) { return v.trilinos_vector()[0]; }
+    const double *local_values(const dealii::Vector<double> &v) { return v.data(); }
+    const double *local_values(const dealii::TrilinosWrappers::MPI::Vector &v) { return v.trilinos_vector()[0]; }
+  } // namespace
+
+  struct AmgShiftedInverse::Impl
+  {
+    double                                     shift = 0.;
+    std::vector<unsigned int>                  constrained;          // local rows
+    std::vector<double>                        constrained_diagonal; // A's, on the constrained rows
+    dealii::TrilinosWrappers::SparseMatrix     own_A, own_M;         // the copies it holds, when it holds them
+    const dealii::TrilinosWrappers::SparseMatrix *A = nullptr, *M = nullptr; // A = K - shift M
+    std::vector<double>                        near_null_space; // six columns, read by ML while it sets up
+    dealii::TrilinosWrappers::PreconditionAMG  amg;
+    const std::vector<double>                 *start_eigenvalues = nullptr;
+    const std::vector<dealii::Vector<double>> *start_modes       = nullptr;
+    AmgSolverStatistics                        stats;
+    unsigned long                              total_cg_iterations = 0;
+
+    void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked, bool higher_order);
+
+    // The preconditioner of the static solves' CG (deal.II calls vmult): the AMG on the free DoFs
+    // and the exact inverse on the constrained ones, whose rows of A hold only their diagonal. The
+    // AMG alone would mix the two, and zeroing the constrained entries instead (as for LOBPCG, whose
+    // fields are zero there) would leave CG unable to reduce a load's residual on them: it stalls.
+    template <typename VectorType>
+    void vmult(VectorType &dst, const VectorType &src) const
+    {
+      VectorType free_part(src);
+      double    *free_values = local_values(free_part);
+      for (const unsigned int k : constrained)
+        free_values[k] = 0.;
+      amg.vmult(dst, free_part);
+      double       *out = local_values(dst);
+      const double *in  = local_values(src);
+      for (std::size_t c = 0; c < constrained.size(); ++c)
+        out[constrained[c]] = in[constrained[c]] / constrained_diagonal[c];
+    }
+
+    // x = A^-1 b by CG from the start x holds, to 1e-12 of the load (relative to the load, not to the
+    // first residual: the start from the modes can leave a residual whose 1e-12 lies below rounding).
+    template <typename VectorType>
+    void conjugate_gradients(VectorType &x, const VectorType &b)
+    {
+      const double          load_norm = b.l2_norm();
+      dealii::SolverControl control(20000, 1e-12 * load_norm);
+      dealii::SolverCG<VectorType> cg(control);
+      try
+        {
+          cg.solve(*A, x, b, *this);
+        }
+      catch (const dealii::SolverControl::NoConvergence &e)
+        {
+          AssertThrow(false, ExcMessage("The AMG-preconditioned CG of a static solve did not converge: relative "
+                                        "residual " + std::to_string(e.last_residual / load_norm) + " after " +
+                                        std::to_string(e.last_step) + " iterations."));
+        }
+      ++stats.n_cg_solves;
+      total_cg_iterations += control.last_step();
+      stats.max_cg_iterations  = std::max(stats.max_cg_iterations, control.last_step());
+      stats.mean_cg_iterations = double(total_cg_iterations) / stats.n_cg_solves;
+    }
+
+    void start(dealii::Vector<double> &x, const dealii::Vector<double> &b) const
+    {
+      x = 0.;
+      if (start_modes != nullptr)
+        for (std::size_t i = 0; i < start_modes->size(); ++i)
+          x.add(((*start_modes)[i] * b) / ((*start_eigenvalues)[i] - shift), (*start_modes)[i]);
+    }
+  };
+
+  void AmgShiftedInverse::Impl::set_up(const double shift_, const std::vector<unsigned int> &constrained_,
+                                       const bool node_blocked, const bool higher_order)
+  {
+    AssertThrow(shift_ <= 0., ExcMessage("The LOBPCG + AMG eigensolver needs 'Modes/Shift' <= 0 (K - shift M must "
+                                         "be positive definite for the AMG and CG); it was " +
+                                         std::to_string(shift_) + " rad^2/s^2."));
+    dealii::Timer timer;
+    shift       = shift_;
+    constrained = constrained_;
+    Epetra_Vector diagonal(A->trilinos_matrix().RowMap());
+    A->trilinos_matrix().ExtractDiagonalCopy(diagonal);
+    for (const unsigned int k : constrained)
+      constrained_diagonal.push_back(diagonal[k]);
+
+    const std::size_t n_local = A->local_size();
+    for (unsigned int j = 0; j < 6; ++j)
+      for (const unsigned int k : constrained)
+        near_null_space[j * n_local + k] = 0.;
+    Teuchos::ParameterList ml;
+    ML_Epetra::SetDefaults("SA", ml);
+    ml.set("ML output", 0);
+    ml.set("PDE equations", node_blocked ? 3 : 1);
+    ml.set("null space: type", "pre-computed");
+    ml.set("null space: dimension", 6);
+    ml.set("null space: vectors", near_null_space.data());
+    ml.set("aggregation: type", "Uncoupled");
+    ml.set("smoother: type", "Chebyshev");
+    ml.set("smoother: sweeps", higher_order ? 3 : 2);
+    ml.set("coarse: type", "Amesos-KLU");
+    // A coarse level of at most a tenth of the DoFs (and at most 1000): on a small part a coarse
+    // level holding everything makes the AMG an exact solve, and LOBPCG, converging in a step or
+    // two, breaks down on its linearly dependent search directions (seen at 1047 DoFs).
+    ml.set("coarse: max size", int(std::clamp<std::size_t>(A->m() / 10, 60, 1000)));
+    amg.initialize(*A, ml);
+    stats.setup_seconds = timer.wall_time();
+  }
+
+  AmgShiftedInverse::AmgShiftedInverse(const dealii::SparseMatrix<double>           &K,
+                                       const dealii::SparseMatrix<double>           &M,
+                                       const double                                  shift,
+                                       const std::array<dealii::Vector<double>, 6> &rigid_body_motions,
+                                       const std::vector<unsigned int>              &constrained,
+                                       const bool                                    node_blocked,
+                                       const bool                                    higher_order)
+    : impl(std::make_unique<Impl>())
+  {
+    dealii::Timer timer;
+    // Drop tolerance 0: deal.II's default drops entries below 1e-13 in absolute value, which a
+    // mass matrix in SI units of a small part can hold.
+    impl->own_A.reinit(K, 0.);
+    impl->own_M.reinit(M, 0.);
+    if (shift != 0.)
+      impl->own_A.add(-shift, impl->own_M);
+    impl->A = &impl->own_A, impl->M = &impl->own_M;
+    const std::size_t n = K.m();
+    impl->near_null_space.resize(6 * n);
+    for (unsigned int j = 0; j < 6; ++j)
+      std::copy(rigid_body_motions[j].begin(), rigid_body_motions[j].end(), impl->near_null_space.begin() + j * n);
+    impl->set_up(shift, constrained, node_blocked, higher_order);
+    describe(node_blocked, timer.wall_time());
+  }
+
+  AmgShiftedInverse::AmgShiftedInverse(const dealii::TrilinosWrappers::SparseMatrix &K,
+                                       const dealii::TrilinosWrappers::SparseMatrix &M,
+                                       const double                                  shift,
+                                       std::vector<double>                           near_null_space,
+                                       const std::vector<unsigned int>              &constrained,
+                                       const bool                                    node_blocked,
+                                       const bool                                    higher_order)
+    : impl(std::make_unique<Impl>())
+  {
+    dealii::Timer timer;
+    impl->A = &K, impl->M = &M;
+    if (shift != 0.)
+      {
+        impl->own_A.copy_from(K);
+        impl->own_A.add(-shift, M);
+        impl->A = &impl->own_A;
+      }
+    impl->near_null_space = std::move(near_null_space);
+    impl->set_up(shift, constrained, node_blocked, higher_order);
+    describe(node_blocked, timer.wall_time());
+  }
+
+  void AmgShiftedInverse::describe(const bool node_blocked, const double setup_seconds)
+  {
+    stats.method = std::string("amg-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
+                   (node_blocked ? ", 3 DoFs per node)" : ", DoF-wise aggregation)");
+    stats.analyze_seconds = impl->stats.setup_seconds = setup_seconds;
+  }
+
+  AmgShiftedInverse::~AmgShiftedInverse() = default;
+
+  const AmgSolverStatistics &AmgShiftedInverse::amg_statistics() const { return impl->stats; }
+
+  void AmgShiftedInverse::start_from_modes(const std::vector<double>                 &eigenvalues,
+                                           const std::vector<dealii::Vector<double>> &modes)
+  {
+    impl->start_eigenvalues = &eigenvalues;
+    impl->start_modes       = &modes;
+  }
+
+  void AmgShiftedInverse::solve_block(double *columns, const unsigned int n_rhs)
+  {
+    dealii::Timer          timer;
+    const std::size_t      n = impl->A->m();
+    dealii::Vector<double> b(n), x(n);
+    for (unsigned int c = 0; c < n_rhs; ++c)
+      {
+        double *column = columns + c * n;
+        std::copy(column, column + n, b.begin());
+        impl->start(x, b);
+        impl->conjugate_gradients(x, b);
+        std::copy(x.begin(), x.end(), column);
+      }
+    stats.solve_seconds += timer.wall_time();
+    stats.n_solved_vectors += n_rhs;
+  }
+
+  void AmgShiftedInverse::solve(dealii::TrilinosWrappers::MPI::Vector       &x,
+                                const dealii::TrilinosWrappers::MPI::Vector &b)
+  {
+    dealii::Timer timer;
+    x = 0.;
+    impl->conjugate_gradients(x, b);
+    stats.solve_seconds += timer.wall_time();
+    ++stats.n_solved_vectors;
+  }
+
+  EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,
+                                                const std::function<void(const std::string &)> &progress)
+  {
+    using MV = Epetra_MultiVector;
+    using OP = Epetra_Operator;
+    dealii::Timer timer;
+    const auto   &A_epetra = impl->A->trilinos_matrix();
+    const auto   &M_epetra = impl->M->trilinos_matrix();
+    // A block a little larger than the wanted count: the convergence factor of the last wanted
+    // pair is set by the gap to the first unwanted one inside the block.
+    const int block_size = int(n_modes + std::max(4u, n_modes / 4));
+    AssertThrow(3 * block_size < A_epetra.NumGlobalRows(),
+                ExcMessage("LOBPCG for " + std::to_string(n_modes) + " modes needs more than " +
+                           std::to_string(3 * block_size) + " DoFs; the part has " +
+                           std::to_string(A_epetra.NumGlobalRows()) + ": use 'Modes/Eigensolver = block-krylov'."));
+    auto      initial    = Teuchos::rcp(new MV(A_epetra.OperatorDomainMap(), block_size));
+    initial->Random();
+    for (int c = 0; c < block_size; ++c)
+      for (const unsigned int i : impl->constrained)
+        (*initial)[c][i] = 0.;
+
+    ProjectedAmg preconditioner(impl->amg.trilinos_operator(), impl->constrained, progress);
+    auto problem = Teuchos::rcp(new Anasazi::BasicEigenproblem<double, MV, OP>(
+      Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&A_epetra), false),
+      Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&M_epetra), false), initial));
+    problem->setHermitian(true);
+    problem->setNEV(int(n_modes));
+    problem->setPrec(Teuchos::rcp(&preconditioner, false));
+    AssertThrow(problem->setProblem(), ExcMessage("Anasazi refused the eigenproblem (LOBPCG + AMG)."));
+
+    Teuchos::ParameterList parameters;
+    parameters.set("Which", std::string("SM"));
+    parameters.set("Block Size", block_size);
+    parameters.set("Maximum Iterations", 5000);
+    // Anasazi measures ||A x - theta M x|| / theta for M-normalized x; the self-checks (and the
+    // direct path) divide by theta ||M x|| too, which for M ~ m I is sqrt(m) with m the mean mass
+    // per DoF: the tolerance is scaled by it, so that it means the same at every unit and size.
+    const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*impl->M));
+    parameters.set("Convergence Tolerance", scaled_tolerance);
+    parameters.set("Relative Convergence Tolerance", true);
+    parameters.set("Full Ortho", true);
+    parameters.set("Use Locking", true);
+    parameters.set("Locking Tolerance", scaled_tolerance / 10.);
+    parameters.set("Verbosity", int(Anasazi::Errors + Anasazi::Warnings));
+    Anasazi::LOBPCGSolMgr<double, MV, OP> solver(problem, parameters);
+    const Anasazi::ReturnType             outcome    = solver.solve();
+    const int                             iterations = solver.getNumIters();
+    const auto               &solution = problem->getSolution();
+    AssertThrow(outcome == Anasazi::Converged && solution.numVecs >= int(n_modes),
+                ExcMessage("LOBPCG + AMG converged " + std::to_string(solution.numVecs) + " of " +
+                           std::to_string(n_modes) + " modes in " + std::to_string(iterations) +
+                           " iterations (relative residual tolerance " + std::to_string(tolerance) +
+                           "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
+                           "factorization) where its factor fits."));
+
+    std::vector<int> order(solution.numVecs);
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return solution.Evals[a].realpart < solution.Evals[b].realpart; });
+    EigenSolution eigen;
+    const std::size_t n = A_epetra.NumMyRows();
+    for (unsigned int k = 0; k < n_modes; ++k)
+      {
+        const int j = order[k];
+        eigen.eigenvalues.push_back(solution.Evals[j].realpart + impl->shift);
+        dealii::Vector<double> phi(n);
+        const double          *column = (*solution.Evecs)[j]; // index[] marks complex pairs, not columns
+        std::copy(column, column + n, phi.begin());
+        eigen.eigenvectors.push_back(std::move(phi));
+      }
+    impl->stats.eigensolver_iterations = iterations;
+    eigen.n_operator_applications      = preconditioner.n_applications;
+    eigen.eigensolve_iteration_seconds = timer.wall_time();
+    return eigen;
+  }
+} // namespace modal_haptics

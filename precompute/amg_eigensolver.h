@@ -1,0 +1,100 @@
+// The path that never factors K ('Modes/Eigensolver = lobpcg-amg'): the lowest modes by LOBPCG
+// (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG (Trilinos ML) whose near-null space
+// is the six rigid-body motions, and the static solves by preconditioned CG with the same AMG,
+// started from the computed modes' answer. Memory grows about linearly with the DoFs, where the
+// direct factorization grows as DoFs^1.3 (docs/cluster.md).
+//
+// It acts on A = K - shift M (shift <= 0, positive definite: a free part needs a negative shift, as
+// on the direct path) and presents itself as a Factorization: the static correction's refinement
+// against K (SerialSpace::solve_static) is the same on both paths. The distributed space uses the
+// same object on its Trilinos matrices (every process its own rows). Trilinos' solver headers stay
+// inside amg_eigensolver.cc (compile time).
+#pragma once
+
+#include "eigensolver.h"
+#include "factorization.h"
+
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <array>
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <memory>
+#include <vector>
+
+namespace dealii::TrilinosWrappers
+{
+  class SparseMatrix;
+  namespace MPI
+  {
+    class Vector;
+  }
+} // namespace dealii::TrilinosWrappers
+
+namespace modal_haptics
+{
+  struct AmgSolverStatistics
+  {
+    double       setup_seconds           = 0.; // the AMG hierarchy (and the Trilinos copies of K and M)
+    unsigned int eigensolver_iterations  = 0;  // LOBPCG's
+    unsigned int n_cg_solves             = 0;
+    unsigned int max_cg_iterations       = 0;  // of any static solve
+    double       mean_cg_iterations      = 0.;
+  };
+
+  class AmgShiftedInverse : public Factorization
+  {
+  public:
+    // rigid_body_motions: the six motions as DoF fields (the AMG's near-null space); constrained:
+    // the DoFs that are zero in every field (their rows of M are zero). node_blocked: DoFs 3k, 3k+1,
+    // 3k+2 are the x, y, z of one support point (deal.II's numbering of an FESystem without
+    // renumbering), which lets ML aggregate nodes rather than single DoFs.
+    AmgShiftedInverse(const dealii::SparseMatrix<double>           &K,
+                      const dealii::SparseMatrix<double>           &M,
+                      double                                        shift,
+                      const std::array<dealii::Vector<double>, 6> &rigid_body_motions,
+                      const std::vector<unsigned int>              &constrained,
+                      bool                                          node_blocked,
+                      bool                                          higher_order);
+    // Distributed: K and M as the distributed space holds them (referenced, not copied, unless
+    // shifted); near_null_space: the six rigid-body motions at this process's rows, one column of
+    // n_local after the other; constrained: this process's constrained rows, as local indices.
+    AmgShiftedInverse(const dealii::TrilinosWrappers::SparseMatrix &K,
+                      const dealii::TrilinosWrappers::SparseMatrix &M,
+                      double                                        shift,
+                      std::vector<double>                           near_null_space,
+                      const std::vector<unsigned int>              &constrained,
+                      bool                                          node_blocked,
+                      bool                                          higher_order);
+    ~AmgShiftedInverse() override;
+
+    // The n_modes lowest eigenpairs of K phi = lambda M phi, M-orthonormal, ascending (each vector
+    // holds this process's rows). Converged when every pair's ||A x - theta M x|| / (theta ||M x||)
+    // is below tolerance (collective).
+    // progress, when set, gets a line every 30 s.
+    EigenSolution lowest_modes(unsigned int n_modes, double tolerance,
+                               const std::function<void(const std::string &)> &progress);
+
+    // Later solves start from the modes' answer, sum_i phi_i (phi_i . b) / (lambda_i - shift): CG
+    // then works on the rest of the spectrum, where the AMG-preconditioned operator is well
+    // conditioned. The modes are referenced, not copied: they must outlive the solves.
+    void start_from_modes(const std::vector<double> &eigenvalues, const std::vector<dealii::Vector<double>> &modes);
+
+    // A X = B by preconditioned CG per column, to a relative residual of 1e-12 (as the direct
+    // path's refined solves).
+    void solve_block(double *columns, unsigned int n_rhs) override;
+
+    // The same for the distributed space: x = A^-1 b (collective; started from zero).
+    void solve(dealii::TrilinosWrappers::MPI::Vector &x, const dealii::TrilinosWrappers::MPI::Vector &b);
+
+    const AmgSolverStatistics &amg_statistics() const;
+
+  private:
+    void describe(bool node_blocked, double setup_seconds);
+
+    struct Impl;
+    std::unique_ptr<Impl> impl;
+  };
+} // namespace modal_haptics

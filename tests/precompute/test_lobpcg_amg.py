@@ -1,0 +1,113 @@
+#!/usr/bin/python3
+"""The eigensolver path without a factorization (Modes/Eigensolver = lobpcg-amg) against the direct
+path (block Krylov over CHOLMOD) on the same meshes.
+
+Cases: the steel cantilever of cantilever.prm in P2 and in P1 (clamped), and the free beam of
+free_beam.prm (six free rigid-body motions, Shift = -100 Hz). For each:
+* every computed frequency equal to the direct path's to 1e-8 relative (the rigid ones: both 0);
+* the self-checks: max |Phi^T M Phi - I| <= 1e-10 and max ||K phi - lambda M phi|| / ||lambda M phi||
+  <= 1e-5 (LOBPCG tolerance 1e-6; the eigenvalue error is about its square);
+* every validation case's full static FE response (AMG-preconditioned CG, or its refinement against K
+  with the shift) equal to the direct path's to 1e-8, and the corrected contact error <= 1e-8;
+* the report names the method.
+And 'auto' with a factor memory limit below the cantilever's factor switches to lobpcg-amg, saying so.
+With --mpirun: the P2 cantilever under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
+matrices) against the same direct run, with the same limits.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from test_mpi_np1_vs_np2 import mpi_command, mpi_environment
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def scene_text(prm_file, modes_lines, degree=2):
+    """The test's .prm with extra Modes entries and the element degree."""
+    with open(os.path.join(HERE, prm_file)) as f:
+        text = f.read()
+    text = text.replace("subsection Modes\n", "subsection Modes\n" + "".join(f"  set {line}\n" for line in modes_lines))
+    # 5 mm, two tets across the section (the prm's 2.5 mm take ten times as long): the comparison
+    # with the direct path does not need the resolution.
+    text = text.replace("set Coarse size = 2.5", "set Coarse size = 5")
+    return text.replace("subsection Meshing\n", f"subsection Meshing\n  set Element degree = {degree}\n")
+
+
+def space(report):
+    return report["spaces"][0]
+
+
+def run_under_mpirun(command, folder, prm_text):
+    """run_precompute's job under mpirun (its own command line: mpirun ... binary)."""
+    with open(os.path.join(folder, "scene.prm"), "w") as f:
+        f.write(prm_text)
+    subprocess.run(command + [os.path.join(folder, "scene.prm"), "--output-dir", folder, "--quiet"], check=True,
+                   env=mpi_environment())
+    with open(os.path.join(folder, "report.json")) as f:
+        return json.load(f), ""
+
+
+def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
+    """The direct path, then LOBPCG + AMG on a copy of its meshes (meshing is not repeatable);
+    with mpirun, the latter on 2 processes."""
+    direct_dir, amg_dir = os.path.join(workdir, name + "_direct"), os.path.join(workdir, name + "_amg")
+    for folder in (direct_dir, amg_dir):
+        os.makedirs(folder)
+        shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
+    direct, _ = run_precompute(binary, direct_dir,
+                               scene_text(prm_file, ["Eigensolver = block-krylov"], degree))
+    for file in os.listdir(direct_dir):
+        if file.endswith((".msh", ".key")):
+            shutil.copy(os.path.join(direct_dir, file), amg_dir)
+    amg_text = scene_text(prm_file, ["Eigensolver = lobpcg-amg"], degree)
+    amg, _ = (run_under_mpirun(mpi_command(mpirun, 2) + [binary], amg_dir, amg_text) if mpirun else
+              run_precompute(binary, amg_dir, amg_text))
+    d, a = space(direct), space(amg)
+    print(f"--- {name}: {a['n_dofs']} DoFs (P{degree}), {len(a['computed_frequencies_hz'])} modes, "
+          f"{a['rigid_body_modes']['count']} free motions")
+    checks.below("the same mesh (DoFs differ by)", abs(a["n_dofs"] - d["n_dofs"]), 0)
+    worst = max(abs(fa - fd) / max(abs(fd), 1e-300) if fd != 0 else abs(fa)
+                for fa, fd in zip(a["computed_frequencies_hz"], d["computed_frequencies_hz"]))
+    checks.below("frequencies vs the direct path (max relative difference)", worst, 1e-8)
+    checks.below("max |Phi^T M Phi - I|", a["orthonormality_error"], 1e-10)
+    checks.below("max ||K phi - lambda M phi|| / ||lambda M phi||", a["max_relative_residual"], 1e-5)
+    for va, vd in zip(a["validation"], d["validation"]):
+        ra, rd = va["full_contact_response_m_per_n"], vd["full_contact_response_m_per_n"]
+        scale = max(abs(x) for x in rd)
+        checks.below(f"full static response at vertex {va['vertex']} {va['direction']} vs direct",
+                     max(abs(x - y) for x, y in zip(ra, rd)) / scale, 1e-8)
+        checks.below(f"corrected contact error at vertex {va['vertex']} {va['direction']}",
+                     va["contact_rel_error_corrected"], 1e-8)
+    method = a["eigensolver"]["method"]
+    checks.below("the report names LOBPCG (0: it does)", 0 if "LOBPCG" in method else 1, 0)
+    return amg_dir
+
+
+def main():
+    args = binary_and_fresh_workdir(mpirun_help="also run LOBPCG + AMG under mpirun -np 2")
+    checks = Checks()
+    cantilever_dir = run_pair(args.binary, args.workdir, "cantilever_p2", "cantilever.prm", 2, checks)
+    run_pair(args.binary, args.workdir, "cantilever_p1", "cantilever.prm", 1, checks)
+    run_pair(args.binary, args.workdir, "free_beam_p2", "free_beam.prm", 2, checks)
+    if args.mpirun:
+        run_pair(args.binary, args.workdir, "cantilever_p2_np2", "cantilever.prm", 2, checks, mpirun=args.mpirun)
+
+    # auto: a limit below the cantilever's factor switches to the path without one.
+    auto_dir = os.path.join(args.workdir, "auto")
+    shutil.copytree(cantilever_dir, auto_dir)
+    auto, _ = run_precompute(args.binary, auto_dir, scene_text("cantilever.prm", [
+        "Eigensolver = auto", "Factor memory limit = 0.001"]))
+    print("--- auto, factor memory limit 1 MB")
+    method = space(auto)["eigensolver"]["method"]
+    print(method)
+    checks.below("auto chose LOBPCG + AMG (0: it did)", 0 if "LOBPCG" in method else 1, 0)
+    checks.below("auto said why, in the report (0: it did)", 0 if "limit 0.001 GB" in method else 1, 0)
+    sys.exit(0 if checks.ok else 1)
+
+
+if __name__ == "__main__":
+    main()
