@@ -9,14 +9,30 @@ import subprocess
 import numpy as np
 
 
-def run_precompute(binary, folder, prm_text, prm_name="scene.prm"):
-    """Returns (report.json as a dict, what the program wrote to stderr); raises if it fails."""
+def copy_meshes(source, folder):
+    """The meshes and their cache keys of one run into another's folder, which then reuses them:
+    gmsh does not mesh the same input twice the same, and comparing runs need one mesh."""
     os.makedirs(folder, exist_ok=True)
+    for name in os.listdir(source):
+        if name.endswith((".msh", ".key")):
+            shutil.copy(os.path.join(source, name), folder)
+
+
+def run_precompute(binary, folder, prm_text, prm_name="scene.prm", meshes_from=None, launcher=(), env=None):
+    """Returns (report.json as a dict, what the program wrote to stderr); raises if it fails.
+    meshes_from: a folder whose meshes to reuse; launcher: mpirun and its arguments, with env its
+    environment."""
+    os.makedirs(folder, exist_ok=True)
+    if meshes_from:
+        copy_meshes(meshes_from, folder)
     prm = os.path.join(folder, prm_name)
     with open(prm, "w") as f:
         f.write(prm_text)
-    done = subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], check=True,
-                          stderr=subprocess.PIPE, text=True)
+    command = [*launcher, binary, prm, "--output-dir", folder, "--quiet"]
+    done = subprocess.run(command, stderr=subprocess.PIPE, text=True, env=env)
+    if done.returncode != 0:
+        print(done.stderr[-2000:])  # the error message, which CalledProcessError does not show
+        raise subprocess.CalledProcessError(done.returncode, command, stderr=done.stderr)
     with open(os.path.join(folder, "report.json")) as f:
         return json.load(f), done.stderr
 
@@ -37,12 +53,15 @@ class Checks:
         self.below(f"{name}: {value:.3f} {unit} vs {reference:.3f}", abs(value - reference) / abs(reference), tolerance)
 
 
-def binary_and_fresh_workdir(mpirun_help=None):
+def binary_and_fresh_workdir(mpirun_help=None, required=()):
     """The arguments of a precompute test: --binary and --workdir, the latter emptied and created
-    (and an optional --mpirun, when mpirun_help says what the test does with it)."""
+    (and an optional --mpirun, when mpirun_help says what the test does with it; and the test's own
+    required options, e.g. "--prm")."""
     parser = argparse.ArgumentParser()
     parser.add_argument("--binary", required=True)
     parser.add_argument("--workdir", required=True)
+    for option in required:
+        parser.add_argument(option, required=True)
     if mpirun_help:
         parser.add_argument("--mpirun", help=mpirun_help)
     args = parser.parse_args()

@@ -10,15 +10,12 @@ Asserted:
 * the mount is a spring, between no mount and a rigid one: f1(bolts only) < f1(elastic mount) <
   f1(base clamped), for the same meshes.
 """
-import argparse
-import glob
-import json
 import math
 import os
 import re
-import shutil
-import subprocess
 import sys
+
+from precompute_run import binary_and_fresh_workdir, run_precompute
 
 failures = []
 
@@ -30,28 +27,11 @@ def check(condition, what):
 
 
 def run(binary, prm_text, folder, meshes_from=None):
-    os.makedirs(folder, exist_ok=True)
-    if meshes_from: # the same meshes: gmsh is not bit-reproducible
-        for f in glob.glob(os.path.join(meshes_from, "*.msh")) + glob.glob(os.path.join(meshes_from, "*.key")):
-            shutil.copy(f, folder)
-    prm = os.path.join(folder, "bracket.prm")
-    with open(prm, "w") as f:
-        f.write(prm_text)
-    done = subprocess.run([binary, prm, "--output-dir", folder, "--quiet"], stdout=subprocess.PIPE,
-                          stderr=subprocess.STDOUT, text=True)
-    if done.returncode != 0:
-        print(done.stdout[-2000:])
-        sys.exit(1)
-    with open(os.path.join(folder, "report.json")) as f:
-        return json.load(f)
+    """report.json of a run; meshes_from: the same meshes (gmsh is not bit-reproducible)."""
+    return run_precompute(binary, folder, prm_text, "bracket.prm", meshes_from)[0]
 
 
-parser = argparse.ArgumentParser()
-parser.add_argument("--binary", required=True)
-parser.add_argument("--prm", required=True)
-parser.add_argument("--workdir", required=True)
-args = parser.parse_args()
-shutil.rmtree(args.workdir, ignore_errors=True)
+args = binary_and_fresh_workdir(required=["--prm"])
 with open(args.prm) as f:
     text = f.read().replace("bracket/bracket.step", os.path.join(os.path.dirname(os.path.abspath(args.prm)),
                                                                   "bracket", "bracket.step"))

@@ -14,10 +14,8 @@ And 'auto' with a factor memory limit below the cantilever's factor switches to 
 With --mpirun: the P2 cantilever under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
 matrices) against the same direct run, with the same limits.
 """
-import json
 import os
 import shutil
-import subprocess
 import sys
 
 from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
@@ -41,16 +39,6 @@ def space(report):
     return report["spaces"][0]
 
 
-def run_under_mpirun(command, folder, prm_text):
-    """run_precompute's job under mpirun (its own command line: mpirun ... binary)."""
-    with open(os.path.join(folder, "scene.prm"), "w") as f:
-        f.write(prm_text)
-    subprocess.run(command + [os.path.join(folder, "scene.prm"), "--output-dir", folder, "--quiet"], check=True,
-                   env=mpi_environment())
-    with open(os.path.join(folder, "report.json")) as f:
-        return json.load(f), ""
-
-
 def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
     """The direct path, then LOBPCG + AMG on a copy of its meshes (meshing is not repeatable);
     with mpirun, the latter on 2 processes."""
@@ -60,12 +48,9 @@ def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
         shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
     direct, _ = run_precompute(binary, direct_dir,
                                scene_text(prm_file, ["Eigensolver = block-krylov"], degree))
-    for file in os.listdir(direct_dir):
-        if file.endswith((".msh", ".key")):
-            shutil.copy(os.path.join(direct_dir, file), amg_dir)
-    amg_text = scene_text(prm_file, ["Eigensolver = lobpcg-amg"], degree)
-    amg, _ = (run_under_mpirun(mpi_command(mpirun, 2) + [binary], amg_dir, amg_text) if mpirun else
-              run_precompute(binary, amg_dir, amg_text))
+    amg, _ = run_precompute(binary, amg_dir, scene_text(prm_file, ["Eigensolver = lobpcg-amg"], degree),
+                            meshes_from=direct_dir, launcher=mpi_command(mpirun, 2) if mpirun else (),
+                            env=mpi_environment() if mpirun else None)
     d, a = space(direct), space(amg)
     print(f"--- {name}: {a['n_dofs']} DoFs (P{degree}), {len(a['computed_frequencies_hz'])} modes, "
           f"{a['rigid_body_modes']['count']} free motions")

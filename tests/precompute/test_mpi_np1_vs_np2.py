@@ -28,7 +28,7 @@ import sys
 
 import h5py
 import numpy as np
-from precompute_run import largest_principal_angle
+from precompute_run import copy_meshes, largest_principal_angle
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = "small_block"
@@ -56,9 +56,7 @@ def mpi_environment():
 def run(command, folder, meshes_from=None, timeout=300, extra=""):
     os.makedirs(folder, exist_ok=True)
     if meshes_from:
-        for name in os.listdir(meshes_from):
-            if name.endswith((".msh", ".key")):
-                shutil.copy(os.path.join(meshes_from, name), folder)
+        copy_meshes(meshes_from, folder)
     prm = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
     open(os.path.join(folder, "scene.prm"), "w").write(prm + extra)
     subprocess.run(command + [os.path.join(folder, "scene.prm"), "--output-dir", folder, "--quiet"],

@@ -8,14 +8,11 @@ Asserted, for each support set:
   along the free motions only (inertia relief, realtime/src/self_check.cc), and matches the
   precompute's full static FE answer to its float64 tolerance (1e-8).
 """
-import argparse
-import glob
 import os
-import shutil
 import subprocess
 import sys
 
-from precompute_run import Checks, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CASES = [  # supports, free motions
@@ -56,22 +53,13 @@ end
 """
 
 
-parser = argparse.ArgumentParser()
-parser.add_argument("--binary", required=True)
-parser.add_argument("--modal-rt", required=True)
-parser.add_argument("--workdir", required=True)
-args = parser.parse_args()
-shutil.rmtree(args.workdir, ignore_errors=True)
+args = binary_and_fresh_workdir(required=["--modal-rt"])
 checks = Checks()
 first = None
 for k, (supports, n_free) in enumerate(CASES):
     folder = os.path.join(args.workdir, f"case{k}")
-    os.makedirs(folder)
-    if first: # one mesh: gmsh is not bit-reproducible
-        for f in glob.glob(os.path.join(first, "*.msh")) + glob.glob(os.path.join(first, "*.key")):
-            shutil.copy(f, folder)
+    report, _ = run_precompute(args.binary, folder, scene(supports), meshes_from=first)  # one mesh for all
     first = first or folder
-    report, _ = run_precompute(args.binary, folder, scene(supports))
     space = report["spaces"][0]
     rigid = space["rigid_body_modes"]
     print(f"'{supports}': {rigid['count']} free ({rigid['free_motions']})")

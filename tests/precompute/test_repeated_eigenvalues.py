@@ -13,13 +13,12 @@ exists; the frequencies agree to 1e-9; every cluster of nearly equal frequencies
 vectors do (their largest difference is printed); the static correction stays exact (<= 1e-8) and
 the display field's modal-only error is the same in both runs (it depends on the subspace only)."""
 import os
-import shutil
 import sys
 
 import h5py
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, largest_principal_angle, run_precompute
+from precompute_run import binary_and_fresh_workdir, copy_meshes, largest_principal_angle, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CLUSTER_GAP = 1e-3
@@ -76,10 +75,7 @@ def main():
     krylov_folder, arpack_folder = (os.path.join(args.workdir, name) for name in ("block-krylov", "arpack"))
     krylov, krylov_modes = solve(args.binary, krylov_folder, "block-krylov")
     # The same mesh for ARPACK: the mesh cache is reused when its inputs did not change.
-    os.makedirs(arpack_folder)
-    for name in os.listdir(krylov_folder):
-        if name.endswith((".msh", ".key")):
-            shutil.copy(os.path.join(krylov_folder, name), arpack_folder)
+    copy_meshes(krylov_folder, arpack_folder)
     arpack, arpack_modes = solve(args.binary, arpack_folder, "arpack")
 
     failures = []

@@ -34,7 +34,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mrt_reader  # noqa: E402
-from precompute_run import binary_and_fresh_workdir  # noqa: E402
+from precompute_run import binary_and_fresh_workdir, copy_meshes  # noqa: E402
 from test_mpi_np1_vs_np2 import mpi_command, mpi_environment  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -63,13 +63,6 @@ def scene_prm(folder, extra=""):
     path = os.path.join(folder, "scene.prm")
     open(path, "w").write(text + extra)
     return path
-
-
-def copy_meshes(source, folder):
-    os.makedirs(folder, exist_ok=True)
-    for name in os.listdir(source):
-        if name.endswith((".msh", ".key")):
-            shutil.copy(os.path.join(source, name), folder)
 
 
 def precompute(command, prm, folder, *options, timeout=300):

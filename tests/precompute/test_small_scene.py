@@ -12,14 +12,13 @@
 """
 import json
 import os
-import shutil
 import subprocess
 import sys
 
 import h5py
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir
+from precompute_run import binary_and_fresh_workdir, copy_meshes
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -75,10 +74,7 @@ def main():
     # The same scene with ARPACK instead of the block Krylov method: the same eigenvalues. The meshes
     # are copied so that the cache reuses them (gmsh does not mesh twice the same).
     arpack_dir = os.path.join(args.workdir, "arpack")
-    os.makedirs(arpack_dir, exist_ok=True)
-    for name in os.listdir(args.workdir):
-        if name.endswith((".msh", ".key")):
-            shutil.copy(os.path.join(args.workdir, name), arpack_dir)
+    copy_meshes(args.workdir, arpack_dir)
     prm = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
     prm += "\nsubsection Modes\n  set Eigensolver = arpack\nend\nsubsection Output\n  set VTU modes = 0\nend\n"
     open(os.path.join(arpack_dir, "arpack.prm"), "w").write(prm)
