@@ -35,9 +35,10 @@ namespace dealii::TrilinosWrappers
 
 namespace modal_haptics
 {
+  // What the path adds to FactorizationStatistics (whose analyze_seconds is the AMG's setup, with
+  // the Trilinos copies of K and M, and solve_seconds the CG solves).
   struct AmgSolverStatistics
   {
-    double       setup_seconds           = 0.; // the AMG hierarchy (and the Trilinos copies of K and M)
     unsigned int eigensolver_iterations  = 0;  // LOBPCG's
     unsigned int n_cg_solves             = 0;
     unsigned int max_cg_iterations       = 0;  // of any static solve

@@ -136,7 +136,8 @@ namespace modal_haptics
       AffineConstraints<double> constraints;
       SparsityPattern           sparsity_pattern;
       std::unique_ptr<Factorization> factorization; // of K - shift M, or the AMG-preconditioned CG
-      AmgShiftedInverse             *amg_inverse = nullptr; // the factorization, on the path without one
+      // The factorization on the path without one (null on the direct path).
+      AmgShiftedInverse *amg_inverse() const { return dynamic_cast<AmgShiftedInverse *>(factorization.get()); }
       std::string                    automatic_choice;      // Eigensolver = auto: why this path
       double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
@@ -257,14 +258,13 @@ namespace modal_haptics
                                                      rigid_body_motions(Point<3>()), result.clamped_dofs,
                                                      node_blocked, scene.element_degree > 1);
       std::ostringstream line;
-      line << "AMG (ML, rigid-body near-null space) set up in " << amg->amg_statistics().setup_seconds
+      line << "AMG (ML, rigid-body near-null space) set up in " << amg->statistics().analyze_seconds
            << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
       log(line.str());
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
                                                 [this](const std::string &line) { log(line); });
-      amg_inverse   = amg.get();
+      log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
       factorization = std::move(amg);
-      log("LOBPCG: " + std::to_string(amg_inverse->amg_statistics().eigensolver_iterations) + " iterations");
       return solution;
     }
 
@@ -328,9 +328,9 @@ namespace modal_haptics
     void SerialSpace::finish()
     {
       result.factorization = factorization->statistics();
-      if (amg_inverse == nullptr)
+      if (amg_inverse() == nullptr)
         return;
-      const auto        &amg = amg_inverse->amg_statistics();
+      const auto        &amg = amg_inverse()->amg_statistics();
       std::ostringstream line;
       line << "AMG-preconditioned CG: " << amg.n_cg_solves << " static solves, " << amg.mean_cg_iterations
            << " iterations on average, at most " << amg.max_cg_iterations << ", "
@@ -346,8 +346,8 @@ namespace modal_haptics
       eigen.eigenvectors = std::move(kept);
       log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
           std::to_string(result.dropped_modes.size()));
-      if (amg_inverse != nullptr)
-        amg_inverse->start_from_modes(result.eigenvalues, eigen.eigenvectors);
+      if (AmgShiftedInverse *amg = amg_inverse())
+        amg->start_from_modes(result.eigenvalues, eigen.eigenvectors);
     }
 
     // The n lowest computed modes of a part whose supports leave n rigid-body motions free (a

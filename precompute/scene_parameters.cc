@@ -186,6 +186,10 @@ namespace modal_haptics
     AssertThrow(minimum_count <= maximum_count,
                 ExcMessage("'Modes/Minimum number of modes' = " + text(minimum_count) +
                            " exceeds 'Maximum number of modes' = " + text(maximum_count) + "."));
+    // Said here, where --validate sees it; 'auto' switching to lobpcg-amg is checked where it does.
+    AssertThrow(eigensolver != EigensolverKind::lobpcg_amg || shift <= 0.,
+                ExcMessage("'Modes/Eigensolver = lobpcg-amg' needs 'Modes/Shift' <= 0 (K - shift M must be positive "
+                           "definite for the AMG and CG); it is " + text(shift) + " Hz."));
   }
 
   void DampingParameters::declare_parameters(ParameterHandler &prm)

@@ -79,6 +79,9 @@ CASES = [
      ["free-floating", "Maximum number of modes"]),
     ("eigensolver that cannot converge", scene_with(section("Modes", "set Tolerance = 1e-16")),
      ["did not converge", "of 8 modes", "Tolerance"]),
+    ("unknown eigensolver", scene_with(section("Modes", "set Eigensolver = lobpcg")), ["Eigensolver", "lobpcg-amg"]),
+    ("lobpcg-amg with a positive shift", scene_with(section("Modes", "set Eigensolver = lobpcg-amg", "set Shift = 50")),
+     ["lobpcg-amg", "Modes/Shift", "50 Hz"]),
     ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
     ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["subsection", "missing_subsection_end.prm"]),
 ]
