@@ -2,6 +2,8 @@
 // correction and the validation solves: factor once, solve many (blocks of right-hand sides).
 #pragma once
 
+#include "supernodal_solve.h"
+
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/vector.h>
 
@@ -52,6 +54,14 @@ namespace modal_haptics
     // Solves A X = B in place for n_rhs columns stored one after the other (column-major, each of
     // length n). A block is much cheaper per column than single solves: the factor is read once.
     virtual void solve_block(double *columns, unsigned int n_rhs) = 0;
+
+    // G = B^T A^-1 B (column-major) for sparse columns B, when the factorization gives it without
+    // a full solve per column (CHOLMOD's: SupernodalSolve::gram_of_inverse); false otherwise, and
+    // the caller solves.
+    virtual bool gram_of_inverse(const std::vector<SparseColumn> & /*B*/, std::vector<double> & /*G*/)
+    {
+      return false;
+    }
 
     // The shift-invert operator for ARPACK: dst = A^{-1} src.
     void vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src);

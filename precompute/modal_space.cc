@@ -78,6 +78,7 @@ namespace modal_haptics
       }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
+      bool compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance);
       const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
       void sum_over_processes(std::vector<double> &) const {}
       void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
@@ -533,6 +534,20 @@ namespace modal_haptics
       Field load = zero_field();
       surface.add_patch_load(vertex, factor, load);
       return load;
+    }
+
+    // W^T K^-1 W from the factorization when it is a factor of K itself (no shift to refine
+    // against, no inertia relief to apply) and can give it (CHOLMOD's).
+    bool SerialSpace::compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance)
+    {
+      if (shift != 0. || !rigid_modes.empty())
+        return false;
+      std::vector<SparseColumn> W;
+      W.reserve(3 * loads.size());
+      for (const unsigned int v : loads)
+        for (const auto &direction : surface.patch_loads.at(v))
+          W.emplace_back(direction.begin(), direction.end());
+      return factorization->gram_of_inverse(W, compliance);
     }
 
     void SerialSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const

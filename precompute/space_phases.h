@@ -20,6 +20,8 @@
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
 //   void solve_static(Block &)
+//   bool compliance_of_patch_loads(loads, std::vector<double> &G)   G = W^T K^-1 W of the loads'
+//                                     columns (3 per load), if the backend can without solving each
 //   const auto &block_column(const Block &, unsigned column) const               ghosted
 //   void sum_over_processes(std::vector<double> &) const
 //   void condense(DofWeights &) const  weights on constrained DoFs moved to the DoFs they follow (C^T w)
@@ -162,34 +164,39 @@ namespace modal_haptics
           }
     }
 
-    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T. The
-    // solves K^-1 W_v go a block of loads at a time; the cross terms W_a^T K^-1 W_b are read off the
-    // same block, and the patch averages of a block are summed over the processes once. For a free
-    // part K^-1 is the inertia-relief flexibility and Lambda^-1 leaves out the rigid-body modes
-    // (static_gain).
-    template <typename Backend>
-    void compute_static_correction(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
+    // The index of a candidate vertex in result.candidates (sorted).
+    inline unsigned int candidate_index(const ModalSpaceResult &result, const unsigned int vertex)
     {
-      const auto        &modes = b.kept_modes();
-      const unsigned int r     = modes.size();
-      const auto         loads = space_parts::plan_static_correction(in.scene, in.task, result);
-      const unsigned int nc    = result.candidates.size();
-      dealii::Timer      timer;
-      build_patch_loads(b, in, loads);
+      return std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex) - result.candidates.begin();
+    }
 
-      // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
-      for (unsigned int a = 0; a < nc; ++a)
-        for (unsigned int i = 0; i < r; ++i)
-          {
-            const auto average = b.surface.local_patch_average(result.candidates[a], b.ghosted_mode(i));
+    // The static responses read off W^T K^-1 W of every load (column 3k + d: load k, direction d;
+    // the candidates are loads 0 .. nc - 1, as plan_static_correction orders them).
+    inline void record_from_compliance(ModalSpaceResult &result, const PhaseInputs &in,
+                                       const std::vector<unsigned int> &loads, const std::vector<double> &compliance)
+    {
+      const std::size_t m = 3 * loads.size();
+      for (unsigned int k = 0; k < loads.size(); ++k)
+        space_parts::record_static_response(
+          result, in.task, k, loads[k], [&](const unsigned int vertex, const unsigned int d) {
+            const std::size_t     target = vertex == loads[k] ? k : candidate_index(result, vertex);
+            std::array<double, 3> u;
             for (unsigned int c = 0; c < 3; ++c)
-              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = average[c];
-          }
-      b.sum_over_processes(result.candidate_modes);
+              u[c] = compliance[(3 * k + d) * m + 3 * target + c];
+            return u;
+          });
+    }
 
-      // Targets of one load's averages: the load itself, then every candidate (cross compliance).
+    // The static responses by solving K u = W_v e_d a block of loads at a time and reading each
+    // column's patch averages at the load itself and at every candidate (cross compliance); the
+    // averages of a block are summed over the processes once.
+    template <typename Backend>
+    void record_from_block_solves(Backend &b, const PhaseInputs &in, ModalSpaceResult &result,
+                                  const std::vector<unsigned int> &loads, const dealii::Timer &timer)
+    {
+      const unsigned int nc          = result.candidates.size();
       const bool         store_cross = !result.cross_compliance.empty();
-      const unsigned int n_targets   = 1 + (store_cross ? nc : 0);
+      const unsigned int n_targets   = 1 + (store_cross ? nc : 0); // the load itself, then every candidate
       const unsigned int block       = 16;
       std::vector<double> averages;
       for (unsigned int first = 0; first < loads.size(); first += block)
@@ -216,11 +223,7 @@ namespace modal_haptics
           for (unsigned int k = 0; k < count; ++k)
             space_parts::record_static_response(
               result, in.task, first + k, loads[first + k], [&](const unsigned int vertex, const unsigned int d) {
-                const unsigned int t =
-                  vertex == loads[first + k] ?
-                    0 :
-                    1 + (std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex) -
-                         result.candidates.begin());
+                const unsigned int t = vertex == loads[first + k] ? 0 : 1 + candidate_index(result, vertex);
                 std::array<double, 3> u;
                 std::copy(at(k, d, t), at(k, d, t) + 3, u.begin());
                 return u;
@@ -229,6 +232,38 @@ namespace modal_haptics
             in.log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
                    " loads, " + std::to_string(timer.wall_time()) + " s");
         }
+    }
+
+    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T, and the
+    // cross terms W_a^T K^-1 W_b. Where the backend gives W^T K^-1 W of every load at once (a
+    // Cholesky factor of K: forward solves on the loads' elimination-tree paths only) it is read
+    // off that; else the loads are solved in blocks. For a free part K^-1 is the inertia-relief
+    // flexibility and Lambda^-1 leaves out the rigid-body modes (static_gain).
+    template <typename Backend>
+    void compute_static_correction(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
+    {
+      const auto        &modes = b.kept_modes();
+      const unsigned int r     = modes.size();
+      const auto         loads = space_parts::plan_static_correction(in.scene, in.task, result);
+      const unsigned int nc    = result.candidates.size();
+      dealii::Timer      timer;
+      build_patch_loads(b, in, loads);
+
+      // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
+      for (unsigned int a = 0; a < nc; ++a)
+        for (unsigned int i = 0; i < r; ++i)
+          {
+            const auto average = b.surface.local_patch_average(result.candidates[a], b.ghosted_mode(i));
+            for (unsigned int c = 0; c < 3; ++c)
+              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = average[c];
+          }
+      b.sum_over_processes(result.candidate_modes);
+
+      std::vector<double> compliance;
+      if (b.compliance_of_patch_loads(loads, compliance))
+        record_from_compliance(result, in, loads, compliance);
+      else
+        record_from_block_solves(b, in, result, loads, timer);
       result.correction_seconds_per_candidate = loads.empty() ? 0. : timer.wall_time() / loads.size();
       in.log(space_parts::static_correction_summary(result, loads.size()));
     }
@@ -347,6 +382,11 @@ namespace modal_haptics
                                  std::vector<std::string>(3, space_parts::validation_field_name(result.validation[k])),
                                  dealii::DataOut<3>::type_dof_data, vector_field);
       data_out.build_patches(b.mapping, in.scene.element_degree);
+      // zlib's fastest level: the files are for viewing, and the best compression tripled the
+      // phase's time on the default scene for files a fifth smaller.
+      dealii::DataOutBase::VtkFlags flags;
+      flags.compression_level = dealii::DataOutBase::VtkFlags::best_speed;
+      data_out.set_flags(flags);
       b.write_vtu(data_out);
     }
     // A space whose phases after the eigensolve are those above: a backend derives from

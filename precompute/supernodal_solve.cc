@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <numeric>
 #include <stdexcept>
 #include <thread>
 
@@ -58,6 +59,7 @@ namespace modal_haptics
     // The elimination tree of the supernodes, weighed by their entries of L (what a solve reads).
     struct SupernodeTree
     {
+      std::vector<Index>              supernode_of_column;
       std::vector<Index>              parent;   // -1 at a root
       std::vector<std::vector<Index>> children;
       std::vector<double>             entries, subtree_entries;
@@ -68,8 +70,9 @@ namespace modal_haptics
     SupernodeTree supernode_tree(const Index n, const Index n_supernodes, const Index *first_column,
                                  const Index *row_start, const Index *rows)
     {
-      SupernodeTree      tree;
-      std::vector<Index> supernode_of_column(n);
+      SupernodeTree tree;
+      auto         &supernode_of_column = tree.supernode_of_column;
+      supernode_of_column.resize(n);
       tree.parent.assign(n_supernodes, -1);
       tree.children.resize(n_supernodes);
       tree.entries.resize(n_supernodes);
@@ -172,8 +175,10 @@ namespace modal_haptics
   // loaded thread: the cut that minimizes it is kept (best_top).
   void SupernodalSolve::assign_subtrees(const unsigned int threads)
   {
-    const SupernodeTree tree = supernode_tree(n, n_supernodes, first_column, row_start, rows);
-    total_entries            = tree.total_entries;
+    SupernodeTree tree  = supernode_tree(n, n_supernodes, first_column, row_start, rows);
+    total_entries       = tree.total_entries;
+    supernode_of_column = std::move(tree.supernode_of_column);
+    parent_supernode    = tree.parent;
     std::vector<bool> in_top(n_supernodes, false);
     for (const Index s : best_top(tree, threads))
       {
@@ -294,5 +299,110 @@ namespace modal_haptics
     for (std::size_t c = 0; c < n_rhs; ++c)
       for (Index i = 0; i < n; ++i)
         columns[permutation[i] + c * n] = X[i + c * n];
+  }
+
+  void SupernodalSolve::mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns,
+                                   const std::size_t first, const std::size_t last,
+                                   const std::vector<Index> &position_of_row, std::vector<char> &on_path,
+                                   std::vector<Index> &path) const
+  {
+    for (std::size_t k = first; k < last; ++k)
+      for (const auto &entry : B[columns[k]])
+        // Up the tree until a supernode already on a path (the rest of its path is too).
+        for (Index s = supernode_of_column[position_of_row[entry.first]]; s >= 0 && !on_path[s];
+             s = parent_supernode[s])
+          {
+            on_path[s] = 1;
+            path.push_back(s);
+          }
+  }
+
+  bool SupernodalSolve::gram_of_inverse(const std::vector<SparseColumn> &B, const double memory_limit,
+                                        std::vector<double> &G) const
+  {
+    const std::size_t  m = B.size();
+    std::vector<Index> position_of_row(n);
+    for (Index i = 0; i < n; ++i)
+      position_of_row[permutation[i]] = i;
+
+    // Y's rows: the columns of L in the supernodes on any column's path, ascending.
+    std::vector<char>  on_any_path(n_supernodes, 0);
+    std::vector<Index> all_paths;
+    std::vector<std::size_t> all_columns(m);
+    std::iota(all_columns.begin(), all_columns.end(), 0);
+    mark_paths(B, all_columns, 0, m, position_of_row, on_any_path, all_paths);
+    std::sort(all_paths.begin(), all_paths.end());
+    std::vector<Index> row_of_Y(n, -1);
+    Index              n_rows_Y = 0;
+    for (const Index s : all_paths)
+      for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+        row_of_Y[column] = n_rows_Y++;
+    if (8. * double(n_rows_Y) * double(m) > memory_limit)
+      return false;
+    std::vector<double> Y(std::size_t(n_rows_Y) * m, 0.);
+
+    // Columns in the order of their first supernode (a postorder of the tree): neighbours in that
+    // order share most of their paths.
+    std::vector<std::size_t> order(m);
+    std::vector<Index>       first_supernode(m, n_supernodes);
+    for (std::size_t k = 0; k < m; ++k)
+      {
+        order[k] = k;
+        for (const auto &entry : B[k])
+          first_supernode[k] = std::min(first_supernode[k], supernode_of_column[position_of_row[entry.first]]);
+      }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](const std::size_t a, const std::size_t b) { return first_supernode[a] < first_supernode[b]; });
+
+    // Groups of columns, spread over the threads: each forward-solves its group on the union of the
+    // group's paths in a full-length workspace, moves the result into Y and clears what it wrote.
+    const std::size_t  width   = 64;
+    const unsigned int threads = n_threads();
+    run_on_threads(threads, [&](const unsigned int t) {
+      std::vector<double> X(std::size_t(n) * width, 0.);
+      std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * width);
+      std::vector<char>   on_path(n_supernodes, 0);
+      std::vector<Index>  path;
+      for (std::size_t first = t * width; first < m; first += threads * width)
+        {
+          const std::size_t count = std::min(width, m - first);
+          for (std::size_t k = 0; k < count; ++k)
+            for (const auto &[row, value] : B[order[first + k]])
+              X[position_of_row[row] + k * n] += value;
+          path.clear();
+          mark_paths(B, order, first, first + count, position_of_row, on_path, path);
+          std::sort(path.begin(), path.end()); // children before parents
+          for (const Index s : path)
+            forward(s, X.data(), int(count), workspace.data(), nullptr);
+          for (const Index s : path)
+            {
+              on_path[s] = 0;
+              for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+                for (std::size_t k = 0; k < count; ++k)
+                  {
+                    Y[row_of_Y[column] + order[first + k] * n_rows_Y] = X[column + k * n];
+                    X[column + k * n]                            = 0.;
+                  }
+            }
+        }
+    });
+
+    // G = Y^T Y, its lower triangle by blocks of columns spread over the threads (one BLAS thread
+    // each, like the solves), then mirrored.
+    G.assign(m * m, 0.);
+    const int    rows_int = int(n_rows_Y), m_int = int(m);
+    const double one = 1., zero = 0.;
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (std::size_t first = t * width; first < m && n_rows_Y > 0; first += threads * width)
+        {
+          const int count = int(std::min(width, m - first)), below = int(m - first);
+          dgemm_("T", "N", &below, &count, &rows_int, &one, &Y[first * n_rows_Y], &rows_int, &Y[first * n_rows_Y],
+                 &rows_int, &zero, &G[first + first * m], &m_int);
+        }
+    });
+    for (std::size_t j = 0; j < m; ++j)
+      for (std::size_t i = j + 1; i < m; ++i)
+        G[j + i * m] = G[i + j * m];
+    return true;
   }
 } // namespace modal_haptics

@@ -12,10 +12,14 @@
 
 #include <cholmod.h>
 
+#include <utility>
 #include <vector>
 
 namespace modal_haptics
 {
+  // A sparse column: (row, value) pairs in the matrix's own numbering.
+  using SparseColumn = std::vector<std::pair<std::size_t, double>>;
+
   class SupernodalSolve
   {
   public:
@@ -25,6 +29,14 @@ namespace modal_haptics
 
     // Solves A X = B in place for n_rhs columns of length n, one after the other (column-major).
     void solve(double *columns, unsigned int n_rhs) const;
+
+    // G = B^T A^-1 B (m x m, column-major) for m sparse columns B. With P A P^T = L L^T, G = Y^T Y
+    // for Y = L^-1 P B: a forward solve only, and only over the supernodes on the elimination
+    // tree's paths from each column's nonzero rows to a root, for Y is zero on every other row.
+    // Columns that lie close together in the part share most of their paths. Returns false
+    // without computing anything when Y on the rows of those paths would take more than
+    // memory_limit bytes. Threads as solve(): the caller keeps the BLAS on one thread.
+    bool gram_of_inverse(const std::vector<SparseColumn> &B, double memory_limit, std::vector<double> &G) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }
 
@@ -38,6 +50,12 @@ namespace modal_haptics
     struct Block;
 
     void assign_subtrees(unsigned int threads);
+    // Marks the supernodes on the paths from the nonzero rows of the columns B[columns[first,
+    // last)] to the roots in on_path and appends the newly marked ones to 'path' (unsorted).
+    void mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns, std::size_t first,
+                    std::size_t last,
+                    const std::vector<Index> &position_of_row, std::vector<char> &on_path,
+                    std::vector<Index> &path) const;
     // One supernode of L y = b: y at its own rows, its updates to the rows below subtracted from
     // X, or added to 'top_updates' for the rows of the top (when given).
     void forward(Index supernode, double *X, int n_rhs, double *workspace, double *top_updates) const;
@@ -47,6 +65,7 @@ namespace modal_haptics
     Index                      n, n_supernodes, max_rows_below;
     const Index               *first_column, *row_start, *value_start, *rows, *permutation;
     const double              *values;
+    std::vector<Index>         supernode_of_column, parent_supernode; // the tree (-1 at a root)
     std::vector<std::vector<Index>> subtrees_of_thread; // their supernodes, ascending
     std::vector<Index>         top_supernodes;          // ascending
     std::vector<Index>         top_position;            // per column: its index among the top's columns, or -1

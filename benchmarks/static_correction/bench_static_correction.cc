@@ -2,9 +2,11 @@
 // (three load directions per candidate) with the precompute's own factorization (CHOLMOD
 // supernodal, METIS; precompute/factorization.h), in blocks of 1 (one solve per load, "one by
 // one"), 3 (one candidate per block) and more (several candidates per block; the precompute's
-// compute_static_correction uses 16 candidates = 48 right-hand sides).
+// compute_static_correction used 16 candidates = 48 right-hand sides), and block 0: every load at
+// once as W^T K^-1 W by forward solves on the loads' elimination-tree paths (Factorization::
+// gram_of_inverse, what compute_static_correction does now wherever the factor is K's).
 //
-//   bench-static-correction K.csr [--blocks 1,3,12,48] [--candidates 16] [--repetitions 3]
+//   bench-static-correction K.csr [--blocks 1,3,12,48,0] [--candidates 16] [--repetitions 3]
 //
 // K is a space's stiffness matrix exported by modal-precompute ('Output/Export matrices'). The load
 // of a candidate is a unit force in x, y and z on three consecutive DoFs spread over the mesh (a
@@ -35,14 +37,14 @@ namespace
   struct Options
   {
     std::string                matrix;
-    std::vector<std::uint32_t> blocks      = {1, 3, 12, 48};
+    std::vector<std::uint32_t> blocks      = {1, 3, 12, 48, 0};
     unsigned int               candidates  = 16;
     int                        repetitions = 3;
   };
 
   [[noreturn]] void usage()
   {
-    modal_haptics_bench::usage("bench-static-correction K.csr [--blocks 1,3,12,48] [--candidates N] [--repetitions N]");
+    modal_haptics_bench::usage("bench-static-correction K.csr [--blocks 1,3,12,48,0] [--candidates N] [--repetitions N]");
   }
 
   Options parse(int argc, char **argv)
@@ -71,8 +73,7 @@ namespace
       {
         usage();
       }
-    if (o.matrix.empty() || o.blocks.empty() || o.candidates == 0 || o.repetitions < 1 ||
-        std::find(o.blocks.begin(), o.blocks.end(), 0u) != o.blocks.end())
+    if (o.matrix.empty() || o.blocks.empty() || o.candidates == 0 || o.repetitions < 1)
       usage();
     return o;
   }
@@ -100,23 +101,37 @@ namespace
         K.matrix.set(row, csr.columns[k], csr.values[k]);
   }
 
-  // Solves the three loads of every candidate, `block` right-hand sides per solve; returns seconds.
+  // Candidates spread evenly over the DoFs (away from the first and last vertex): the DoF of a load.
+  std::size_t loaded_dof(const std::size_t n, const unsigned int candidates, const unsigned int load)
+  {
+    const std::size_t vertex = (load / 3 + 1) * (n / 3) / (candidates + 1);
+    return 3 * vertex + load % 3;
+  }
+
+  // Solves the three loads of every candidate, `block` right-hand sides per solve (0: all at once
+  // as W^T K^-1 W); returns seconds.
   double solve_candidates(modal_haptics::Factorization &factorization, std::size_t n, unsigned int candidates,
                           unsigned int block)
   {
     const unsigned int  loads = 3 * candidates;
     std::vector<double> X;
     dealii::Timer       timer;
+    if (block == 0)
+      {
+        std::vector<modal_haptics::SparseColumn> W(loads);
+        for (unsigned int load = 0; load < loads; ++load)
+          W[load].emplace_back(loaded_dof(n, candidates, load), 1.);
+        if (!factorization.gram_of_inverse(W, X))
+          throw std::runtime_error("gram_of_inverse declined (over its memory limit)");
+        return timer.wall_time();
+      }
     for (unsigned int first = 0; first < loads; first += block)
       {
         const unsigned int count = std::min(block, loads - first);
         X.assign(std::size_t(count) * n, 0.);
         for (unsigned int b = 0; b < count; ++b)
           {
-            const unsigned int load = first + b, candidate = load / 3;
-            // Candidates spread evenly over the DoFs (away from the first and last vertex).
-            const std::size_t vertex = (candidate + 1) * (n / 3) / (candidates + 1);
-            X[b * n + 3 * vertex + load % 3] = 1.;
+            X[b * n + loaded_dof(n, candidates, first + b)] = 1.;
           }
         factorization.solve_block(X.data(), count);
       }

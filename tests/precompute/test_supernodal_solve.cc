@@ -4,7 +4,10 @@
 // plate-like vector Laplacian (a tree with deep, wide subtrees, like the parts' stiffness), a
 // diagonal matrix (a forest of single supernodes), a tridiagonal one (METIS makes its path a
 // balanced tree; in the natural order it is a chain, with no parallelism to find) and a 1 x 1
-// matrix; a simplicial factor is refused.
+// matrix; a simplicial factor is refused. gram_of_inverse (B^T A^-1 B of sparse columns by forward
+// solves on their elimination-tree paths) against B^T of the full solve, for columns of one to six
+// nonzeros scattered or clustered, an empty column, every thread count; a memory limit below Y's
+// size makes it decline.
 #include "supernodal_solve.h"
 
 #include <cholmod.h>
@@ -131,6 +134,67 @@ namespace
       }
     cholmod_l_free_factor(&L, &common);
   }
+  // Sparse columns: column k has 1 + k % 6 nonzeros, on rows spread over the matrix or (cluster)
+  // within a window of rows, like a contact patch's DoFs; the last column is empty.
+  std::vector<modal_haptics::SparseColumn> sparse_columns(const Index n, const std::size_t m, const bool cluster)
+  {
+    std::vector<modal_haptics::SparseColumn> B(m);
+    for (std::size_t k = 0; k + 1 < m; ++k)
+      for (std::size_t e = 0; e <= k % 6; ++e)
+        {
+          const Index window = cluster ? std::min<Index>(n, 60) : n;
+          const Index base   = cluster ? Index((k * 7919) % std::size_t(n - window + 1)) : 0;
+          B[k].emplace_back(std::size_t(base + Index((k * 131 + e * 977) % std::size_t(window))),
+                            std::cos(0.3 * double(k) + double(e)));
+        }
+    return B;
+  }
+
+  void check_gram_of_inverse(const std::string &name, cholmod_sparse *A, cholmod_common &common)
+  {
+    cholmod_factor *L = factorize(A, common, CHOLMOD_SUPERNODAL);
+    const Index     n = L->n;
+    for (const bool cluster : {false, true})
+      for (const std::size_t m : {std::size_t(1), std::size_t(7), std::size_t(150)})
+        {
+          const auto          B = sparse_columns(n, m, cluster);
+          std::vector<double> dense(std::size_t(n) * m, 0.);
+          for (std::size_t k = 0; k < m; ++k)
+            for (const auto &[row, value] : B[k])
+              dense[row + k * n] += value;
+          const modal_haptics::SupernodalSolve reference(*L, 1);
+          std::vector<double>                  X = dense;
+          reference.solve(X.data(), m);
+          std::vector<double> expected(m * m, 0.);
+          double              largest = 0.;
+          for (std::size_t j = 0; j < m; ++j)
+            for (std::size_t i = 0; i < m; ++i)
+              {
+                for (Index r = 0; r < n; ++r)
+                  expected[i + j * m] += dense[r + i * n] * X[r + j * n];
+                largest = std::max(largest, std::abs(expected[i + j * m]));
+              }
+          for (const unsigned int threads : {1u, 2u, 3u})
+            {
+              const modal_haptics::SupernodalSolve solver(*L, threads);
+              std::vector<double>                  G;
+              const bool                           done = solver.gram_of_inverse(B, 1e12, G);
+              double                               difference = done ? 0. : 1.;
+              for (std::size_t i = 0; done && i < m * m; ++i)
+                difference = std::max(difference, std::abs(G[i] - expected[i]));
+              char line[240];
+              std::snprintf(line, sizeof line, "gram_of_inverse, %s, %s columns, m = %zu, %u threads: %.1e of max |G|",
+                            name.c_str(), cluster ? "clustered" : "scattered", m, threads,
+                            difference / std::max(largest, 1e-300));
+              check(done && G.size() == m * m && difference <= 1e-12 * std::max(largest, 1e-300), line);
+            }
+          std::vector<double> untouched{42.};
+          const bool declined = !modal_haptics::SupernodalSolve(*L, 2).gram_of_inverse(B, 8., untouched);
+          check(m == 1 || (declined && untouched.size() == 1 && untouched[0] == 42.),
+                "gram_of_inverse declines past its memory limit, G untouched (" + name + ", m = " + std::to_string(m) + ")");
+        }
+    cholmod_l_free_factor(&L, &common);
+  }
 } // namespace
 
 int main()
@@ -140,6 +204,8 @@ int main()
 
   cholmod_sparse *laplacian = vector_laplacian(48, 24, 6, common);
   compare_with_cholmod("plate-like vector Laplacian", laplacian, common, true);
+
+  check_gram_of_inverse("plate-like vector Laplacian", laplacian, common);
 
   cholmod_sparse *diagonal = upper_triangle(1000, [](Index j) {
     return std::vector<std::pair<Index, double>>{{j, 1. + j % 7}};
@@ -155,6 +221,7 @@ int main()
   }, common);
   compare_with_cholmod("tridiagonal", chain, common, true);
   compare_with_cholmod("tridiagonal in the natural order", chain, common, false, CHOLMOD_NATURAL);
+  check_gram_of_inverse("tridiagonal", chain, common);
 
   cholmod_sparse *one = upper_triangle(1, [](Index) { return std::vector<std::pair<Index, double>>{{0, 4.}}; }, common);
   compare_with_cholmod("1 x 1", one, common, false);
