@@ -105,6 +105,11 @@ namespace modal_haptics
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X);
+      void solve_static(std::vector<Field> &fields)
+      {
+        for (auto &field : fields)
+          solve_static(field);
+      }
       // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
       bool compliance_of_patch_loads(const std::vector<unsigned int> &, std::vector<double> &) const { return false; }
       const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }

@@ -72,6 +72,7 @@ namespace modal_haptics
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
       void relieve_load(Field &load) const { relieve_load(load.begin()); }
       void solve_static(Field &u) { solve_static(u.data(), 1); }
+      void solve_static(std::vector<Field> &fields);
       Block new_block(const unsigned int n_columns) const
       {
         return {std::vector<double>(n_columns * std::size_t(dof_handler.n_dofs()), 0.), dof_handler.n_dofs()};
@@ -534,6 +535,18 @@ namespace modal_haptics
       Field load = zero_field();
       surface.add_patch_load(vertex, factor, load);
       return load;
+    }
+
+    // The fields as one block of columns: one pass over the factor for all of them.
+    void SerialSpace::solve_static(std::vector<Field> &fields)
+    {
+      const std::size_t   n = dof_handler.n_dofs();
+      std::vector<double> columns(n * fields.size());
+      for (std::size_t k = 0; k < fields.size(); ++k)
+        std::copy(fields[k].begin(), fields[k].end(), columns.begin() + k * n);
+      solve_static(columns.data(), fields.size());
+      for (std::size_t k = 0; k < fields.size(); ++k)
+        std::copy(columns.begin() + k * n, columns.begin() + (k + 1) * n, fields[k].begin());
     }
 
     // W^T K^-1 W from the factorization when it is a factor of K itself (no shift to refine

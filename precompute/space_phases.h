@@ -20,6 +20,7 @@
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
 //   void solve_static(Block &)
+//   void solve_static(std::vector<Field> &)   several fields in place, together where that is cheaper
 //   bool compliance_of_patch_loads(loads, std::vector<double> &G)   G = W^T K^-1 W of the loads'
 //                                     columns (3 per load), if the backend can without solving each
 //   const auto &block_column(const Block &, unsigned column) const               ghosted
@@ -304,55 +305,63 @@ namespace modal_haptics
       const unsigned int r     = modes.size();
       const std::size_t  nv    = in.display.n_vertices();
       auto               residual = b.zero_field();
+      // Every case's load, then their full solutions, solved together (one pass over a factor).
+      std::vector<typename Backend::Field> loads, solutions;
       for (const unsigned int vertex : in.task.validation_vertices)
         for (unsigned int direction = 0; direction < 3; ++direction)
           {
-            ValidationCase vc;
-            vc.vertex    = vertex;
-            vc.direction = direction;
             std::array<double, 3> unit{};
             unit[direction] = 1.;
-            auto f          = b.patch_load(vertex, unit);
-            b.relieve_load(f); // a free part: the equilibrated share of the load
-            auto u = f;
-            b.solve_static(u);
-            b.stiffness_matrix.vmult(residual, u);
-            residual -= f;
-            vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
-
-            auto                u_modal = b.zero_field();
-            std::vector<double> modal_coefficients(r);
-            for (unsigned int i = 0; i < r; ++i)
-              {
-                modal_coefficients[i] = (modes[i] * f) * static_gain(result.eigenvalues[i]);
-                u_modal.add(modal_coefficients[i], modes[i]);
-              }
-            auto difference = u;
-            difference -= u_modal;
-            vc.energy_rel_error_modal =
-              std::sqrt(b.stiffness_matrix.matrix_norm_square(difference) / b.stiffness_matrix.matrix_norm_square(u));
-
-            // One sum over the processes: both patch averages, then both display fields.
-            const auto         &u_ghosted = b.ghosted(u);
-            const auto         &u_modal_ghosted = b.ghosted(u_modal);
-            std::vector<double> values(6);
-            const auto full  = b.surface.local_patch_average(vertex, u_ghosted);
-            const auto modal = b.surface.local_patch_average(vertex, u_modal_ghosted);
-            std::copy(full.begin(), full.end(), values.begin());
-            std::copy(modal.begin(), modal.end(), values.begin() + 3);
-            b.surface.append_local_display_values(u_ghosted, nv, values);
-            b.surface.append_local_display_values(u_modal_ghosted, nv, values);
-            b.sum_over_processes(values);
-            std::array<double, 3> uc_full, uc_modal;
-            std::copy(values.begin(), values.begin() + 3, uc_full.begin());
-            std::copy(values.begin() + 3, values.begin() + 6, uc_modal.begin());
-            space_parts::set_validation_errors(
-              vc, result, in.display, in.scene.contact.correction_field_tolerance, uc_full, uc_modal,
-              std::vector<double>(values.begin() + 6, values.begin() + 6 + 3 * nv),
-              std::vector<double>(values.begin() + 6 + 3 * nv, values.end()), modal_coefficients);
-            b.validation_fields.push_back(b.output_field(difference));
-            result.validation.push_back(vc);
+            loads.push_back(b.patch_load(vertex, unit));
+            b.relieve_load(loads.back()); // a free part: the equilibrated share of the load
           }
+      solutions = loads;
+      b.solve_static(solutions);
+      for (unsigned int k = 0; k < loads.size(); ++k)
+        {
+          const unsigned int vertex = in.task.validation_vertices[k / 3];
+          ValidationCase     vc;
+          vc.vertex    = vertex;
+          vc.direction = k % 3;
+          const auto &f = loads[k];
+          const auto &u = solutions[k];
+          b.stiffness_matrix.vmult(residual, u);
+          residual -= f;
+          vc.solve_relative_residual = residual.l2_norm() / f.l2_norm();
+
+          auto                u_modal = b.zero_field();
+          std::vector<double> modal_coefficients(r);
+          for (unsigned int i = 0; i < r; ++i)
+            {
+              modal_coefficients[i] = (modes[i] * f) * static_gain(result.eigenvalues[i]);
+              u_modal.add(modal_coefficients[i], modes[i]);
+            }
+          auto difference = u;
+          difference -= u_modal;
+          vc.energy_rel_error_modal =
+            std::sqrt(b.stiffness_matrix.matrix_norm_square(difference) / b.stiffness_matrix.matrix_norm_square(u));
+
+          // One sum over the processes: both patch averages, then both display fields.
+          const auto         &u_ghosted = b.ghosted(u);
+          const auto         &u_modal_ghosted = b.ghosted(u_modal);
+          std::vector<double> values(6);
+          const auto full  = b.surface.local_patch_average(vertex, u_ghosted);
+          const auto modal = b.surface.local_patch_average(vertex, u_modal_ghosted);
+          std::copy(full.begin(), full.end(), values.begin());
+          std::copy(modal.begin(), modal.end(), values.begin() + 3);
+          b.surface.append_local_display_values(u_ghosted, nv, values);
+          b.surface.append_local_display_values(u_modal_ghosted, nv, values);
+          b.sum_over_processes(values);
+          std::array<double, 3> uc_full, uc_modal;
+          std::copy(values.begin(), values.begin() + 3, uc_full.begin());
+          std::copy(values.begin() + 3, values.begin() + 6, uc_modal.begin());
+          space_parts::set_validation_errors(
+            vc, result, in.display, in.scene.contact.correction_field_tolerance, uc_full, uc_modal,
+            std::vector<double>(values.begin() + 6, values.begin() + 6 + 3 * nv),
+            std::vector<double>(values.begin() + 6 + 3 * nv, values.end()), modal_coefficients);
+          b.validation_fields.push_back(b.output_field(difference));
+          result.validation.push_back(vc);
+        }
       validate_two_contacts(b, in, result);
       in.log(space_parts::validation_summary(result));
     }
