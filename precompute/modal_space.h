@@ -243,11 +243,11 @@ namespace modal_haptics
                                const std::function<double(double)> &reduce = [](double x) { return x; }) const;
 
     private:
-      const MaterialParameters                  material;
-      const double                              mu, lambda;
-      std::vector<dealii::SymmetricTensor<2, 3>> strain;
-      std::vector<double>                       divergence;
-      std::vector<dealii::Tensor<1, 3>>         value;
+      const MaterialParameters          material;
+      const double                      mu, lambda;
+      std::vector<unsigned int>         component;  // of each shape function (each has one nonzero)
+      std::vector<dealii::Tensor<1, 3>> gradient;   // of that component, at one quadrature point
+      std::vector<double>               value;
       double                                    mass = 0.;
       dealii::Tensor<1, 3>                      first_moment;
       dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
