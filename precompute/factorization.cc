@@ -9,6 +9,7 @@
 
 #include <cholmod.h>
 #include <dlfcn.h>
+#include <metis.h>
 
 #include <algorithm>
 #include <fstream>
@@ -60,6 +61,65 @@ namespace modal_haptics
       return std::clamp(dealii::MultithreadInfo::n_threads(), 1u, 8u);
     }
 
+    // A fill-reducing ordering: METIS's nested dissection of the graph of the mesh's nodes, not of
+    // the DoFs. Consecutive rows with the same sparsity pattern (a node's three displacement
+    // components, which deal.II numbers together) are one vertex, weighed by their count: a third
+    // of the vertices and a ninth of the edges, so METIS runs several times faster, and a
+    // separator never cuts a node's components apart. Returns CHOLMOD's Perm (Perm[k]: the row of
+    // A that comes k-th).
+    std::vector<SuiteSparse_long> node_graph_ordering(const dealii::SparsityPattern &pattern)
+    {
+      const std::size_t n = pattern.n_rows();
+      const auto        sorted_row = [&](const std::size_t row) {
+        std::vector<std::size_t> columns;
+        for (auto it = pattern.begin(row); it != pattern.end(row); ++it)
+          columns.push_back(it->column());
+        std::sort(columns.begin(), columns.end());
+        return columns;
+      };
+      // Nodes: runs of rows with equal patterns; first_row[g] .. first_row[g + 1] - 1 is node g.
+      std::vector<idx_t>       node_of_row(n);
+      std::vector<std::size_t> first_row;
+      std::vector<std::size_t> previous;
+      for (std::size_t row = 0; row < n; ++row)
+        {
+          auto columns = sorted_row(row);
+          if (first_row.empty() || columns != previous)
+            first_row.push_back(row);
+          node_of_row[row] = idx_t(first_row.size() - 1);
+          previous.swap(columns);
+        }
+      const idx_t n_nodes = idx_t(first_row.size());
+      first_row.push_back(n);
+
+      std::vector<idx_t> xadj{0}, adjncy, weight(n_nodes);
+      for (idx_t g = 0; g < n_nodes; ++g)
+        {
+          weight[g]           = idx_t(first_row[g + 1] - first_row[g]);
+          const std::size_t before = adjncy.size();
+          for (auto it = pattern.begin(first_row[g]); it != pattern.end(first_row[g]); ++it)
+            if (node_of_row[it->column()] != g)
+              adjncy.push_back(node_of_row[it->column()]);
+          std::sort(adjncy.begin() + before, adjncy.end());
+          adjncy.erase(std::unique(adjncy.begin() + before, adjncy.end()), adjncy.end());
+          xadj.push_back(idx_t(adjncy.size()));
+        }
+      idx_t options[METIS_NOPTIONS];
+      METIS_SetDefaultOptions(options);
+      std::vector<idx_t> order(n_nodes), inverse(n_nodes);
+      idx_t              vertices = n_nodes;
+      const int status = METIS_NodeND(&vertices, xadj.data(), adjncy.data(), weight.data(), options, order.data(),
+                                      inverse.data());
+      AssertThrow(status == METIS_OK, ExcMessage("METIS_NodeND failed (status " + std::to_string(status) +
+                                                 ", out of memory?)."));
+      std::vector<SuiteSparse_long> permutation;
+      permutation.reserve(n);
+      for (const idx_t g : order)
+        for (std::size_t row = first_row[g]; row < first_row[g + 1]; ++row)
+          permutation.push_back(SuiteSparse_long(row));
+      return permutation;
+    }
+
     class CholmodFactorization : public Factorization
     {
     public:
@@ -71,9 +131,10 @@ namespace modal_haptics
                            const double memory_limit)
       {
         cholmod_l_start(&common);
-        // One ordering, METIS nested dissection: the fill-reducing ordering that pays on 3D meshes.
+        // One ordering, METIS nested dissection (the fill-reducing ordering that pays on 3D
+        // meshes) of the node graph, given to CHOLMOD.
         common.nmethods           = 1;
-        common.method[0].ordering = CHOLMOD_METIS;
+        common.method[0].ordering = CHOLMOD_GIVEN;
         common.postorder          = 1;
         common.supernodal         = CHOLMOD_SUPERNODAL;
         common.quick_return_if_not_posdef = 1;
@@ -81,7 +142,8 @@ namespace modal_haptics
 
         cholmod_sparse *A = copy_upper_triangle(K, M, shift);
         dealii::Timer timer;
-        factor = cholmod_l_analyze(A, &common);
+        auto          ordering = node_graph_ordering(K.get_sparsity_pattern());
+        factor                 = cholmod_l_analyze_p(A, ordering.data(), nullptr, 0, &common);
         const int  analysis_status = common.status;
         const bool analyzed        = factor != nullptr && analysis_status == CHOLMOD_OK;
         stats.analyze_seconds      = timer.wall_time();
