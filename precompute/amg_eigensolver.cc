@@ -1,12 +1,10 @@
 // LOBPCG + AMG (amg_eigensolver.h): Trilinos Anasazi's LOBPCG on (K - shift M, M), ML's
-// smoothed aggregation with the rigid-body near-null space as its preconditioner, and deal.II's CG
-// with the same preconditioner for the static solves.
+// smoothed aggregation with the rigid-body near-null space as its preconditioner, and Belos' block
+// CG with the same preconditioner for the static solves.
 #include "amg_eigensolver.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/timer.h>
-#include <deal.II/lac/solver_cg.h>
-#include <deal.II/lac/solver_control.h>
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -14,6 +12,9 @@
 #include <AnasaziBasicEigenproblem.hpp>
 #include <AnasaziEpetraAdapter.hpp>
 #include <AnasaziLOBPCGSolMgr.hpp>
+#include <BelosBlockCGSolMgr.hpp>
+#include <BelosEpetraAdapter.hpp>
+#include <BelosLinearProblem.hpp>
 #include <Epetra_MultiVector.h>
 #include <Epetra_Operator.h>
 #include <Epetra_Vector.h>
@@ -24,9 +25,10 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <string>
+#include <memory>
 #include <numeric>
 #include <sstream>
+#include <string>
 
 namespace modal_haptics
 {
@@ -34,28 +36,40 @@ namespace modal_haptics
 
   namespace
   {
-    // The AMG as the Epetra operator LOBPCG applies (Anasazi calls Apply; ML's V-cycle is its
-    // ApplyInverse), followed by zeroing the constrained DoFs: every field of the constrained
-    // system is zero there, and M's zero rows there would otherwise let LOBPCG's search directions
-    // pick up directions of infinite eigenvalue.
+    // The AMG as an Epetra preconditioner (Anasazi and Belos call Apply; ML's V-cycle is its
+    // ApplyInverse) on the free DoFs; the constrained DoFs, whose rows of A hold only their
+    // diagonal, are kept out of the V-cycle's input and get either zero (LOBPCG: every field of the
+    // constrained system is zero there, and M's zero rows would otherwise let its search directions
+    // pick up directions of infinite eigenvalue) or their exact inverse (CG: with zero there it
+    // could not reduce a load's residual on them and would stall).
     class ProjectedAmg : public Epetra_Operator
     {
     public:
+      // constrained_diagonal: A's diagonal on the constrained rows, or null for zero there.
       ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
+                   const std::vector<double> *constrained_diagonal, std::string what,
                    const std::function<void(const std::string &)> &progress)
-        : amg(amg), constrained(constrained), progress(progress)
+        : amg(amg), constrained(constrained), constrained_diagonal(constrained_diagonal), what(std::move(what)),
+          progress(progress)
       {}
 
       int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
       {
-        const int status = amg.ApplyInverse(X, Y);
-        for (int c = 0; c < Y.NumVectors(); ++c)
+        if (!free_part || free_part->NumVectors() != X.NumVectors())
+          free_part = std::make_unique<Epetra_MultiVector>(X.Map(), X.NumVectors(), false);
+        *free_part = X;
+        for (int c = 0; c < X.NumVectors(); ++c)
           for (const unsigned int i : constrained)
-            Y[c][i] = 0.;
+            (*free_part)[c][i] = 0.;
+        const int status = amg.ApplyInverse(*free_part, Y);
+        for (int c = 0; c < Y.NumVectors(); ++c)
+          for (std::size_t k = 0; k < constrained.size(); ++k)
+            Y[c][constrained[k]] =
+              constrained_diagonal != nullptr ? X[c][constrained[k]] / (*constrained_diagonal)[k] : 0.;
         n_applications += X.NumVectors();
         if (progress && since_progress.wall_time() > 30.)
           {
-            progress("LOBPCG: " + std::to_string(n_applications) + " preconditioner applications, " +
+            progress(what + ": " + std::to_string(n_applications) + " preconditioner applications, " +
                      std::to_string(int(total.wall_time())) + " s");
             since_progress.restart();
           }
@@ -64,7 +78,7 @@ namespace modal_haptics
       int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
       int SetUseTranspose(bool) override { return -1; }
       double NormInf() const override { return 0.; }
-      const char *Label() const override { return "AMG (ML), constrained DoFs zeroed"; }
+      const char *Label() const override { return "AMG (ML) on the free DoFs"; }
       bool UseTranspose() const override { return false; }
       bool HasNormInf() const override { return false; }
       const Epetra_Comm &Comm() const override { return amg.Comm(); }
@@ -76,7 +90,10 @@ namespace modal_haptics
     private:
       const Epetra_Operator                          &amg;
       const std::vector<unsigned int>                &constrained;
+      const std::vector<double>                      *constrained_diagonal;
+      const std::string                               what;
       const std::function<void(const std::string &)> &progress; // a line every 30 s of long work
+      mutable std::unique_ptr<Epetra_MultiVector>     free_part;
       mutable dealii::Timer                           total, since_progress;
     };
   } // namespace
@@ -96,12 +113,6 @@ namespace modal_haptics
       matrix.Comm().SumAll(local, global, 2);
       return global[1] > 0. ? global[0] / global[1] : 1.;
     }
-
-    // This process's entries of a vector (deal.II's serial one, or Trilinos' distributed one).
-    double *local_values(dealii::Vector<double> &v) { return v.data(); }
-    double *local_values(dealii::TrilinosWrappers::MPI::Vector &v) { return v.trilinos_vector()[0]; }
-    const double *local_values(const dealii::Vector<double> &v) { return v.data(); }
-    const double *local_values(const dealii::TrilinosWrappers::MPI::Vector &v) { return v.trilinos_vector()[0]; }
   } // namespace
 
   struct AmgShiftedInverse::Impl
@@ -117,57 +128,39 @@ namespace modal_haptics
     const std::vector<dealii::Vector<double>> *start_modes       = nullptr;
     AmgSolverStatistics                        stats;
     unsigned long                              total_cg_iterations = 0;
-    // vmult's copy of its argument, kept: vmult runs once per CG iteration.
-    mutable dealii::Vector<double>                serial_workspace;
-    mutable dealii::TrilinosWrappers::MPI::Vector distributed_workspace;
-    dealii::Vector<double> &workspace(const dealii::Vector<double> &) const { return serial_workspace; }
-    dealii::TrilinosWrappers::MPI::Vector &workspace(const dealii::TrilinosWrappers::MPI::Vector &) const
-    {
-      return distributed_workspace;
-    }
+    std::function<void(const std::string &)> progress; // of the static solves (none so far)
 
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked, bool higher_order);
 
-    // The preconditioner of the static solves' CG (deal.II calls vmult): the AMG on the free DoFs
-    // and the exact inverse on the constrained ones, whose rows of A hold only their diagonal. The
-    // AMG alone would mix the two, and zeroing the constrained entries instead (as for LOBPCG, whose
-    // fields are zero there) would leave CG unable to reduce a load's residual on them: it stalls.
-    template <typename VectorType>
-    void vmult(VectorType &dst, const VectorType &src) const
+    // A X = B by block CG (Trilinos Belos) from the start X holds, preconditioned by the AMG, every
+    // column to 1e-12 of its load (relative to the load, not to the first residual: the start
+    // from the modes can leave a residual whose 1e-12 lies below rounding). One block Krylov space
+    // for all the columns: each iteration applies A and the V-cycle to the whole block at once.
+    void block_conjugate_gradients(Epetra_MultiVector &X, const Epetra_MultiVector &B)
     {
-      VectorType &free_part = workspace(src);
-      free_part             = src;
-      double    *free_values = local_values(free_part);
-      for (const unsigned int k : constrained)
-        free_values[k] = 0.;
-      amg.vmult(dst, free_part);
-      double       *out = local_values(dst);
-      const double *in  = local_values(src);
-      for (std::size_t c = 0; c < constrained.size(); ++c)
-        out[constrained[c]] = in[constrained[c]] / constrained_diagonal[c];
-    }
-
-    // x = A^-1 b by CG from the start x holds, to 1e-12 of the load (relative to the load, not to the
-    // first residual: the start from the modes can leave a residual whose 1e-12 lies below rounding).
-    template <typename VectorType>
-    void conjugate_gradients(VectorType &x, const VectorType &b)
-    {
-      const double          load_norm = b.l2_norm();
-      dealii::SolverControl control(20000, 1e-12 * load_norm);
-      dealii::SolverCG<VectorType> cg(control);
-      try
-        {
-          cg.solve(*A, x, b, *this);
-        }
-      catch (const dealii::SolverControl::NoConvergence &e)
-        {
-          AssertThrow(false, ExcMessage("The AMG-preconditioned CG of a static solve did not converge: relative "
-                                        "residual " + std::to_string(e.last_residual / load_norm) + " after " +
-                                        std::to_string(e.last_step) + " iterations."));
-        }
-      ++stats.n_cg_solves;
-      total_cg_iterations += control.last_step();
-      stats.max_cg_iterations  = std::max(stats.max_cg_iterations, control.last_step());
+      using MV = Epetra_MultiVector;
+      using OP = Epetra_Operator;
+      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG",
+                                        progress);
+      Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(&A->trilinos_matrix(), false),
+                                                   Teuchos::rcp(&X, false), Teuchos::rcp(&B, false));
+      problem.setLeftPrec(Teuchos::rcp(&preconditioner, false));
+      AssertThrow(problem.setProblem(), ExcMessage("Belos could not set up the static solves' linear problem."));
+      auto parameters = Teuchos::rcp(new Teuchos::ParameterList);
+      parameters->set("Block Size", X.NumVectors());
+      parameters->set("Maximum Iterations", 20000);
+      parameters->set("Convergence Tolerance", 1e-12);
+      parameters->set("Implicit Residual Scaling", std::string("Norm of RHS"));
+      Belos::BlockCGSolMgr<double, MV, OP> solver(Teuchos::rcp(&problem, false), parameters);
+      const Belos::ReturnType converged = solver.solve();
+      AssertThrow(converged == Belos::Converged,
+                  ExcMessage("The AMG-preconditioned block CG of the static solves did not converge: relative "
+                             "residual " + std::to_string(solver.achievedTol()) + " after " +
+                             std::to_string(solver.getNumIters()) + " iterations."));
+      const unsigned int iterations = solver.getNumIters();
+      stats.n_cg_solves += X.NumVectors();
+      total_cg_iterations += std::size_t(iterations) * X.NumVectors();
+      stats.max_cg_iterations  = std::max(stats.max_cg_iterations, iterations);
       stats.mean_cg_iterations = double(total_cg_iterations) / stats.n_cg_solves;
     }
 
@@ -280,19 +273,25 @@ namespace modal_haptics
     impl->start_modes       = &modes;
   }
 
+  // The columns start from the modes' answer (if given) and are solved together by block CG.
   void AmgShiftedInverse::solve_block(double *columns, const unsigned int n_rhs)
   {
+    if (n_rhs == 0)
+      return;
     dealii::Timer          timer;
-    const std::size_t      n = impl->A->m();
+    const std::size_t      n   = impl->A->m();
+    const Epetra_Map      &map = impl->A->trilinos_matrix().OperatorDomainMap();
+    const Epetra_MultiVector B(Copy, map, columns, int(n), int(n_rhs));
     dealii::Vector<double> b(n), x(n);
     for (unsigned int c = 0; c < n_rhs; ++c)
       {
         double *column = columns + c * n;
         std::copy(column, column + n, b.begin());
         impl->start(x, b);
-        impl->conjugate_gradients(x, b);
         std::copy(x.begin(), x.end(), column);
       }
+    Epetra_MultiVector X(View, map, columns, int(n), int(n_rhs));
+    impl->block_conjugate_gradients(X, B);
     stats.solve_seconds += timer.wall_time();
     stats.n_solved_vectors += n_rhs;
   }
@@ -302,7 +301,7 @@ namespace modal_haptics
   {
     dealii::Timer timer;
     x = 0.;
-    impl->conjugate_gradients(x, b);
+    impl->block_conjugate_gradients(x.trilinos_vector(), b.trilinos_vector());
     stats.solve_seconds += timer.wall_time();
     ++stats.n_solved_vectors;
   }
@@ -328,7 +327,7 @@ namespace modal_haptics
       for (const unsigned int i : impl->constrained)
         (*initial)[c][i] = 0.;
 
-    ProjectedAmg preconditioner(impl->amg.trilinos_operator(), impl->constrained, progress);
+    ProjectedAmg preconditioner(impl->amg.trilinos_operator(), impl->constrained, nullptr, "LOBPCG", progress);
     auto problem = Teuchos::rcp(new Anasazi::BasicEigenproblem<double, MV, OP>(
       Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&A_epetra), false),
       Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&M_epetra), false), initial));

@@ -1,6 +1,6 @@
 // The path that never factors K ('Modes/Eigensolver = lobpcg-amg'): the lowest modes by LOBPCG
 // (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG (Trilinos ML) whose near-null space
-// is the six rigid-body motions, and the static solves by preconditioned CG with the same AMG,
+// is the six rigid-body motions, and the static solves by block CG (Trilinos Belos) with the same AMG,
 // started from the computed modes' answer. Memory grows about linearly with the DoFs, where the
 // direct factorization grows as DoFs^1.3 (docs/cluster.md).
 //
@@ -40,9 +40,9 @@ namespace modal_haptics
   struct AmgSolverStatistics
   {
     unsigned int eigensolver_iterations  = 0;  // LOBPCG's
-    unsigned int n_cg_solves             = 0;
-    unsigned int max_cg_iterations       = 0;  // of any static solve
-    double       mean_cg_iterations      = 0.;
+    unsigned int n_cg_solves             = 0;  // columns solved
+    unsigned int max_cg_iterations       = 0;  // of any block CG (its block iterations)
+    double       mean_cg_iterations      = 0.; // block iterations per column's solve
   };
 
   class AmgShiftedInverse : public Factorization
@@ -83,8 +83,8 @@ namespace modal_haptics
     // conditioned. The modes are referenced, not copied: they must outlive the solves.
     void start_from_modes(const std::vector<double> &eigenvalues, const std::vector<dealii::Vector<double>> &modes);
 
-    // A X = B by preconditioned CG per column, to a relative residual of 1e-12 (as the direct
-    // path's refined solves).
+    // A X = B by AMG-preconditioned block CG (Trilinos Belos) on all the columns at once, each to
+    // a relative residual of 1e-12 (as the direct path's refined solves).
     void solve_block(double *columns, unsigned int n_rhs) override;
 
     // The same for the distributed space: x = A^-1 b (collective; started from zero).

@@ -334,8 +334,8 @@ namespace modal_haptics
         return;
       const auto        &amg = amg_inverse()->amg_statistics();
       std::ostringstream line;
-      line << "AMG-preconditioned CG: " << amg.n_cg_solves << " static solves, " << amg.mean_cg_iterations
-           << " iterations on average, at most " << amg.max_cg_iterations << ", "
+      line << "AMG-preconditioned block CG: " << amg.n_cg_solves << " static solves (columns), "
+           << amg.mean_cg_iterations << " block iterations on average, at most " << amg.max_cg_iterations << ", "
            << factorization->statistics().solve_seconds << " s";
       log(line.str());
     }
