@@ -317,6 +317,71 @@ namespace modal_haptics
           }
   }
 
+  // Y's rows in runs of consecutive supernodes (of all_paths, Y's row order) that the same groups
+  // of columns reach: columns [lo, hi) of the solve order, in groups of 'width' (the columns outside
+  // are zero on those rows).
+  std::vector<SupernodalSolve::RowRun> SupernodalSolve::column_ranges(const std::vector<SparseColumn> &B,
+                                                                      const std::vector<std::size_t> &order,
+                                                                      const std::size_t                width,
+                                                                      const std::vector<Index> &position_of_row,
+                                                                      const std::vector<Index> &all_paths) const
+  {
+    const std::size_t  m = B.size();
+    std::vector<std::size_t> lo(n_supernodes, m), hi(n_supernodes, 0);
+    std::vector<char>  on_path(n_supernodes, 0);
+    std::vector<Index> path;
+    for (std::size_t first = 0; first < m; first += width)
+      {
+        const std::size_t last = std::min(first + width, m);
+        path.clear();
+        mark_paths(B, order, first, last, position_of_row, on_path, path);
+        for (const Index s : path)
+          {
+            on_path[s] = 0;
+            lo[s]      = std::min(lo[s], first);
+            hi[s]      = std::max(hi[s], last);
+          }
+      }
+    std::vector<RowRun> runs;
+    Index               row = 0;
+    for (const Index s : all_paths)
+      {
+        const Index rows_of_s = first_column[s + 1] - first_column[s];
+        if (!runs.empty() && runs.back().lo == lo[s] && runs.back().hi == hi[s])
+          runs.back().n_rows += rows_of_s;
+        else
+          runs.push_back({row, rows_of_s, lo[s], hi[s]});
+        row += rows_of_s;
+      }
+    return runs;
+  }
+
+  // Y^T Y (m x m) from the runs: each adds Y[its rows, lo:hi]^T Y[its rows, lo:hi], its lower
+  // triangle by blocks of G's columns spread over the threads (one BLAS thread each, like the
+  // solves). The top of the tree reaches every column; a subtree only its own, a short range.
+  std::vector<double> SupernodalSolve::sparse_gram(const std::vector<double> &Y, const Index n_rows_Y,
+                                                   const std::size_t m, const std::vector<RowRun> &runs) const
+  {
+    std::vector<double> G(m * m, 0.);
+    const std::size_t   width    = 64;
+    const unsigned int  threads  = n_threads();
+    const int           ld_Y     = int(std::max<Index>(n_rows_Y, 1)), ld_G = int(m);
+    const double        one      = 1.;
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (std::size_t block = t * width; block < m; block += threads * width)
+        for (const RowRun &run : runs)
+          {
+            const std::size_t first = std::max(block, run.lo), last = std::min(block + width, run.hi);
+            if (first >= last)
+              continue;
+            const int below = int(run.hi - first), columns = int(last - first), k = int(run.n_rows);
+            const double *Y_run = &Y[run.first_row + first * n_rows_Y];
+            dgemm_("T", "N", &below, &columns, &k, &one, Y_run, &ld_Y, Y_run, &ld_Y, &one, &G[first + first * m], &ld_G);
+          }
+    });
+    return G;
+  }
+
   bool SupernodalSolve::gram_of_inverse(const std::vector<SparseColumn> &B, const double memory_limit,
                                         std::vector<double> &G) const
   {
@@ -354,8 +419,9 @@ namespace modal_haptics
     std::stable_sort(order.begin(), order.end(),
                      [&](const std::size_t a, const std::size_t b) { return first_supernode[a] < first_supernode[b]; });
 
-    // Groups of columns, spread over the threads: each forward-solves its group on the union of the
-    // group's paths in a full-length workspace, moves the result into Y and clears what it wrote.
+    // Groups of columns (in that order), spread over the threads: each forward-solves its group on
+    // the union of the group's paths in a full-length workspace, moves the result into Y (column
+    // k: the k-th in 'order') and clears what it wrote.
     const std::size_t  width   = 64;
     const unsigned int threads = n_threads();
     run_on_threads(threads, [&](const unsigned int t) {
@@ -380,29 +446,19 @@ namespace modal_haptics
               for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
                 for (std::size_t k = 0; k < count; ++k)
                   {
-                    Y[row_of_Y[column] + order[first + k] * n_rows_Y] = X[column + k * n];
+                    Y[row_of_Y[column] + (first + k) * n_rows_Y] = X[column + k * n];
                     X[column + k * n]                            = 0.;
                   }
             }
         }
     });
+    const auto gram = sparse_gram(Y, n_rows_Y, m, column_ranges(B, order, width, position_of_row, all_paths));
 
-    // G = Y^T Y, its lower triangle by blocks of columns spread over the threads (one BLAS thread
-    // each, like the solves), then mirrored.
+    // Back from the order of the solves to B's.
     G.assign(m * m, 0.);
-    const int    rows_int = int(n_rows_Y), m_int = int(m);
-    const double one = 1., zero = 0.;
-    run_on_threads(threads, [&](const unsigned int t) {
-      for (std::size_t first = t * width; first < m && n_rows_Y > 0; first += threads * width)
-        {
-          const int count = int(std::min(width, m - first)), below = int(m - first);
-          dgemm_("T", "N", &below, &count, &rows_int, &one, &Y[first * n_rows_Y], &rows_int, &Y[first * n_rows_Y],
-                 &rows_int, &zero, &G[first + first * m], &m_int);
-        }
-    });
-    for (std::size_t j = 0; j < m; ++j)
-      for (std::size_t i = j + 1; i < m; ++i)
-        G[j + i * m] = G[i + j * m];
+    for (std::size_t b = 0; b < m; ++b)
+      for (std::size_t a = b; a < m; ++a)
+        G[order[a] + order[b] * m] = G[order[b] + order[a] * m] = gram[a + b * m];
     return true;
   }
 } // namespace modal_haptics

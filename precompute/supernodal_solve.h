@@ -50,6 +50,17 @@ namespace modal_haptics
     struct Block;
 
     void assign_subtrees(unsigned int threads);
+    // Rows of Y (first_row, n_rows) that only the columns lo .. hi - 1 of the solve order reach.
+    struct RowRun
+    {
+      Index       first_row, n_rows;
+      std::size_t lo, hi;
+    };
+    std::vector<RowRun> column_ranges(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &order,
+                                      std::size_t width, const std::vector<Index> &position_of_row,
+                                      const std::vector<Index> &all_paths) const;
+    std::vector<double> sparse_gram(const std::vector<double> &Y, Index n_rows_Y, std::size_t m,
+                                    const std::vector<RowRun> &runs) const;
     // Marks the supernodes on the paths from the nonzero rows of the columns B[columns[first,
     // last)] to the roots in on_path and appends the newly marked ones to 'path' (unsorted).
     void mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns, std::size_t first,
