@@ -1,6 +1,7 @@
 #include "distributed_space.h"
 
 #include "amg_eigensolver.h"
+#include "mumps_inverse.h"
 
 #include "space_phases.h"
 
@@ -20,7 +21,6 @@
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/parpack_solver.h>
 #include <deal.II/lac/solver_control.h>
-#include <deal.II/lac/trilinos_solver.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_sparsity_pattern.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -43,36 +43,6 @@ namespace modal_haptics
   {
     constexpr double two_pi = 2. * M_PI;
     using DistributedVector = TrilinosWrappers::MPI::Vector;
-
-    // The MUMPS factorization of K - sigma M: PArpackSolver's shift-invert operator (a const vmult)
-    // and the solver of the static right-hand sides. Amesos_Mumps through deal.II is MUMPS's
-    // unsymmetric LU (deal.II does not pass Amesos the symmetric option); it factorizes once.
-    class MumpsInverse
-    {
-    public:
-      MumpsInverse(const TrilinosWrappers::SparseMatrix &A, FactorizationStatistics &stats)
-        : solver(control, TrilinosWrappers::SolverDirect::AdditionalData(false, "Amesos_Mumps"))
-        , stats(stats)
-      {
-        stats.method = "mumps-lu (Trilinos Amesos_Mumps, distributed)";
-        Timer timer;
-        solver.initialize(A);
-        stats.factorize_seconds = timer.wall_time();
-      }
-
-      void vmult(DistributedVector &dst, const DistributedVector &src) const
-      {
-        Timer timer;
-        solver.solve(dst, src);
-        stats.solve_seconds += timer.wall_time();
-        ++stats.n_solved_vectors;
-      }
-
-    private:
-      mutable SolverControl                  control;
-      mutable TrilinosWrappers::SolverDirect solver;
-      FactorizationStatistics               &stats;
-    };
 
     // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
     // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, PARPACK.
@@ -107,8 +77,11 @@ namespace modal_haptics
       void solve_static(Block &X);
       void solve_static(std::vector<Field> &fields)
       {
-        for (auto &field : fields)
-          solve_static(field);
+        if (shift == 0. && inverse) // nothing to refine: one block for MUMPS
+          inverse->solve_columns(fields);
+        else
+          for (auto &field : fields)
+            solve_static(field);
       }
       // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
       bool compliance_of_patch_loads(const std::vector<unsigned int> &, std::vector<double> &) const { return false; }
@@ -166,7 +139,7 @@ namespace modal_haptics
       bool                                         coupled_constraints = false; // on any process
       double                                       shift = 0.; // MUMPS factorizes K - shift M [1/s^2]
       TrilinosWrappers::SparseMatrix               shifted_matrix;
-      std::unique_ptr<MumpsInverse>                inverse;
+      std::unique_ptr<DistributedInverse>          inverse;
       std::unique_ptr<AmgShiftedInverse>           amg; // instead of 'inverse' with Eigensolver = lobpcg-amg
       std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
       std::unique_ptr<space_parts::PointLocator>   locator; // in the owned cells
@@ -311,13 +284,16 @@ namespace modal_haptics
     {
       log("Modes/Eigensolver (" + eigensolver_name(scene.modes.eigensolver) + ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
           ") choose the serial solvers; the distributed path uses PARPACK over MUMPS (or 'lobpcg-amg')");
-      log("factorizing K with MUMPS (Trilinos Amesos_Mumps)");
+      const auto kind = scene.modes.distributed_factorization;
+      log(std::string("factorizing K with MUMPS (") +
+          (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric, PETSc") + ")");
       if (shift != 0.)
         {
           shifted_matrix.copy_from(stiffness_matrix);
           shifted_matrix.add(-shift, mass_matrix);
         }
-      inverse = std::make_unique<MumpsInverse>(shift != 0. ? shifted_matrix : stiffness_matrix, result.factorization);
+      inverse = make_mumps_inverse(shift != 0. ? shifted_matrix : stiffness_matrix, kind, shift <= 0.,
+                                   result.factorization);
 
       const int n   = result.n_dofs;
       const int nev = scene.modes.maximum_count;
@@ -556,6 +532,17 @@ namespace modal_haptics
 
     void DistributedSpace::solve_static(Block &X)
     {
+      // Without a shift (nothing to refine) MUMPS solves the whole block at once.
+      if (shift == 0. && inverse)
+        {
+          inverse->solve_columns(X.columns);
+          for (auto &column : X.columns)
+            {
+              DistributedVector ghosted_column = ghosted(column);
+              column.swap(ghosted_column);
+            }
+          return;
+        }
       for (auto &column : X.columns)
         {
           solve_static(column);

@@ -140,7 +140,7 @@ namespace modal_haptics
                       "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
                       "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
                       "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
-                      "preconditioned CG: no factorization, memory about linear in the DoFs, for parts whose "
+                      "preconditioned block CG (Trilinos Belos): no factorization, memory about linear in the DoFs, for parts whose "
                       "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
                       "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS). All "
                       "converge to the same modes. Units: none.");
@@ -159,6 +159,12 @@ namespace modal_haptics
                       Patterns::Selection("cholmod|umfpack"),
                       "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
                       "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
+    prm.declare_entry("Distributed factorization",
+                      m.distributed_factorization == DistributedFactorizationKind::mumps_lu ? "mumps-lu" : "mumps-cholesky",
+                      Patterns::Selection("mumps-cholesky|mumps-lu"),
+                      "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
+                      "(MUMPS through PETSc in its symmetric mode, L D L^T: about half the factor and the flops "
+                      "of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
     prm.leave_subsection();
   }
 
@@ -174,6 +180,9 @@ namespace modal_haptics
     shift          = prm.get_double("Shift");
     tolerance      = prm.get_double("Tolerance");
     factorization_kind = prm.get("Operator") == "umfpack" ? FactorizationKind::umfpack : FactorizationKind::cholmod;
+    distributed_factorization = prm.get("Distributed factorization") == "mumps-lu" ?
+                                  DistributedFactorizationKind::mumps_lu :
+                                  DistributedFactorizationKind::mumps_cholesky;
     eigensolver    = eigensolver_kind(prm.get("Eigensolver"));
     lobpcg_tolerance = prm.get_double("LOBPCG tolerance");
     factor_memory_limit = prm.get_double("Factor memory limit");

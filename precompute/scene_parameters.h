@@ -42,6 +42,12 @@ namespace modal_haptics
     umfpack  // deal.II's SparseDirectUMFPACK LU: slow, kept as a peer
   };
 
+  enum class DistributedFactorizationKind
+  {
+    mumps_cholesky, // PETSc's MUMPS in its symmetric mode (L D L^T): the default
+    mumps_lu        // Trilinos Amesos_Mumps: MUMPS's unsymmetric LU, kept as a peer
+  };
+
   enum class EigensolverKind
   {
     automatic,    // block_krylov when CHOLMOD's analysis says its factor fits in memory, else lobpcg_amg
@@ -63,6 +69,7 @@ namespace modal_haptics
     double       shift         = 0.;    // shift-invert shift [Hz]
     double       tolerance     = 1e-10; // ARPACK relative tolerance on Ritz values
     FactorizationKind factorization_kind = FactorizationKind::cholmod;
+    DistributedFactorizationKind distributed_factorization = DistributedFactorizationKind::mumps_cholesky;
     EigensolverKind eigensolver = EigensolverKind::automatic;
     double       lobpcg_tolerance = 1e-6; // lobpcg-amg: relative residual of every wanted pair
     double       factor_memory_limit = 0.; // auto: the largest direct factor [GB]; 0: half the available memory

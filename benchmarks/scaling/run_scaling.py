@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """Scaling of the distributed precompute (docs/cluster.md, docs/performance.md): the FACTS plate of
 the eigensolver benchmark (50 modes of its graded 'rib' space) run by `mpirun -np N modal-precompute
---distributed` for N = 1 and 2, interleaved and repeated; wall time per phase of the rib space,
-total time, the largest peak memory of one process, speedup. Writes a CSV.
+--distributed` for N = 1 and 2, interleaved and repeated, with each of MUMPS's two wrappers
+('Modes/Distributed factorization': PETSc's symmetric mode, Trilinos Amesos' LU); wall time per
+phase of the rib space, total time, the largest peak memory of one process, speedup. Writes a CSV.
   run_scaling.py --build build --out benchmarks/results/<host>/scaling.csv [--sizes 0.5,0.36] [--repeat 2]
+                 [--factorizations mumps-cholesky,mumps-lu]
 """
 import argparse
 import csv
@@ -22,11 +24,13 @@ from test_mpi_np1_vs_np2 import mpi_command, mpi_environment  # noqa: E402
 PHASES = ["assembly", "eigensolve", "interpolation", "static_correction", "validation"]
 
 
-def run(build, folder, fine_size, processes):
+def run(build, folder, fine_size, processes, factorization):
     os.makedirs(folder, exist_ok=True)
     prm = os.path.join(folder, "facts_plate.prm")
-    open(prm, "w").write(scene(fine_size, "cholmod", "arpack").replace("set Export matrices = true",
-                                                                       "set Export matrices = false"))
+    text = scene(fine_size, "cholmod", "arpack").replace("set Export matrices = true", "set Export matrices = false")
+    text = text.replace("set Eigensolver = arpack",
+                        f"set Eigensolver = arpack\n  set Distributed factorization = {factorization}")
+    open(prm, "w").write(text)
     command = mpi_command("mpirun", processes) + [os.path.join(build, "bin", "modal-precompute"), prm,
                                                    "--output-dir", folder, "--quiet", "--distributed"]
     env = mpi_environment()
@@ -34,7 +38,8 @@ def run(build, folder, fine_size, processes):
     subprocess.run(command, check=True, env=env, stdout=subprocess.DEVNULL)
     report = json.load(open(os.path.join(folder, "report.json")))
     rib = [s for s in report["spaces"] if s["name"] == "rib"][0]
-    row = dict(fine_size_mm=fine_size, n_dofs=rib["n_dofs"], processes=processes,
+    row = dict(fine_size_mm=fine_size, n_dofs=rib["n_dofs"], processes=processes, factorization=factorization,
+               factor_nonzeros=rib["eigensolver"]["factor_nonzeros"],
                total_s=report["timings_s"]["total"], max_peak_memory_mb=report["processes"]["max_peak_memory_mb"])
     for phase in PHASES:
         row[f"{phase}_s"] = rib["timings_s"].get(phase, 0.)
@@ -48,29 +53,38 @@ def main():
     parser.add_argument("--work", default="/tmp/modal-haptics-bench-scaling")
     parser.add_argument("--sizes", default="0.5,0.36", help="VOI fine sizes in mm (0.5 ~ 93k DoFs, 0.36 ~ 222k)")
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--factorizations", default="mumps-cholesky,mumps-lu",
+                        help="'Modes/Distributed factorization' values, each run at np 1 and 2")
     args = parser.parse_args()
     medians = []
+    factorizations = args.factorizations.split(",")
     for fine in (float(s) for s in args.sizes.split(",")):
-        runs = {1: [], 2: []}
+        runs = {(f, p): [] for f in factorizations for p in (1, 2)}
         for repetition in range(args.repeat):
-            for processes in (1, 2):  # interleaved: both see the same machine state
-                row = run(args.build, os.path.join(args.work, f"fine_{fine}_np{processes}"), fine, processes)
-                runs[processes].append(row)
-                print(f"[{fine} mm, {row['n_dofs']} DoFs, np {processes}, run {repetition + 1}] eigensolve "
-                      f"{row['eigensolve_s']:.1f} s, total {row['total_s']:.1f} s, "
-                      f"{row['max_peak_memory_mb']:.0f} MB per process", flush=True)
-        for processes in (1, 2):
-            median = dict(runs[processes][0])
-            for key in ["total_s", "max_peak_memory_mb"] + [f"{p}_s" for p in PHASES]:
-                values = [r[key] for r in runs[processes]]
-                median[key] = statistics.median(values)
-                median[key.replace("_s", "") + "_min_max" if key.endswith("_s") else key + "_min_max"] = \
-                    f"{min(values):.3g}..{max(values):.3g}"
-            medians.append(median)
-        one, two = medians[-2], medians[-1]
-        for key in ("eigensolve_s", "total_s"):
-            two[f"speedup_{key[:-2]}"] = one[key] / two[key]
-        print(f"[{fine} mm] speedup np 2: eigensolve {two['speedup_eigensolve']:.2f}, total {two['speedup_total']:.2f}")
+            for factorization in factorizations:
+                for processes in (1, 2):  # interleaved: all see the same machine state
+                    folder = os.path.join(args.work, f"fine_{fine}_{factorization}_np{processes}")
+                    row = run(args.build, folder, fine, processes, factorization)
+                    runs[(factorization, processes)].append(row)
+                    print(f"[{fine} mm, {row['n_dofs']} DoFs, {factorization}, np {processes}, run {repetition + 1}] "
+                          f"eigensolve {row['eigensolve_s']:.1f} s, total {row['total_s']:.1f} s, "
+                          f"{row['max_peak_memory_mb']:.0f} MB per process", flush=True)
+        for factorization in factorizations:
+            for processes in (1, 2):
+                rows = runs[(factorization, processes)]
+                median = dict(rows[0])
+                for key in ["total_s", "max_peak_memory_mb"] + [f"{p}_s" for p in PHASES]:
+                    values = [r[key] for r in rows]
+                    median[key] = statistics.median(values)
+                    median[key.replace("_s", "") + "_min_max" if key.endswith("_s") else key + "_min_max"] = \
+                        f"{min(values):.3g}..{max(values):.3g}"
+                medians.append(median)
+            one, two = medians[-2], medians[-1]
+            for key in ("eigensolve_s", "total_s"):
+                two[f"speedup_{key[:-2]}"] = one[key] / two[key]
+            two["memory_per_process_vs_np1"] = two["max_peak_memory_mb"] / one["max_peak_memory_mb"]
+            print(f"[{fine} mm, {factorization}] np 2 against np 1: eigensolve {two['speedup_eigensolve']:.2f}x, "
+                  f"total {two['speedup_total']:.2f}x, memory per process {100 * two['memory_per_process_vs_np1']:.0f} %")
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     fields = sorted({k for row in medians for k in row}, key=lambda k: (k not in medians[0], k))
     with open(args.out + ".tmp", "w", newline="") as f:

@@ -1,0 +1,216 @@
+#include "mumps_inverse.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/trilinos_solver.h>
+
+#include <Epetra_CrsMatrix.h>
+#include <Epetra_FEVector.h>
+#include <Epetra_MpiComm.h>
+#include <petscmat.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+  using dealii::TrilinosWrappers::MPI::Vector;
+
+  void DistributedInverse::solve_columns(std::vector<Vector> &columns) const
+  {
+    for (auto &column : columns)
+      {
+        Vector solution(column.locally_owned_elements(), column.get_mpi_communicator());
+        vmult(solution, column);
+        column = solution;
+      }
+  }
+
+  namespace
+  {
+    void check(const PetscErrorCode code, const char *call)
+    {
+      AssertThrow(code == 0, ExcMessage(std::string("PETSc's ") + call + " failed (error " + std::to_string(code) +
+                                        ") while factorizing K with MUMPS."));
+    }
+
+    // Amesos_Mumps through deal.II: MUMPS's unsymmetric LU.
+    class AmesosMumpsLU : public DistributedInverse
+    {
+    public:
+      AmesosMumpsLU(const dealii::TrilinosWrappers::SparseMatrix &A, FactorizationStatistics &stats)
+        : solver(control, dealii::TrilinosWrappers::SolverDirect::AdditionalData(false, "Amesos_Mumps"))
+        , stats(stats)
+      {
+        stats.method = "mumps-lu (Trilinos Amesos_Mumps, distributed)";
+        dealii::Timer timer;
+        solver.initialize(A);
+        stats.factorize_seconds = timer.wall_time();
+      }
+
+      void vmult(Vector &dst, const Vector &src) const override
+      {
+        dealii::Timer timer;
+        solver.solve(dst, src);
+        stats.solve_seconds += timer.wall_time();
+        ++stats.n_solved_vectors;
+      }
+
+    private:
+      mutable dealii::SolverControl                  control;
+      mutable dealii::TrilinosWrappers::SolverDirect solver;
+      FactorizationStatistics                       &stats;
+    };
+
+    // PETSc's MUMPS in its symmetric mode. A is copied row by row into a PETSc matrix with the
+    // same contiguous row ownership (deal.II's owned DoFs); the solves wrap the Trilinos vectors'
+    // local arrays, copying nothing.
+    class PetscMumpsCholesky : public DistributedInverse
+    {
+    public:
+      PetscMumpsCholesky(const dealii::TrilinosWrappers::SparseMatrix &A, const bool positive_definite,
+                         FactorizationStatistics &stats)
+        : stats(stats)
+      {
+        stats.method = std::string("mumps-cholesky (PETSc's MUMPS, symmetric ") +
+                       (positive_definite ? "positive definite" : "indefinite, with pivoting") + ", distributed)";
+        const Epetra_CrsMatrix &E    = A.trilinos_matrix();
+        comm                         = dynamic_cast<const Epetra_MpiComm &>(E.Comm()).Comm();
+        n_local                      = E.NumMyRows();
+        dealii::Timer timer;
+        copy_matrix(E, comm, positive_definite);
+        check(MatGetFactor(matrix, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor), "MatGetFactor");
+        MatFactorInfo info;
+        check(MatFactorInfoInitialize(&info), "MatFactorInfoInitialize");
+        check(MatCholeskyFactorSymbolic(factor, matrix, nullptr, &info), "MatCholeskyFactorSymbolic");
+        stats.analyze_seconds = timer.wall_time();
+        timer.restart();
+        check(MatCholeskyFactorNumeric(factor, matrix, &info), "MatCholeskyFactorNumeric (a singular K: is the part held?)");
+        stats.factorize_seconds = timer.wall_time();
+        PetscInt entries = 0; // INFOG(29): the factor's entries, in millions when negative
+        check(MatMumpsGetInfog(factor, 29, &entries), "MatMumpsGetInfog");
+        stats.factor_nonzeros = entries >= 0 ? double(entries) : -1e6 * double(entries);
+        check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &b), "VecCreateMPIWithArray");
+        check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &x), "VecCreateMPIWithArray");
+      }
+
+      ~PetscMumpsCholesky() override
+      {
+        VecDestroy(&x);
+        VecDestroy(&b);
+        MatDestroy(&factor);
+        MatDestroy(&matrix);
+      }
+
+      void vmult(Vector &dst, const Vector &src) const override
+      {
+        dealii::Timer timer;
+        check(VecPlaceArray(b, src.trilinos_vector()[0]), "VecPlaceArray");
+        check(VecPlaceArray(x, dst.trilinos_vector()[0]), "VecPlaceArray");
+        check(MatSolve(factor, b, x), "MatSolve");
+        check(VecResetArray(x), "VecResetArray");
+        check(VecResetArray(b), "VecResetArray");
+        stats.solve_seconds += timer.wall_time();
+        ++stats.n_solved_vectors;
+      }
+
+      void solve_columns(std::vector<Vector> &columns) const override
+      {
+        if (columns.empty())
+          return;
+        dealii::Timer  timer;
+        const PetscInt n_columns = PetscInt(columns.size());
+        Mat            B, X;
+        check(MatCreateDense(comm, n_local, PETSC_DECIDE, PETSC_DETERMINE, n_columns, nullptr, &B), "MatCreateDense");
+        check(MatCreateDense(comm, n_local, PETSC_DECIDE, PETSC_DETERMINE, n_columns, nullptr, &X), "MatCreateDense");
+        PetscInt     ld;
+        PetscScalar *values;
+        check(MatDenseGetLDA(B, &ld), "MatDenseGetLDA");
+        check(MatDenseGetArray(B, &values), "MatDenseGetArray");
+        for (PetscInt c = 0; c < n_columns; ++c)
+          std::copy(columns[c].trilinos_vector()[0], columns[c].trilinos_vector()[0] + n_local, values + c * ld);
+        check(MatDenseRestoreArray(B, &values), "MatDenseRestoreArray");
+        check(MatMatSolve(factor, B, X), "MatMatSolve");
+        check(MatDenseGetLDA(X, &ld), "MatDenseGetLDA");
+        check(MatDenseGetArray(X, &values), "MatDenseGetArray");
+        for (PetscInt c = 0; c < n_columns; ++c)
+          {
+            Vector solution(columns[c].locally_owned_elements(), columns[c].get_mpi_communicator());
+            std::copy(values + c * ld, values + c * ld + n_local, solution.trilinos_vector()[0]);
+            columns[c] = solution;
+          }
+        check(MatDenseRestoreArray(X, &values), "MatDenseRestoreArray");
+        MatDestroy(&X);
+        MatDestroy(&B);
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += columns.size();
+      }
+
+    private:
+      // A's rows into an MPI AIJ matrix, preallocated from their counts in and off the diagonal
+      // block; marked symmetric (and positive definite) so MUMPS runs with SYM = 2 (or 1).
+      void copy_matrix(const Epetra_CrsMatrix &E, const MPI_Comm comm, const bool positive_definite)
+      {
+        const auto     &rows = E.RowMap(), &columns = E.ColMap();
+        const long long first = rows.MinMyGID64(), last = rows.MaxMyGID64();
+        AssertThrow(last - first + 1 == n_local,
+                    ExcMessage("MUMPS through PETSc needs each process's DoFs to be one contiguous range."));
+        std::vector<PetscInt> in_block(n_local, 0), off_block(n_local, 0);
+        for (int i = 0; i < n_local; ++i)
+          {
+            int     count;
+            double *values;
+            int    *indices;
+            E.ExtractMyRowView(i, count, values, indices);
+            for (int k = 0; k < count; ++k)
+              {
+                const long long column = columns.GID64(indices[k]);
+                ++(column >= first && column <= last ? in_block[i] : off_block[i]);
+              }
+          }
+        check(MatCreateAIJ(comm, n_local, n_local, PETSC_DETERMINE, PETSC_DETERMINE, 0, in_block.data(), 0,
+                           off_block.data(), &matrix),
+              "MatCreateAIJ");
+        PetscInt own_first, own_end;
+        check(MatGetOwnershipRange(matrix, &own_first, &own_end), "MatGetOwnershipRange");
+        AssertThrow(own_first == first, ExcMessage("PETSc's row ownership differs from deal.II's owned DoFs."));
+        std::vector<PetscInt> global_columns;
+        for (int i = 0; i < n_local; ++i)
+          {
+            int     count;
+            double *values;
+            int    *indices;
+            E.ExtractMyRowView(i, count, values, indices);
+            global_columns.resize(count);
+            for (int k = 0; k < count; ++k)
+              global_columns[k] = PetscInt(columns.GID64(indices[k]));
+            const PetscInt row = PetscInt(first + i);
+            check(MatSetValues(matrix, 1, &row, count, global_columns.data(), values, INSERT_VALUES), "MatSetValues");
+          }
+        check(MatAssemblyBegin(matrix, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+        check(MatAssemblyEnd(matrix, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+        check(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+        if (positive_definite)
+          check(MatSetOption(matrix, MAT_SPD, PETSC_TRUE), "MatSetOption");
+      }
+
+      MPI_Comm                 comm    = MPI_COMM_NULL;
+      int                      n_local = 0;
+      Mat                      matrix  = nullptr, factor = nullptr;
+      Vec                      b = nullptr, x = nullptr;
+      FactorizationStatistics &stats;
+    };
+  } // namespace
+
+  std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
+                                                         const DistributedFactorizationKind kind,
+                                                         const bool positive_definite, FactorizationStatistics &stats)
+  {
+    if (kind == DistributedFactorizationKind::mumps_lu)
+      return std::make_unique<AmesosMumpsLU>(A, stats);
+    return std::make_unique<PetscMumpsCholesky>(A, positive_definite, stats);
+  }
+} // namespace modal_haptics
