@@ -13,6 +13,9 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   serial file; the mesh and display surface bit for bit; everything else to 1e-9 (eigenvalues) or
   1e-7 (what depends on the modes), compared through what does not depend on the basis chosen
   within the kept subspace (X X^T over the modes, singular values of the transfer matrices);
+* MUMPS through both wrappers: np = 2 factorizes with the symmetric mode (PETSc, the default), and
+  with 'Distributed factorization = mumps-lu' (Trilinos Amesos' LU) its .h5 equals the serial one
+  as above;
 * with 'Modes/Shift' at a tenth of the first frequency (MUMPS and CHOLMOD then factorize K - shift M and
   both paths refine their static solves against K): np = 2 vs serial, every validation error and the
   full contact responses to 1e-8, solve residuals <= 1e-9, more than one refinement step on both;
@@ -183,6 +186,16 @@ def main():
                 expect(max(x["contact_rel_error_corrected"], y["contact_rel_error_corrected"]) <= 1e-8,
                        f"{case}: corrected contact error {y['contact_rel_error_corrected']:.1e} <= 1e-8 ({label})")
 
+    # MUMPS's two wrappers: the default symmetric mode (PETSc) above, and the LU (Trilinos Amesos).
+    expect(all("mumps-cholesky" in space["eigensolver"]["method"] for space in np2["spaces"]),
+           "np=2 factorized with MUMPS's symmetric mode (the default)")
+    lu_dir = os.path.join(args.workdir, "np2_lu")
+    lu, _ = run(mpi_command(args.mpirun, 2) + [args.binary], lu_dir, np1_dir,
+                extra="subsection Modes\n  set Distributed factorization = mumps-lu\nend\n")
+    expect(all("mumps-lu" in space["eigensolver"]["method"] for space in lu["spaces"]),
+           "np=2 with 'Distributed factorization = mumps-lu' factorized with MUMPS's LU")
+    compare_h5(os.path.join(lu_dir, SCENE + ".h5"), h5["serial"], "np=2 MUMPS LU vs serial", expect)
+
     # A shifted factorization: the static solves of both paths are refined against K, so np = 2 and the
     # serial path give the same full responses and validation errors (before the distributed path refined,
     # its full responses differed by 2e-4 at a 50 Hz shift).
@@ -208,7 +221,8 @@ def main():
         expect(worst_residual <= 1e-9, f"{name}, shifted: solve residuals {worst_residual:.1e} <= 1e-9")
 
     # Errors under mpirun: a parse error (every process) and run-time errors (inside the space; MUMPS's
-    # LU factorizes K - shift M above the first eigenvalue, which the serial Cholesky refuses).
+    # symmetric indefinite mode factorizes K - shift M above the first eigenvalue, which the serial
+    # Cholesky refuses, and PARPACK then finds a mode below the shift).
     bad_dir = os.path.join(args.workdir, "bad")
     os.makedirs(bad_dir, exist_ok=True)
     base = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
