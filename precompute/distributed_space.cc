@@ -294,6 +294,15 @@ namespace modal_haptics
         }
       inverse = make_mumps_inverse(shift != 0. ? shifted_matrix : stiffness_matrix, kind, shift <= 0.,
                                    result.factorization);
+      // The inertia of MUMPS's L D L^T (Sylvester): a negative eigenvalue of K - shift M is a mode
+      // below the shift, found here before any iteration (the LU below relies on PARPACK's modes).
+      const long below_shift = inverse->negative_eigenvalues();
+      AssertThrow(below_shift <= 0,
+                  ExcMessage("'Modes/Shift' (" + std::to_string(scene.modes.shift) + " Hz) lies above " +
+                             std::to_string(below_shift) + (below_shift == 1 ? " eigenfrequency" : " eigenfrequencies") +
+                             " of space '" + task.name +
+                             "' (the inertia of MUMPS's L D L^T of K - shift*M): K - shift*M is not positive "
+                             "definite. Choose a shift below the first frequency."));
 
       const int n   = result.n_dofs;
       const int nev = scene.modes.maximum_count;
@@ -392,7 +401,8 @@ namespace modal_haptics
         parpack_modes(eigenvalues, eigenvectors);
 
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
-      // mode below the shift says that the shift lies above the first eigenfrequency.
+      // mode below the shift says that the shift lies above the first eigenfrequency (the
+      // symmetric mode's inertia said so before the iteration).
       AssertThrow(eigenvalues.front() > shift,
                   ExcMessage("'Modes/Shift' (" + std::to_string(scene.modes.shift) + " Hz) lies above the first "
                              "eigenfrequency (" + std::to_string(std::sqrt(std::max(eigenvalues.front(), 0.)) / two_pi) +

@@ -92,6 +92,12 @@ namespace modal_haptics
         stats.factorize_seconds = timer.wall_time();
         PetscInt entries = 0; // INFOG(29): the factor's entries, in millions when negative
         check(MatMumpsGetInfog(factor, 29, &entries), "MatMumpsGetInfog");
+        if (!positive_definite)
+          {
+            PetscInt negative_pivots = 0; // INFOG(12) with SYM = 2: the negative pivots of D
+            check(MatMumpsGetInfog(factor, 12, &negative_pivots), "MatMumpsGetInfog");
+            negative = negative_pivots;
+          }
         stats.factor_nonzeros = entries >= 0 ? double(entries) : -1e6 * double(entries);
         check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &b), "VecCreateMPIWithArray");
         check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &x), "VecCreateMPIWithArray");
@@ -149,6 +155,8 @@ namespace modal_haptics
         stats.n_solved_vectors += columns.size();
       }
 
+      long negative_eigenvalues() const override { return negative; }
+
     private:
       // A's rows into an MPI AIJ matrix, preallocated from their counts in and off the diagonal
       // block; marked symmetric (and positive definite) so MUMPS runs with SYM = 2 (or 1).
@@ -197,7 +205,8 @@ namespace modal_haptics
           check(MatSetOption(matrix, MAT_SPD, PETSC_TRUE), "MatSetOption");
       }
 
-      MPI_Comm                 comm    = MPI_COMM_NULL;
+      MPI_Comm                 comm     = MPI_COMM_NULL;
+      long                     negative = -1; // INFOG(12), read only in the indefinite mode
       int                      n_local = 0;
       Mat                      matrix  = nullptr, factor = nullptr;
       Vec                      b = nullptr, x = nullptr;

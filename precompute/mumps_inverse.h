@@ -30,6 +30,9 @@ namespace modal_haptics
     // columns[c] = A^-1 columns[c] for every c, in place (collective). PETSc's path solves them as
     // one block of right-hand sides (MUMPS reads its factor once for all); Amesos' one by one.
     virtual void solve_columns(std::vector<dealii::TrilinosWrappers::MPI::Vector> &columns) const;
+    // The number of A's negative eigenvalues (the inertia of an L D L^T factorization: MUMPS's
+    // INFOG(12) in its symmetric indefinite mode), or -1 where the factorization does not tell.
+    virtual long negative_eigenvalues() const { return -1; }
   };
 
   // Factorizes A (collective); stats gets the method, the time and, for the PETSc path, the

@@ -20,7 +20,7 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   both paths refine their static solves against K): np = 2 vs serial, every validation error and the
   full contact responses to 1e-8, solve residuals <= 1e-9, more than one refinement step on both;
 * a bad .prm, a bad clamp group and a shift above the first frequency under mpirun -np 2 exit non-zero
-  with the message, no hang.
+  with the message, no hang (the shift refused by the inertia of MUMPS's L D L^T, before PARPACK).
 """
 import argparse
 import json
@@ -229,7 +229,8 @@ def main():
     for case, extra, word in [("unknown parameter", "subsection Material\n  set Colour = red\nend\n", "Colour"),
                               ("missing clamp group", "subsection Geometry\n  set Clamp groups = bolts\nend\n", "bolts"),
                               ("shift above the first frequency",
-                               f"subsection Modes\n  set Shift = {1.05 * first_frequency}\nend\n", "Modes/Shift")]:
+                               f"subsection Modes\n  set Shift = {1.05 * first_frequency}\nend\n",
+                               "(the inertia of MUMPS's L D L^T")]:
         prm = os.path.join(bad_dir, case.replace(" ", "_") + ".prm")
         open(prm, "w").write(base + extra)
         try:
