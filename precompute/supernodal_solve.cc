@@ -317,31 +317,39 @@ namespace modal_haptics
           }
   }
 
+  // The supernodes on the paths of each group of 'width' columns (in solve order), ascending:
+  // children before parents, the order of a forward solve.
+  std::vector<std::vector<SupernodalSolve::Index>>
+  SupernodalSolve::group_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &order,
+                               const std::size_t width, const std::vector<Index> &position_of_row) const
+  {
+    std::vector<std::vector<Index>> paths;
+    std::vector<char>               on_path(n_supernodes, 0);
+    for (std::size_t first = 0; first < B.size(); first += width)
+      {
+        paths.emplace_back();
+        mark_paths(B, order, first, std::min(first + width, B.size()), position_of_row, on_path, paths.back());
+        std::sort(paths.back().begin(), paths.back().end());
+        for (const Index s : paths.back())
+          on_path[s] = 0;
+      }
+    return paths;
+  }
+
   // Y's rows in runs of consecutive supernodes (of all_paths, Y's row order) that the same groups
-  // of columns reach: columns [lo, hi) of the solve order, in groups of 'width' (the columns outside
-  // are zero on those rows).
-  std::vector<SupernodalSolve::RowRun> SupernodalSolve::column_ranges(const std::vector<SparseColumn> &B,
-                                                                      const std::vector<std::size_t> &order,
-                                                                      const std::size_t                width,
-                                                                      const std::vector<Index> &position_of_row,
+  // of columns reach: columns [lo, hi) of the solve order (the columns outside are zero on those
+  // rows).
+  std::vector<SupernodalSolve::RowRun> SupernodalSolve::column_ranges(const std::vector<std::vector<Index>> &paths,
+                                                                      const std::size_t width, const std::size_t m,
                                                                       const std::vector<Index> &all_paths) const
   {
-    const std::size_t  m = B.size();
     std::vector<std::size_t> lo(n_supernodes, m), hi(n_supernodes, 0);
-    std::vector<char>  on_path(n_supernodes, 0);
-    std::vector<Index> path;
-    for (std::size_t first = 0; first < m; first += width)
-      {
-        const std::size_t last = std::min(first + width, m);
-        path.clear();
-        mark_paths(B, order, first, last, position_of_row, on_path, path);
-        for (const Index s : path)
-          {
-            on_path[s] = 0;
-            lo[s]      = std::min(lo[s], first);
-            hi[s]      = std::max(hi[s], last);
-          }
-      }
+    for (std::size_t group = 0; group < paths.size(); ++group)
+      for (const Index s : paths[group])
+        {
+          lo[s] = std::min(lo[s], group * width);
+          hi[s] = std::max(hi[s], std::min((group + 1) * width, m));
+        }
     std::vector<RowRun> runs;
     Index               row = 0;
     for (const Index s : all_paths)
@@ -424,35 +432,28 @@ namespace modal_haptics
     // k: the k-th in 'order') and clears what it wrote.
     const std::size_t  width   = 64;
     const unsigned int threads = n_threads();
+    const auto         paths   = group_paths(B, order, width, position_of_row);
     run_on_threads(threads, [&](const unsigned int t) {
       std::vector<double> X(std::size_t(n) * width, 0.);
       std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * width);
-      std::vector<char>   on_path(n_supernodes, 0);
-      std::vector<Index>  path;
-      for (std::size_t first = t * width; first < m; first += threads * width)
+      for (std::size_t group = t; group < paths.size(); group += threads)
         {
-          const std::size_t count = std::min(width, m - first);
+          const std::size_t first = group * width, count = std::min(width, m - first);
           for (std::size_t k = 0; k < count; ++k)
             for (const auto &[row, value] : B[order[first + k]])
               X[position_of_row[row] + k * n] += value;
-          path.clear();
-          mark_paths(B, order, first, first + count, position_of_row, on_path, path);
-          std::sort(path.begin(), path.end()); // children before parents
-          for (const Index s : path)
+          for (const Index s : paths[group])
             forward(s, X.data(), int(count), workspace.data(), nullptr);
-          for (const Index s : path)
-            {
-              on_path[s] = 0;
-              for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
-                for (std::size_t k = 0; k < count; ++k)
-                  {
-                    Y[row_of_Y[column] + (first + k) * n_rows_Y] = X[column + k * n];
-                    X[column + k * n]                            = 0.;
-                  }
-            }
+          for (const Index s : paths[group])
+            for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+              for (std::size_t k = 0; k < count; ++k)
+                {
+                  Y[row_of_Y[column] + (first + k) * n_rows_Y] = X[column + k * n];
+                  X[column + k * n]                            = 0.;
+                }
         }
     });
-    const auto gram = sparse_gram(Y, n_rows_Y, m, column_ranges(B, order, width, position_of_row, all_paths));
+    const auto gram = sparse_gram(Y, n_rows_Y, m, column_ranges(paths, width, m, all_paths));
 
     // Back from the order of the solves to B's.
     G.assign(m * m, 0.);

@@ -56,8 +56,10 @@ namespace modal_haptics
       Index       first_row, n_rows;
       std::size_t lo, hi;
     };
-    std::vector<RowRun> column_ranges(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &order,
-                                      std::size_t width, const std::vector<Index> &position_of_row,
+    std::vector<std::vector<Index>> group_paths(const std::vector<SparseColumn> &B,
+                                                const std::vector<std::size_t> &order, std::size_t width,
+                                                const std::vector<Index> &position_of_row) const;
+    std::vector<RowRun> column_ranges(const std::vector<std::vector<Index>> &paths, std::size_t width, std::size_t m,
                                       const std::vector<Index> &all_paths) const;
     std::vector<double> sparse_gram(const std::vector<double> &Y, Index n_rows_Y, std::size_t m,
                                     const std::vector<RowRun> &runs) const;
