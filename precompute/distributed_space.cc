@@ -540,22 +540,12 @@ namespace modal_haptics
         }
     }
 
+    // The block's solutions, made readable at the owned cells' DoFs (block_column reads them so).
     void DistributedSpace::solve_static(Block &X)
     {
-      // Without a shift (nothing to refine) MUMPS solves the whole block at once.
-      if (shift == 0. && inverse)
-        {
-          inverse->solve_columns(X.columns);
-          for (auto &column : X.columns)
-            {
-              DistributedVector ghosted_column = ghosted(column);
-              column.swap(ghosted_column);
-            }
-          return;
-        }
+      solve_static(X.columns);
       for (auto &column : X.columns)
         {
-          solve_static(column);
           DistributedVector ghosted_column = ghosted(column);
           column.swap(ghosted_column);
         }
