@@ -48,9 +48,9 @@ namespace modal_haptics
       // constrained_diagonal: A's diagonal on the constrained rows, or null for zero there.
       ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
                    const std::vector<double> *constrained_diagonal, std::string what,
-                   const std::function<void(const std::string &)> &progress)
+                   std::function<void(const std::string &)> progress)
         : amg(amg), constrained(constrained), constrained_diagonal(constrained_diagonal), what(std::move(what)),
-          progress(progress)
+          progress(std::move(progress))
       {}
 
       int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
@@ -92,7 +92,7 @@ namespace modal_haptics
       const std::vector<unsigned int>                &constrained;
       const std::vector<double>                      *constrained_diagonal;
       const std::string                               what;
-      const std::function<void(const std::string &)> &progress; // a line every 30 s of long work
+      const std::function<void(const std::string &)>  progress; // a line every 30 s of long work, if set
       mutable std::unique_ptr<Epetra_MultiVector>     free_part;
       mutable dealii::Timer                           total, since_progress;
     };
@@ -128,7 +128,6 @@ namespace modal_haptics
     const std::vector<dealii::Vector<double>> *start_modes       = nullptr;
     AmgSolverStatistics                        stats;
     unsigned long                              total_cg_iterations = 0;
-    std::function<void(const std::string &)> progress; // of the static solves (none so far)
 
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked, bool higher_order);
 
@@ -140,8 +139,8 @@ namespace modal_haptics
     {
       using MV = Epetra_MultiVector;
       using OP = Epetra_Operator;
-      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG",
-                                        progress);
+      // No progress lines: a block's solve takes seconds (finish() reports the solves' totals).
+      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG", {});
       Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(&A->trilinos_matrix(), false),
                                                    Teuchos::rcp(&X, false), Teuchos::rcp(&B, false));
       problem.setLeftPrec(Teuchos::rcp(&preconditioner, false));
@@ -257,7 +256,7 @@ namespace modal_haptics
 
   void AmgShiftedInverse::describe(const bool node_blocked, const double setup_seconds)
   {
-    stats.method = std::string("amg-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
+    stats.method = std::string("amg-block-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
                    (node_blocked ? ", 3 DoFs per node)" : ", DoF-wise aggregation)");
     stats.analyze_seconds = setup_seconds;
   }
