@@ -25,6 +25,8 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 namespace
 {
   void print_usage(std::ostream &out)
@@ -94,6 +96,21 @@ namespace
       return;
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
     modal_haptics::set_openblas_threads(1);
+  }
+
+  // OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s) after every call before they
+  // sleep; on 2 cores the spinning worker takes a core from our own threads (the triangular solves
+  // start right after the eigensolver's GEMMs on the basis: 250k DoFs, 7.0 s of solves against
+  // 6.4 s with a short spin). The spin is read from OPENBLAS_THREAD_TIMEOUT (2^value cycles) when
+  // the library loads, before main, and no call changes it: when the user has not set it, the
+  // program sets 2^20 cycles (about 0.4 ms: long enough for the factorization's back-to-back
+  // calls, docs/performance.md) and restarts itself once, before anything else has happened.
+  void shorten_openblas_spin_unless_set(char **argv)
+  {
+    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") != nullptr)
+      return;
+    setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
+    execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on with the long spin
   }
 
   // This process's place among the MPI processes.
@@ -382,6 +399,7 @@ namespace
 
 int main(int argc, char **argv)
 {
+  shorten_openblas_spin_unless_set(argv);
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.

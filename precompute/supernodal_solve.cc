@@ -49,6 +49,8 @@ namespace modal_haptics
   {
     if (!factor.is_super || !factor.is_ll || factor.xtype != CHOLMOD_REAL || factor.itype != CHOLMOD_LONG)
       throw std::invalid_argument("SupernodalSolve needs a real supernodal L L^T factor from cholmod_l_factorize.");
+    for (Index s = 0; s < n_supernodes; ++s)
+      max_rows = std::max(max_rows, row_start[s + 1] - row_start[s]);
     assign_subtrees(std::max(1u, threads));
   }
 
@@ -203,35 +205,36 @@ namespace modal_haptics
 
   // One supernode's block of L: its columns' diagonal triangle L11 (n_columns x n_columns, at L)
   // above L21 (below x n_columns, at L + n_columns; rows_below are their rows), column-major with
-  // leading dimension n_rows; 'own' is X at its columns (leading dimension ld = n).
+  // leading dimension n_rows; its columns are first .. first + n_columns - 1.
   struct SupernodalSolve::Block
   {
-    Block(const SupernodalSolve &solve, const Index supernode, double *X)
-      : n_columns(solve.first_column[supernode + 1] - solve.first_column[supernode])
+    Block(const SupernodalSolve &solve, const Index supernode)
+      : first(solve.first_column[supernode])
+      , n_columns(solve.first_column[supernode + 1] - first)
       , n_rows(solve.row_start[supernode + 1] - solve.row_start[supernode])
       , below(n_rows - n_columns)
-      , ld(int(solve.n))
       , L(solve.values + solve.value_start[supernode])
       , rows_below(solve.rows + solve.row_start[supernode] + n_columns)
-      , own(X + solve.first_column[supernode])
     {}
 
-    const int     n_columns, n_rows, below, ld;
+    const Index   first;
+    const int     n_columns, n_rows, below;
     const double *L;
     const Index  *rows_below;
-    double       *own;
   };
 
   void SupernodalSolve::forward(const Index supernode, double *X, const int n_rhs, double *workspace,
                                 double *top_updates) const
   {
-    const Block  b(*this, supernode, X);
+    const Block  b(*this, supernode);
+    const int    ld  = int(n);
+    double      *own = X + b.first;
     const double one = 1., zero = 0.;
-    dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, b.own, &b.ld);
+    dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
     if (b.below == 0)
       return;
     // workspace = L21 y_own, then scattered onto the rows below (ancestors' columns).
-    dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, b.own, &b.ld, &zero,
+    dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, own, &ld, &zero,
            workspace, &b.below);
     for (int c = 0; c < n_rhs; ++c)
       for (int i = 0; i < b.below; ++i)
@@ -240,7 +243,7 @@ namespace modal_haptics
           const double update = workspace[i + std::size_t(c) * b.below];
           const Index  top    = top_updates != nullptr ? top_position[row] : -1;
           if (top >= 0)
-            top_updates[top + std::size_t(c) * n_top_columns] += update;
+            top_updates[top + std::size_t(c) * n_top_columns] -= update;
           else
             X[row + std::size_t(c) * n] -= update;
         }
@@ -248,7 +251,9 @@ namespace modal_haptics
 
   void SupernodalSolve::backward(const Index supernode, double *X, const int n_rhs, double *workspace) const
   {
-    const Block  b(*this, supernode, X);
+    const Block  b(*this, supernode);
+    const int    ld  = int(n);
+    double      *own = X + b.first;
     const double one = 1., minus_one = -1.;
     if (b.below > 0)
       {
@@ -257,48 +262,246 @@ namespace modal_haptics
           for (int i = 0; i < b.below; ++i)
             workspace[i + std::size_t(c) * b.below] = X[b.rows_below[i] + std::size_t(c) * n];
         dgemm_("T", "N", &b.n_columns, &n_rhs, &b.below, &minus_one, b.L + b.n_columns, &b.n_rows, workspace, &b.below,
-               &one, b.own, &b.ld);
+               &one, own, &ld);
       }
-    dtrsm_("L", "L", "T", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, b.own, &b.ld);
+    dtrsm_("L", "L", "T", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
   }
 
-  void SupernodalSolve::solve(double *columns, const unsigned int n_rhs) const
+// The narrow kernels pay only with 256-bit vectors and fused multiply-adds (x86-64-v3: AVX2, FMA;
+// with SSE2 alone they were no faster than the BLAS): they are compiled for them, and solve()
+// takes them only where the processor has them (narrow_kernels_run_here).
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+  namespace
   {
-    if (n_rhs == 0 || n == 0)
-      return;
-    const unsigned int  threads = n_threads();
-    const std::size_t   column_length = n;
-    std::vector<double> X(column_length * n_rhs);
+    // The narrow kernels work on one supernode's rows gathered into x, row-interleaved (x[i * width
+    // + c]: a row's right-hand sides side by side), and read each entry of L once, column after
+    // column. x's first n_columns rows are the supernode's own, the rest its rows below.
+
+    // L11 y = x_own, then x_below -= L21 y; two columns of L at a time, so that x below them is
+    // read and written once for both. (__restrict: x never aliases L, which lets the compiler
+    // keep L's entries in registers and vectorize across the right-hand sides.)
+    template <int width>
+    void lower_sweep(const double *__restrict L, const int n_columns, const int n_rows, double *__restrict x)
+    {
+      int j = 0;
+      for (; j + 2 <= n_columns; j += 2)
+        {
+          const double *__restrict first = L + std::size_t(j) * n_rows, *__restrict second = first + n_rows;
+          double y0[width], y1[width];
+          for (int c = 0; c < width; ++c)
+            {
+              y0[c] = x[j * width + c] /= first[j];
+              y1[c] = x[(j + 1) * width + c] = (x[(j + 1) * width + c] - first[j + 1] * y0[c]) / second[j + 1];
+            }
+          for (int i = j + 2; i < n_rows; ++i)
+            {
+              const double l0 = first[i], l1 = second[i];
+              for (int c = 0; c < width; ++c)
+                x[i * width + c] -= l0 * y0[c] + l1 * y1[c];
+            }
+        }
+      if (j < n_columns)
+        {
+          const double *__restrict column = L + std::size_t(j) * n_rows;
+          double y[width];
+          for (int c = 0; c < width; ++c)
+            y[c] = x[j * width + c] /= column[j];
+          for (int i = j + 1; i < n_rows; ++i)
+            {
+              const double l = column[i];
+              for (int c = 0; c < width; ++c)
+                x[i * width + c] -= l * y[c];
+            }
+        }
+    }
+
+    // L11^T z = x_own - L21^T x_below, from the last column: each a dot product of its column
+    // with x below the diagonal, two columns at a time (x read once for both), each in two partial
+    // sums (one sum would wait on the latency of every multiply-add).
+    template <int width>
+    void transposed_sweep(const double *__restrict L, const int n_columns, const int n_rows, double *__restrict x)
+    {
+      int j = n_columns - 1;
+      for (; j >= 1; j -= 2)
+        {
+          // Columns j (second) and j - 1 (first): both their sums over the rows below j first.
+          const double *__restrict second = L + std::size_t(j) * n_rows, *__restrict first = second - n_rows;
+          double sum0[2][width] = {}, sum1[2][width] = {};
+          int    i = j + 1;
+          for (; i + 2 <= n_rows; i += 2)
+            for (int u = 0; u < 2; ++u)
+              {
+                const double l0 = first[i + u], l1 = second[i + u];
+                for (int c = 0; c < width; ++c)
+                  {
+                    sum0[u][c] += l0 * x[(i + u) * width + c];
+                    sum1[u][c] += l1 * x[(i + u) * width + c];
+                  }
+              }
+          for (; i < n_rows; ++i)
+            for (int c = 0; c < width; ++c)
+              {
+                sum0[0][c] += first[i] * x[i * width + c];
+                sum1[0][c] += second[i] * x[i * width + c];
+              }
+          for (int c = 0; c < width; ++c)
+            {
+              const double z = x[j * width + c] = (x[j * width + c] - (sum1[0][c] + sum1[1][c])) / second[j];
+              x[(j - 1) * width + c] = (x[(j - 1) * width + c] - (sum0[0][c] + sum0[1][c]) - first[j] * z) / first[j - 1];
+            }
+        }
+      if (j == 0)
+        {
+          double sum[width] = {};
+          for (int i = 1; i < n_rows; ++i)
+            for (int c = 0; c < width; ++c)
+              sum[c] += L[i] * x[i * width + c];
+          for (int c = 0; c < width; ++c)
+            x[c] = (x[c] - sum[c]) / L[0];
+        }
+    }
+  } // namespace
+
+  template <int width>
+  void SupernodalSolve::forward_narrow(const Index supernode, double *X, double *rows_of_block, double *top_updates) const
+  {
+    const Block b(*this, supernode);
+    double     *own = X + std::size_t(b.first) * width;
+    std::copy(own, own + b.n_columns * width, rows_of_block);
+    std::fill(rows_of_block + b.n_columns * width, rows_of_block + b.n_rows * width, 0.);
+    lower_sweep<width>(b.L, b.n_columns, b.n_rows, rows_of_block);
+    std::copy(rows_of_block, rows_of_block + b.n_columns * width, own);
+    // rows_of_block below the own rows: -L21 y, added to the rows below (or to the top's updates).
+    for (int i = 0; i < b.below; ++i)
+      {
+        const Index   row    = b.rows_below[i];
+        const Index   top    = top_updates != nullptr ? top_position[row] : -1;
+        double       *target = top >= 0 ? top_updates + std::size_t(top) * width : X + std::size_t(row) * width;
+        const double *update = rows_of_block + (b.n_columns + i) * width;
+        for (int c = 0; c < width; ++c)
+          target[c] += update[c];
+      }
+  }
+
+  template <int width>
+  void SupernodalSolve::backward_narrow(const Index supernode, double *X, double *rows_of_block) const
+  {
+    const Block b(*this, supernode);
+    double     *own = X + std::size_t(b.first) * width;
+    std::copy(own, own + b.n_columns * width, rows_of_block);
+    for (int i = 0; i < b.below; ++i)
+      std::copy_n(X + std::size_t(b.rows_below[i]) * width, width, rows_of_block + (b.n_columns + i) * width);
+    transposed_sweep<width>(b.L, b.n_columns, b.n_rows, rows_of_block);
+    std::copy(rows_of_block, rows_of_block + b.n_columns * width, own);
+  }
+
+#pragma GCC pop_options
+
+  namespace
+  {
+    bool narrow_kernels_run_here()
+    {
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    }
+  } // namespace
+
+  // P b in, P^T x out; in between L y = P b (the subtrees on their threads, each adding its
+  // updates to the top's rows into its own top_updates, laid out as X; then those summed into X
+  // and the top solved) and L^T x = y (the top, then the subtrees at once: each reads only its
+  // own rows and the top's). X is column-major (interleaved = false) or row-interleaved.
+  template <typename Forward, typename Backward>
+  void SupernodalSolve::solve_in_tree_order(double *columns, const unsigned int n_rhs, const bool interleaved,
+                                            const Forward &forward_step, const Backward &backward_step) const
+  {
+    const unsigned int threads = n_threads();
+    // Row r, right-hand side c of an array with 'length' rows.
+    const auto at = [&](const std::size_t length, const std::size_t r, const std::size_t c) {
+      return interleaved ? r * n_rhs + c : r + c * length;
+    };
+    const std::size_t   length = n;
+    std::vector<double> X(length * n_rhs);
     for (std::size_t c = 0; c < n_rhs; ++c)
       for (Index i = 0; i < n; ++i)
-        X[i + c * n] = columns[permutation[i] + c * n];
-    std::vector<std::vector<double>> workspace(threads, std::vector<double>(std::max<Index>(max_rows_below, 1) * n_rhs));
+        X[at(length, i, c)] = columns[permutation[i] + c * length];
     std::vector<std::vector<double>> top_updates(threads, std::vector<double>(std::size_t(n_top_columns) * n_rhs, 0.));
 
-    // L y = P b: the subtrees at once (their updates to the top kept apart), then the top.
     run_on_threads(threads, [&](const unsigned int t) {
       for (const Index s : subtrees_of_thread[t])
-        forward(s, X.data(), n_rhs, workspace[t].data(), top_updates[t].data());
+        forward_step(s, X.data(), t, top_updates[t].data());
     });
     for (const Index s : top_supernodes)
       for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
         for (std::size_t c = 0; c < n_rhs; ++c)
           for (unsigned int t = 0; t < threads; ++t)
-            X[column + c * n] -= top_updates[t][top_position[column] + c * n_top_columns];
+            X[at(length, column, c)] += top_updates[t][at(n_top_columns, top_position[column], c)];
     for (const Index s : top_supernodes)
-      forward(s, X.data(), n_rhs, workspace[0].data(), nullptr);
+      forward_step(s, X.data(), 0, nullptr);
 
-    // L^T z = y: the top, then the subtrees at once (each reads only its own rows and the top's).
     for (auto s = top_supernodes.rbegin(); s != top_supernodes.rend(); ++s)
-      backward(*s, X.data(), n_rhs, workspace[0].data());
+      backward_step(*s, X.data(), 0);
     run_on_threads(threads, [&](const unsigned int t) {
       for (auto s = subtrees_of_thread[t].rbegin(); s != subtrees_of_thread[t].rend(); ++s)
-        backward(*s, X.data(), n_rhs, workspace[t].data());
+        backward_step(*s, X.data(), t);
     });
 
     for (std::size_t c = 0; c < n_rhs; ++c)
       for (Index i = 0; i < n; ++i)
-        columns[permutation[i] + c * n] = X[i + c * n];
+        columns[permutation[i] + c * length] = X[at(length, i, c)];
+  }
+
+  template <int width>
+  void SupernodalSolve::solve_narrow(double *columns) const
+  {
+    std::vector<std::vector<double>> rows_of_block(n_threads(), std::vector<double>(std::size_t(max_rows) * width));
+    solve_in_tree_order(
+      columns, width, true,
+      [&](const Index s, double *X, const unsigned int t, double *top) {
+        forward_narrow<width>(s, X, rows_of_block[t].data(), top);
+      },
+      [&](const Index s, double *X, const unsigned int t) { backward_narrow<width>(s, X, rows_of_block[t].data()); });
+  }
+
+  // Up to four right-hand sides, the narrow kernels: per supernode the BLAS would run a TRSM and
+  // a GEMM a few columns wide, whose call and packing overheads bound them (250k DoFs, FACTS
+  // plate, bench-static-correction: 0.18 s for 4 columns with the BLAS, 0.16 s here; one column
+  // 0.14 against 0.12 s). Wider blocks go to the BLAS, which is faster there.
+  void SupernodalSolve::solve(double *columns, const unsigned int n_rhs) const
+  {
+    if (n_rhs == 0 || n == 0)
+      return;
+    static const bool narrow_kernels = narrow_kernels_run_here();
+    if (narrow_kernels)
+      switch (n_rhs)
+      {
+        case 1:
+          return solve_narrow<1>(columns);
+        case 2:
+          return solve_narrow<2>(columns);
+        case 3:
+          {
+            // Padded to four (a zero column): rows of three doubles do not fill the vectors, and
+            // width 3 was slower than 4 (0.19 against 0.16 s per solve at 250k DoFs).
+            std::vector<double> padded(std::size_t(n) * 4, 0.);
+            std::copy(columns, columns + std::size_t(n) * 3, padded.begin());
+            solve_narrow<4>(padded.data());
+            std::copy(padded.begin(), padded.begin() + std::size_t(n) * 3, columns);
+            return;
+          }
+        case 4:
+          return solve_narrow<4>(columns);
+        default:
+          break;
+      }
+    std::vector<std::vector<double>> workspace(n_threads(),
+                                               std::vector<double>(std::max<Index>(max_rows_below, 1) * n_rhs));
+    solve_in_tree_order(
+      columns, n_rhs, false,
+      [&](const Index s, double *X, const unsigned int t, double *top) {
+        forward(s, X, int(n_rhs), workspace[t].data(), top);
+      },
+      [&](const Index s, double *X, const unsigned int t) { backward(s, X, int(n_rhs), workspace[t].data()); });
   }
 
   void SupernodalSolve::mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns,

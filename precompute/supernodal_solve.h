@@ -7,7 +7,8 @@
 // Splitting the columns between two threads makes each of them read the whole factor (0.27-0.29
 // s). Here every thread takes its own subtrees, so the factor is read once for all the columns;
 // only the separators above the subtrees (the top of the tree, ~8 % of the factor on the FACTS
-// plate) are solved by one thread (0.18-0.19 s for the same solve; docs/performance.md).
+// plate) are solved by one thread (0.18-0.19 s for the same solve; docs/performance.md). Up to
+// four right-hand sides go through our own narrow kernels instead of the BLAS (0.16 s).
 #pragma once
 
 #include <cholmod.h>
@@ -70,12 +71,23 @@ namespace modal_haptics
                     const std::vector<Index> &position_of_row, std::vector<char> &on_path,
                     std::vector<Index> &path) const;
     // One supernode of L y = b: y at its own rows, its updates to the rows below subtracted from
-    // X, or added to 'top_updates' for the rows of the top (when given).
+    // X, or from 'top_updates' for the rows of the top (when given; laid out as X, n_top_columns rows).
     void forward(Index supernode, double *X, int n_rhs, double *workspace, double *top_updates) const;
     // One supernode of L^T x = y (reads x at the rows below it, solved before).
     void backward(Index supernode, double *X, int n_rhs, double *workspace) const;
+    // forward and backward for 'width' right-hand sides in a row-interleaved X (X[row * width +
+    // c]), by the narrow kernels, on the supernode's rows gathered in rows_of_block (max_rows rows).
+    template <int width>
+    void forward_narrow(Index supernode, double *X, double *rows_of_block, double *top_updates) const;
+    template <int width>
+    void backward_narrow(Index supernode, double *X, double *rows_of_block) const;
+    template <int width>
+    void solve_narrow(double *columns) const;
+    template <typename Forward, typename Backward>
+    void solve_in_tree_order(double *columns, unsigned int n_rhs, bool interleaved, const Forward &forward_step,
+                             const Backward &backward_step) const;
 
-    Index                      n, n_supernodes, max_rows_below;
+    Index                      n, n_supernodes, max_rows_below, max_rows = 0;
     const Index               *first_column, *row_start, *value_start, *rows, *permutation;
     const double              *values;
     std::vector<Index>         supernode_of_column, parent_supernode; // the tree (-1 at a root)

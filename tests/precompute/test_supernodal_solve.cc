@@ -104,7 +104,7 @@ namespace
   {
     cholmod_factor *L = factorize(A, common, CHOLMOD_SUPERNODAL, ordering);
     const Index     n = L->n;
-    for (const unsigned int n_rhs : {1u, 4u, 13u})
+    for (const unsigned int n_rhs : {1u, 2u, 3u, 4u, 13u})
       {
         cholmod_dense *B = cholmod_l_allocate_dense(n, n_rhs, n, CHOLMOD_REAL, &common);
         auto          *b = static_cast<double *>(B->x);
