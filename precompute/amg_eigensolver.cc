@@ -3,6 +3,8 @@
 // CG with the same preconditioner for the static solves.
 #include "amg_eigensolver.h"
 
+#include "blas_lapack.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/trilinos_precondition.h>
@@ -15,6 +17,7 @@
 #include <BelosBlockCGSolMgr.hpp>
 #include <BelosEpetraAdapter.hpp>
 #include <BelosLinearProblem.hpp>
+#include <Epetra_LocalMap.h>
 #include <Epetra_MultiVector.h>
 #include <Epetra_Operator.h>
 #include <Epetra_Vector.h>
@@ -96,6 +99,96 @@ namespace modal_haptics
       mutable std::unique_ptr<Epetra_MultiVector>     free_part;
       mutable dealii::Timer                           total, since_progress;
     };
+
+    // The span of the computed modes Z, deflated from the static solves by the balancing
+    // preconditioner (BNN; Tang, Nabben, Vuik and Erlangga, J. Sci. Comput. 39, 2009):
+    //   B_deflated = P^T B^-1 P + Q,  Q = Z E^-1 Z^T,  E = Z^T A Z,  P = I - A Q,
+    // exact on span Z (its part of the solution, Q r) and the AMG's B^-1 on the A-orthogonal
+    // rest, where the lowest (and, for the AMG on a thin part, the worst approximated) modes no
+    // longer slow CG. It is symmetric positive definite, so CG's theory and its rounding behaviour
+    // hold; the cheaper one-sided A-DEF2 (P^T B^-1 alone, from x0 = Q b) stagnated above 1e-12 on
+    // the cantilever of test_lobpcg_amg. E is formed from Z, not taken as the eigenvalues: the modes
+    // are converged to a tolerance, not exact, and the projections stay consistent for any basis.
+    class Deflation
+    {
+    public:
+      Deflation(const Epetra_Operator &A, Epetra_MultiVector modes)
+        : Z(std::move(modes))
+        , AZ(Z.Map(), Z.NumVectors())
+        , k(Z.NumVectors())
+        , coefficient_map(k, 0, Z.Comm())
+        , E(std::size_t(k) * k)
+      {
+        A.Apply(Z, AZ);
+        Epetra_MultiVector ZtAZ(coefficient_map, k);
+        ZtAZ.Multiply('T', 'N', 1., Z, AZ, 0.); // summed over the processes
+        for (int j = 0; j < k; ++j)
+          for (int i = 0; i < k; ++i)
+            E[i + std::size_t(j) * k] = 0.5 * (ZtAZ[j][i] + ZtAZ[i][j]);
+        int info = 0;
+        dpotrf_("L", &k, E.data(), &k, &info);
+        AssertThrow(info == 0, ExcMessage("The modes used to deflate the static solves are not independent (Z^T A Z "
+                                          "not positive definite at its column " + std::to_string(info) + ")."));
+      }
+
+      // Y = (P^T B^-1 P + Q) R, B^-1 applied by 'preconditioner'.
+      int apply(const Epetra_Operator &preconditioner, const Epetra_MultiVector &R, Epetra_MultiVector &Y) const
+      {
+        Epetra_MultiVector in_span(coefficient_map, R.NumVectors()), off_span(coefficient_map, R.NumVectors());
+        coefficients(Z, R, in_span);                 // E^-1 Z^T R: Q R = Z in_span
+        Epetra_MultiVector PR(R);
+        PR.Multiply('N', 'N', -1., AZ, in_span, 1.); // P R = R - A Z E^-1 Z^T R
+        const int status = preconditioner.Apply(PR, Y);
+        coefficients(AZ, Y, off_span);                // P^T Y = Y - Z E^-1 (A Z)^T Y
+        off_span.Update(-1., in_span, 1.);           // ... + Z in_span
+        Y.Multiply('N', 'N', -1., Z, off_span, 1.);
+        return status;
+      }
+
+      int size() const { return k; }
+
+    private:
+      // C = E^-1 Y^T X (k x columns, on every process).
+      void coefficients(const Epetra_MultiVector &Y, const Epetra_MultiVector &X, Epetra_MultiVector &C) const
+      {
+        C.Multiply('T', 'N', 1., Y, X, 0.); // summed over the processes
+        const int n_rhs = C.NumVectors(), ld = C.Stride();
+        int       info  = 0;
+        dpotrs_("L", &k, &n_rhs, E.data(), &k, C.Values(), &ld, &info);
+      }
+
+      Epetra_MultiVector  Z, AZ;
+      int                 k;
+      Epetra_LocalMap     coefficient_map; // k rows on every process
+      std::vector<double> E;               // Cholesky factor of Z^T A Z (lower, column-major)
+    };
+
+    // The preconditioner of the deflated CG (Deflation::apply around the AMG).
+    class DeflatedPreconditioner : public Epetra_Operator
+    {
+    public:
+      DeflatedPreconditioner(const Epetra_Operator &preconditioner, const Deflation &deflation)
+        : preconditioner(preconditioner), deflation(deflation)
+      {}
+
+      int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
+      {
+        return deflation.apply(preconditioner, X, Y);
+      }
+      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      double NormInf() const override { return 0.; }
+      const char *Label() const override { return "AMG (ML), deflated by the modes"; }
+      bool UseTranspose() const override { return false; }
+      bool HasNormInf() const override { return false; }
+      const Epetra_Comm &Comm() const override { return preconditioner.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return preconditioner.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return preconditioner.OperatorRangeMap(); }
+
+    private:
+      const Epetra_Operator &preconditioner;
+      const Deflation       &deflation;
+    };
   } // namespace
 
   namespace
@@ -124,23 +217,27 @@ namespace modal_haptics
     const dealii::TrilinosWrappers::SparseMatrix *A = nullptr, *M = nullptr; // A = K - shift M
     std::vector<double>                        near_null_space; // six columns, read by ML while it sets up
     dealii::TrilinosWrappers::PreconditionAMG  amg;
-    const std::vector<double>                 *start_eigenvalues = nullptr;
-    const std::vector<dealii::Vector<double>> *start_modes       = nullptr;
+    std::unique_ptr<Deflation>                 deflation; // by the modes, once they are known
     AmgSolverStatistics                        stats;
     unsigned long                              total_cg_iterations = 0;
 
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked, bool higher_order);
 
-    // A X = B by block CG (Trilinos Belos) from the start X holds, preconditioned by the AMG, every
-    // column to 1e-12 of its load (relative to the load, not to the first residual: the start
-    // from the modes can leave a residual whose 1e-12 lies below rounding). One block Krylov space
-    // for all the columns: each iteration applies A and the V-cycle to the whole block at once.
+    // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
+    // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
+    // all the columns: each iteration applies A and the V-cycle to the whole block at once.
     void block_conjugate_gradients(Epetra_MultiVector &X, const Epetra_MultiVector &B)
     {
       using MV = Epetra_MultiVector;
       using OP = Epetra_Operator;
       // No progress lines: a block's solve takes seconds (finish() reports the solves' totals).
-      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG", {});
+      const ProjectedAmg amg_preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG",
+                                            {});
+      std::unique_ptr<DeflatedPreconditioner> deflated;
+      if (deflation)
+        deflated = std::make_unique<DeflatedPreconditioner>(amg_preconditioner, *deflation);
+      X.PutScalar(0.); // the first preconditioned residual holds the solution's part in span Z
+      const Epetra_Operator &preconditioner = deflated ? *deflated : static_cast<const Epetra_Operator &>(amg_preconditioner);
       Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(&A->trilinos_matrix(), false),
                                                    Teuchos::rcp(&X, false), Teuchos::rcp(&B, false));
       problem.setLeftPrec(Teuchos::rcp(&preconditioner, false));
@@ -163,12 +260,12 @@ namespace modal_haptics
       stats.mean_cg_iterations = double(total_cg_iterations) / stats.n_cg_solves;
     }
 
-    void start(dealii::Vector<double> &x, const dealii::Vector<double> &b) const
+    void deflate(Epetra_MultiVector modes)
     {
-      x = 0.;
-      if (start_modes != nullptr)
-        for (std::size_t i = 0; i < start_modes->size(); ++i)
-          x.add(((*start_modes)[i] * b) / ((*start_eigenvalues)[i] - shift), (*start_modes)[i]);
+      dealii::Timer timer;
+      deflation = std::make_unique<Deflation>(A->trilinos_matrix(), std::move(modes));
+      stats.deflation_modes   = deflation->size();
+      stats.deflation_seconds = timer.wall_time();
     }
   };
 
@@ -265,31 +362,38 @@ namespace modal_haptics
 
   const AmgSolverStatistics &AmgShiftedInverse::amg_statistics() const { return impl->stats; }
 
-  void AmgShiftedInverse::start_from_modes(const std::vector<double>                 &eigenvalues,
-                                           const std::vector<dealii::Vector<double>> &modes)
+  void AmgShiftedInverse::deflate_by_modes(const std::vector<dealii::Vector<double>> &modes)
   {
-    impl->start_eigenvalues = &eigenvalues;
-    impl->start_modes       = &modes;
+    const Epetra_Map  &map = impl->A->trilinos_matrix().OperatorDomainMap();
+    Epetra_MultiVector Z(map, int(modes.size()), false);
+    for (std::size_t c = 0; c < modes.size(); ++c)
+      std::copy(modes[c].begin(), modes[c].end(), Z[c]);
+    impl->deflate(std::move(Z));
   }
 
-  // The columns start from the modes' answer (if given) and are solved together by block CG.
+  void AmgShiftedInverse::deflate_by_modes(const std::vector<dealii::TrilinosWrappers::MPI::Vector> &modes)
+  {
+    const Epetra_Map  &map = impl->A->trilinos_matrix().OperatorDomainMap();
+    Epetra_MultiVector Z(map, int(modes.size()), false);
+    for (std::size_t c = 0; c < modes.size(); ++c)
+      {
+        const Epetra_MultiVector &mode = modes[c].trilinos_vector();
+        AssertThrow(mode.MyLength() == Z.MyLength(), ExcMessage("A mode's rows differ from the matrix's."));
+        std::copy(mode[0], mode[0] + mode.MyLength(), Z[c]);
+      }
+    impl->deflate(std::move(Z));
+  }
+
+  // The columns are solved together by block CG.
   void AmgShiftedInverse::solve_block(double *columns, const unsigned int n_rhs)
   {
     if (n_rhs == 0)
       return;
-    dealii::Timer          timer;
-    const std::size_t      n   = impl->A->m();
-    const Epetra_Map      &map = impl->A->trilinos_matrix().OperatorDomainMap();
+    dealii::Timer            timer;
+    const std::size_t        n   = impl->A->m();
+    const Epetra_Map        &map = impl->A->trilinos_matrix().OperatorDomainMap();
     const Epetra_MultiVector B(Copy, map, columns, int(n), int(n_rhs));
-    dealii::Vector<double> b(n), x(n);
-    for (unsigned int c = 0; c < n_rhs; ++c)
-      {
-        double *column = columns + c * n;
-        std::copy(column, column + n, b.begin());
-        impl->start(x, b);
-        std::copy(x.begin(), x.end(), column);
-      }
-    Epetra_MultiVector X(View, map, columns, int(n), int(n_rhs));
+    Epetra_MultiVector       X(View, map, columns, int(n), int(n_rhs));
     impl->block_conjugate_gradients(X, B);
     stats.solve_seconds += timer.wall_time();
     stats.n_solved_vectors += n_rhs;
@@ -299,7 +403,6 @@ namespace modal_haptics
                                 const dealii::TrilinosWrappers::MPI::Vector &b)
   {
     dealii::Timer timer;
-    x = 0.;
     impl->block_conjugate_gradients(x.trilinos_vector(), b.trilinos_vector());
     stats.solve_seconds += timer.wall_time();
     ++stats.n_solved_vectors;

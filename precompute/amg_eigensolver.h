@@ -1,7 +1,7 @@
 // The path that never factors K ('Modes/Eigensolver = lobpcg-amg'): the lowest modes by LOBPCG
 // (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG (Trilinos ML) whose near-null space
 // is the six rigid-body motions, and the static solves by block CG (Trilinos Belos) with the same AMG,
-// started from the computed modes' answer. Memory grows about linearly with the DoFs, where the
+// deflated by the computed modes. Memory grows about linearly with the DoFs, where the
 // direct factorization grows as DoFs^1.3 (docs/cluster.md).
 //
 // It acts on A = K - shift M (shift <= 0, positive definite: a free part needs a negative shift, as
@@ -43,6 +43,8 @@ namespace modal_haptics
     unsigned int n_cg_solves             = 0;  // columns solved
     unsigned int max_cg_iterations       = 0;  // of any block CG (its block iterations)
     double       mean_cg_iterations      = 0.; // block iterations per column's solve
+    unsigned int deflation_modes         = 0;  // the modes the static solves are deflated by
+    double       deflation_seconds       = 0.; // forming A Z and Z^T A Z
   };
 
   class AmgShiftedInverse : public Factorization
@@ -78,16 +80,17 @@ namespace modal_haptics
     EigenSolution lowest_modes(unsigned int n_modes, double tolerance,
                                const std::function<void(const std::string &)> &progress);
 
-    // Later solves start from the modes' answer, sum_i phi_i (phi_i . b) / (lambda_i - shift): CG
-    // then works on the rest of the spectrum, where the AMG-preconditioned operator is well
-    // conditioned. The modes are referenced, not copied: they must outlive the solves.
-    void start_from_modes(const std::vector<double> &eigenvalues, const std::vector<dealii::Vector<double>> &modes);
+    // Later static solves are deflated by the modes' span (amg_eigensolver.cc, Deflation): they
+    // start from the solution's part in it and CG works on the rest of the spectrum only. The modes
+    // are copied (with A times them: two n x n_modes blocks); serial or this process's rows.
+    void deflate_by_modes(const std::vector<dealii::Vector<double>> &modes);
+    void deflate_by_modes(const std::vector<dealii::TrilinosWrappers::MPI::Vector> &modes);
 
     // A X = B by AMG-preconditioned block CG (Trilinos Belos) on all the columns at once, each to
     // a relative residual of 1e-12 (as the direct path's refined solves).
     void solve_block(double *columns, unsigned int n_rhs) override;
 
-    // The same for the distributed space: x = A^-1 b (collective; started from zero).
+    // The same for the distributed space: x = A^-1 b (collective).
     void solve(dealii::TrilinosWrappers::MPI::Vector &x, const dealii::TrilinosWrappers::MPI::Vector &b);
 
     const AmgSolverStatistics &amg_statistics() const;

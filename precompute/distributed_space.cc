@@ -413,6 +413,8 @@ namespace modal_haptics
           ghosted_modes.push_back(ghosted(eigenvectors[i]));
           modes.push_back(std::move(eigenvectors[i]));
         }
+      if (amg)
+        amg->deflate_by_modes(modes);
       std::ostringstream line;
       line << eigenvalues.size() << " modes in " << result.n_operator_applications << " solves, "
            << result.eigensolve_iteration_seconds << " s; f1 = " << result.computed_frequencies_hz.front()

@@ -334,8 +334,9 @@ namespace modal_haptics
         return;
       const auto        &amg = amg_inverse()->amg_statistics();
       std::ostringstream line;
-      line << "AMG-preconditioned block CG: " << amg.n_cg_solves << " static solves (columns), "
-           << amg.mean_cg_iterations << " block iterations on average, at most " << amg.max_cg_iterations << ", "
+      line << "AMG-preconditioned block CG, deflated by " << amg.deflation_modes << " modes (" << amg.deflation_seconds
+           << " s to set up): " << amg.n_cg_solves << " static solves (columns), " << amg.mean_cg_iterations
+           << " block iterations on average, at most " << amg.max_cg_iterations << ", "
            << factorization->statistics().solve_seconds << " s";
       log(line.str());
     }
@@ -349,7 +350,7 @@ namespace modal_haptics
       log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
           std::to_string(result.dropped_modes.size()));
       if (AmgShiftedInverse *amg = amg_inverse())
-        amg->start_from_modes(result.eigenvalues, eigen.eigenvectors);
+        amg->deflate_by_modes(eigen.eigenvectors);
     }
 
     // The n lowest computed modes of a part whose supports leave n rigid-body motions free (a
