@@ -39,67 +39,6 @@ namespace modal_haptics
 
   namespace
   {
-    // The AMG as an Epetra preconditioner (Anasazi and Belos call Apply; ML's V-cycle is its
-    // ApplyInverse) on the free DoFs; the constrained DoFs, whose rows of A hold only their
-    // diagonal, are kept out of the V-cycle's input and get either zero (LOBPCG: every field of the
-    // constrained system is zero there, and M's zero rows would otherwise let its search directions
-    // pick up directions of infinite eigenvalue) or their exact inverse (CG: with zero there it
-    // could not reduce a load's residual on them and would stall).
-    class ProjectedAmg : public Epetra_Operator
-    {
-    public:
-      // constrained_diagonal: A's diagonal on the constrained rows, or null for zero there.
-      ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
-                   const std::vector<double> *constrained_diagonal, std::string what,
-                   std::function<void(const std::string &)> progress)
-        : amg(amg), constrained(constrained), constrained_diagonal(constrained_diagonal), what(std::move(what)),
-          progress(std::move(progress))
-      {}
-
-      int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
-      {
-        if (!free_part || free_part->NumVectors() != X.NumVectors())
-          free_part = std::make_unique<Epetra_MultiVector>(X.Map(), X.NumVectors(), false);
-        *free_part = X;
-        for (int c = 0; c < X.NumVectors(); ++c)
-          for (const unsigned int i : constrained)
-            (*free_part)[c][i] = 0.;
-        const int status = amg.ApplyInverse(*free_part, Y);
-        for (int c = 0; c < Y.NumVectors(); ++c)
-          for (std::size_t k = 0; k < constrained.size(); ++k)
-            Y[c][constrained[k]] =
-              constrained_diagonal != nullptr ? X[c][constrained[k]] / (*constrained_diagonal)[k] : 0.;
-        n_applications += X.NumVectors();
-        if (progress && since_progress.wall_time() > 30.)
-          {
-            progress(what + ": " + std::to_string(n_applications) + " preconditioner applications, " +
-                     std::to_string(int(total.wall_time())) + " s");
-            since_progress.restart();
-          }
-        return status;
-      }
-      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
-      int SetUseTranspose(bool) override { return -1; }
-      double NormInf() const override { return 0.; }
-      const char *Label() const override { return "AMG (ML) on the free DoFs"; }
-      bool UseTranspose() const override { return false; }
-      bool HasNormInf() const override { return false; }
-      const Epetra_Comm &Comm() const override { return amg.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return amg.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return amg.OperatorRangeMap(); }
-
-      mutable unsigned long n_applications = 0; // columns
-
-    private:
-      const Epetra_Operator                          &amg;
-      const std::vector<unsigned int>                &constrained;
-      const std::vector<double>                      *constrained_diagonal;
-      const std::string                               what;
-      const std::function<void(const std::string &)>  progress; // a line every 30 s of long work, if set
-      mutable std::unique_ptr<Epetra_MultiVector>     free_part;
-      mutable dealii::Timer                           total, since_progress;
-    };
-
     // The span of the computed modes Z, deflated from the static solves by the balancing
     // preconditioner (BNN; Tang, Nabben, Vuik and Erlangga, J. Sci. Comput. 39, 2009):
     //   B_deflated = P^T B^-1 P + Q,  Q = Z E^-1 Z^T,  E = Z^T A Z,  P = I - A Q,
@@ -132,13 +71,14 @@ namespace modal_haptics
       }
 
       // Y = (P^T B^-1 P + Q) R, B^-1 applied by 'preconditioner'.
-      int apply(const Epetra_Operator &preconditioner, const Epetra_MultiVector &R, Epetra_MultiVector &Y) const
+      int apply(const std::function<int(const Epetra_MultiVector &, Epetra_MultiVector &)> &preconditioner,
+                const Epetra_MultiVector &R, Epetra_MultiVector &Y) const
       {
         Epetra_MultiVector in_span(coefficient_map, R.NumVectors()), off_span(coefficient_map, R.NumVectors());
         coefficients(Z, R, in_span);                 // E^-1 Z^T R: Q R = Z in_span
         Epetra_MultiVector PR(R);
         PR.Multiply('N', 'N', -1., AZ, in_span, 1.); // P R = R - A Z E^-1 Z^T R
-        const int status = preconditioner.Apply(PR, Y);
+        const int status = preconditioner(PR, Y);
         coefficients(AZ, Y, off_span);                // P^T Y = Y - Z E^-1 (A Z)^T Y
         off_span.Update(-1., in_span, 1.);           // ... + Z in_span
         Y.Multiply('N', 'N', -1., Z, off_span, 1.);
@@ -163,31 +103,75 @@ namespace modal_haptics
       std::vector<double> E;               // Cholesky factor of Z^T A Z (lower, column-major)
     };
 
-    // The preconditioner of the deflated CG (Deflation::apply around the AMG).
-    class DeflatedPreconditioner : public Epetra_Operator
+    // The AMG as an Epetra preconditioner (Anasazi and Belos call Apply; ML's V-cycle is its
+    // ApplyInverse) on the free DoFs; the constrained DoFs, whose rows of A hold only their
+    // diagonal, are kept out of the V-cycle's input and get either zero (LOBPCG: every field of the
+    // constrained system is zero there, and M's zero rows would otherwise let its search directions
+    // pick up directions of infinite eigenvalue) or their exact inverse (CG: with zero there it
+    // could not reduce a load's residual on them and would stall).
+    class ProjectedAmg : public Epetra_Operator
     {
     public:
-      DeflatedPreconditioner(const Epetra_Operator &preconditioner, const Deflation &deflation)
-        : preconditioner(preconditioner), deflation(deflation)
+      // constrained_diagonal: A's diagonal on the constrained rows, or null for zero there;
+      // deflation: when given, the AMG inside the deflated preconditioner (Deflation::apply).
+      ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
+                   const std::vector<double> *constrained_diagonal, std::string what,
+                   std::function<void(const std::string &)> progress, const Deflation *deflation = nullptr)
+        : amg(amg), constrained(constrained), constrained_diagonal(constrained_diagonal), what(std::move(what)),
+          progress(std::move(progress)), deflation(deflation)
       {}
 
       int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
       {
-        return deflation.apply(preconditioner, X, Y);
+        if (deflation == nullptr)
+          return apply_amg(X, Y);
+        return deflation->apply([this](const Epetra_MultiVector &R, Epetra_MultiVector &Z) { return apply_amg(R, Z); },
+                                X, Y);
       }
       int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
       int SetUseTranspose(bool) override { return -1; }
       double NormInf() const override { return 0.; }
-      const char *Label() const override { return "AMG (ML), deflated by the modes"; }
+      const char *Label() const override { return "AMG (ML) on the free DoFs"; }
       bool UseTranspose() const override { return false; }
       bool HasNormInf() const override { return false; }
-      const Epetra_Comm &Comm() const override { return preconditioner.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return preconditioner.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return preconditioner.OperatorRangeMap(); }
+      const Epetra_Comm &Comm() const override { return amg.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return amg.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return amg.OperatorRangeMap(); }
+
+      mutable unsigned long n_applications = 0; // columns
 
     private:
-      const Epetra_Operator &preconditioner;
-      const Deflation       &deflation;
+      int apply_amg(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const
+      {
+        if (!free_part || free_part->NumVectors() != X.NumVectors())
+          free_part = std::make_unique<Epetra_MultiVector>(X.Map(), X.NumVectors(), false);
+        *free_part = X;
+        for (int c = 0; c < X.NumVectors(); ++c)
+          for (const unsigned int i : constrained)
+            (*free_part)[c][i] = 0.;
+        const int status = amg.ApplyInverse(*free_part, Y);
+        for (int c = 0; c < Y.NumVectors(); ++c)
+          for (std::size_t k = 0; k < constrained.size(); ++k)
+            Y[c][constrained[k]] =
+              constrained_diagonal != nullptr ? X[c][constrained[k]] / (*constrained_diagonal)[k] : 0.;
+        n_applications += X.NumVectors();
+        if (progress && since_progress.wall_time() > 30.)
+          {
+            progress(what + ": " + std::to_string(n_applications) + " preconditioner applications, " +
+                     std::to_string(int(total.wall_time())) + " s");
+            since_progress.restart();
+          }
+        return status;
+      }
+
+      const Epetra_Operator                          &amg;
+      const std::vector<unsigned int>                &constrained;
+      const std::vector<double>                      *constrained_diagonal;
+      const std::string                               what;
+      const std::function<void(const std::string &)>  progress; // a line every 30 s of long work, if set
+      mutable std::unique_ptr<Epetra_MultiVector>     free_part;
+      mutable dealii::Timer                           total, since_progress;
+      const Deflation                                *deflation;
     };
   } // namespace
 
@@ -231,13 +215,9 @@ namespace modal_haptics
       using MV = Epetra_MultiVector;
       using OP = Epetra_Operator;
       // No progress lines: a block's solve takes seconds (finish() reports the solves' totals).
-      const ProjectedAmg amg_preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG",
-                                            {});
-      std::unique_ptr<DeflatedPreconditioner> deflated;
-      if (deflation)
-        deflated = std::make_unique<DeflatedPreconditioner>(amg_preconditioner, *deflation);
+      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG", {},
+                                        deflation.get());
       X.PutScalar(0.); // the first preconditioned residual holds the solution's part in span Z
-      const Epetra_Operator &preconditioner = deflated ? *deflated : static_cast<const Epetra_Operator &>(amg_preconditioner);
       Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(&A->trilinos_matrix(), false),
                                                    Teuchos::rcp(&X, false), Teuchos::rcp(&B, false));
       problem.setLeftPrec(Teuchos::rcp(&preconditioner, false));

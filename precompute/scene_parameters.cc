@@ -140,7 +140,7 @@ namespace modal_haptics
                       "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
                       "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
                       "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
-                      "preconditioned block CG (Trilinos Belos): no factorization, memory about linear in the DoFs, for parts whose "
+                      "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
                       "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
                       "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS). All "
                       "converge to the same modes. Units: none.");
