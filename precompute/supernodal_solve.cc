@@ -269,9 +269,12 @@ namespace modal_haptics
 
 // The narrow kernels pay only with 256-bit vectors and fused multiply-adds (x86-64-v3: AVX2, FMA;
 // with SSE2 alone they were no faster than the BLAS): they are compiled for them, and solve()
-// takes them only where the processor has them (narrow_kernels_run_here).
+// takes them only where the processor has them (narrow_kernels_run_here). Elsewhere than on x86-64
+// (unmeasured) the BLAS solves every width.
+#if defined(__x86_64__)
 #pragma GCC push_options
 #pragma GCC target("avx2,fma")
+#endif
   namespace
   {
     // The narrow kernels work on one supernode's rows gathered into x, row-interleaved (x[i * width
@@ -396,14 +399,20 @@ namespace modal_haptics
     std::copy(rows_of_block, rows_of_block + b.n_columns * width, own);
   }
 
+#if defined(__x86_64__)
 #pragma GCC pop_options
+#endif
 
   namespace
   {
     bool narrow_kernels_run_here()
     {
+#if defined(__x86_64__)
       __builtin_cpu_init();
       return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+      return false;
+#endif
     }
   } // namespace
 
