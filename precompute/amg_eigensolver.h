@@ -80,9 +80,9 @@ namespace modal_haptics
     EigenSolution lowest_modes(unsigned int n_modes, double tolerance,
                                const std::function<void(const std::string &)> &progress);
 
-    // Later static solves are deflated by the modes' span (amg_eigensolver.cc, Deflation): they
-    // start from the solution's part in it and CG works on the rest of the spectrum only. The modes
-    // are copied (with A times them: two n x n_modes blocks); serial or this process's rows.
+    // Later static solves are deflated by the modes' span (amg_eigensolver.cc, Deflation): their
+    // preconditioner is exact on it and CG works on the rest of the spectrum only. The modes are
+    // copied (with A times them: two n x n_modes blocks); serial or this process's rows.
     void deflate_by_modes(const std::vector<dealii::Vector<double>> &modes);
     void deflate_by_modes(const std::vector<dealii::TrilinosWrappers::MPI::Vector> &modes);
 
