@@ -1,6 +1,7 @@
 #include "mumps_inverse.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/solver_control.h>
 #include <deal.II/lac/trilinos_solver.h>
@@ -11,6 +12,7 @@
 #include <petscmat.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -37,6 +39,26 @@ namespace modal_haptics
                                         ") while factorizing K with MUMPS."));
     }
 
+    // A NaN or infinity out of a solve would otherwise surface far away (PARPACK's "info -9999"
+    // after DLASCL complaints): said here, where it appears, with whether the right-hand side
+    // already had one. One pass over the local entries, small beside the solve.
+    bool all_finite(const double *values, const std::size_t count)
+    {
+      return std::all_of(values, values + count, [](const double v) { return std::isfinite(v); });
+    }
+
+    void expect_finite_solution(const Vector &solution, const double *right_hand_side)
+    {
+      const auto count = solution.locally_owned_size();
+      if (all_finite(solution.trilinos_vector()[0], count))
+        return;
+      const auto process = dealii::Utilities::MPI::this_mpi_process(solution.get_mpi_communicator());
+      AssertThrow(false, ExcMessage("MUMPS's solve returned a non-finite value on process " + std::to_string(process) +
+                                    (all_finite(right_hand_side, count) ? " from a finite right-hand side"
+                                                                         : ", whose right-hand side was not finite either") +
+                                    "."));
+    }
+
     // Amesos_Mumps through deal.II: MUMPS's unsymmetric LU.
     class AmesosMumpsLU : public DistributedInverse
     {
@@ -55,6 +77,7 @@ namespace modal_haptics
       {
         dealii::Timer timer;
         solver.solve(dst, src);
+        expect_finite_solution(dst, src.trilinos_vector()[0]);
         stats.solve_seconds += timer.wall_time();
         ++stats.n_solved_vectors;
       }
@@ -119,6 +142,7 @@ namespace modal_haptics
         check(MatSolve(factor, b, x), "MatSolve");
         check(VecResetArray(x), "VecResetArray");
         check(VecResetArray(b), "VecResetArray");
+        expect_finite_solution(dst, src.trilinos_vector()[0]);
         stats.solve_seconds += timer.wall_time();
         ++stats.n_solved_vectors;
       }
@@ -146,6 +170,7 @@ namespace modal_haptics
           {
             Vector solution(columns[c].locally_owned_elements(), columns[c].get_mpi_communicator());
             std::copy(values + c * ld, values + c * ld + n_local, solution.trilinos_vector()[0]);
+            expect_finite_solution(solution, columns[c].trilinos_vector()[0]);
             columns[c] = solution;
           }
         check(MatDenseRestoreArray(X, &values), "MatDenseRestoreArray");
