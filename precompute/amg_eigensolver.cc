@@ -379,13 +379,25 @@ namespace modal_haptics
     stats.n_solved_vectors += n_rhs;
   }
 
-  void AmgShiftedInverse::solve(dealii::TrilinosWrappers::MPI::Vector       &x,
-                                const dealii::TrilinosWrappers::MPI::Vector &b)
+  // The columns (this process's rows of each) copied into one block and solved together.
+  void AmgShiftedInverse::solve_columns(std::vector<dealii::TrilinosWrappers::MPI::Vector> &columns)
   {
-    dealii::Timer timer;
-    impl->block_conjugate_gradients(x.trilinos_vector(), b.trilinos_vector());
+    if (columns.empty())
+      return;
+    dealii::Timer      timer;
+    const Epetra_Map  &map = impl->A->trilinos_matrix().OperatorDomainMap();
+    Epetra_MultiVector B(map, int(columns.size())), X(map, int(columns.size()));
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      {
+        const Epetra_MultiVector &column = columns[c].trilinos_vector();
+        AssertThrow(column.MyLength() == B.MyLength(), ExcMessage("A right-hand side's rows differ from the matrix's."));
+        std::copy(column[0], column[0] + column.MyLength(), B[c]);
+      }
+    impl->block_conjugate_gradients(X, B);
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      std::copy(X[c], X[c] + X.MyLength(), columns[c].trilinos_vector()[0]);
     stats.solve_seconds += timer.wall_time();
-    ++stats.n_solved_vectors;
+    stats.n_solved_vectors += columns.size();
   }
 
   EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,

@@ -90,8 +90,8 @@ namespace modal_haptics
     // a relative residual of 1e-12 (as the direct path's refined solves).
     void solve_block(double *columns, unsigned int n_rhs) override;
 
-    // The same for the distributed space: x = A^-1 b (collective).
-    void solve(dealii::TrilinosWrappers::MPI::Vector &x, const dealii::TrilinosWrappers::MPI::Vector &b);
+    // The same for the distributed space: columns[c] = A^-1 columns[c], in place (collective).
+    void solve_columns(std::vector<dealii::TrilinosWrappers::MPI::Vector> &columns);
 
     const AmgSolverStatistics &amg_statistics() const;
 

@@ -44,6 +44,16 @@ namespace modal_haptics
     constexpr double two_pi = 2. * M_PI;
     using DistributedVector = TrilinosWrappers::MPI::Vector;
 
+    // The MPI processes of comm that share this one's node (and its memory).
+    unsigned int processes_on_this_node(const MPI_Comm comm)
+    {
+      MPI_Comm node;
+      MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+      const unsigned int count = Utilities::MPI::n_mpi_processes(node);
+      MPI_Comm_free(&node);
+      return count;
+    }
+
     // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
     // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, PARPACK.
     class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
@@ -75,14 +85,7 @@ namespace modal_haptics
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X);
-      void solve_static(std::vector<Field> &fields)
-      {
-        if (shift == 0. && inverse) // nothing to refine: one block for MUMPS
-          inverse->solve_columns(fields);
-        else
-          for (auto &field : fields)
-            solve_static(field);
-      }
+      void solve_static(std::vector<Field> &fields);
       // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
       bool compliance_of_patch_loads(const std::vector<unsigned int> &, std::vector<double> &) const { return false; }
       const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }
@@ -113,14 +116,16 @@ namespace modal_haptics
           result.factorization = amg->statistics();
       }
       std::map<types::global_dof_index, unsigned int> dof_components() const;
+      bool factorize_unless_amg();
       void parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       void lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
-      void apply_inverse(DistributedVector &x, const DistributedVector &b)
+      // columns[c] = A^-1 columns[c], all at once: one MUMPS solve of the block, or one block CG.
+      void apply_inverse(std::vector<DistributedVector> &columns)
       {
         if (amg)
-          amg->solve(x, b);
+          amg->solve_columns(columns);
         else
-          inverse->vmult(x, b);
+          inverse->solve_columns(columns);
       }
 
       void read_and_partition_mesh();
@@ -280,10 +285,18 @@ namespace modal_haptics
     // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
     // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
     // runs on different process counts build nearly the same Krylov space.
-    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
+    // MUMPS factorizes K - shift M for PARPACK and the static solves; 'auto' factorizes when MUMPS's
+    // analysis predicts in-core data within 'Modes/Factor memory limit' (shared by the processes of
+    // a node; half the node's available memory by default), and otherwise takes the path without a
+    // factorization. Returns whether it factorized (collective: every process decides alike).
+    bool DistributedSpace::factorize_unless_amg()
     {
-      log("Modes/Eigensolver (" + eigensolver_name(scene.modes.eigensolver) + ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
-          ") choose the serial solvers; the distributed path uses PARPACK over MUMPS (or 'lobpcg-amg')");
+      const EigensolverKind wanted = scene.modes.eigensolver;
+      if (wanted == EigensolverKind::lobpcg_amg)
+        return false;
+      if (wanted != EigensolverKind::automatic)
+        log("Modes/Eigensolver (" + eigensolver_name(wanted) + ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
+            ") choose the serial solvers; the distributed path uses PARPACK over MUMPS (or 'lobpcg-amg')");
       const auto kind = scene.modes.distributed_factorization;
       log(std::string("factorizing K with MUMPS (") +
           (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric, PETSc") + ")");
@@ -292,8 +305,34 @@ namespace modal_haptics
           shifted_matrix.copy_from(stiffness_matrix);
           shifted_matrix.add(-shift, mass_matrix);
         }
-      inverse = make_mumps_inverse(shift != 0. ? shifted_matrix : stiffness_matrix, kind, shift <= 0.,
-                                   result.factorization);
+      const auto &A = shift != 0. ? shifted_matrix : stiffness_matrix;
+      if (wanted != EigensolverKind::automatic)
+        {
+          inverse = make_mumps_inverse(A, kind, shift <= 0., result.factorization);
+          return true;
+        }
+      const unsigned int on_node = processes_on_this_node(comm);
+      const double       limit   = Utilities::MPI::min(scene.modes.factor_memory_limit > 0. ?
+                                                         1e9 * scene.modes.factor_memory_limit :
+                                                         0.5 * available_memory_bytes(),
+                                                       comm);
+      double predicted = 0.;
+      inverse          = make_mumps_inverse_within(A, kind, shift <= 0., result.factorization, limit / on_node, predicted);
+      std::ostringstream line;
+      if (predicted < 0.)
+        line << "Modes/Eigensolver = auto: MUMPS's LU (Amesos) does not predict its memory; factorized";
+      else
+        line << "Modes/Eigensolver = auto: MUMPS's analysis predicts " << predicted / 1e9
+             << " GB on the process that needs most, the limit is " << limit / on_node / 1e9 << " GB per process ("
+             << limit / 1e9 << " GB for the " << on_node << " on its node): "
+             << (inverse ? "PARPACK over MUMPS" : "lobpcg-amg (no factorization)");
+      log(line.str());
+      note_automatic_choice(inverse != nullptr, predicted * on_node, limit);
+      return inverse != nullptr;
+    }
+
+    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
+    {
       // The inertia of MUMPS's L D L^T (Sylvester): a negative eigenvalue of K - shift M is a mode
       // below the shift, found here before any iteration (the LU below relies on PARPACK's modes).
       const long below_shift = inverse->negative_eigenvalues();
@@ -395,10 +434,11 @@ namespace modal_haptics
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       std::vector<double>            eigenvalues;
       std::vector<DistributedVector> eigenvectors;
-      if (scene.modes.eigensolver == EigensolverKind::lobpcg_amg)
-        lobpcg_amg_modes(eigenvalues, eigenvectors);
-      else
+      if (factorize_unless_amg())
         parpack_modes(eigenvalues, eigenvectors);
+      else
+        lobpcg_amg_modes(eigenvalues, eigenvectors);
+      result.eigensolver_method += automatic_choice;
 
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
       // mode below the shift says that the shift lies above the first eigenfrequency (the
@@ -502,33 +542,48 @@ namespace modal_haptics
       return ghosted(owned);
     }
 
-    // K u = f in place, with the MUMPS factorization of A = K - shift M: one solve without a shift,
-    // refined against K with one (space_parts::refine_static_solve, as the serial solve_static). The
-    // residual is kept as K x - f, so each step is x -= A^-1 (K x - f).
-    void DistributedSpace::solve_static(DistributedVector &u)
+    // K u = f in place for every field, with A = K - shift M (MUMPS's factor or the AMG): one block
+    // solve without a shift, refined against K with one (space_parts::refine_static_solve, as the
+    // serial solve_static), u += A^-1 (f - K u) on the whole block per step.
+    void DistributedSpace::solve_static(std::vector<DistributedVector> &fields)
     {
-      DistributedVector x(owned_dofs, comm);
+      if (fields.empty())
+        return;
       if (shift == 0.)
         {
-          apply_inverse(x, u);
-          u.swap(x);
+          apply_inverse(fields);
           return;
         }
-      const DistributedVector &f         = u;
-      const double             load_norm = f.l2_norm();
-      DistributedVector        residual(owned_dofs, comm), correction(owned_dofs, comm);
-      residual -= f;
+      const std::vector<DistributedVector> loads = fields;
+      std::vector<DistributedVector>       corrections = fields;
+      for (auto &u : fields)
+        u = 0.;
+      DistributedVector  K_u(owned_dofs, comm);
       const unsigned int steps = space_parts::refine_static_solve(
         [&] {
-          apply_inverse(correction, residual);
-          x -= correction;
-          stiffness_matrix.vmult(residual, x);
-          residual -= f;
-          return load_norm > 0. ? residual.l2_norm() / load_norm : 0.;
+          apply_inverse(corrections);
+          double worst = 0.;
+          for (std::size_t c = 0; c < fields.size(); ++c)
+            {
+              fields[c] += corrections[c];
+              stiffness_matrix.vmult(K_u, fields[c]);
+              corrections[c] = loads[c];
+              corrections[c] -= K_u; // the residual, solved for at the next step
+              const double load_norm = loads[c].l2_norm();
+              worst = std::max(worst, load_norm > 0. ? corrections[c].l2_norm() / load_norm : 0.);
+            }
+          return worst;
         },
         task.name, scene.modes.shift);
       result.static_solve_iterations = std::max(result.static_solve_iterations, steps);
-      u.swap(x);
+    }
+
+    void DistributedSpace::solve_static(DistributedVector &u)
+    {
+      std::vector<DistributedVector> one(1);
+      one[0].swap(u);
+      solve_static(one);
+      u.swap(one[0]);
     }
 
     void DistributedSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const

@@ -140,7 +140,6 @@ namespace modal_haptics
       std::unique_ptr<Factorization> factorization; // of K - shift M, or the AMG-preconditioned CG
       // The factorization on the path without one (null on the direct path).
       AmgShiftedInverse *amg_inverse() const { return dynamic_cast<AmgShiftedInverse *>(factorization.get()); }
-      std::string                    automatic_choice;      // Eigensolver = auto: why this path
       double                    shift = 0.;          // [rad^2/s^2]
       EigenSolution             eigen;
       bool                      coupled_constraints = false; // constrained entries must be filled in for output
@@ -230,14 +229,7 @@ namespace modal_haptics
                << " GB, the limit is " << limit / 1e9 << " GB: "
                << (factorization ? "block-krylov" : "lobpcg-amg (no factorization)");
           log(line.str());
-          // In report.json only what does not move with the machine's free memory when the factor
-          // fits (scenario jobs compare their reports with a one-run report's).
-          std::ostringstream why;
-          if (factorization)
-            why << " (auto: the predicted factor fits the limit)";
-          else
-            why << " (auto: predicted factor " << predicted / 1e9 << " GB over the limit " << limit / 1e9 << " GB)";
-          automatic_choice = why.str();
+          note_automatic_choice(factorization != nullptr, predicted, limit);
           if (!factorization)
             return EigensolverKind::lobpcg_amg;
         }

@@ -285,6 +285,10 @@ namespace modal_haptics
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;
+      // Eigensolver = auto: why this path, for the report's method. Only what does not move with
+      // the machine's free memory when the factor fits (scenario jobs compare their reports with a
+      // one-run report's).
+      void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes);
       PhaseInputs inputs() const
       {
         return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};
@@ -301,6 +305,7 @@ namespace modal_haptics
       const dealii::QGaussSimplex<3> quadrature;
       ModalSpaceResult              result;
       ResolvedSupports              supports; // set with the constraints (apply_supports)
+      std::string                   automatic_choice; // note_automatic_choice's words, or empty
     };
 
     // The stiffness of an elastic support on one face: the integral over the face of

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -94,9 +95,12 @@ namespace modal_haptics
     class PetscMumpsCholesky : public DistributedInverse
     {
     public:
+      // Copies A and runs MUMPS's analysis (ordering, symbolic factorization): what the factor will
+      // need is known from here on (predicted_bytes_per_process), and factorize() computes it.
       PetscMumpsCholesky(const dealii::TrilinosWrappers::SparseMatrix &A, const bool positive_definite,
                          FactorizationStatistics &stats)
-        : stats(stats)
+        : positive_definite(positive_definite)
+        , stats(stats)
       {
         stats.method = std::string("mumps-cholesky (PETSc's MUMPS, symmetric ") +
                        (positive_definite ? "positive definite" : "indefinite, with pivoting") + ", distributed)";
@@ -106,11 +110,23 @@ namespace modal_haptics
         dealii::Timer timer;
         copy_matrix(E, comm, positive_definite);
         check(MatGetFactor(matrix, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor), "MatGetFactor");
-        MatFactorInfo info;
         check(MatFactorInfoInitialize(&info), "MatFactorInfoInitialize");
         check(MatCholeskyFactorSymbolic(factor, matrix, nullptr, &info), "MatCholeskyFactorSymbolic");
         stats.analyze_seconds = timer.wall_time();
-        timer.restart();
+      }
+
+      // MUMPS's INFOG(16) after the analysis: its in-core data for the factorization, in MB, on the
+      // process that needs most.
+      double predicted_bytes_per_process() const
+      {
+        PetscInt megabytes = 0;
+        check(MatMumpsGetInfog(factor, 16, &megabytes), "MatMumpsGetInfog");
+        return 1e6 * double(megabytes);
+      }
+
+      void factorize()
+      {
+        dealii::Timer timer;
         check(MatCholeskyFactorNumeric(factor, matrix, &info), "MatCholeskyFactorNumeric (a singular K: is the part held?)");
         stats.factorize_seconds = timer.wall_time();
         PetscInt entries = 0; // INFOG(29): the factor's entries, in millions when negative
@@ -230,6 +246,8 @@ namespace modal_haptics
           check(MatSetOption(matrix, MAT_SPD, PETSC_TRUE), "MatSetOption");
       }
 
+      const bool               positive_definite;
+      MatFactorInfo            info;
       MPI_Comm                 comm     = MPI_COMM_NULL;
       long                     negative = -1; // INFOG(12), read only in the indefinite mode
       int                      n_local = 0;
@@ -239,12 +257,30 @@ namespace modal_haptics
     };
   } // namespace
 
+  std::unique_ptr<DistributedInverse> make_mumps_inverse_within(const dealii::TrilinosWrappers::SparseMatrix &A,
+                                                                const DistributedFactorizationKind kind,
+                                                                const bool positive_definite,
+                                                                FactorizationStatistics &stats,
+                                                                const double max_bytes_per_process,
+                                                                double &predicted_bytes_per_process)
+  {
+    predicted_bytes_per_process = -1.;
+    if (kind == DistributedFactorizationKind::mumps_lu)
+      return std::make_unique<AmesosMumpsLU>(A, stats);
+    auto inverse = std::make_unique<PetscMumpsCholesky>(A, positive_definite, stats);
+    predicted_bytes_per_process = inverse->predicted_bytes_per_process();
+    if (predicted_bytes_per_process > max_bytes_per_process)
+      return nullptr;
+    inverse->factorize();
+    return inverse;
+  }
+
   std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
                                                          const DistributedFactorizationKind kind,
                                                          const bool positive_definite, FactorizationStatistics &stats)
   {
-    if (kind == DistributedFactorizationKind::mumps_lu)
-      return std::make_unique<AmesosMumpsLU>(A, stats);
-    return std::make_unique<PetscMumpsCholesky>(A, positive_definite, stats);
+    double predicted = 0.;
+    return make_mumps_inverse_within(A, kind, positive_definite, stats, std::numeric_limits<double>::infinity(),
+                                     predicted);
   }
 } // namespace modal_haptics

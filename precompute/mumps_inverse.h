@@ -40,4 +40,14 @@ namespace modal_haptics
   std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
                                                          DistributedFactorizationKind kind, bool positive_definite,
                                                          FactorizationStatistics &stats);
+
+  // The same, unless MUMPS's analysis predicts more than max_bytes_per_process of in-core data on
+  // the process that needs most (INFOG(16)): then nullptr, nothing factorized ('Eigensolver = auto').
+  // predicted_bytes_per_process gets that prediction; the LU path (Amesos) cannot tell before it
+  // factorizes: -1, and it factorizes.
+  std::unique_ptr<DistributedInverse> make_mumps_inverse_within(const dealii::TrilinosWrappers::SparseMatrix &A,
+                                                                DistributedFactorizationKind kind,
+                                                                bool positive_definite, FactorizationStatistics &stats,
+                                                                double max_bytes_per_process,
+                                                                double &predicted_bytes_per_process);
 } // namespace modal_haptics

@@ -142,7 +142,8 @@ namespace modal_haptics
                       "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
                       "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
                       "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
-                      "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS). All "
+                      "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS when MUMPS's analysis "
+                      "says its factor fits, else lobpcg-amg). All "
                       "converge to the same modes. Units: none.");
     prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
                       "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
@@ -151,8 +152,10 @@ namespace modal_haptics
                       "below about 1e-8 rounding stalls LOBPCG. Units: none.");
     prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
                       "Eigensolver = auto: the largest direct factor (as CHOLMOD's analysis predicts it) that is "
-                      "computed; a larger one switches to lobpcg-amg. 0: half the memory available when the "
-                      "space is solved. Units: GB (1e9 bytes).");
+                      "computed; a larger one switches to lobpcg-amg. Under mpirun the limit of a node's processes "
+                      "together, each held to its share against MUMPS's prediction of its in-core data (the "
+                      "symmetric mode; the LU always factorizes). 0: half the memory available when the space is "
+                      "solved. Units: GB (1e9 bytes).");
     prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
                       "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
     prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",

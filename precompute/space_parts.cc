@@ -67,6 +67,17 @@ namespace modal_haptics
       result.degree = scene.element_degree;
     }
 
+    void SpaceBase::note_automatic_choice(const bool factorized, const double predicted_bytes, const double limit_bytes)
+    {
+      std::ostringstream why;
+      if (factorized)
+        why << " (auto: the predicted factor fits the limit)";
+      else
+        why << " (auto: predicted factor " << predicted_bytes / 1e9 << " GB over the limit " << limit_bytes / 1e9
+            << " GB)";
+      automatic_choice = why.str();
+    }
+
     void SpaceBase::log(const std::string &message) const
     {
       if (verbose)
