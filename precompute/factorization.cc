@@ -9,9 +9,11 @@
 
 #include <cholmod.h>
 #include <dlfcn.h>
+#include <unistd.h>
 #include <metis.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -29,6 +31,32 @@ namespace modal_haptics
     const int previous = get();
     set(threads);
     return previous;
+  }
+
+  namespace
+  {
+    // Whether mpirun (Open MPI), a PMI launcher (MPICH's Hydra) or PMIx (srun) started this process:
+    // what they put in the environment before MPI_Init.
+    bool started_by_mpi_launcher()
+    {
+      for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+        if (std::getenv(variable) != nullptr)
+          return true;
+      return false;
+    }
+  } // namespace
+
+  // The spin is read from OPENBLAS_THREAD_TIMEOUT (2^value cycles) when the library loads, before
+  // main, and no call changes it: hence the restart. 2^20 cycles (about 0.4 ms) is long enough for
+  // the factorization's back-to-back calls (docs/performance.md). Not under an MPI launcher: there
+  // each process has one BLAS thread (no idle worker to spin), and a process that replaces itself
+  // under the launcher's daemon is one risk more for nothing.
+  void shorten_openblas_spin_unless_set(char **argv)
+  {
+    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") != nullptr || started_by_mpi_launcher())
+      return;
+    setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
+    execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on with the long spin
   }
 
   BlasThreads::BlasThreads(const int threads)

@@ -46,6 +46,14 @@ namespace modal_haptics
   // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
   int set_openblas_threads(int threads);
 
+  // OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s) after every call before they
+  // sleep; on 2 cores the spinning worker takes a core from our own threads (the triangular solves
+  // start right after the eigensolver's GEMMs on the basis: 250k DoFs, 7.0 s of solves against
+  // 6.4 s with a short spin). Unless the user has set OPENBLAS_THREAD_TIMEOUT, or an MPI launcher
+  // started the process, sets it to 20 and restarts the program (execv of itself, same PID, same
+  // arguments): the first line of main, before anything else has happened.
+  void shorten_openblas_spin_unless_set(char **argv);
+
   class Factorization
   {
   public:

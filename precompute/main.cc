@@ -25,7 +25,6 @@
 #include <sstream>
 #include <string>
 
-#include <unistd.h>
 
 namespace
 {
@@ -96,33 +95,6 @@ namespace
       return;
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
     modal_haptics::set_openblas_threads(1);
-  }
-
-  // Whether mpirun (Open MPI), a PMI launcher (MPICH's Hydra) or PMIx (srun) started this process:
-  // what they put in the environment before MPI_Init.
-  bool started_by_mpi_launcher()
-  {
-    for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
-      if (std::getenv(variable) != nullptr)
-        return true;
-    return false;
-  }
-
-  // OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s) after every call before they
-  // sleep; on 2 cores the spinning worker takes a core from our own threads (the triangular solves
-  // start right after the eigensolver's GEMMs on the basis: 250k DoFs, 7.0 s of solves against
-  // 6.4 s with a short spin). The spin is read from OPENBLAS_THREAD_TIMEOUT (2^value cycles) when
-  // the library loads, before main, and no call changes it: when the user has not set it, the
-  // program sets 2^20 cycles (about 0.4 ms: long enough for the factorization's back-to-back
-  // calls, docs/performance.md) and restarts itself once, before anything else has happened.
-  // Not under an MPI launcher: there each process has one BLAS thread (no idle worker to spin),
-  // and a process that replaces itself under the launcher's daemon is one risk more for nothing.
-  void shorten_openblas_spin_unless_set(char **argv)
-  {
-    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") != nullptr || started_by_mpi_launcher())
-      return;
-    setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
-    execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on with the long spin
   }
 
   // This process's place among the MPI processes.
@@ -411,7 +383,7 @@ namespace
 
 int main(int argc, char **argv)
 {
-  shorten_openblas_spin_unless_set(argv);
+  modal_haptics::shorten_openblas_spin_unless_set(argv);
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.

@@ -20,6 +20,7 @@
 // errors against the reference); modal_study.h holds the records it fills, study_kernel_cost.cc
 // times the kernel and study_output.cc writes the tables and runs the report script.
 #include "atomic_file.h"
+#include "factorization.h"
 #include "modal_precompute.h"
 #include "modal_study.h"
 #include "scene_parameters.h"
@@ -478,6 +479,7 @@ namespace modal_haptics
 int main(int argc, char **argv)
 {
   using namespace modal_haptics;
+  shorten_openblas_spin_unless_set(argv);
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.
