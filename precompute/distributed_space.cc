@@ -282,9 +282,6 @@ namespace modal_haptics
       assembler.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
-    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
-    // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
-    // runs on different process counts build nearly the same Krylov space.
     // MUMPS factorizes K - shift M for PARPACK and the static solves; 'auto' factorizes when MUMPS's
     // analysis predicts in-core data within 'Modes/Factor memory limit' (shared by the processes of
     // a node; half the node's available memory by default), and otherwise takes the path without a
@@ -331,6 +328,9 @@ namespace modal_haptics
       return inverse != nullptr;
     }
 
+    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
+    // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
+    // runs on different process counts build nearly the same Krylov space.
     void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
       // The inertia of MUMPS's L D L^T (Sylvester): a negative eigenvalue of K - shift M is a mode
