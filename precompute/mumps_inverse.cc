@@ -24,9 +24,11 @@ namespace modal_haptics
 
   void DistributedInverse::solve_columns(std::vector<Vector> &columns) const
   {
+    if (columns.empty())
+      return;
+    Vector solution(columns.front().locally_owned_elements(), columns.front().get_mpi_communicator());
     for (auto &column : columns)
       {
-        Vector solution(column.locally_owned_elements(), column.get_mpi_communicator());
         vmult(solution, column);
         column = solution;
       }
@@ -180,16 +182,21 @@ namespace modal_haptics
           std::copy(columns[c].trilinos_vector()[0], columns[c].trilinos_vector()[0] + n_local, values + c * ld);
         check(MatDenseRestoreArray(B, &values), "MatDenseRestoreArray");
         check(MatMatSolve(factor, B, X), "MatMatSolve");
-        check(MatDenseGetLDA(X, &ld), "MatDenseGetLDA");
-        check(MatDenseGetArray(X, &values), "MatDenseGetArray");
+        PetscInt           x_ld, b_ld;
+        const PetscScalar *solutions, *loads;
+        check(MatDenseGetLDA(X, &x_ld), "MatDenseGetLDA");
+        check(MatDenseGetLDA(B, &b_ld), "MatDenseGetLDA");
+        check(MatDenseGetArrayRead(X, &solutions), "MatDenseGetArrayRead");
+        check(MatDenseGetArrayRead(B, &loads), "MatDenseGetArrayRead");
+        // Written over the columns (B keeps their right-hand sides): a new vector per column would
+        // build a new Epetra map each time.
         for (PetscInt c = 0; c < n_columns; ++c)
           {
-            Vector solution(columns[c].locally_owned_elements(), columns[c].get_mpi_communicator());
-            std::copy(values + c * ld, values + c * ld + n_local, solution.trilinos_vector()[0]);
-            expect_finite_solution(solution, columns[c].trilinos_vector()[0]);
-            columns[c] = solution;
+            std::copy(solutions + c * x_ld, solutions + c * x_ld + n_local, columns[c].trilinos_vector()[0]);
+            expect_finite_solution(columns[c], loads + c * b_ld);
           }
-        check(MatDenseRestoreArray(X, &values), "MatDenseRestoreArray");
+        check(MatDenseRestoreArrayRead(B, &loads), "MatDenseRestoreArrayRead");
+        check(MatDenseRestoreArrayRead(X, &solutions), "MatDenseRestoreArrayRead");
         MatDestroy(&X);
         MatDestroy(&B);
         stats.solve_seconds += timer.wall_time();
