@@ -445,7 +445,6 @@ namespace modal_haptics
         parpack_modes(eigenvalues, eigenvectors);
       else
         lobpcg_amg_modes(eigenvalues, eigenvectors);
-      result.eigensolver_method += automatic_choice;
 
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
       // mode below the shift says that the shift lies above the first eigenfrequency (the

@@ -25,7 +25,6 @@
 #include <sstream>
 #include <string>
 
-
 namespace
 {
   void print_usage(std::ostream &out)

@@ -298,7 +298,6 @@ namespace modal_haptics
         method == EigensolverKind::block_krylov ?
           "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
           "ARPACK dsaupd mode 3 (shift-invert)";
-      result.eigensolver_method += automatic_choice;
       result.n_operator_applications = eigen.n_operator_applications;
       result.eigensolve_iteration_seconds          = eigen.eigensolve_iteration_seconds;
       result.mass_product_seconds      = eigen.mass_product_seconds;

@@ -285,7 +285,8 @@ namespace modal_haptics
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;
-      // Eigensolver = auto: why this path, for the report's method. Only what does not move with
+      // Eigensolver = auto: why this path, appended to the report's method after the eigensolve
+      // (SpaceBase::run). Only what does not move with
       // the machine's free memory when the factor fits (scenario jobs compare their reports with a
       // one-run report's).
       void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes);

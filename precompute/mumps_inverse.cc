@@ -133,7 +133,7 @@ namespace modal_haptics
       void factorize()
       {
         dealii::Timer timer;
-        PetscInt      next_relaxation = 40;
+        PetscInt      relaxed_to = 0; // the ICNTL(14) of the last analysis, once it had to be raised
         for (;;)
           {
             check(MatCholeskyFactorNumeric(factor, matrix, &info), "MatCholeskyFactorNumeric");
@@ -145,16 +145,16 @@ namespace modal_haptics
             check(MatMumpsGetIcntl(factor, 14, &relaxation), "MatMumpsGetIcntl");
             const bool workspace_short = status == -8 || status == -9 || status == -11 || status == -12 ||
                                          status == -14 || status == -15 || status == -17 || status == -20;
-            AssertThrow(workspace_short && next_relaxation <= 640,
+            relaxed_to = std::max<PetscInt>({40, 2 * relaxation, 2 * relaxed_to});
+            AssertThrow(workspace_short && relaxed_to <= 640,
                         ExcMessage("MUMPS's factorization of K failed: INFOG(1) = " + std::to_string(status) +
                                    ", INFOG(2) = " + std::to_string(detail) + ", workspace relaxation ICNTL(14) = " +
                                    std::to_string(relaxation) + " % (MUMPS's manual, section 'Error diagnostics'; " +
                                    "-10: K is singular, is the part held? -13: out of memory)."));
-            next_relaxation = std::max(next_relaxation, 2 * relaxation);
-            analyze(next_relaxation);
-            stats.method += " [workspace relaxed to " + std::to_string(next_relaxation) + " %]";
-            next_relaxation *= 2;
+            analyze(relaxed_to);
           }
+        if (relaxed_to > 0)
+          stats.method += " [workspace relaxed to " + std::to_string(relaxed_to) + " %]";
         stats.factorize_seconds = timer.wall_time();
         PetscInt entries = 0; // INFOG(29): the factor's entries, in millions when negative
         check(MatMumpsGetInfog(factor, 29, &entries), "MatMumpsGetInfog");

@@ -94,7 +94,10 @@ namespace modal_haptics
       };
       phase("assembly", [&] { assemble(); });
       after_assembly();
-      phase("eigensolve", [&] { solve_eigenproblem(); });
+      phase("eigensolve", [&] {
+        solve_eigenproblem();
+        result.eigensolver_method += automatic_choice;
+      });
       phase("interpolation", [&] { interpolate(); });
       phase("static_correction", [&] { compute_static_correction(); });
       phase("validation", [&] { validate(); });
