@@ -4,9 +4,16 @@
 #include "amg_eigensolver.h"
 
 #include "blas_lapack.h"
+#include "modal_space.h"
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/timer.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/full_matrix.h>
 #include <deal.II/lac/trilinos_precondition.h>
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
@@ -17,10 +24,13 @@
 #include <BelosBlockCGSolMgr.hpp>
 #include <BelosEpetraAdapter.hpp>
 #include <BelosLinearProblem.hpp>
+#include <EpetraExt_MatrixMatrix.h>
+#include <Epetra_CrsMatrix.h>
 #include <Epetra_LocalMap.h>
 #include <Epetra_MultiVector.h>
 #include <Epetra_Operator.h>
 #include <Epetra_Vector.h>
+#include <Ifpack_Chebyshev.h>
 #include <Teuchos_ParameterList.hpp>
 #include <Teuchos_RCP.hpp>
 #include <ml_MultiLevelPreconditioner.h>
@@ -36,6 +46,92 @@
 namespace modal_haptics
 {
   using dealii::ExcMessage;
+
+  namespace
+  {
+    // A sparse matrix applied to blocks of columns on every core. Trilinos' Epetra has no threads
+    // here (Debian builds it without OpenMP): its product (epetra_scrsmm5, five columns per pass
+    // over the matrix) took half of this path's time on one process, on one of the cores.
+    // Under MPI, where each process has its core and the ghost entries must be imported, Epetra's
+    // own product is used.
+    class ThreadedMatrix : public Epetra_Operator
+    {
+    public:
+      explicit ThreadedMatrix(const Epetra_CrsMatrix &matrix)
+        : matrix(matrix)
+      {
+        own_rows = matrix.Comm().NumProc() == 1 && matrix.StorageOptimized() &&
+                   matrix.RowMap().SameAs(matrix.ColMap()) &&
+                   matrix.ExtractCrsDataPointers(row_start, column, value) == 0;
+      }
+
+      int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
+      {
+        if (!own_rows)
+          return matrix.Apply(X, Y);
+        const int n_rows = matrix.NumMyRows();
+        interleaved.resize(std::size_t(n_rows) * width);
+        for (int first = 0; first < X.NumVectors(); first += width)
+          {
+            const int count = std::min(width, X.NumVectors() - first);
+            dealii::parallel::apply_to_subranges(
+              0, n_rows, [&](const int begin, const int end) { interleave(X, first, count, begin, end); }, 4096);
+            dealii::parallel::apply_to_subranges(
+              0, n_rows, [&](const int begin, const int end) { multiply_rows(Y, first, count, begin, end); }, 2048);
+          }
+        return 0;
+      }
+      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      double NormInf() const override { return matrix.NormInf(); }
+      const char *Label() const override { return "sparse matrix on every core"; }
+      bool UseTranspose() const override { return false; }
+      bool HasNormInf() const override { return true; }
+      const Epetra_Comm &Comm() const override { return matrix.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return matrix.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return matrix.OperatorRangeMap(); }
+
+    private:
+      // Columns first to first + count of X, row by row (a row's entries side by side, the rest of
+      // the width zero): each entry of the matrix then multiplies one contiguous run of X.
+      void interleave(const Epetra_MultiVector &X, const int first, const int count, const int begin,
+                      const int end) const
+      {
+        for (int row = begin; row < end; ++row)
+          {
+            double *out = &interleaved[std::size_t(row) * width];
+            for (int c = 0; c < width; ++c)
+              out[c] = c < count ? X[first + c][row] : 0.;
+          }
+      }
+
+      // Rows begin to end of Y's columns first to first + count from the interleaved columns: a
+      // fixed width keeps the sums in registers, and each pass over the matrix serves all of them.
+      void multiply_rows(Epetra_MultiVector &Y, const int first, const int count, const int begin, const int end) const
+      {
+        for (int row = begin; row < end; ++row)
+          {
+            double sum[width] = {};
+            for (int k = row_start[row]; k < row_start[row + 1]; ++k)
+              {
+                const double  a = value[k];
+                const double *x = &interleaved[std::size_t(column[k]) * width];
+                for (int c = 0; c < width; ++c)
+                  sum[c] += a * x[c];
+              }
+            for (int c = 0; c < count; ++c)
+              Y[first + c][row] = sum[c];
+          }
+      }
+
+      static constexpr int width = 8; // columns per pass over the matrix
+      const Epetra_CrsMatrix &matrix;
+      bool                    own_rows  = false; // one process, columns numbered as rows: our product
+      int                    *row_start = nullptr, *column = nullptr;
+      double                 *value     = nullptr;
+      mutable std::vector<double> interleaved; // width columns of X, row by row
+    };
+  } // namespace
 
   namespace
   {
@@ -177,6 +273,113 @@ namespace modal_haptics
 
   namespace
   {
+    // The preconditioner of a higher-order space (p-multigrid with two levels): Chebyshev
+    // smoothing on the space, the correction from its vertex (P1) space through the Galerkin
+    // operator P^T A P, where smoothed aggregation works as on a linear space, and the same
+    // smoothing again. Symmetric positive definite (the same polynomial before and after, a
+    // Galerkin coarse level solved by a symmetric V-cycle), as CG and LOBPCG need. The smoother
+    // takes the error components P1 cannot hold (the edge nodes' high frequencies); ML on the P2
+    // nodes themselves, without that split, needed 88-98 LOBPCG iterations on the P2 FACTS plate
+    // of 14,220 DoFs against 70 with this and 56 with the coarse level's 4 sweeps
+    // (docs/performance.md). A is applied by 'product' (ThreadedMatrix).
+    class VertexTwoLevel : public Epetra_Operator
+    {
+    public:
+      VertexTwoLevel(const Epetra_CrsMatrix &A, const Epetra_Operator &product, const Epetra_CrsMatrix &P,
+                     Teuchos::ParameterList coarse_ml)
+        : A(product), P(P), inverse_diagonal(A.RowMap()), smoother(&product)
+      {
+        {
+          Epetra_CrsMatrix AP(Copy, A.RowMap(), 0);
+          check(EpetraExt::MatrixMatrix::Multiply(A, false, P, false, AP), "A P");
+          coarse_matrix = std::make_unique<Epetra_CrsMatrix>(Copy, P.DomainMap(), 0);
+          check(EpetraExt::MatrixMatrix::Multiply(P, true, AP, false, *coarse_matrix), "P^T A P");
+        }
+        // The coarse level's own smoothing is a fourth-degree Chebyshev polynomial (ML's sweeps):
+        // 56 LOBPCG iterations on that plate against 70 with two sweeps, at less time overall.
+        coarse_ml.set("smoother: sweeps", 4);
+        coarse.initialize(*coarse_matrix, coarse_ml);
+        A.ExtractDiagonalCopy(inverse_diagonal);
+        inverse_diagonal.Reciprocal(inverse_diagonal);
+        set_up_smoother();
+      }
+
+      // X = B^-1 R: pre-smoothing from zero, coarse correction, post-smoothing.
+      int ApplyInverse(const Epetra_MultiVector &R, Epetra_MultiVector &X) const override
+      {
+        size_buffers(R);
+        smoother.ApplyInverse(R, X);
+        residual(R, X, *fine_work);
+        P.Multiply(true, *fine_work, *coarse_residual);
+        coarse.trilinos_operator().ApplyInverse(*coarse_residual, *coarse_correction);
+        P.Multiply(false, *coarse_correction, *fine_work);
+        X.Update(1., *fine_work, 1.);
+        residual(R, X, *fine_work);
+        smoother.ApplyInverse(*fine_work, *smoothed);
+        return X.Update(1., *smoothed, 1.);
+      }
+      int Apply(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      double NormInf() const override { return 0.; }
+      const char *Label() const override { return "P2 smoothing over the vertex space's AMG"; }
+      bool UseTranspose() const override { return false; }
+      bool HasNormInf() const override { return false; }
+      const Epetra_Comm &Comm() const override { return A.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return A.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return A.OperatorRangeMap(); }
+
+    private:
+      static void check(const int status, const std::string &what)
+      {
+        AssertThrow(status == 0, ExcMessage("Forming " + what + " for the vertex-space AMG failed (EpetraExt status " +
+                                            std::to_string(status) + ")."));
+      }
+
+      // Degree 3 over [lambda_max / 20, 1.1 lambda_max] of D^-1 A, lambda_max by 10 power steps
+      // (ML's own Chebyshev: the same boost and step count). Degree 5 took 61 instead of 70
+      // iterations on the plate above, but longer.
+      void set_up_smoother()
+      {
+        double             lambda_max = 0.;
+        const unsigned int seed       = 20;
+        Ifpack_Chebyshev::PowerMethod(A, inverse_diagonal, 10, lambda_max, &seed);
+        Teuchos::ParameterList chebyshev;
+        chebyshev.set("chebyshev: degree", 3);
+        chebyshev.set("chebyshev: max eigenvalue", 1.1 * lambda_max);
+        chebyshev.set("chebyshev: ratio eigenvalue", 20.);
+        chebyshev.set("chebyshev: zero starting solution", true);
+        chebyshev.set("chebyshev: operator inv diagonal", &inverse_diagonal);
+        check(smoother.SetParameters(chebyshev) + smoother.Initialize() + smoother.Compute(), "the Chebyshev smoother");
+      }
+
+      void residual(const Epetra_MultiVector &R, const Epetra_MultiVector &X, Epetra_MultiVector &out) const
+      {
+        A.Apply(X, out);
+        out.Update(1., R, -1.);
+      }
+
+      void size_buffers(const Epetra_MultiVector &R) const
+      {
+        if (fine_work && fine_work->NumVectors() == R.NumVectors())
+          return;
+        fine_work         = std::make_unique<Epetra_MultiVector>(A.OperatorRangeMap(), R.NumVectors(), false);
+        smoothed          = std::make_unique<Epetra_MultiVector>(A.OperatorRangeMap(), R.NumVectors(), false);
+        coarse_residual   = std::make_unique<Epetra_MultiVector>(P.DomainMap(), R.NumVectors(), false);
+        coarse_correction = std::make_unique<Epetra_MultiVector>(P.DomainMap(), R.NumVectors(), false);
+      }
+
+      const Epetra_Operator                      &A; // applied on every core
+      const Epetra_CrsMatrix                     &P;
+      std::unique_ptr<Epetra_CrsMatrix>           coarse_matrix;
+      dealii::TrilinosWrappers::PreconditionAMG   coarse;
+      Epetra_Vector                               inverse_diagonal;
+      Ifpack_Chebyshev                            smoother;
+      mutable std::unique_ptr<Epetra_MultiVector> fine_work, smoothed, coarse_residual, coarse_correction;
+    };
+  } // namespace
+
+  namespace
+  {
     // The mean of M's diagonal over the unconstrained rows (theirs are zero), over all processes.
     double mean_free_diagonal(const dealii::TrilinosWrappers::SparseMatrix &M)
     {
@@ -192,6 +395,32 @@ namespace modal_haptics
     }
   } // namespace
 
+  namespace
+  {
+    // Smoothed aggregation (ML) on a linear space of n_rows DoFs whose near-null space is the six
+    // rigid-body motions (six columns, read by ML while it sets up: they must outlive that).
+    Teuchos::ParameterList ml_parameters(std::vector<double> &near_null_space, const bool node_blocked,
+                                         const std::size_t n_rows)
+    {
+      Teuchos::ParameterList ml;
+      ML_Epetra::SetDefaults("SA", ml);
+      ml.set("ML output", 0);
+      ml.set("PDE equations", node_blocked ? 3 : 1);
+      ml.set("null space: type", "pre-computed");
+      ml.set("null space: dimension", 6);
+      ml.set("null space: vectors", near_null_space.data());
+      ml.set("aggregation: type", "Uncoupled");
+      ml.set("smoother: type", "Chebyshev");
+      ml.set("smoother: sweeps", 2);
+      ml.set("coarse: type", "Amesos-KLU");
+      // A coarse level of at most a tenth of the DoFs (and at most 1000): on a small part a coarse
+      // level holding everything makes the AMG an exact solve, and LOBPCG, converging in a step or
+      // two, breaks down on its linearly dependent search directions (seen at 1047 DoFs).
+      ml.set("coarse: max size", int(std::clamp<std::size_t>(n_rows / 10, 60, 1000)));
+      return ml;
+    }
+  } // namespace
+
   struct AmgShiftedInverse::Impl
   {
     double                                     shift = 0.;
@@ -199,13 +428,24 @@ namespace modal_haptics
     std::vector<double>                        constrained_diagonal; // A's, on the constrained rows
     dealii::TrilinosWrappers::SparseMatrix     own_A, own_M;         // the copies it holds, when it holds them
     const dealii::TrilinosWrappers::SparseMatrix *A = nullptr, *M = nullptr; // A = K - shift M
+    std::unique_ptr<ThreadedMatrix>            A_product, M_product; // A and M applied on every core
     std::vector<double>                        near_null_space; // six columns, read by ML while it sets up
+    // The preconditioner: smoothed aggregation on the space itself for linear elements, else the
+    // two levels over the vertex space (with that space's near-null space and interpolation).
     dealii::TrilinosWrappers::PreconditionAMG  amg;
+    std::vector<double>                        vertex_near_null_space;
+    std::shared_ptr<const dealii::TrilinosWrappers::SparseMatrix> prolongation;
+    std::unique_ptr<VertexTwoLevel>            vertex_two_level;
+    const Epetra_Operator &amg_operator() const
+    {
+      return vertex_two_level ? static_cast<const Epetra_Operator &>(*vertex_two_level) : amg.trilinos_operator();
+    }
     std::unique_ptr<Deflation>                 deflation; // by the modes, once they are known
     AmgSolverStatistics                        stats;
     unsigned long                              total_cg_iterations = 0;
 
-    void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked, bool higher_order);
+    void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked,
+                const VertexSpaceTransfer *vertex_space);
 
     // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
     // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
@@ -215,10 +455,10 @@ namespace modal_haptics
       using MV = Epetra_MultiVector;
       using OP = Epetra_Operator;
       // No progress lines: a block's solve takes seconds (finish() reports the solves' totals).
-      const ProjectedAmg preconditioner(amg.trilinos_operator(), constrained, &constrained_diagonal, "block CG", {},
+      const ProjectedAmg preconditioner(amg_operator(), constrained, &constrained_diagonal, "block CG", {},
                                         deflation.get());
       X.PutScalar(0.); // the first preconditioned residual holds the solution's part in span Z
-      Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(&A->trilinos_matrix(), false),
+      Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(A_product.get(), false),
                                                    Teuchos::rcp(&X, false), Teuchos::rcp(&B, false));
       problem.setLeftPrec(Teuchos::rcp(&preconditioner, false));
       AssertThrow(problem.setProblem(), ExcMessage("Belos could not set up the static solves' linear problem."));
@@ -243,20 +483,22 @@ namespace modal_haptics
     void deflate(Epetra_MultiVector modes)
     {
       dealii::Timer timer;
-      deflation = std::make_unique<Deflation>(A->trilinos_matrix(), std::move(modes));
+      deflation = std::make_unique<Deflation>(*A_product, std::move(modes));
       stats.deflation_modes   = deflation->size();
       stats.deflation_seconds = timer.wall_time();
     }
   };
 
   void AmgShiftedInverse::Impl::set_up(const double shift_, const std::vector<unsigned int> &constrained_,
-                                       const bool node_blocked, const bool higher_order)
+                                       const bool node_blocked, const VertexSpaceTransfer *vertex_space)
   {
     AssertThrow(shift_ <= 0., ExcMessage("The LOBPCG + AMG eigensolver needs 'Modes/Shift' <= 0 (K - shift M must "
                                          "be positive definite for the AMG and CG); it is " +
                                          std::to_string(std::sqrt(shift_) / (2. * M_PI)) + " Hz."));
     shift       = shift_;
     constrained = constrained_;
+    A_product   = std::make_unique<ThreadedMatrix>(A->trilinos_matrix());
+    M_product   = std::make_unique<ThreadedMatrix>(M->trilinos_matrix());
     Epetra_Vector diagonal(A->trilinos_matrix().RowMap());
     A->trilinos_matrix().ExtractDiagonalCopy(diagonal);
     for (const unsigned int k : constrained)
@@ -266,22 +508,16 @@ namespace modal_haptics
     for (unsigned int j = 0; j < 6; ++j)
       for (const unsigned int k : constrained)
         near_null_space[j * n_local + k] = 0.;
-    Teuchos::ParameterList ml;
-    ML_Epetra::SetDefaults("SA", ml);
-    ml.set("ML output", 0);
-    ml.set("PDE equations", node_blocked ? 3 : 1);
-    ml.set("null space: type", "pre-computed");
-    ml.set("null space: dimension", 6);
-    ml.set("null space: vectors", near_null_space.data());
-    ml.set("aggregation: type", "Uncoupled");
-    ml.set("smoother: type", "Chebyshev");
-    ml.set("smoother: sweeps", higher_order ? 3 : 2);
-    ml.set("coarse: type", "Amesos-KLU");
-    // A coarse level of at most a tenth of the DoFs (and at most 1000): on a small part a coarse
-    // level holding everything makes the AMG an exact solve, and LOBPCG, converging in a step or
-    // two, breaks down on its linearly dependent search directions (seen at 1047 DoFs).
-    ml.set("coarse: max size", int(std::clamp<std::size_t>(A->m() / 10, 60, 1000)));
-    amg.initialize(*A, ml);
+    if (vertex_space == nullptr)
+      {
+        amg.initialize(*A, ml_parameters(near_null_space, node_blocked, A->m()));
+        return;
+      }
+    vertex_near_null_space = vertex_space->near_null_space;
+    prolongation           = vertex_space->prolongation;
+    vertex_two_level       = std::make_unique<VertexTwoLevel>(
+      A->trilinos_matrix(), *A_product, prolongation->trilinos_matrix(),
+      ml_parameters(vertex_near_null_space, vertex_space->node_blocked, prolongation->n()));
   }
 
   AmgShiftedInverse::AmgShiftedInverse(const dealii::SparseMatrix<double>           &K,
@@ -290,7 +526,7 @@ namespace modal_haptics
                                        const std::array<dealii::Vector<double>, 6> &rigid_body_motions,
                                        const std::vector<unsigned int>              &constrained,
                                        const bool                                    node_blocked,
-                                       const bool                                    higher_order)
+                                       const VertexSpaceTransfer                    *vertex_space)
     : impl(std::make_unique<Impl>())
   {
     dealii::Timer timer;
@@ -305,8 +541,8 @@ namespace modal_haptics
     impl->near_null_space.resize(6 * n);
     for (unsigned int j = 0; j < 6; ++j)
       std::copy(rigid_body_motions[j].begin(), rigid_body_motions[j].end(), impl->near_null_space.begin() + j * n);
-    impl->set_up(shift, constrained, node_blocked, higher_order);
-    describe(node_blocked, timer.wall_time());
+    impl->set_up(shift, constrained, node_blocked, vertex_space);
+    describe(node_blocked, vertex_space != nullptr, timer.wall_time());
   }
 
   AmgShiftedInverse::AmgShiftedInverse(const dealii::TrilinosWrappers::SparseMatrix &K,
@@ -315,7 +551,7 @@ namespace modal_haptics
                                        std::vector<double>                           near_null_space,
                                        const std::vector<unsigned int>              &constrained,
                                        const bool                                    node_blocked,
-                                       const bool                                    higher_order)
+                                       const VertexSpaceTransfer                    *vertex_space)
     : impl(std::make_unique<Impl>())
   {
     dealii::Timer timer;
@@ -327,14 +563,15 @@ namespace modal_haptics
         impl->A = &impl->own_A;
       }
     impl->near_null_space = std::move(near_null_space);
-    impl->set_up(shift, constrained, node_blocked, higher_order);
-    describe(node_blocked, timer.wall_time());
+    impl->set_up(shift, constrained, node_blocked, vertex_space);
+    describe(node_blocked, vertex_space != nullptr, timer.wall_time());
   }
 
-  void AmgShiftedInverse::describe(const bool node_blocked, const double setup_seconds)
+  void AmgShiftedInverse::describe(const bool node_blocked, const bool on_vertex_space, const double setup_seconds)
   {
     stats.method = std::string("amg-block-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
-                   (node_blocked ? ", 3 DoFs per node)" : ", DoF-wise aggregation)");
+                   (node_blocked ? ", 3 DoFs per node" : ", DoF-wise aggregation") +
+                   (on_vertex_space ? ", on the vertex (P1) space under Chebyshev smoothing)" : ")");
     stats.analyze_seconds = setup_seconds;
   }
 
@@ -407,7 +644,6 @@ namespace modal_haptics
     using OP = Epetra_Operator;
     dealii::Timer timer;
     const auto   &A_epetra = impl->A->trilinos_matrix();
-    const auto   &M_epetra = impl->M->trilinos_matrix();
     // A block a little larger than the wanted count: the convergence factor of the last wanted
     // pair is set by the gap to the first unwanted one inside the block.
     const int block_size = int(n_modes + std::max(4u, n_modes / 4));
@@ -421,10 +657,9 @@ namespace modal_haptics
       for (const unsigned int i : impl->constrained)
         (*initial)[c][i] = 0.;
 
-    ProjectedAmg preconditioner(impl->amg.trilinos_operator(), impl->constrained, nullptr, "LOBPCG", progress);
+    ProjectedAmg preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", progress);
     auto problem = Teuchos::rcp(new Anasazi::BasicEigenproblem<double, MV, OP>(
-      Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&A_epetra), false),
-      Teuchos::rcp(const_cast<Epetra_CrsMatrix *>(&M_epetra), false), initial));
+      Teuchos::rcp(impl->A_product.get(), false), Teuchos::rcp(impl->M_product.get(), false), initial));
     problem->setHermitian(true);
     problem->setNEV(int(n_modes));
     problem->setPrec(Teuchos::rcp(&preconditioner, false));
@@ -441,8 +676,9 @@ namespace modal_haptics
     parameters.set("Convergence Tolerance", scaled_tolerance);
     parameters.set("Relative Convergence Tolerance", true);
     parameters.set("Full Ortho", true);
-    parameters.set("Use Locking", true);
-    parameters.set("Locking Tolerance", scaled_tolerance / 10.);
+    // No locking: with a block larger than the wanted count it never locked a pair here, and its
+    // storage (the locked vectors and four blocks of work space) was 13 % of the peak memory.
+    parameters.set("Use Locking", false);
     parameters.set("Verbosity", int(Anasazi::Errors + Anasazi::Warnings));
     Anasazi::LOBPCGSolMgr<double, MV, OP> solver(problem, parameters);
     const Anasazi::ReturnType             outcome    = solver.solve();
@@ -474,5 +710,105 @@ namespace modal_haptics
     eigen.n_operator_applications      = preconditioner.n_applications;
     eigen.eigensolve_iteration_seconds = timer.wall_time();
     return eigen;
+  }
+
+  namespace
+  {
+    // weights(i, j): vertex shape function j at the support point of the space's shape function i
+    // when both belong to the same displacement component (else 0): the interpolation of a linear
+    // field into the space, cell by cell.
+    dealii::FullMatrix<double> cell_interpolation(const dealii::FiniteElement<3> &fe,
+                                                  const dealii::FiniteElement<3> &vertex_fe)
+    {
+      dealii::FullMatrix<double> weights(fe.n_dofs_per_cell(), vertex_fe.n_dofs_per_cell());
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        for (unsigned int j = 0; j < vertex_fe.n_dofs_per_cell(); ++j)
+          if (fe.system_to_component_index(i).first == vertex_fe.system_to_component_index(j).first)
+            {
+              const double w = vertex_fe.shape_value(j, fe.get_unit_support_points()[i]);
+              weights(i, j)  = std::abs(w) < 1e-12 ? 0. : w;
+            }
+      return weights;
+    }
+  } // namespace
+
+  VertexSpaceTransfer make_vertex_space_transfer(const dealii::DoFHandler<3>             &dof_handler,
+                                                 const dealii::Mapping<3>                &mapping,
+                                                 const dealii::AffineConstraints<double> &constraints,
+                                                 const MPI_Comm                           comm)
+  {
+    using namespace dealii;
+    const FESystem<3> vertex_fe(FE_SimplexP<3>(1), 3);
+    DoFHandler<3>     vertex_dofs(dof_handler.get_triangulation());
+    vertex_dofs.distribute_dofs(vertex_fe);
+    const FiniteElement<3>   &fe           = dof_handler.get_fe();
+    const IndexSet           &owned        = dof_handler.locally_owned_dofs();
+    const IndexSet           &vertex_owned = vertex_dofs.locally_owned_dofs();
+    const FullMatrix<double>  weights      = cell_interpolation(fe, vertex_fe);
+    const std::size_t         n_vertex     = vertex_owned.n_elements();
+
+    VertexSpaceTransfer transfer;
+    transfer.near_null_space.assign(6 * n_vertex, 0.);
+    std::vector<bool> held(n_vertex, false); // the space's DoF at this vertex DoF is constrained
+    bool              node_blocked = true;
+    DynamicSparsityPattern pattern(dof_handler.n_dofs(), vertex_dofs.n_dofs(), owned);
+    std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell()), vertex_dof_indices(vertex_fe.n_dofs_per_cell());
+    // Both handlers walk the same cells in the same order.
+    auto vertex_cell = vertex_dofs.begin_active();
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      {
+        const auto this_vertex_cell = vertex_cell++;
+        if (!cell->is_locally_owned())
+          continue;
+        cell->get_dof_indices(dofs);
+        this_vertex_cell->get_dof_indices(vertex_dof_indices);
+        for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
+          {
+            const types::global_dof_index g = vertex_dof_indices[j];
+            const unsigned int c = vertex_fe.system_to_component_index(j).first;
+            node_blocked         = node_blocked && g % 3 == c;
+            if (!vertex_owned.is_element(g))
+              continue;
+            const std::size_t k = vertex_owned.index_within_set(g);
+            const Point<3>    x = mapping.transform_unit_to_real_cell(cell, vertex_fe.get_unit_support_points()[j]);
+            for (unsigned int m = 0; m < 6; ++m)
+              transfer.near_null_space[m * n_vertex + k] = space_parts::rigid_body_motion(m, x)[c];
+          }
+        for (unsigned int i = 0; i < dofs.size(); ++i)
+          if (owned.is_element(dofs[i]))
+            for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
+              if (weights(i, j) != 0.)
+                {
+                  pattern.add(dofs[i], vertex_dof_indices[j]);
+                  if (weights(i, j) == 1. && constraints.is_constrained(dofs[i]) &&
+                      vertex_owned.is_element(vertex_dof_indices[j]))
+                    held[vertex_owned.index_within_set(vertex_dof_indices[j])] = true;
+                }
+      }
+    for (std::size_t k = 0; k < n_vertex; ++k)
+      if (held[k])
+        for (unsigned int m = 0; m < 6; ++m)
+          transfer.near_null_space[m * n_vertex + k] = 0.;
+    transfer.node_blocked = Utilities::MPI::min(int(node_blocked), comm) == 1;
+
+    transfer.prolongation = std::make_shared<TrilinosWrappers::SparseMatrix>();
+    TrilinosWrappers::SparseMatrix &P = *transfer.prolongation;
+    P.reinit(owned, vertex_owned, pattern, comm);
+    vertex_cell = vertex_dofs.begin_active();
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      {
+        const auto this_vertex_cell = vertex_cell++;
+        if (!cell->is_locally_owned())
+          continue;
+        cell->get_dof_indices(dofs);
+        this_vertex_cell->get_dof_indices(vertex_dof_indices);
+        for (unsigned int i = 0; i < dofs.size(); ++i)
+          if (owned.is_element(dofs[i]))
+            for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
+              if (weights(i, j) != 0.)
+                P.set(dofs[i], vertex_dof_indices[j], weights(i, j));
+      }
+    P.compress(VectorOperation::insert);
+    return transfer;
   }
 } // namespace modal_haptics

@@ -14,8 +14,13 @@
 #include "eigensolver.h"
 #include "factorization.h"
 
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/vector.h>
+
+#include <mpi.h>
 
 #include <array>
 #include <cstddef>
@@ -47,20 +52,43 @@ namespace modal_haptics
     double       deflation_seconds       = 0.; // forming A Z and Z^T A Z
   };
 
+  // A higher-order space's vertex (P1) space, where the AMG starts (amg_eigensolver.cc,
+  // VertexTwoLevel): smoothed aggregation on the P2 nodes themselves is a weak preconditioner (91
+  // LOBPCG iterations at 263k P2 DoFs against 30 for P1, docs/performance.md).
+  struct VertexSpaceTransfer
+  {
+    // The interpolation of a vertex-space field into the space (exact on affine tets): this
+    // process's rows of the space, the vertex space's DoFs as columns.
+    std::shared_ptr<dealii::TrilinosWrappers::SparseMatrix> prolongation;
+    // The six rigid-body motions at this process's vertex DoFs, one column after the other.
+    std::vector<double> near_null_space;
+    bool                node_blocked = false; // DoFs 3k, 3k+1, 3k+2 are one vertex's x, y, z
+  };
+
+  // The vertex space of a space of higher degree on the same mesh (linear elements, 3 components):
+  // the interpolation into the space, this process's rows (dof_handler's locally owned DoFs; all
+  // of them serially), and the rigid-body motions at the vertices, zero where the space's DoF at
+  // that vertex is constrained (as the space's own near-null space is). Collective over comm.
+  VertexSpaceTransfer make_vertex_space_transfer(const dealii::DoFHandler<3>             &dof_handler,
+                                                 const dealii::Mapping<3>                &mapping,
+                                                 const dealii::AffineConstraints<double> &constraints,
+                                                 MPI_Comm                                 comm);
+
   class AmgShiftedInverse : public Factorization
   {
   public:
     // rigid_body_motions: the six motions as DoF fields (the AMG's near-null space); constrained:
     // the DoFs that are zero in every field (their rows of M are zero). node_blocked: DoFs 3k, 3k+1,
     // 3k+2 are the x, y, z of one support point (deal.II's numbering of an FESystem without
-    // renumbering), which lets ML aggregate nodes rather than single DoFs.
+    // renumbering), which lets ML aggregate nodes rather than single DoFs. vertex_space: for
+    // elements of degree > 1, where the AMG works (null for linear elements: on the space itself).
     AmgShiftedInverse(const dealii::SparseMatrix<double>           &K,
                       const dealii::SparseMatrix<double>           &M,
                       double                                        shift,
                       const std::array<dealii::Vector<double>, 6> &rigid_body_motions,
                       const std::vector<unsigned int>              &constrained,
                       bool                                          node_blocked,
-                      bool                                          higher_order);
+                      const VertexSpaceTransfer                    *vertex_space);
     // Distributed: K and M as the distributed space holds them (referenced, not copied, unless
     // shifted); near_null_space: the six rigid-body motions at this process's rows, one column of
     // n_local after the other; constrained: this process's constrained rows, as local indices.
@@ -70,7 +98,7 @@ namespace modal_haptics
                       std::vector<double>                           near_null_space,
                       const std::vector<unsigned int>              &constrained,
                       bool                                          node_blocked,
-                      bool                                          higher_order);
+                      const VertexSpaceTransfer                    *vertex_space);
     ~AmgShiftedInverse() override;
 
     // The n_modes lowest eigenpairs of K phi = lambda M phi, M-orthonormal, ascending (each vector
@@ -96,7 +124,7 @@ namespace modal_haptics
     const AmgSolverStatistics &amg_statistics() const;
 
   private:
-    void describe(bool node_blocked, double setup_seconds);
+    void describe(bool node_blocked, bool on_vertex_space, double setup_seconds);
 
     struct Impl;
     std::unique_ptr<Impl> impl;

@@ -33,6 +33,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 namespace modal_haptics
@@ -415,8 +416,11 @@ namespace modal_haptics
           node_blocked = node_blocked && dof_component.at(i) == i % 3;
         }
       node_blocked = Utilities::MPI::min(int(node_blocked), comm) == 1;
+      std::optional<VertexSpaceTransfer> vertex_space;
+      if (scene.element_degree > 1)
+        vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
-                                                constrained, node_blocked, scene.element_degree > 1);
+                                                constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
       log("AMG (ML, rigid-body near-null space) set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
           " modes, distributed");
       Timer timer;

@@ -38,6 +38,7 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -248,9 +249,12 @@ namespace modal_haptics
       bool       node_blocked = true;
       for (std::size_t i = 0; i < component.size(); ++i)
         node_blocked = node_blocked && component[i] == i % 3;
+      std::optional<VertexSpaceTransfer> vertex_space;
+      if (scene.element_degree > 1)
+        vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, MPI_COMM_SELF);
       auto amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
                                                      rigid_body_motions(Point<3>()), result.clamped_dofs,
-                                                     node_blocked, scene.element_degree > 1);
+                                                     node_blocked, vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
       line << "AMG (ML, rigid-body near-null space) set up in " << amg->statistics().analyze_seconds
            << " s; LOBPCG for " << scene.modes.maximum_count << " modes";

@@ -200,6 +200,7 @@ namespace modal_haptics
       const unsigned int n_targets   = 1 + (store_cross ? nc : 0); // the load itself, then every candidate
       const unsigned int block       = 16;
       std::vector<double> averages;
+      double              last_progress = 0.; // [s] of timer
       for (unsigned int first = 0; first < loads.size(); first += block)
         {
           const unsigned int count = std::min<unsigned int>(block, loads.size() - first);
@@ -229,9 +230,13 @@ namespace modal_haptics
                 std::copy(at(k, d, t), at(k, d, t) + 3, u.begin());
                 return u;
               });
-          if (in.verbose && (first / block) % 8 == 7)
-            in.log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
-                   " loads, " + std::to_string(timer.wall_time()) + " s");
+          // A line every 30 s: a block takes milliseconds over a factor, minutes without one.
+          if (in.verbose && timer.wall_time() > last_progress + 30.)
+            {
+              last_progress = timer.wall_time();
+              in.log("static correction: " + std::to_string(first + count) + " / " + std::to_string(loads.size()) +
+                     " loads, " + std::to_string(int(last_progress)) + " s");
+            }
         }
     }
 

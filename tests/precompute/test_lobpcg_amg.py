@@ -9,7 +9,7 @@ free_beam.prm (six free rigid-body motions, Shift = -100 Hz). For each:
   <= 1e-5 (LOBPCG tolerance 1e-6; the eigenvalue error is about its square);
 * every validation case's full static FE response (AMG-preconditioned CG, or its refinement against K
   with the shift) equal to the direct path's to 1e-8, and the corrected contact error <= 1e-8;
-* the report names the method.
+* the report names the method, and for P2 the preconditioner's vertex (P1) space.
 And 'auto' with a factor memory limit below the cantilever's factor switches to lobpcg-amg, saying so,
 and with the default limit factorizes.
 With --mpirun: the P2 cantilever under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
@@ -71,6 +71,10 @@ def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
                      va["contact_rel_error_corrected"], 1e-8)
     method = a["eigensolver"]["method"]
     checks.below("the report names LOBPCG (0: it does)", 0 if "LOBPCG" in method else 1, 0)
+    # P2 is preconditioned on its vertex (P1) space under Chebyshev smoothing, P1 by ML directly.
+    on_vertex_space = "on the vertex (P1) space" in method
+    checks.below(f"P{degree}: the AMG works {'on the vertex space' if degree > 1 else 'on the space'} (0: it does)",
+                 0 if on_vertex_space == (degree > 1) else 1, 0)
     return amg_dir
 
 
