@@ -397,6 +397,51 @@ namespace modal_haptics
 
   namespace
   {
+    // M for LOBPCG, watching that LOBPCG still iterates. An iteration applies the preconditioner
+    // once and M to a few blocks, but Anasazi's SVQB orthonormalization bounds neither its passes
+    // nor its restarts from random vectors, and once (P2, 2.15 M DoFs, np = 2, a block of 23, its
+    // 62nd iteration) it applied M for 45 minutes without another iteration. Past 200 blocks of M
+    // products since the last preconditioner application the run stops, saying so.
+    class MassWatchingLobpcg : public Epetra_Operator
+    {
+    public:
+      MassWatchingLobpcg(const Epetra_Operator &M, const ProjectedAmg &preconditioner, const int block_size)
+        : M(M), preconditioner(preconditioner), limit(200ul * block_size)
+      {}
+
+      int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
+      {
+        if (preconditioner.n_applications != applications_seen)
+          applications_seen = preconditioner.n_applications, columns_since = 0;
+        columns_since += X.NumVectors();
+        AssertThrow(columns_since <= limit,
+                    ExcMessage("LOBPCG stalled: Anasazi's orthonormalization applied M to " +
+                               std::to_string(columns_since) + " vectors since LOBPCG's last iteration (after " +
+                               std::to_string(applications_seen) + " preconditioner applications). Another "
+                               "'Modes/LOBPCG modes per run' or a looser 'Modes/LOBPCG tolerance' changes the blocks "
+                               "it orthonormalizes."));
+        return M.Apply(X, Y);
+      }
+      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      double NormInf() const override { return M.NormInf(); }
+      const char *Label() const override { return "M, watching LOBPCG"; }
+      bool UseTranspose() const override { return false; }
+      bool HasNormInf() const override { return M.HasNormInf(); }
+      const Epetra_Comm &Comm() const override { return M.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return M.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return M.OperatorRangeMap(); }
+
+    private:
+      const Epetra_Operator &M;
+      const ProjectedAmg    &preconditioner;
+      const unsigned long    limit; // columns
+      mutable unsigned long  applications_seen = 0, columns_since = 0;
+    };
+  } // namespace
+
+  namespace
+  {
     // Smoothed aggregation (ML) on a linear space of n_rows DoFs whose near-null space is the six
     // rigid-body motions (six columns, read by ML while it sets up: they must outlive that).
     Teuchos::ParameterList ml_parameters(std::vector<double> &near_null_space, const bool node_blocked,
@@ -446,6 +491,8 @@ namespace modal_haptics
 
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked,
                 const VertexSpaceTransfer *vertex_space);
+    int  lobpcg_run(Epetra_MultiVector &found, int first, int count, double tolerance,
+                    const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues) const;
 
     // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
     // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
@@ -579,6 +626,16 @@ namespace modal_haptics
 
   const AmgSolverStatistics &AmgShiftedInverse::amg_statistics() const { return impl->stats; }
 
+  std::string AmgShiftedInverse::eigensolver_method() const
+  {
+    const unsigned int runs = impl->stats.n_lobpcg_runs;
+    return "LOBPCG (Trilinos Anasazi" +
+           (runs > 1 ? ", " + std::to_string(runs) + " runs of at most " + std::to_string(impl->stats.modes_per_run) +
+                         " modes" :
+                       std::string()) +
+           ") + AMG (Trilinos ML), no factorization";
+  }
+
   void AmgShiftedInverse::deflate_by_modes(const std::vector<dealii::Vector<double>> &modes)
   {
     const Epetra_Map  &map = impl->A->trilinos_matrix().OperatorDomainMap();
@@ -637,32 +694,75 @@ namespace modal_haptics
     stats.n_solved_vectors += columns.size();
   }
 
-  EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,
-                                                const std::function<void(const std::string &)> &progress)
+  namespace
+  {
+    // LOBPCG's block for 'count' wanted modes: a little larger, so that the convergence factor of
+    // the last wanted pair is set by the gap to the first unwanted one inside the block.
+    int lobpcg_block(const int count) { return count + std::max(4, count / 4); }
+
+    // What one solver run may take on this process: half of its share of the memory its node
+    // has available now, the smallest over the processes (so that all decide alike).
+    double memory_budget(const MPI_Comm comm)
+    {
+      return dealii::Utilities::MPI::min(0.5 * available_memory_bytes(), comm) / processes_on_this_node(comm);
+    }
+
+    // Bytes per row that one LOBPCG run holds for a block of b columns: Anasazi's twelve blocks
+    // (X, H, P and their A and M products, the residual, a work block, the start), the
+    // preconditioner's three work blocks and the products' buffers, measured as 18.5 b doubles
+    // per row on the P2 plate at np = 2 (1.2 GB per 131k rows for b = 62).
+    double lobpcg_bytes_per_row(const int b) { return 19. * b * sizeof(double); }
+
+    // The most modes one run may seek: all of them if their run fits half of this process's share
+    // of the node's available memory, else as many as fit (at least 8). Runs after the first seek
+    // their modes in the complement of the earlier ones: smaller blocks, more iterations (P2
+    // plate, 57k DoFs, 50 modes: one run 52 iterations, 39 s, 0.93 GB peak; two runs of 25 137
+    // iterations, 48 s, 0.69 GB), but a part twice the size fits.
+    int modes_fitting_one_run(const int n_modes, const std::size_t n_rows, const MPI_Comm comm)
+    {
+      const double budget = memory_budget(comm) - double(n_modes) * n_rows * sizeof(double); // the modes found
+      int count = n_modes;
+      while (count > 8 && lobpcg_bytes_per_row(lobpcg_block(count)) * n_rows > budget)
+        --count;
+      return count;
+    }
+  } // namespace
+
+  // A block CG's work space per right-hand side is about 13 doubles per row: Belos' blocks (the
+  // residual, the preconditioned residual, the direction and A times it), the copies in and out,
+  // the smoother's, the two levels' and the deflation's work blocks (measured 12.6 on the P2 plate
+  // at np = 2: 0.63 GB for 48 columns of 131k rows per process).
+  unsigned int AmgShiftedInverse::columns_fitting_one_solve(const unsigned int wanted) const
+  {
+    const double       bytes_per_column = 13. * sizeof(double) * impl->A->local_size();
+    const unsigned int fitting = memory_budget(impl->A->get_mpi_communicator()) / bytes_per_column;
+    return std::clamp(fitting, 1u, wanted);
+  }
+
+  // One LOBPCG run (Trilinos Anasazi): the 'count' lowest eigenpairs of (A, M) in the M-orthogonal
+  // complement of found's first 'first' columns (the modes of earlier runs), written into its next
+  // columns, their eigenvalues of A appended to 'eigenvalues'. Returns LOBPCG's iterations.
+  int AmgShiftedInverse::Impl::lobpcg_run(Epetra_MultiVector &found, const int first, const int count,
+                                           const double tolerance, const ProjectedAmg &preconditioner,
+                                           std::vector<double> &eigenvalues) const
   {
     using MV = Epetra_MultiVector;
     using OP = Epetra_Operator;
-    dealii::Timer timer;
-    const auto   &A_epetra = impl->A->trilinos_matrix();
-    // A block a little larger than the wanted count: the convergence factor of the last wanted
-    // pair is set by the gap to the first unwanted one inside the block.
-    const int block_size = int(n_modes + std::max(4u, n_modes / 4));
-    AssertThrow(3 * block_size < A_epetra.NumGlobalRows(),
-                ExcMessage("LOBPCG for " + std::to_string(n_modes) + " modes needs more than " +
-                           std::to_string(3 * block_size) + " DoFs; the part has " +
-                           std::to_string(A_epetra.NumGlobalRows()) + ": use 'Modes/Eigensolver = block-krylov'."));
-    auto      initial    = Teuchos::rcp(new MV(A_epetra.OperatorDomainMap(), block_size));
+    const int block_size = lobpcg_block(count);
+    auto      initial    = Teuchos::rcp(new MV(found.Map(), block_size));
     initial->Random();
     for (int c = 0; c < block_size; ++c)
-      for (const unsigned int i : impl->constrained)
+      for (const unsigned int i : constrained)
         (*initial)[c][i] = 0.;
 
-    ProjectedAmg preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", progress);
+    const MassWatchingLobpcg mass(*M_product, preconditioner, block_size);
     auto problem = Teuchos::rcp(new Anasazi::BasicEigenproblem<double, MV, OP>(
-      Teuchos::rcp(impl->A_product.get(), false), Teuchos::rcp(impl->M_product.get(), false), initial));
+      Teuchos::rcp(A_product.get(), false), Teuchos::rcp(const_cast<MassWatchingLobpcg *>(&mass), false), initial));
     problem->setHermitian(true);
-    problem->setNEV(int(n_modes));
-    problem->setPrec(Teuchos::rcp(&preconditioner, false));
+    problem->setNEV(count);
+    problem->setPrec(Teuchos::rcp(const_cast<ProjectedAmg *>(&preconditioner), false));
+    if (first > 0)
+      problem->setAuxVecs(Teuchos::rcp(new MV(View, found, 0, first)));
     AssertThrow(problem->setProblem(), ExcMessage("Anasazi refused the eigenproblem (LOBPCG + AMG)."));
 
     Teuchos::ParameterList parameters;
@@ -672,7 +772,7 @@ namespace modal_haptics
     // Anasazi measures ||A x - theta M x|| / theta for M-normalized x; the self-checks (and the
     // direct path) divide by theta ||M x|| too, which for M ~ m I is sqrt(m) with m the mean mass
     // per DoF: the tolerance is scaled by it, so that it means the same at every unit and size.
-    const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*impl->M));
+    const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*M));
     parameters.set("Convergence Tolerance", scaled_tolerance);
     parameters.set("Relative Convergence Tolerance", true);
     parameters.set("Full Ortho", true);
@@ -683,10 +783,10 @@ namespace modal_haptics
     Anasazi::LOBPCGSolMgr<double, MV, OP> solver(problem, parameters);
     const Anasazi::ReturnType             outcome    = solver.solve();
     const int                             iterations = solver.getNumIters();
-    const auto               &solution = problem->getSolution();
-    AssertThrow(outcome == Anasazi::Converged && solution.numVecs >= int(n_modes),
-                ExcMessage("LOBPCG + AMG converged " + std::to_string(solution.numVecs) + " of " +
-                           std::to_string(n_modes) + " modes in " + std::to_string(iterations) +
+    const auto                           &solution   = problem->getSolution();
+    AssertThrow(outcome == Anasazi::Converged && solution.numVecs >= count,
+                ExcMessage("LOBPCG + AMG converged " + std::to_string(first + solution.numVecs) + " of " +
+                           std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
                            " iterations (relative residual tolerance " + std::to_string(tolerance) +
                            "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
                            "factorization) where its factor fits."));
@@ -695,18 +795,57 @@ namespace modal_haptics
     std::iota(order.begin(), order.end(), 0);
     std::sort(order.begin(), order.end(),
               [&](int a, int b) { return solution.Evals[a].realpart < solution.Evals[b].realpart; });
-    EigenSolution eigen;
-    const std::size_t n = A_epetra.NumMyRows();
-    for (unsigned int k = 0; k < n_modes; ++k)
+    for (int k = 0; k < count; ++k)
       {
-        const int j = order[k];
-        eigen.eigenvalues.push_back(solution.Evals[j].realpart + impl->shift);
-        dealii::Vector<double> phi(n);
-        const double          *column = (*solution.Evecs)[j]; // index[] marks complex pairs, not columns
-        std::copy(column, column + n, phi.begin());
-        eigen.eigenvectors.push_back(std::move(phi));
+        const int j = order[k]; // Evecs' column j (index[] marks complex pairs, not columns)
+        eigenvalues.push_back(solution.Evals[j].realpart);
+        std::copy((*solution.Evecs)[j], (*solution.Evecs)[j] + found.MyLength(), found[first + k]);
       }
+    return iterations;
+  }
+
+
+  EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,
+                                                const unsigned int                              modes_per_run,
+                                                const std::function<void(const std::string &)> &progress)
+  {
+    dealii::Timer timer;
+    const auto   &A_epetra = impl->A->trilinos_matrix();
+    const int     per_run  = modes_per_run > 0 ?
+                               int(std::min(modes_per_run, n_modes)) :
+                               modes_fitting_one_run(int(n_modes), A_epetra.NumMyRows(), impl->A->get_mpi_communicator());
+    AssertThrow(3 * lobpcg_block(per_run) < A_epetra.NumGlobalRows(),
+                ExcMessage("LOBPCG for " + std::to_string(n_modes) + " modes needs more than " +
+                           std::to_string(3 * lobpcg_block(per_run)) + " DoFs; the part has " +
+                           std::to_string(A_epetra.NumGlobalRows()) + ": use 'Modes/Eigensolver = block-krylov'."));
+    if (per_run < int(n_modes) && progress)
+      progress("LOBPCG: " + std::to_string((n_modes + per_run - 1) / per_run) + " runs of at most " +
+               std::to_string(per_run) + " modes, each in the complement of the earlier ones' (" +
+               (modes_per_run > 0 ? std::string("Modes/LOBPCG modes per run") :
+                                    std::to_string(n_modes) + " at once would not fit half the available memory") +
+               ")");
+    ProjectedAmg        preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", progress);
+    Epetra_MultiVector  found(A_epetra.OperatorDomainMap(), int(n_modes));
+    std::vector<double> lambda;
+    int                 iterations = 0;
+    for (int first = 0; first < int(n_modes); first += per_run)
+      iterations += impl->lobpcg_run(found, first, std::min(per_run, int(n_modes) - first), tolerance,
+                                     preconditioner, lambda);
     impl->stats.eigensolver_iterations = iterations;
+    impl->stats.modes_per_run          = per_run;
+    impl->stats.n_lobpcg_runs          = (n_modes + per_run - 1) / per_run;
+
+    // Ascending over the runs too (a later run's lowest lies above an earlier run's highest unless
+    // two modes are equal to the tolerance).
+    std::vector<unsigned int> order(n_modes);
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](unsigned a, unsigned b) { return lambda[a] < lambda[b]; });
+    EigenSolution eigen;
+    for (const unsigned int k : order)
+      {
+        eigen.eigenvalues.push_back(lambda[k] + impl->shift);
+        eigen.eigenvectors.emplace_back(found[k], found[k] + found.MyLength());
+      }
     eigen.n_operator_applications      = preconditioner.n_applications;
     eigen.eigensolve_iteration_seconds = timer.wall_time();
     return eigen;

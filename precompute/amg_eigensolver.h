@@ -44,7 +44,9 @@ namespace modal_haptics
   // the Trilinos copies of K and M, and solve_seconds the CG solves).
   struct AmgSolverStatistics
   {
-    unsigned int eigensolver_iterations  = 0;  // LOBPCG's
+    unsigned int eigensolver_iterations  = 0;  // LOBPCG's, over all its runs
+    unsigned int modes_per_run           = 0;  // the most modes one LOBPCG run sought
+    unsigned int n_lobpcg_runs           = 0;
     unsigned int n_cg_solves             = 0;  // columns solved
     unsigned int max_cg_iterations       = 0;  // of any block CG (its block iterations)
     double       mean_cg_iterations      = 0.; // block iterations per column's solve
@@ -103,9 +105,10 @@ namespace modal_haptics
 
     // The n_modes lowest eigenpairs of K phi = lambda M phi, M-orthonormal, ascending (each vector
     // holds this process's rows). Converged when every pair's ||A x - theta M x|| / (theta ||M x||)
-    // is below tolerance (collective).
-    // progress, when set, gets a line every 30 s.
-    EigenSolution lowest_modes(unsigned int n_modes, double tolerance,
+    // is below tolerance (collective). At most modes_per_run modes per LOBPCG run (0: all at once
+    // if that fits half the available memory, else as many as fit), later runs in the complement
+    // of the earlier ones' modes. progress, when set, gets a line every 30 s.
+    EigenSolution lowest_modes(unsigned int n_modes, double tolerance, unsigned int modes_per_run,
                                const std::function<void(const std::string &)> &progress);
 
     // Later static solves are deflated by the modes' span (amg_eigensolver.cc, Deflation): their
@@ -113,6 +116,10 @@ namespace modal_haptics
     // copied (with A times them: two n x n_modes blocks); serial or this process's rows.
     void deflate_by_modes(const std::vector<dealii::Vector<double>> &modes);
     void deflate_by_modes(const std::vector<dealii::TrilinosWrappers::MPI::Vector> &modes);
+
+    // The most right-hand sides (at most 'wanted', at least 1) that one block CG may take so that
+    // its work space fits half of this process's share of the memory available now (collective).
+    unsigned int columns_fitting_one_solve(unsigned int wanted) const;
 
     // A X = B by AMG-preconditioned block CG (Trilinos Belos) on all the columns at once, each to
     // a relative residual of 1e-12 (as the direct path's refined solves).
@@ -122,6 +129,9 @@ namespace modal_haptics
     void solve_columns(std::vector<dealii::TrilinosWrappers::MPI::Vector> &columns);
 
     const AmgSolverStatistics &amg_statistics() const;
+
+    // How lowest_modes found the modes, for the report: LOBPCG + AMG, and its runs if several.
+    std::string eigensolver_method() const;
 
   private:
     void describe(bool node_blocked, bool on_vertex_space, double setup_seconds);

@@ -45,16 +45,6 @@ namespace modal_haptics
     constexpr double two_pi = 2. * M_PI;
     using DistributedVector = TrilinosWrappers::MPI::Vector;
 
-    // The MPI processes of comm that share this one's node (and its memory).
-    unsigned int processes_on_this_node(const MPI_Comm comm)
-    {
-      MPI_Comm node;
-      MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
-      const unsigned int count = Utilities::MPI::n_mpi_processes(node);
-      MPI_Comm_free(&node);
-      return count;
-    }
-
     // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
     // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, PARPACK.
     class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
@@ -86,6 +76,10 @@ namespace modal_haptics
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X);
+      unsigned int columns_per_static_solve(const unsigned int wanted) const
+      {
+        return amg ? amg->columns_fitting_one_solve(wanted) : wanted;
+      }
       void solve_static(std::vector<Field> &fields);
       // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
       bool compliance_of_patch_loads(const std::vector<unsigned int> &, std::vector<double> &) const { return false; }
@@ -425,10 +419,11 @@ namespace modal_haptics
           " modes, distributed");
       Timer timer;
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                scene.modes.lobpcg_modes_per_run,
                                                 [this](const std::string &line) { log(line); });
       result.eigensolve_iteration_seconds = timer.wall_time();
       result.n_operator_applications      = solution.n_operator_applications;
-      result.eigensolver_method           = "LOBPCG (Trilinos Anasazi) + AMG (Trilinos ML), no factorization, distributed";
+      result.eigensolver_method           = amg->eigensolver_method() + ", distributed";
       eigenvalues = solution.eigenvalues;
       for (const auto &local : solution.eigenvectors)
         {

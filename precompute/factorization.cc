@@ -374,6 +374,16 @@ namespace modal_haptics
     return std::numeric_limits<double>::infinity(); // not Linux: the factorization is always tried
   }
 
+  unsigned int processes_on_this_node(const MPI_Comm comm)
+  {
+    MPI_Comm node;
+    MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    int count = 1;
+    MPI_Comm_size(node, &count);
+    MPI_Comm_free(&node);
+    return count;
+  }
+
   std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
                                                             const double shift)

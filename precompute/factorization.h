@@ -7,6 +7,8 @@
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/vector.h>
 
+#include <mpi.h>
+
 #include <memory>
 #include <string>
 
@@ -95,6 +97,9 @@ namespace modal_haptics
 
   // MemAvailable of /proc/meminfo (infinity where there is none).
   double available_memory_bytes();
+
+  // The MPI processes of comm that share this one's node (and its memory).
+  unsigned int processes_on_this_node(MPI_Comm comm);
 
   std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,

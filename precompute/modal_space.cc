@@ -80,6 +80,10 @@ namespace modal_haptics
       }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
+      unsigned int columns_per_static_solve(const unsigned int wanted) const
+      {
+        return amg_inverse() ? amg_inverse()->columns_fitting_one_solve(wanted) : wanted;
+      }
       bool compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance);
       const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
       void sum_over_processes(std::vector<double> &) const {}
@@ -260,6 +264,7 @@ namespace modal_haptics
            << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
       log(line.str());
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                scene.modes.lobpcg_modes_per_run,
                                                 [this](const std::string &line) { log(line); });
       log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
       factorization = std::move(amg);
@@ -298,7 +303,7 @@ namespace modal_haptics
         }
       result.eigensolver_method =
         method == EigensolverKind::lobpcg_amg ?
-          "LOBPCG (Trilinos Anasazi) + AMG (Trilinos ML), no factorization" :
+          amg_inverse()->eigensolver_method() :
         method == EigensolverKind::block_krylov ?
           "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
           "ARPACK dsaupd mode 3 (shift-invert)";

@@ -150,6 +150,12 @@ namespace modal_haptics
                       "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
                       "error is about its square: 1e-6 gave frequencies equal to the direct path's to 5e-11; "
                       "below about 1e-8 rounding stalls LOBPCG. Units: none.");
+    prm.declare_entry("LOBPCG modes per run", text(m.lobpcg_modes_per_run), Patterns::Integer(0),
+                      "lobpcg-amg: the most modes one LOBPCG run seeks; more modes are found by further runs, "
+                      "each in the M-orthogonal complement of the modes found before (smaller blocks, so less "
+                      "memory, but more iterations: 1.2x the time for two runs of 25 on a P2 plate). 0: all at "
+                      "once when that run fits half the memory available (per process), else as many as fit. "
+                      "Units: none.");
     prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
                       "Eigensolver = auto: the largest direct factor (as CHOLMOD's analysis predicts it) that is "
                       "computed; a larger one switches to lobpcg-amg. Under mpirun the limit of a node's processes "
@@ -188,6 +194,7 @@ namespace modal_haptics
                                   DistributedFactorizationKind::mumps_cholesky;
     eigensolver    = eigensolver_kind(prm.get("Eigensolver"));
     lobpcg_tolerance = prm.get_double("LOBPCG tolerance");
+    lobpcg_modes_per_run = prm.get_integer("LOBPCG modes per run");
     factor_memory_limit = prm.get_double("Factor memory limit");
     block_size     = prm.get_integer("Block size");
     prm.leave_subsection();

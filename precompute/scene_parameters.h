@@ -72,6 +72,7 @@ namespace modal_haptics
     DistributedFactorizationKind distributed_factorization = DistributedFactorizationKind::mumps_cholesky;
     EigensolverKind eigensolver = EigensolverKind::automatic;
     double       lobpcg_tolerance = 1e-6; // lobpcg-amg: relative residual of every wanted pair
+    unsigned int lobpcg_modes_per_run = 0; // lobpcg-amg: the most modes one LOBPCG run seeks; 0: automatic
     double       factor_memory_limit = 0.; // auto: the largest direct factor [GB]; 0: half the available memory
     unsigned int block_size    = 4;     // right-hand sides per block solve of the block Krylov method
 

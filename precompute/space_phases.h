@@ -20,6 +20,8 @@
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
 //   void solve_static(Block &)
+//   unsigned columns_per_static_solve(unsigned wanted) const   at most wanted: fewer where a block
+//                                     solve's work space would not fit the memory
 //   void solve_static(std::vector<Field> &)   several fields in place, together where that is cheaper
 //   bool compliance_of_patch_loads(loads, std::vector<double> &G)   G = W^T K^-1 W of the loads'
 //                                     columns (3 per load), if the backend can without solving each
@@ -198,7 +200,8 @@ namespace modal_haptics
       const unsigned int nc          = result.candidates.size();
       const bool         store_cross = !result.cross_compliance.empty();
       const unsigned int n_targets   = 1 + (store_cross ? nc : 0); // the load itself, then every candidate
-      const unsigned int block       = 16;
+      // 16 loads (48 columns) per block: one pass over a factor serves them all.
+      const unsigned int block       = std::max(1u, b.columns_per_static_solve(3 * 16) / 3);
       std::vector<double> averages;
       double              last_progress = 0.; // [s] of timer
       for (unsigned int first = 0; first < loads.size(); first += block)

@@ -3,7 +3,8 @@
 path (block Krylov over CHOLMOD) on the same meshes.
 
 Cases: the steel cantilever of cantilever.prm in P2 and in P1 (clamped), and the free beam of
-free_beam.prm (six free rigid-body motions, Shift = -100 Hz). For each:
+free_beam.prm (six free rigid-body motions, Shift = -100 Hz), and the P2 cantilever's modes by three
+LOBPCG runs of at most 3 modes (Modes/LOBPCG modes per run). For each:
 * every computed frequency equal to the direct path's to 1e-8 relative (the rigid ones: both 0);
 * the self-checks: max |Phi^T M Phi - I| <= 1e-10 and max ||K phi - lambda M phi|| / ||lambda M phi||
   <= 1e-5 (LOBPCG tolerance 1e-6; the eigenvalue error is about its square);
@@ -12,7 +13,7 @@ free_beam.prm (six free rigid-body motions, Shift = -100 Hz). For each:
 * the report names the method, and for P2 the preconditioner's vertex (P1) space.
 And 'auto' with a factor memory limit below the cantilever's factor switches to lobpcg-amg, saying so,
 and with the default limit factorizes.
-With --mpirun: the P2 cantilever under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
+With --mpirun: the P2 cantilever (in one run and in three) under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
 matrices, its static solves one block CG per block of loads) against the same direct run, with the
 same limits; and 'auto' there, decided by MUMPS's analysis, both ways.
 """
@@ -41,16 +42,16 @@ def space(report):
     return report["spaces"][0]
 
 
-def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
-    """The direct path, then LOBPCG + AMG on a copy of its meshes (meshing is not repeatable);
-    with mpirun, the latter on 2 processes."""
+def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None, amg_lines=()):
+    """The direct path, then LOBPCG + AMG (with amg_lines among its Modes entries) on a copy of its
+    meshes (meshing is not repeatable); with mpirun, the latter on 2 processes."""
     direct_dir, amg_dir = os.path.join(workdir, name + "_direct"), os.path.join(workdir, name + "_amg")
     for folder in (direct_dir, amg_dir):
         os.makedirs(folder)
         shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
     direct, _ = run_precompute(binary, direct_dir,
                                scene_text(prm_file, ["Eigensolver = block-krylov"], degree))
-    amg, _ = run_precompute(binary, amg_dir, scene_text(prm_file, ["Eigensolver = lobpcg-amg"], degree),
+    amg, _ = run_precompute(binary, amg_dir, scene_text(prm_file, ["Eigensolver = lobpcg-amg", *amg_lines], degree),
                             meshes_from=direct_dir, launcher=mpi_command(mpirun, 2) if mpirun else (),
                             env=mpi_environment() if mpirun else None)
     d, a = space(direct), space(amg)
@@ -71,6 +72,9 @@ def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None):
                      va["contact_rel_error_corrected"], 1e-8)
     method = a["eigensolver"]["method"]
     checks.below("the report names LOBPCG (0: it does)", 0 if "LOBPCG" in method else 1, 0)
+    if amg_lines:
+        checks.below("the report says: 3 LOBPCG runs of at most 3 modes (0: it does)",
+                     0 if "3 runs of at most 3 modes" in method else 1, 0)
     # P2 is preconditioned on its vertex (P1) space under Chebyshev smoothing, P1 by ML directly.
     on_vertex_space = "on the vertex (P1) space" in method
     checks.below(f"P{degree}: the AMG works {'on the vertex space' if degree > 1 else 'on the space'} (0: it does)",
@@ -84,8 +88,13 @@ def main():
     cantilever_dir = run_pair(args.binary, args.workdir, "cantilever_p2", "cantilever.prm", 2, checks)
     run_pair(args.binary, args.workdir, "cantilever_p1", "cantilever.prm", 1, checks)
     run_pair(args.binary, args.workdir, "free_beam_p2", "free_beam.prm", 2, checks)
+    # The 8 modes by three LOBPCG runs (3, 3, 2), each in the complement of the modes found before.
+    three_runs = ["LOBPCG modes per run = 3"]
+    run_pair(args.binary, args.workdir, "cantilever_p2_three_runs", "cantilever.prm", 2, checks, amg_lines=three_runs)
     if args.mpirun:
         run_pair(args.binary, args.workdir, "cantilever_p2_np2", "cantilever.prm", 2, checks, mpirun=args.mpirun)
+        run_pair(args.binary, args.workdir, "cantilever_p2_np2_three_runs", "cantilever.prm", 2, checks,
+                 mpirun=args.mpirun, amg_lines=three_runs)
 
     # auto: a limit below the cantilever's factor switches to the path without one; the default keeps it.
     np2 = (mpi_command(args.mpirun, 2), mpi_environment()) if args.mpirun else None
