@@ -20,7 +20,13 @@
 
 #include <AnasaziBasicEigenproblem.hpp>
 #include <AnasaziEpetraAdapter.hpp>
-#include <AnasaziLOBPCGSolMgr.hpp>
+#include <AnasaziBasicSort.hpp>
+#include <AnasaziLOBPCG.hpp>
+#include <AnasaziSVQBOrthoManager.hpp>
+#include <AnasaziStatusTestCombo.hpp>
+#include <AnasaziStatusTestMaxIters.hpp>
+#include <AnasaziStatusTestResNorm.hpp>
+#include <AnasaziStatusTestWithOrdering.hpp>
 #include <BelosBlockCGSolMgr.hpp>
 #include <BelosEpetraAdapter.hpp>
 #include <BelosLinearProblem.hpp>
@@ -49,16 +55,43 @@ namespace modal_haptics
 
   namespace
   {
+    // The Epetra_Operator interface around one operation: the maps and communicator are those of
+    // another operator ('shape'); the operation it does not define (Apply for a preconditioner,
+    // ApplyInverse for a product), the transpose and the norm (neither Anasazi nor Belos asks)
+    // are refused.
+    class OperatorShapedLike : public Epetra_Operator
+    {
+    public:
+      OperatorShapedLike(const Epetra_Operator &shape, const char *label)
+        : shape(shape), label(label)
+      {}
+
+      int Apply(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
+      int SetUseTranspose(bool) override { return -1; }
+      bool UseTranspose() const override { return false; }
+      double NormInf() const override { return 0.; }
+      bool HasNormInf() const override { return false; }
+      const char *Label() const override { return label; }
+      const Epetra_Comm &Comm() const override { return shape.Comm(); }
+      const Epetra_Map &OperatorDomainMap() const override { return shape.OperatorDomainMap(); }
+      const Epetra_Map &OperatorRangeMap() const override { return shape.OperatorRangeMap(); }
+
+    private:
+      const Epetra_Operator &shape;
+      const char            *label;
+    };
+
     // A sparse matrix applied to blocks of columns on every core. Trilinos' Epetra has no threads
     // here (Debian builds it without OpenMP): its product (epetra_scrsmm5, five columns per pass
     // over the matrix) took half of this path's time on one process, on one of the cores.
     // Under MPI, where each process has its core and the ghost entries must be imported, Epetra's
     // own product is used.
-    class ThreadedMatrix : public Epetra_Operator
+    class ThreadedMatrix : public OperatorShapedLike
     {
     public:
       explicit ThreadedMatrix(const Epetra_CrsMatrix &matrix)
-        : matrix(matrix)
+        : OperatorShapedLike(matrix, "sparse matrix on every core"), matrix(matrix)
       {
         own_rows = matrix.Comm().NumProc() == 1 && matrix.StorageOptimized() &&
                    matrix.RowMap().SameAs(matrix.ColMap()) &&
@@ -81,15 +114,6 @@ namespace modal_haptics
           }
         return 0;
       }
-      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
-      int SetUseTranspose(bool) override { return -1; }
-      double NormInf() const override { return matrix.NormInf(); }
-      const char *Label() const override { return "sparse matrix on every core"; }
-      bool UseTranspose() const override { return false; }
-      bool HasNormInf() const override { return true; }
-      const Epetra_Comm &Comm() const override { return matrix.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return matrix.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return matrix.OperatorRangeMap(); }
 
     private:
       // Columns first to first + count of X, row by row (a row's entries side by side, the rest of
@@ -205,7 +229,7 @@ namespace modal_haptics
     // constrained system is zero there, and M's zero rows would otherwise let its search directions
     // pick up directions of infinite eigenvalue) or their exact inverse (CG: with zero there it
     // could not reduce a load's residual on them and would stall).
-    class ProjectedAmg : public Epetra_Operator
+    class ProjectedAmg : public OperatorShapedLike
     {
     public:
       // constrained_diagonal: A's diagonal on the constrained rows, or null for zero there;
@@ -213,7 +237,8 @@ namespace modal_haptics
       ProjectedAmg(const Epetra_Operator &amg, const std::vector<unsigned int> &constrained,
                    const std::vector<double> *constrained_diagonal, std::string what,
                    std::function<void(const std::string &)> progress, const Deflation *deflation = nullptr)
-        : amg(amg), constrained(constrained), constrained_diagonal(constrained_diagonal), what(std::move(what)),
+        : OperatorShapedLike(amg, "AMG (ML) on the free DoFs"), amg(amg), constrained(constrained),
+          constrained_diagonal(constrained_diagonal), what(std::move(what)),
           progress(std::move(progress)), deflation(deflation)
       {}
 
@@ -224,15 +249,6 @@ namespace modal_haptics
         return deflation->apply([this](const Epetra_MultiVector &R, Epetra_MultiVector &Z) { return apply_amg(R, Z); },
                                 X, Y);
       }
-      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
-      int SetUseTranspose(bool) override { return -1; }
-      double NormInf() const override { return 0.; }
-      const char *Label() const override { return "AMG (ML) on the free DoFs"; }
-      bool UseTranspose() const override { return false; }
-      bool HasNormInf() const override { return false; }
-      const Epetra_Comm &Comm() const override { return amg.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return amg.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return amg.OperatorRangeMap(); }
 
       mutable unsigned long n_applications = 0; // columns
 
@@ -282,12 +298,13 @@ namespace modal_haptics
     // nodes themselves, without that split, needed 88-98 LOBPCG iterations on the P2 FACTS plate
     // of 14,220 DoFs against 70 with this and 56 with the coarse level's 4 sweeps
     // (docs/performance.md). A is applied by 'product' (ThreadedMatrix).
-    class VertexTwoLevel : public Epetra_Operator
+    class VertexTwoLevel : public OperatorShapedLike
     {
     public:
       VertexTwoLevel(const Epetra_CrsMatrix &A, const Epetra_Operator &product, const Epetra_CrsMatrix &P,
                      Teuchos::ParameterList coarse_ml)
-        : A(product), P(P), inverse_diagonal(A.RowMap()), smoother(&product)
+        : OperatorShapedLike(product, "P2 smoothing over the vertex space's AMG"), A(product), P(P),
+          inverse_diagonal(A.RowMap()), smoother(&product)
       {
         {
           Epetra_CrsMatrix AP(Copy, A.RowMap(), 0);
@@ -318,15 +335,6 @@ namespace modal_haptics
         smoother.ApplyInverse(*fine_work, *smoothed);
         return X.Update(1., *smoothed, 1.);
       }
-      int Apply(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
-      int SetUseTranspose(bool) override { return -1; }
-      double NormInf() const override { return 0.; }
-      const char *Label() const override { return "P2 smoothing over the vertex space's AMG"; }
-      bool UseTranspose() const override { return false; }
-      bool HasNormInf() const override { return false; }
-      const Epetra_Comm &Comm() const override { return A.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return A.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return A.OperatorRangeMap(); }
 
     private:
       static void check(const int status, const std::string &what)
@@ -402,11 +410,11 @@ namespace modal_haptics
     // nor its restarts from random vectors, and once (P2, 2.15 M DoFs, np = 2, a block of 23, its
     // 62nd iteration) it applied M for 45 minutes without another iteration. Past 200 blocks of M
     // products since the last preconditioner application the run stops, saying so.
-    class MassWatchingLobpcg : public Epetra_Operator
+    class MassWatchingLobpcg : public OperatorShapedLike
     {
     public:
       MassWatchingLobpcg(const Epetra_Operator &M, const ProjectedAmg &preconditioner, const int block_size)
-        : M(M), preconditioner(preconditioner), limit(200ul * block_size)
+        : OperatorShapedLike(M, "M, watching LOBPCG"), M(M), preconditioner(preconditioner), limit(200ul * block_size)
       {}
 
       int Apply(const Epetra_MultiVector &X, Epetra_MultiVector &Y) const override
@@ -422,15 +430,6 @@ namespace modal_haptics
                                "it orthonormalizes."));
         return M.Apply(X, Y);
       }
-      int ApplyInverse(const Epetra_MultiVector &, Epetra_MultiVector &) const override { return -1; }
-      int SetUseTranspose(bool) override { return -1; }
-      double NormInf() const override { return M.NormInf(); }
-      const char *Label() const override { return "M, watching LOBPCG"; }
-      bool UseTranspose() const override { return false; }
-      bool HasNormInf() const override { return M.HasNormInf(); }
-      const Epetra_Comm &Comm() const override { return M.Comm(); }
-      const Epetra_Map &OperatorDomainMap() const override { return M.OperatorDomainMap(); }
-      const Epetra_Map &OperatorRangeMap() const override { return M.OperatorRangeMap(); }
 
     private:
       const Epetra_Operator &M;
@@ -492,7 +491,8 @@ namespace modal_haptics
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked,
                 const VertexSpaceTransfer *vertex_space);
     int  lobpcg_run(Epetra_MultiVector &found, int first, int count, double tolerance,
-                    const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues) const;
+                    const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues,
+                    const std::function<void(const std::string &)> &progress) const;
 
     // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
     // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
@@ -739,12 +739,49 @@ namespace modal_haptics
     return std::clamp(fitting, 1u, wanted);
   }
 
+  namespace
+  {
+    // LOBPCG's iterations until its status test passes. Pairs that have converged keep
+    // round-off-sized residuals in the block, and the Rayleigh-Ritz basis [X H P] can lose its rank:
+    // Anasazi then throws (at 2.15 M P2 DoFs, np = 2, a block of 23: iteration 62 of the first run,
+    // 15 minutes in), and its solver manager gives up under full orthogonalization. Here LOBPCG
+    // restarts from its current Ritz vectors without the search directions P (one steepest-descent
+    // step), at most 'max_restarts' times.
+    void iterate_restarting(Anasazi::LOBPCG<double, Epetra_MultiVector, Epetra_Operator> &lobpcg,
+                            const std::function<void(const std::string &)>               &progress)
+    {
+      constexpr int max_restarts = 20;
+      for (int restarts = 0;; ++restarts)
+        try
+          {
+            lobpcg.iterate();
+            return;
+          }
+        catch (const Anasazi::AnasaziError &failure)
+          {
+            const bool basis_lost = dynamic_cast<const Anasazi::LOBPCGOrthoFailure *>(&failure) != nullptr ||
+                                    dynamic_cast<const Anasazi::LOBPCGRitzFailure *>(&failure) != nullptr;
+            AssertThrow(basis_lost && restarts < max_restarts,
+                        ExcMessage("LOBPCG + AMG stopped at iteration " + std::to_string(lobpcg.getNumIters()) +
+                                   " after " + std::to_string(restarts) + " restarts: " + failure.what()));
+            if (progress)
+              progress("LOBPCG: the basis [X H P] lost its rank at iteration " + std::to_string(lobpcg.getNumIters()) +
+                       "; restarted from the current Ritz vectors");
+            Anasazi::LOBPCGState<double, Epetra_MultiVector> restart;
+            const auto current = Teuchos::rcp(new Epetra_MultiVector(*lobpcg.getState().X)); // the state is a view
+            restart.X          = current;
+            lobpcg.initialize(restart);
+          }
+    }
+  } // namespace
+
   // One LOBPCG run (Trilinos Anasazi): the 'count' lowest eigenpairs of (A, M) in the M-orthogonal
   // complement of found's first 'first' columns (the modes of earlier runs), written into its next
   // columns, their eigenvalues of A appended to 'eigenvalues'. Returns LOBPCG's iterations.
   int AmgShiftedInverse::Impl::lobpcg_run(Epetra_MultiVector &found, const int first, const int count,
                                            const double tolerance, const ProjectedAmg &preconditioner,
-                                           std::vector<double> &eigenvalues) const
+                                           std::vector<double>                            &eigenvalues,
+                                           const std::function<void(const std::string &)> &progress) const
   {
     using MV = Epetra_MultiVector;
     using OP = Epetra_Operator;
@@ -765,41 +802,47 @@ namespace modal_haptics
       problem->setAuxVecs(Teuchos::rcp(new MV(View, found, 0, first)));
     AssertThrow(problem->setProblem(), ExcMessage("Anasazi refused the eigenproblem (LOBPCG + AMG)."));
 
-    Teuchos::ParameterList parameters;
-    parameters.set("Which", std::string("SM"));
-    parameters.set("Block Size", block_size);
-    parameters.set("Maximum Iterations", 5000);
     // Anasazi measures ||A x - theta M x|| / theta for M-normalized x; the self-checks (and the
     // direct path) divide by theta ||M x|| too, which for M ~ m I is sqrt(m) with m the mean mass
     // per DoF: the tolerance is scaled by it, so that it means the same at every unit and size.
     const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*M));
-    parameters.set("Convergence Tolerance", scaled_tolerance);
-    parameters.set("Relative Convergence Tolerance", true);
+    const auto   sorter           = Teuchos::rcp(new Anasazi::BasicSort<double>("SM"));
+    const auto   converged        = Teuchos::rcp(new Anasazi::StatusTestWithOrdering<double, MV, OP>(
+      Teuchos::rcp(new Anasazi::StatusTestResNorm<double, MV, OP>(scaled_tolerance, count, Anasazi::RES_2NORM, true)),
+      sorter, count));
+    const auto enough_iterations = Teuchos::rcp(new Anasazi::StatusTestMaxIters<double, MV, OP>(5000));
+    const auto stop              = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
+      Anasazi::StatusTestCombo<double, MV, OP>::OR,
+      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(converged, enough_iterations)));
+    Teuchos::ParameterList parameters;
+    parameters.set("Block Size", block_size);
     parameters.set("Full Ortho", true);
-    // No locking: with a block larger than the wanted count it never locked a pair here, and its
-    // storage (the locked vectors and four blocks of work space) was 13 % of the peak memory.
-    parameters.set("Use Locking", false);
-    parameters.set("Verbosity", int(Anasazi::Errors + Anasazi::Warnings));
-    Anasazi::LOBPCGSolMgr<double, MV, OP> solver(problem, parameters);
-    const Anasazi::ReturnType             outcome    = solver.solve();
-    const int                             iterations = solver.getNumIters();
-    const auto                           &solution   = problem->getSolution();
-    AssertThrow(outcome == Anasazi::Converged && solution.numVecs >= count,
-                ExcMessage("LOBPCG + AMG converged " + std::to_string(first + solution.numVecs) + " of " +
+    // Without locking: Anasazi's replaces each locked pair by a random vector, which then has to
+    // converge from scratch (on the P2 plate in runs of 18: over 20,000 preconditioner applications
+    // instead of 4,900).
+    Anasazi::LOBPCG<double, MV, OP> lobpcg(
+      problem, sorter, Teuchos::rcp(new Anasazi::OutputManager<double>(Anasazi::Errors + Anasazi::Warnings)), stop,
+      Teuchos::rcp(new Anasazi::SVQBOrthoManager<double, MV, OP>(problem->getM())), parameters);
+    if (first > 0)
+      lobpcg.setAuxVecs(Teuchos::tuple<Teuchos::RCP<const MV>>(problem->getAuxVecs()));
+    iterate_restarting(lobpcg, progress);
+    const int iterations = lobpcg.getNumIters();
+    AssertThrow(converged->getStatus() == Anasazi::Passed,
+                ExcMessage("LOBPCG + AMG found " + std::to_string(first + converged->howMany()) + " of " +
                            std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
                            " iterations (relative residual tolerance " + std::to_string(tolerance) +
                            "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
                            "factorization) where its factor fits."));
 
-    std::vector<int> order(solution.numVecs);
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(),
-              [&](int a, int b) { return solution.Evals[a].realpart < solution.Evals[b].realpart; });
+    // The ordering test's pairs (indices into the block: nothing is locked), lowest first.
+    std::vector<int> which  = converged->whichVecs();
+    const auto       values = lobpcg.getRitzValues();
+    const auto       ritz   = lobpcg.getRitzVectors();
+    std::sort(which.begin(), which.end(), [&](int a, int b) { return values[a].realpart < values[b].realpart; });
     for (int k = 0; k < count; ++k)
       {
-        const int j = order[k]; // Evecs' column j (index[] marks complex pairs, not columns)
-        eigenvalues.push_back(solution.Evals[j].realpart);
-        std::copy((*solution.Evecs)[j], (*solution.Evecs)[j] + found.MyLength(), found[first + k]);
+        eigenvalues.push_back(values[which[k]].realpart);
+        std::copy((*ritz)[which[k]], (*ritz)[which[k]] + found.MyLength(), found[first + k]);
       }
     return iterations;
   }
@@ -830,7 +873,7 @@ namespace modal_haptics
     int                 iterations = 0;
     for (int first = 0; first < int(n_modes); first += per_run)
       iterations += impl->lobpcg_run(found, first, std::min(per_run, int(n_modes) - first), tolerance,
-                                     preconditioner, lambda);
+                                     preconditioner, lambda, progress);
     impl->stats.eigensolver_iterations = iterations;
     impl->stats.modes_per_run          = per_run;
     impl->stats.n_lobpcg_runs          = (n_modes + per_run - 1) / per_run;
