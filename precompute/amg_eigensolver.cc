@@ -44,6 +44,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iomanip>
 #include <memory>
 #include <numeric>
 #include <sstream>
@@ -490,9 +491,14 @@ namespace modal_haptics
 
     void set_up(double shift, const std::vector<unsigned int> &constrained, bool node_blocked,
                 const VertexSpaceTransfer *vertex_space);
-    int  lobpcg_run(Epetra_MultiVector &found, int first, int count, double tolerance,
-                    const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues,
-                    const std::function<void(const std::string &)> &progress) const;
+    struct LobpcgRun
+    {
+      int iterations, modes_found;
+    };
+    LobpcgRun lobpcg_run(Epetra_MultiVector &found, int first, int count, double tolerance,
+                         const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues,
+                         std::unique_ptr<Epetra_MultiVector>            &start,
+                         const std::function<void(const std::string &)> &progress) const;
 
     // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
     // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
@@ -741,53 +747,106 @@ namespace modal_haptics
 
   namespace
   {
-    // LOBPCG's iterations until its status test passes. Pairs that have converged keep
-    // round-off-sized residuals in the block, and the Rayleigh-Ritz basis [X H P] can lose its rank:
-    // Anasazi then throws (at 2.15 M P2 DoFs, np = 2, a block of 23: iteration 62 of the first run,
-    // 15 minutes in), and its solver manager gives up under full orthogonalization. Here LOBPCG
-    // restarts from its current Ritz vectors without the search directions P (one steepest-descent
-    // step), at most 'max_restarts' times.
-    void iterate_restarting(Anasazi::LOBPCG<double, Epetra_MultiVector, Epetra_Operator> &lobpcg,
-                            const std::function<void(const std::string &)>               &progress)
+    using Lobpcg = Anasazi::LOBPCG<double, Epetra_MultiVector, Epetra_Operator>;
+
+    // LOBPCG afresh from its current Ritz vectors, without the search directions P.
+    void restart_from_ritz_vectors(Lobpcg &lobpcg)
     {
-      constexpr int max_restarts = 20;
-      for (int restarts = 0;; ++restarts)
+      Anasazi::LOBPCGState<double, Epetra_MultiVector> restart;
+      restart.X = Teuchos::rcp(new Epetra_MultiVector(*lobpcg.getState().X)); // the state is a view
+      lobpcg.initialize(restart);
+    }
+
+    // LOBPCG's iterations until its status test passes (true), or until the Rayleigh-Ritz basis
+    // has lost its rank twice in a row (false). [X H P] becomes singular when pairs that have
+    // converged keep round-off-sized residuals in the block; Anasazi then throws, and its solver
+    // manager gives up under full orthogonalization, losing the run. The first time, LOBPCG
+    // restarts from its Ritz vectors without P; if [X H] is singular too, the caller keeps what
+    // has converged. (At 2.15 M P2 DoFs, np = 2, blocks of 23, the basis is lost at iteration 62
+    // of the first run with no pair converged: unexplained, docs/performance.md.)
+    bool iterate_until_basis_lost(Lobpcg &lobpcg, const std::function<void(const std::string &)> &progress)
+    {
+      int lost_at = -2;
+      for (;;)
         try
           {
             lobpcg.iterate();
-            return;
+            return true;
           }
         catch (const Anasazi::AnasaziError &failure)
           {
             const bool basis_lost = dynamic_cast<const Anasazi::LOBPCGOrthoFailure *>(&failure) != nullptr ||
                                     dynamic_cast<const Anasazi::LOBPCGRitzFailure *>(&failure) != nullptr;
-            AssertThrow(basis_lost && restarts < max_restarts,
-                        ExcMessage("LOBPCG + AMG stopped at iteration " + std::to_string(lobpcg.getNumIters()) +
-                                   " after " + std::to_string(restarts) + " restarts: " + failure.what()));
+            AssertThrow(basis_lost, ExcMessage("LOBPCG + AMG stopped at iteration " +
+                                               std::to_string(lobpcg.getNumIters()) + ": " + failure.what()));
+            restart_from_ritz_vectors(lobpcg); // Ritz values and residuals of the last good iteration
+            if (lobpcg.getNumIters() <= lost_at + 1)
+              return false;
+            lost_at = lobpcg.getNumIters();
             if (progress)
-              progress("LOBPCG: the basis [X H P] lost its rank at iteration " + std::to_string(lobpcg.getNumIters()) +
+              progress("LOBPCG: the basis [X H P] lost its rank at iteration " + std::to_string(lost_at) +
                        "; restarted from the current Ritz vectors");
-            Anasazi::LOBPCGState<double, Epetra_MultiVector> restart;
-            const auto current = Teuchos::rcp(new Epetra_MultiVector(*lobpcg.getState().X)); // the state is a view
-            restart.X          = current;
-            lobpcg.initialize(restart);
           }
+    }
+
+    // The block's columns whose Ritz pairs are the lowest and have converged (relative residual
+    // ||A x - theta M x|| / theta below 'tolerance', as Anasazi's test), lowest first: up to the
+    // first that has not.
+    std::vector<int> lowest_converged(Lobpcg &lobpcg, const double tolerance)
+    {
+      const auto       values = lobpcg.getRitzValues();
+      const auto       norms  = lobpcg.getRes2Norms();
+      std::vector<int> order(values.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(), [&](int a, int b) { return values[a].realpart < values[b].realpart; });
+      std::vector<int> converged;
+      for (const int j : order)
+        {
+          if (!(norms[j] <= tolerance * std::abs(values[j].realpart)))
+            break;
+          converged.push_back(j);
+        }
+      return converged;
+    }
+
+    // The relative residual ||A x - theta M x|| / theta of the block's lowest Ritz pair.
+    double lowest_residual(Lobpcg &lobpcg)
+    {
+      const auto values = lobpcg.getRitzValues();
+      const auto norms  = lobpcg.getRes2Norms();
+      const auto lowest = std::min_element(values.begin(), values.end(), [](const auto &a, const auto &b) {
+        return a.realpart < b.realpart;
+      });
+      return norms[lowest - values.begin()] / std::abs(lowest->realpart);
+    }
+
+    std::string to_string_scientific(const double value)
+    {
+      std::ostringstream text;
+      text << std::setprecision(2) << std::scientific << value;
+      return text.str();
     }
   } // namespace
 
   // One LOBPCG run (Trilinos Anasazi): the 'count' lowest eigenpairs of (A, M) in the M-orthogonal
   // complement of found's first 'first' columns (the modes of earlier runs), written into its next
-  // columns, their eigenvalues of A appended to 'eigenvalues'. Returns LOBPCG's iterations.
-  int AmgShiftedInverse::Impl::lobpcg_run(Epetra_MultiVector &found, const int first, const int count,
-                                           const double tolerance, const ProjectedAmg &preconditioner,
-                                           std::vector<double>                            &eigenvalues,
-                                           const std::function<void(const std::string &)> &progress) const
+  // columns, their eigenvalues of A appended to 'eigenvalues'. It starts from 'start' (the Ritz
+  // vectors an earlier run left, if any; random columns fill the block). If the run has to stop
+  // before all 'count' have converged (the basis lost, iterate_until_basis_lost), it keeps the
+  // lowest that have, and leaves the rest of its Ritz vectors in 'start' for the next run.
+  AmgShiftedInverse::Impl::LobpcgRun
+  AmgShiftedInverse::Impl::lobpcg_run(Epetra_MultiVector &found, const int first, const int count,
+                                      const double tolerance, const ProjectedAmg &preconditioner,
+                                      std::vector<double> &eigenvalues, std::unique_ptr<Epetra_MultiVector> &start,
+                                      const std::function<void(const std::string &)> &progress) const
   {
     using MV = Epetra_MultiVector;
     using OP = Epetra_Operator;
     const int block_size = lobpcg_block(count);
     auto      initial    = Teuchos::rcp(new MV(found.Map(), block_size));
     initial->Random();
+    for (int c = 0; start && c < std::min(block_size, start->NumVectors()); ++c)
+      std::copy((*start)[c], (*start)[c] + found.MyLength(), (*initial)[c]);
     for (int c = 0; c < block_size; ++c)
       for (const unsigned int i : constrained)
         (*initial)[c][i] = 0.;
@@ -807,45 +866,63 @@ namespace modal_haptics
     // per DoF: the tolerance is scaled by it, so that it means the same at every unit and size.
     const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*M));
     const auto   sorter           = Teuchos::rcp(new Anasazi::BasicSort<double>("SM"));
-    const auto   converged        = Teuchos::rcp(new Anasazi::StatusTestWithOrdering<double, MV, OP>(
+    const auto   wanted_converged = Teuchos::rcp(new Anasazi::StatusTestWithOrdering<double, MV, OP>(
       Teuchos::rcp(new Anasazi::StatusTestResNorm<double, MV, OP>(scaled_tolerance, count, Anasazi::RES_2NORM, true)),
       sorter, count));
     const auto enough_iterations = Teuchos::rcp(new Anasazi::StatusTestMaxIters<double, MV, OP>(5000));
     const auto stop              = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
       Anasazi::StatusTestCombo<double, MV, OP>::OR,
-      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(converged, enough_iterations)));
+      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, enough_iterations)));
     Teuchos::ParameterList parameters;
     parameters.set("Block Size", block_size);
     parameters.set("Full Ortho", true);
     // Without locking: Anasazi's replaces each locked pair by a random vector, which then has to
     // converge from scratch (on the P2 plate in runs of 18: over 20,000 preconditioner applications
     // instead of 4,900).
-    Anasazi::LOBPCG<double, MV, OP> lobpcg(
+    Lobpcg lobpcg(
       problem, sorter, Teuchos::rcp(new Anasazi::OutputManager<double>(Anasazi::Errors + Anasazi::Warnings)), stop,
       Teuchos::rcp(new Anasazi::SVQBOrthoManager<double, MV, OP>(problem->getM())), parameters);
     if (first > 0)
       lobpcg.setAuxVecs(Teuchos::tuple<Teuchos::RCP<const MV>>(problem->getAuxVecs()));
-    iterate_restarting(lobpcg, progress);
-    const int iterations = lobpcg.getNumIters();
-    AssertThrow(converged->getStatus() == Anasazi::Passed,
-                ExcMessage("LOBPCG + AMG found " + std::to_string(first + converged->howMany()) + " of " +
+    const bool       ended_by_test = iterate_until_basis_lost(lobpcg, progress);
+    const int        iterations    = lobpcg.getNumIters();
+    std::vector<int> keep          = lowest_converged(lobpcg, scaled_tolerance);
+    keep.resize(std::min<std::size_t>(keep.size(), count));
+    AssertThrow((ended_by_test && int(keep.size()) == count) || (!ended_by_test && !keep.empty()),
+                ExcMessage("LOBPCG + AMG found " + std::to_string(first + keep.size()) + " of " +
                            std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
-                           " iterations (relative residual tolerance " + std::to_string(tolerance) +
+                           " iterations" + (ended_by_test ? "" : " (its basis lost its rank)") +
+                           "; the lowest Ritz pair's relative residual is " + to_string_scientific(lowest_residual(lobpcg) /
+                                                                                       std::sqrt(mean_free_diagonal(*M))) +
+                           " (relative residual tolerance " + std::to_string(tolerance) +
                            "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
                            "factorization) where its factor fits."));
 
-    // The ordering test's pairs (indices into the block: nothing is locked), lowest first.
-    std::vector<int> which  = converged->whichVecs();
-    const auto       values = lobpcg.getRitzValues();
-    const auto       ritz   = lobpcg.getRitzVectors();
-    std::sort(which.begin(), which.end(), [&](int a, int b) { return values[a].realpart < values[b].realpart; });
-    for (int k = 0; k < count; ++k)
+    const auto values = lobpcg.getRitzValues();
+    const auto ritz   = lobpcg.getRitzVectors();
+    for (std::size_t k = 0; k < keep.size(); ++k)
       {
-        eigenvalues.push_back(values[which[k]].realpart);
-        std::copy((*ritz)[which[k]], (*ritz)[which[k]] + found.MyLength(), found[first + k]);
+        eigenvalues.push_back(values[keep[k]].realpart);
+        std::copy((*ritz)[keep[k]], (*ritz)[keep[k]] + found.MyLength(), found[first + k]);
       }
-    return iterations;
+    start.reset();
+    if (int(keep.size()) < count)
+      {
+        std::vector<int> rest;
+        for (int j = 0; j < block_size; ++j)
+          if (std::find(keep.begin(), keep.end(), j) == keep.end())
+            rest.push_back(j);
+        start = std::make_unique<MV>(found.Map(), int(rest.size()));
+        for (std::size_t c = 0; c < rest.size(); ++c)
+          std::copy((*ritz)[rest[c]], (*ritz)[rest[c]] + found.MyLength(), (*start)[c]);
+        if (progress)
+          progress("LOBPCG: run ended at iteration " + std::to_string(iterations) + " with " +
+                   std::to_string(keep.size()) + " of its " + std::to_string(count) +
+                   " modes converged; the next run seeks the rest from its other Ritz vectors");
+      }
+    return {iterations, int(keep.size())};
   }
+
 
 
   EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,
@@ -870,13 +947,18 @@ namespace modal_haptics
     ProjectedAmg        preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", progress);
     Epetra_MultiVector  found(A_epetra.OperatorDomainMap(), int(n_modes));
     std::vector<double> lambda;
-    int                 iterations = 0;
-    for (int first = 0; first < int(n_modes); first += per_run)
-      iterations += impl->lobpcg_run(found, first, std::min(per_run, int(n_modes) - first), tolerance,
-                                     preconditioner, lambda, progress);
+    int                 iterations = 0, runs = 0;
+    std::unique_ptr<Epetra_MultiVector> start;
+    for (int first = 0; first < int(n_modes); ++runs)
+      {
+        const auto run = impl->lobpcg_run(found, first, std::min(per_run, int(n_modes) - first), tolerance,
+                                          preconditioner, lambda, start, progress);
+        iterations += run.iterations;
+        first += run.modes_found;
+      }
     impl->stats.eigensolver_iterations = iterations;
     impl->stats.modes_per_run          = per_run;
-    impl->stats.n_lobpcg_runs          = (n_modes + per_run - 1) / per_run;
+    impl->stats.n_lobpcg_runs          = runs;
 
     // Ascending over the runs too (a later run's lowest lies above an earlier run's highest unless
     // two modes are equal to the tolerance).
