@@ -319,7 +319,7 @@ namespace modal_haptics
         coarse.initialize(*coarse_matrix, coarse_ml);
         A.ExtractDiagonalCopy(inverse_diagonal);
         inverse_diagonal.Reciprocal(inverse_diagonal);
-        set_up_smoother();
+        set_up_smoother(A);
       }
 
       // X = B^-1 R: pre-smoothing from zero, coarse correction, post-smoothing.
@@ -344,17 +344,32 @@ namespace modal_haptics
                                             std::to_string(status) + ")."));
       }
 
-      // Degree 3 over [lambda_max / 20, 1.1 lambda_max] of D^-1 A, lambda_max by 10 power steps
-      // (ML's own Chebyshev: the same boost and step count). Degree 5 took 61 instead of 70
-      // iterations on the plate above, but longer.
-      void set_up_smoother()
+      // Degree 3 over [lambda_max / 20, lambda_max] of D^-1 A, lambda_max its Gershgorin bound.
+      // A Chebyshev polynomial grows fast above its interval: eigenvalues of D^-1 A above an
+      // estimate that is too low are amplified and the preconditioner turns indefinite. With
+      // ML's estimate (10 power steps, times 1.1) LOBPCG's lowest residual stalled at 40 times its
+      // Ritz value at 2.15 M P2 DoFs and its basis broke down; with the bound it kept falling
+      // (docs/performance.md). The bound costs 30 % more iterations on the 57k P2 plate. Degree 5
+      // took 61 instead of 70 iterations on the plate above, but longer.
+      void set_up_smoother(const Epetra_CrsMatrix &matrix)
       {
-        double             lambda_max = 0.;
-        const unsigned int seed       = 20;
-        Ifpack_Chebyshev::PowerMethod(A, inverse_diagonal, 10, lambda_max, &seed);
+        double local_bound = 0.;
+        for (int row = 0; row < matrix.NumMyRows(); ++row)
+          {
+            int     length;
+            double *values;
+            int    *columns;
+            matrix.ExtractMyRowView(row, length, values, columns);
+            double sum = 0.;
+            for (int k = 0; k < length; ++k)
+              sum += std::abs(values[k]);
+            local_bound = std::max(local_bound, sum * inverse_diagonal[row]);
+          }
+        double lambda_max = 0.;
+        matrix.Comm().MaxAll(&local_bound, &lambda_max, 1);
         Teuchos::ParameterList chebyshev;
         chebyshev.set("chebyshev: degree", 3);
-        chebyshev.set("chebyshev: max eigenvalue", 1.1 * lambda_max);
+        chebyshev.set("chebyshev: max eigenvalue", lambda_max);
         chebyshev.set("chebyshev: ratio eigenvalue", 20.);
         chebyshev.set("chebyshev: zero starting solution", true);
         chebyshev.set("chebyshev: operator inv diagonal", &inverse_diagonal);
@@ -762,8 +777,8 @@ namespace modal_haptics
     // converged keep round-off-sized residuals in the block; Anasazi then throws, and its solver
     // manager gives up under full orthogonalization, losing the run. The first time, LOBPCG
     // restarts from its Ritz vectors without P; if [X H] is singular too, the caller keeps what
-    // has converged. (At 2.15 M P2 DoFs, np = 2, blocks of 23, the basis is lost at iteration 62
-    // of the first run with no pair converged: unexplained, docs/performance.md.)
+    // has converged. (At 2.15 M P2 DoFs the basis was lost at iteration 62 with no pair converged:
+    // an indefinite smoother, since bounded safely, VertexTwoLevel::set_up_smoother.)
     bool iterate_until_basis_lost(Lobpcg &lobpcg, const std::function<void(const std::string &)> &progress)
     {
       int lost_at = -2;
@@ -789,43 +804,93 @@ namespace modal_haptics
           }
     }
 
-    // The block's columns whose Ritz pairs are the lowest and have converged (relative residual
-    // ||A x - theta M x|| / theta below 'tolerance', as Anasazi's test), lowest first: up to the
-    // first that has not.
-    std::vector<int> lowest_converged(Lobpcg &lobpcg, const double tolerance)
-    {
-      const auto       values = lobpcg.getRitzValues();
-      const auto       norms  = lobpcg.getRes2Norms();
-      std::vector<int> order(values.size());
-      std::iota(order.begin(), order.end(), 0);
-      std::sort(order.begin(), order.end(), [&](int a, int b) { return values[a].realpart < values[b].realpart; });
-      std::vector<int> converged;
-      for (const int j : order)
-        {
-          if (!(norms[j] <= tolerance * std::abs(values[j].realpart)))
-            break;
-          converged.push_back(j);
-        }
-      return converged;
-    }
-
-    // The relative residual ||A x - theta M x|| / theta of the block's lowest Ritz pair.
-    double lowest_residual(Lobpcg &lobpcg)
-    {
-      const auto values = lobpcg.getRitzValues();
-      const auto norms  = lobpcg.getRes2Norms();
-      const auto lowest = std::min_element(values.begin(), values.end(), [](const auto &a, const auto &b) {
-        return a.realpart < b.realpart;
-      });
-      return norms[lowest - values.begin()] / std::abs(lowest->realpart);
-    }
-
     std::string to_string_scientific(const double value)
     {
       std::ostringstream text;
       text << std::setprecision(2) << std::scientific << value;
       return text.str();
     }
+
+    using LobpcgBase = Anasazi::Eigensolver<double, Epetra_MultiVector, Epetra_Operator>;
+
+    // The block's columns in ascending order of their Ritz values.
+    std::vector<int> ascending_ritz_order(LobpcgBase &solver)
+    {
+      const auto       values = solver.getRitzValues();
+      std::vector<int> order(values.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(), [&](int a, int b) { return values[a].realpart < values[b].realpart; });
+      return order;
+    }
+
+    // The relative residuals ||A x - theta M x|| / theta of the block's Ritz pairs, lowest pair
+    // first, in the self-checks' measure (Anasazi's, which is per unit mass, divided by 'scale',
+    // the square root of the mean mass per DoF).
+    std::vector<double> relative_residuals(LobpcgBase &solver, const double scale)
+    {
+      const auto          values = solver.getRitzValues();
+      const auto          norms  = solver.getRes2Norms();
+      std::vector<double> residuals;
+      for (const int j : ascending_ritz_order(solver))
+        residuals.push_back(norms[j] / std::abs(values[j].realpart) / scale);
+      return residuals;
+    }
+
+    // The block's columns whose Ritz pairs are the lowest and have converged to 'tolerance'
+    // (relative_residuals' measure), lowest first: up to the first that has not.
+    std::vector<int> lowest_converged(LobpcgBase &solver, const double tolerance, const double scale)
+    {
+      const auto       residuals = relative_residuals(solver, scale);
+      const auto       order     = ascending_ritz_order(solver);
+      std::vector<int> converged;
+      while (converged.size() < order.size() && residuals[converged.size()] <= tolerance)
+        converged.push_back(order[converged.size()]);
+      return converged;
+    }
+
+    // A progress line every 30 s of a LOBPCG run: its iteration, how many of the wanted pairs have
+    // converged from the lowest up, the residual of the lowest that has not, the preconditioner's
+    // applications. It never stops the run (a status test in Anasazi's OR combination).
+    class LobpcgProgress : public Anasazi::StatusTest<double, Epetra_MultiVector, Epetra_Operator>
+    {
+    public:
+      LobpcgProgress(const int wanted, const double tolerance, const double scale, const ProjectedAmg &preconditioner,
+                     std::function<void(const std::string &)> progress)
+        : wanted(wanted), tolerance(tolerance), scale(scale), preconditioner(preconditioner),
+          progress(std::move(progress))
+      {}
+
+      Anasazi::TestStatus checkStatus(LobpcgBase *solver) override
+      {
+        if (progress && since_progress.wall_time() > 30.)
+          {
+            const auto residuals = relative_residuals(*solver, scale);
+            const int  converged = std::min<int>(wanted, lowest_converged(*solver, tolerance, scale).size());
+            progress("LOBPCG: iteration " + std::to_string(solver->getNumIters()) + ", " + std::to_string(converged) +
+                     " of " + std::to_string(wanted) + " converged" +
+                     (converged < int(residuals.size()) ?
+                        ", the next at relative residual " + to_string_scientific(residuals[converged]) :
+                        std::string()) +
+                     "; " + std::to_string(preconditioner.n_applications) + " preconditioner applications, " +
+                     std::to_string(int(total.wall_time())) + " s");
+            since_progress.restart();
+          }
+        return Anasazi::Failed;
+      }
+      Anasazi::TestStatus getStatus() const override { return Anasazi::Failed; }
+      std::vector<int> whichVecs() const override { return {}; }
+      int howMany() const override { return 0; }
+      void reset() override {}
+      void clearStatus() override {}
+      std::ostream &print(std::ostream &out, int) const override { return out << "LOBPCG progress lines\n"; }
+
+    private:
+      const int                                      wanted;
+      const double                                   tolerance, scale;
+      const ProjectedAmg                            &preconditioner;
+      const std::function<void(const std::string &)> progress;
+      dealii::Timer                                  total, since_progress;
+    };
   } // namespace
 
   // One LOBPCG run (Trilinos Anasazi): the 'count' lowest eigenpairs of (A, M) in the M-orthogonal
@@ -870,9 +935,12 @@ namespace modal_haptics
       Teuchos::rcp(new Anasazi::StatusTestResNorm<double, MV, OP>(scaled_tolerance, count, Anasazi::RES_2NORM, true)),
       sorter, count));
     const auto enough_iterations = Teuchos::rcp(new Anasazi::StatusTestMaxIters<double, MV, OP>(5000));
-    const auto stop              = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
+    const auto progress_lines =
+      Teuchos::rcp(new LobpcgProgress(count, tolerance, std::sqrt(mean_free_diagonal(*M)), preconditioner, progress));
+    const auto stop = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
       Anasazi::StatusTestCombo<double, MV, OP>::OR,
-      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, enough_iterations)));
+      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, enough_iterations,
+                                                                        progress_lines)));
     Teuchos::ParameterList parameters;
     parameters.set("Block Size", block_size);
     parameters.set("Full Ortho", true);
@@ -886,14 +954,14 @@ namespace modal_haptics
       lobpcg.setAuxVecs(Teuchos::tuple<Teuchos::RCP<const MV>>(problem->getAuxVecs()));
     const bool       ended_by_test = iterate_until_basis_lost(lobpcg, progress);
     const int        iterations    = lobpcg.getNumIters();
-    std::vector<int> keep          = lowest_converged(lobpcg, scaled_tolerance);
+    std::vector<int> keep          = lowest_converged(lobpcg, tolerance, std::sqrt(mean_free_diagonal(*M)));
     keep.resize(std::min<std::size_t>(keep.size(), count));
     AssertThrow((ended_by_test && int(keep.size()) == count) || (!ended_by_test && !keep.empty()),
                 ExcMessage("LOBPCG + AMG found " + std::to_string(first + keep.size()) + " of " +
                            std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
                            " iterations" + (ended_by_test ? "" : " (its basis lost its rank)") +
-                           "; the lowest Ritz pair's relative residual is " + to_string_scientific(lowest_residual(lobpcg) /
-                                                                                       std::sqrt(mean_free_diagonal(*M))) +
+                           "; the lowest Ritz pair's relative residual is " +
+                           to_string_scientific(relative_residuals(lobpcg, std::sqrt(mean_free_diagonal(*M)))[0]) +
                            " (relative residual tolerance " + std::to_string(tolerance) +
                            "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
                            "factorization) where its factor fits."));
@@ -944,7 +1012,8 @@ namespace modal_haptics
                (modes_per_run > 0 ? std::string("Modes/LOBPCG modes per run") :
                                     std::to_string(n_modes) + " at once would not fit half the available memory") +
                ")");
-    ProjectedAmg        preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", progress);
+    // No progress lines of its own: LobpcgProgress's say more.
+    ProjectedAmg        preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", {});
     Epetra_MultiVector  found(A_epetra.OperatorDomainMap(), int(n_modes));
     std::vector<double> lambda;
     int                 iterations = 0, runs = 0;
