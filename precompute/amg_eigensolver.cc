@@ -929,14 +929,15 @@ namespace modal_haptics
     // Anasazi measures ||A x - theta M x|| / theta for M-normalized x; the self-checks (and the
     // direct path) divide by theta ||M x|| too, which for M ~ m I is sqrt(m) with m the mean mass
     // per DoF: the tolerance is scaled by it, so that it means the same at every unit and size.
-    const double scaled_tolerance = tolerance * std::sqrt(mean_free_diagonal(*M));
+    const double mass_scale       = std::sqrt(mean_free_diagonal(*M)); // one pass over M and a reduction
+    const double scaled_tolerance = tolerance * mass_scale;
     const auto   sorter           = Teuchos::rcp(new Anasazi::BasicSort<double>("SM"));
     const auto   wanted_converged = Teuchos::rcp(new Anasazi::StatusTestWithOrdering<double, MV, OP>(
       Teuchos::rcp(new Anasazi::StatusTestResNorm<double, MV, OP>(scaled_tolerance, count, Anasazi::RES_2NORM, true)),
       sorter, count));
     const auto enough_iterations = Teuchos::rcp(new Anasazi::StatusTestMaxIters<double, MV, OP>(5000));
     const auto progress_lines =
-      Teuchos::rcp(new LobpcgProgress(count, tolerance, std::sqrt(mean_free_diagonal(*M)), preconditioner, progress));
+      Teuchos::rcp(new LobpcgProgress(count, tolerance, mass_scale, preconditioner, progress));
     const auto stop = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
       Anasazi::StatusTestCombo<double, MV, OP>::OR,
       Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, enough_iterations,
@@ -954,14 +955,14 @@ namespace modal_haptics
       lobpcg.setAuxVecs(Teuchos::tuple<Teuchos::RCP<const MV>>(problem->getAuxVecs()));
     const bool       ended_by_test = iterate_until_basis_lost(lobpcg, progress);
     const int        iterations    = lobpcg.getNumIters();
-    std::vector<int> keep          = lowest_converged(lobpcg, tolerance, std::sqrt(mean_free_diagonal(*M)));
+    std::vector<int> keep          = lowest_converged(lobpcg, tolerance, mass_scale);
     keep.resize(std::min<std::size_t>(keep.size(), count));
     AssertThrow((ended_by_test && int(keep.size()) == count) || (!ended_by_test && !keep.empty()),
                 ExcMessage("LOBPCG + AMG found " + std::to_string(first + keep.size()) + " of " +
                            std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
                            " iterations" + (ended_by_test ? "" : " (its basis lost its rank)") +
                            "; the lowest Ritz pair's relative residual is " +
-                           to_string_scientific(relative_residuals(lobpcg, std::sqrt(mean_free_diagonal(*M)))[0]) +
+                           to_string_scientific(relative_residuals(lobpcg, mass_scale)[0]) +
                            " (relative residual tolerance " + std::to_string(tolerance) +
                            "). Try a looser 'Modes/LOBPCG tolerance', or 'Modes/Eigensolver = block-krylov' (the direct "
                            "factorization) where its factor fits."));
