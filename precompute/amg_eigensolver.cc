@@ -319,7 +319,16 @@ namespace modal_haptics
         coarse.initialize(*coarse_matrix, coarse_ml);
         A.ExtractDiagonalCopy(inverse_diagonal);
         inverse_diagonal.Reciprocal(inverse_diagonal);
-        set_up_smoother(A);
+        set_up_smoother(A, product);
+      }
+
+      // The smoother's interval and where its upper end came from, for the run's description.
+      std::string smoother_interval() const
+      {
+        std::ostringstream text;
+        text << std::setprecision(3) << "Chebyshev degree 3 on [" << lambda_max / 20. << ", " << lambda_max
+             << "] of D^-1 A: Lanczos estimate " << lanczos_estimate << ", Gershgorin bound " << gershgorin_bound;
+        return text.str();
       }
 
       // X = B^-1 R: pre-smoothing from zero, coarse correction, post-smoothing.
@@ -344,14 +353,30 @@ namespace modal_haptics
                                             std::to_string(status) + ")."));
       }
 
-      // Degree 3 over [lambda_max / 20, lambda_max] of D^-1 A, lambda_max its Gershgorin bound.
-      // A Chebyshev polynomial grows fast above its interval: eigenvalues of D^-1 A above an
-      // estimate that is too low are amplified and the preconditioner turns indefinite. With
-      // ML's estimate (10 power steps, times 1.1) LOBPCG's lowest residual stalled at 40 times its
-      // Ritz value at 2.15 M P2 DoFs and its basis broke down; with the bound it kept falling
-      // (docs/performance.md). The bound costs 30 % more iterations on the 57k P2 plate. Degree 5
-      // took 61 instead of 70 iterations on the plate above, but longer.
-      void set_up_smoother(const Epetra_CrsMatrix &matrix)
+      // Degree 3 over [lambda_max / 20, lambda_max] of D^-1 A. A Chebyshev polynomial grows fast
+      // above its interval: eigenvalues of D^-1 A above a lambda_max that is too low are amplified
+      // and the preconditioner turns indefinite. ML's estimate (10 power steps, times 1.1) was too
+      // low at 2.15 M P2 DoFs (LOBPCG's lowest residual stalled at 40 times its Ritz value and its
+      // basis broke down); the Gershgorin bound is safe but 2.4 times the true maximum on the 57k
+      // P2 plate, which costs 30 % more iterations there. So lambda_max is the smaller of the
+      // Gershgorin bound and a Lanczos upper estimate (1.22 times the maximum on that plate;
+      // docs/performance.md). Degree 5 took 61 instead of 70 iterations on the 14k plate, but longer.
+      void set_up_smoother(const Epetra_CrsMatrix &matrix, const Epetra_Operator &product)
+      {
+        gershgorin_bound = gershgorin_upper_bound(matrix);
+        lanczos_estimate = lanczos_upper_estimate(product, 10);
+        lambda_max       = std::min(gershgorin_bound, lanczos_estimate);
+        Teuchos::ParameterList chebyshev;
+        chebyshev.set("chebyshev: degree", 3);
+        chebyshev.set("chebyshev: max eigenvalue", lambda_max);
+        chebyshev.set("chebyshev: ratio eigenvalue", 20.);
+        chebyshev.set("chebyshev: zero starting solution", true);
+        chebyshev.set("chebyshev: operator inv diagonal", &inverse_diagonal);
+        check(smoother.SetParameters(chebyshev) + smoother.Initialize() + smoother.Compute(), "the Chebyshev smoother");
+      }
+
+      // max over the rows of sum_j |a_ij| / a_ii: a guaranteed upper bound of lambda_max(D^-1 A).
+      double gershgorin_upper_bound(const Epetra_CrsMatrix &matrix) const
       {
         double local_bound = 0.;
         for (int row = 0; row < matrix.NumMyRows(); ++row)
@@ -365,15 +390,56 @@ namespace modal_haptics
               sum += std::abs(values[k]);
             local_bound = std::max(local_bound, sum * inverse_diagonal[row]);
           }
-        double lambda_max = 0.;
-        matrix.Comm().MaxAll(&local_bound, &lambda_max, 1);
-        Teuchos::ParameterList chebyshev;
-        chebyshev.set("chebyshev: degree", 3);
-        chebyshev.set("chebyshev: max eigenvalue", lambda_max);
-        chebyshev.set("chebyshev: ratio eigenvalue", 20.);
-        chebyshev.set("chebyshev: zero starting solution", true);
-        chebyshev.set("chebyshev: operator inv diagonal", &inverse_diagonal);
-        check(smoother.SetParameters(chebyshev) + smoother.Initialize() + smoother.Compute(), "the Chebyshev smoother");
+        double bound = 0.;
+        matrix.Comm().MaxAll(&local_bound, &bound, 1);
+        return bound;
+      }
+
+      // An upper estimate of lambda_max(D^-1 A): 'steps' Lanczos steps on D^-1/2 A D^-1/2 from a
+      // random start, the largest Ritz value plus the last off-diagonal beta (Zhou and Li's bound
+      // for Chebyshev filters). The Ritz value approaches lambda_max from below much faster than
+      // power steps do (0.97 of it after 10 steps on the 57k P2 plate, power steps 0.88), and beta,
+      // about a quarter of the spectrum's width there, covers the rest with room to spare.
+      double lanczos_upper_estimate(const Epetra_Operator &product, const unsigned int steps) const
+      {
+        const Epetra_BlockMap &map = inverse_diagonal.Map();
+        Epetra_Vector          scale(inverse_diagonal), q(map), previous(map), scaled(map), Aq(map), w(map);
+        for (int i = 0; i < scale.MyLength(); ++i)
+          scale[i] = std::sqrt(scale[i]);
+        q.Random();
+        double norm = 0.;
+        q.Norm2(&norm);
+        q.Scale(1. / norm);
+        std::vector<double> alpha, beta;
+        for (unsigned int step = 0; step < steps; ++step)
+          {
+            scaled.Multiply(1., scale, q, 0.);
+            product.Apply(scaled, Aq);
+            w.Multiply(1., scale, Aq, 0.);
+            double a = 0., b = 0.;
+            q.Dot(w, &a);
+            w.Update(-a, q, beta.empty() ? 0. : -beta.back(), previous, 1.);
+            w.Norm2(&b);
+            alpha.push_back(a), beta.push_back(b);
+            if (b <= 1e-12 * std::abs(a)) // an invariant subspace: the Ritz values are eigenvalues
+              break;
+            previous = q;
+            q.Update(1. / b, w, 0.);
+          }
+        const int           k = alpha.size();
+        std::vector<double> T(std::size_t(k) * k, 0.), ritz(k), work(3 * k);
+        for (int i = 0; i < k; ++i)
+          {
+            T[i + i * k] = alpha[i];
+            if (i + 1 < k)
+              T[i + 1 + i * k] = T[i + (i + 1) * k] = beta[i];
+          }
+        const int lwork = work.size();
+        int       info  = 0;
+        dsyev_("N", "U", &k, T.data(), &k, ritz.data(), work.data(), &lwork, &info);
+        AssertThrow(info == 0, ExcMessage("LAPACK's dsyev failed on the Lanczos matrix of the P2 smoother (info " +
+                                          std::to_string(info) + ")."));
+        return ritz.back() + beta.back();
       }
 
       void residual(const Epetra_MultiVector &R, const Epetra_MultiVector &X, Epetra_MultiVector &out) const
@@ -398,6 +464,7 @@ namespace modal_haptics
       dealii::TrilinosWrappers::PreconditionAMG   coarse;
       Epetra_Vector                               inverse_diagonal;
       Ifpack_Chebyshev                            smoother;
+      double gershgorin_bound = 0., lanczos_estimate = 0., lambda_max = 0.; // of D^-1 A
       mutable std::unique_ptr<Epetra_MultiVector> fine_work, smoothed, coarse_residual, coarse_correction;
     };
   } // namespace
@@ -501,6 +568,7 @@ namespace modal_haptics
       return vertex_two_level ? static_cast<const Epetra_Operator &>(*vertex_two_level) : amg.trilinos_operator();
     }
     std::unique_ptr<Deflation>                 deflation; // by the modes, once they are known
+    std::function<void(const std::string &)>   progress;  // lowest_modes' lines, for the static solves too
     AmgSolverStatistics                        stats;
     unsigned long                              total_cg_iterations = 0;
 
@@ -522,8 +590,9 @@ namespace modal_haptics
     {
       using MV = Epetra_MultiVector;
       using OP = Epetra_Operator;
-      // No progress lines: a block's solve takes seconds (finish() reports the solves' totals).
-      const ProjectedAmg preconditioner(amg_operator(), constrained, &constrained_diagonal, "block CG", {},
+      // A block's solve takes seconds on small parts, but over half an hour at 2 M P2 DoFs.
+      const ProjectedAmg preconditioner(amg_operator(), constrained, &constrained_diagonal,
+                                        "block CG of " + std::to_string(X.NumVectors()) + " columns", progress,
                                         deflation.get());
       X.PutScalar(0.); // the first preconditioned residual holds the solution's part in span Z
       Belos::LinearProblem<double, MV, OP> problem(Teuchos::rcp(A_product.get(), false),
@@ -639,13 +708,20 @@ namespace modal_haptics
   {
     stats.method = std::string("amg-block-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
                    (node_blocked ? ", 3 DoFs per node" : ", DoF-wise aggregation") +
-                   (on_vertex_space ? ", on the vertex (P1) space under Chebyshev smoothing)" : ")");
+                   (on_vertex_space ? ", on the vertex (P1) space under " + impl->vertex_two_level->smoother_interval() + ")" :
+                                      std::string(")"));
     stats.analyze_seconds = setup_seconds;
   }
 
   AmgShiftedInverse::~AmgShiftedInverse() = default;
 
   const AmgSolverStatistics &AmgShiftedInverse::amg_statistics() const { return impl->stats; }
+
+  std::string AmgShiftedInverse::preconditioner_name() const
+  {
+    return "AMG (ML, rigid-body near-null space" +
+           (impl->vertex_two_level ? "; on the vertex space, " + impl->vertex_two_level->smoother_interval() : "") + ")";
+  }
 
   std::string AmgShiftedInverse::eigensolver_method() const
   {
@@ -999,6 +1075,7 @@ namespace modal_haptics
                                                 const std::function<void(const std::string &)> &progress)
   {
     dealii::Timer timer;
+    impl->progress         = progress;
     const auto   &A_epetra = impl->A->trilinos_matrix();
     const int     per_run  = modes_per_run > 0 ?
                                int(std::min(modes_per_run, n_modes)) :

@@ -107,7 +107,8 @@ namespace modal_haptics
     // holds this process's rows). Converged when every pair's ||A x - theta M x|| / (theta ||M x||)
     // is below tolerance (collective). At most modes_per_run modes per LOBPCG run (0: all at once
     // if that fits half the available memory, else as many as fit), later runs in the complement
-    // of the earlier ones' modes. progress, when set, gets a line every 30 s.
+    // of the earlier ones' modes. progress, when set, gets a line every 30 s, and so do the
+    // static solves' block CGs after it.
     EigenSolution lowest_modes(unsigned int n_modes, double tolerance, unsigned int modes_per_run,
                                const std::function<void(const std::string &)> &progress);
 
@@ -132,6 +133,10 @@ namespace modal_haptics
 
     // How lowest_modes found the modes, for the report: LOBPCG + AMG, and its runs if several.
     std::string eigensolver_method() const;
+
+    // The preconditioner as a log line names it: "AMG (ML, rigid-body near-null space)", for a P2
+    // space with its smoother's interval.
+    std::string preconditioner_name() const;
 
   private:
     void describe(bool node_blocked, bool on_vertex_space, double setup_seconds);

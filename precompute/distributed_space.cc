@@ -415,7 +415,7 @@ namespace modal_haptics
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
                                                 constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
-      log("AMG (ML, rigid-body near-null space) set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
+      log(amg->preconditioner_name() + " set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
           " modes, distributed");
       Timer timer;
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,

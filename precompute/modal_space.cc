@@ -260,7 +260,7 @@ namespace modal_haptics
                                                      rigid_body_motions(Point<3>()), result.clamped_dofs,
                                                      node_blocked, vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
-      line << "AMG (ML, rigid-body near-null space) set up in " << amg->statistics().analyze_seconds
+      line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
            << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
       log(line.str());
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
