@@ -359,7 +359,7 @@ namespace modal_haptics
       // low at 2.15 M P2 DoFs (LOBPCG's lowest residual stalled at 40 times its Ritz value and its
       // basis broke down); the Gershgorin bound is safe but 2.4 times the true maximum on the 57k
       // P2 plate, which costs 30 % more iterations there. So lambda_max is the smaller of the
-      // Gershgorin bound and a Lanczos upper estimate (1.22 times the maximum on that plate;
+      // Gershgorin bound and a Lanczos upper estimate (1.21-1.23 times the maximum on that plate;
       // docs/performance.md). Degree 5 took 61 instead of 70 iterations on the 14k plate, but longer.
       void set_up_smoother(const Epetra_CrsMatrix &matrix, const Epetra_Operator &product)
       {
@@ -398,7 +398,7 @@ namespace modal_haptics
       // An upper estimate of lambda_max(D^-1 A): 'steps' Lanczos steps on D^-1/2 A D^-1/2 from a
       // random start, the largest Ritz value plus the last off-diagonal beta (Zhou and Li's bound
       // for Chebyshev filters). The Ritz value approaches lambda_max from below much faster than
-      // power steps do (0.97 of it after 10 steps on the 57k P2 plate, power steps 0.88), and beta,
+      // power steps do (0.95-0.97 of it after 10 steps on the 57k P2 plate, power steps 0.88), and beta,
       // about a quarter of the spectrum's width there, covers the rest with room to spare.
       double lanczos_upper_estimate(const Epetra_Operator &product, const unsigned int steps) const
       {
