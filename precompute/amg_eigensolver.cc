@@ -326,7 +326,7 @@ namespace modal_haptics
       std::string smoother_interval() const
       {
         std::ostringstream text;
-        text << std::setprecision(3) << "Chebyshev degree 3 on [" << lambda_max / 20. << ", " << lambda_max
+        text << std::setprecision(3) << "Chebyshev degree 3 on [" << lambda_max() / 20. << ", " << lambda_max()
              << "] of D^-1 A: Lanczos estimate " << lanczos_estimate << ", Gershgorin bound " << gershgorin_bound;
         return text.str();
       }
@@ -365,15 +365,16 @@ namespace modal_haptics
       {
         gershgorin_bound = gershgorin_upper_bound(matrix);
         lanczos_estimate = lanczos_upper_estimate(product, 10);
-        lambda_max       = std::min(gershgorin_bound, lanczos_estimate);
         Teuchos::ParameterList chebyshev;
         chebyshev.set("chebyshev: degree", 3);
-        chebyshev.set("chebyshev: max eigenvalue", lambda_max);
+        chebyshev.set("chebyshev: max eigenvalue", lambda_max());
         chebyshev.set("chebyshev: ratio eigenvalue", 20.);
         chebyshev.set("chebyshev: zero starting solution", true);
         chebyshev.set("chebyshev: operator inv diagonal", &inverse_diagonal);
         check(smoother.SetParameters(chebyshev) + smoother.Initialize() + smoother.Compute(), "the Chebyshev smoother");
       }
+
+      double lambda_max() const { return std::min(gershgorin_bound, lanczos_estimate); }
 
       // max over the rows of sum_j |a_ij| / a_ii: a guaranteed upper bound of lambda_max(D^-1 A).
       double gershgorin_upper_bound(const Epetra_CrsMatrix &matrix) const
@@ -464,7 +465,7 @@ namespace modal_haptics
       dealii::TrilinosWrappers::PreconditionAMG   coarse;
       Epetra_Vector                               inverse_diagonal;
       Ifpack_Chebyshev                            smoother;
-      double gershgorin_bound = 0., lanczos_estimate = 0., lambda_max = 0.; // of D^-1 A
+      double gershgorin_bound = 0., lanczos_estimate = 0.; // of lambda_max(D^-1 A)
       mutable std::unique_ptr<Epetra_MultiVector> fine_work, smoothed, coarse_residual, coarse_correction;
     };
   } // namespace
@@ -679,7 +680,7 @@ namespace modal_haptics
     for (unsigned int j = 0; j < 6; ++j)
       std::copy(rigid_body_motions[j].begin(), rigid_body_motions[j].end(), impl->near_null_space.begin() + j * n);
     impl->set_up(shift, constrained, node_blocked, vertex_space);
-    describe(node_blocked, vertex_space != nullptr, timer.wall_time());
+    describe(node_blocked, timer.wall_time());
   }
 
   AmgShiftedInverse::AmgShiftedInverse(const dealii::TrilinosWrappers::SparseMatrix &K,
@@ -701,15 +702,15 @@ namespace modal_haptics
       }
     impl->near_null_space = std::move(near_null_space);
     impl->set_up(shift, constrained, node_blocked, vertex_space);
-    describe(node_blocked, vertex_space != nullptr, timer.wall_time());
+    describe(node_blocked, timer.wall_time());
   }
 
-  void AmgShiftedInverse::describe(const bool node_blocked, const bool on_vertex_space, const double setup_seconds)
+  void AmgShiftedInverse::describe(const bool node_blocked, const double setup_seconds)
   {
     stats.method = std::string("amg-block-cg (Trilinos ML smoothed aggregation, rigid-body near-null space") +
                    (node_blocked ? ", 3 DoFs per node" : ", DoF-wise aggregation") +
-                   (on_vertex_space ? ", on the vertex (P1) space under " + impl->vertex_two_level->smoother_interval() + ")" :
-                                      std::string(")"));
+                   (impl->vertex_two_level ? ", on the vertex (P1) space under " + impl->vertex_two_level->smoother_interval() + ")" :
+                                             std::string(")"));
     stats.analyze_seconds = setup_seconds;
   }
 
@@ -1067,7 +1068,6 @@ namespace modal_haptics
       }
     return {iterations, int(keep.size())};
   }
-
 
 
   EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,

@@ -139,7 +139,7 @@ namespace modal_haptics
     std::string preconditioner_name() const;
 
   private:
-    void describe(bool node_blocked, bool on_vertex_space, double setup_seconds);
+    void describe(bool node_blocked, double setup_seconds);
 
     struct Impl;
     std::unique_ptr<Impl> impl;
