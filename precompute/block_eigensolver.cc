@@ -72,6 +72,8 @@ namespace modal_haptics
           }
       }
 
+      std::size_t rows() const { return n; }
+
       // dst = M src for count columns of length n (column-major; dst must not alias src), four
       // at a time: a fixed width lets the compiler keep the four sums in registers (twice the rate of
       // a loop over a run-time width: 7 against 12-14 ms for 4 columns at 250k DoFs).
@@ -115,14 +117,33 @@ namespace modal_haptics
       std::vector<double>       value;
     };
 
+    // The serial problem: M's products on deal.II's threads, the solves by the factorization.
+    class SerialBlockOperators : public BlockEigenOperators
+    {
+    public:
+      SerialBlockOperators(const dealii::SparseMatrix<double> &M, Factorization &inverse)
+        : M(M)
+        , inverse(inverse)
+      {}
+      std::size_t  local_rows() const override { return M.rows(); }
+      std::size_t  global_rows() const override { return M.rows(); }
+      void         multiply_by_mass(const double *src, double *dst, const int count) override { M.multiply(src, dst, count); }
+      void         solve(double *columns, const int count) override { inverse.solve_block(columns, count); }
+      void         sum_over_processes(double *, std::size_t) const override {}
+      unsigned int process() const override { return 0; }
+
+    private:
+      const BlockMass M;
+      Factorization  &inverse;
+    };
+
     class BlockKrylov
     {
     public:
-      BlockKrylov(const dealii::SparseMatrix<double> &M, Factorization &inverse, unsigned int n_modes,
-                  unsigned int block_size, double tolerance, bool verbose)
-        : M(M)
-        , inverse(inverse)
-        , n(M.m())
+      BlockKrylov(BlockEigenOperators &operators, unsigned int n_modes, unsigned int block_size, double tolerance,
+                  bool verbose)
+        : operators(operators)
+        , n(operators.local_rows())
         , nev(n_modes)
         , block(block_size)
         , tolerance(tolerance)
@@ -130,9 +151,10 @@ namespace modal_haptics
       {
         // Three times the wanted count, whole blocks: with blocks of 4 this converged 50 modes in one
         // cycle (160 solved vectors, ARPACK: 141 single solves) on the FACTS plate.
-        capacity = std::min<int>(n - 1, block * ((3 * nev + block - 1) / block + 1));
-        AssertThrow(capacity > nev + block,
-                    ExcMessage("Too few unknowns (" + std::to_string(n) + ") for " + std::to_string(nev) + " modes."));
+        const std::size_t n_global = operators.global_rows();
+        capacity = int(std::min<std::size_t>(n_global - 1, block * ((3 * nev + block - 1) / block + 1)));
+        AssertThrow(capacity > nev + block, ExcMessage("Too few unknowns (" + std::to_string(n_global) + ") for " +
+                                                       std::to_string(nev) + " modes."));
         V.assign(std::size_t(n) * capacity, 0.);
         MV.assign(std::size_t(n) * capacity, 0.);
         W.assign(std::size_t(n) * capacity, 0.);
@@ -144,10 +166,11 @@ namespace modal_haptics
         // machine: a 250k x 80 basis times 4 columns, 9-10 against 16 GB/s); the solves set their own.
         dealii::Timer     timer;
         std::vector<double> seed(std::size_t(n) * block);
-        std::mt19937_64 random(20261122);
+        std::mt19937_64 random(20261122 + operators.process());
         std::uniform_real_distribution<double> uniform(-1., 1.);
         for (double &x : seed)
           x = uniform(random);
+        orientation.assign(seed.begin(), seed.begin() + n);
         // Start from OP applied to a random block: it lies in the range of OP (zero on clamped rows).
         {
           std::vector<double> Mseed(seed.size());
@@ -205,6 +228,7 @@ namespace modal_haptics
 
         solution.n_operator_applications = solved;
         // The Ritz vectors V Z of the last convergence check are the eigenvectors.
+        orient_ritz_vectors();
         for (int i = 0; i < nev; ++i)
           {
             solution.eigenvalues.push_back(shift + 1. / theta[i]);
@@ -236,11 +260,28 @@ namespace modal_haptics
         return message.str();
       }
 
+      // An eigenvector's sign is arbitrary, and the one the Rayleigh-Ritz step gives can flip with
+      // round-off (MUMPS's solves under MPI are not bit-reproducible between runs): each Ritz vector
+      // is turned to have a positive product with the random start column, which is the same in
+      // every run on the same rows, so that two runs of one space export the same modes.
+      void orient_ritz_vectors()
+      {
+        std::vector<double> products(nev, 0.);
+        for (int i = 0; i < nev; ++i)
+          for (int r = 0; r < n; ++r)
+            products[i] += ritz_vectors[std::size_t(i) * n + r] * orientation[r];
+        operators.sum_over_processes(products.data(), nev);
+        for (int i = 0; i < nev; ++i)
+          if (products[i] < 0.)
+            for (int r = 0; r < n; ++r)
+              ritz_vectors[std::size_t(i) * n + r] = -ritz_vectors[std::size_t(i) * n + r];
+      }
+
       // dst = (K - sigma M)^-1 Msrc for count columns, Msrc = M src already computed.
       void solve_images(const double *Msrc, double *dst, const int count)
       {
         std::copy(Msrc, Msrc + std::size_t(n) * count, dst);
-        inverse.solve_block(dst, count);
+        operators.solve(dst, count);
         solved += count;
       }
 
@@ -253,7 +294,7 @@ namespace modal_haptics
       void multiply_by_mass(const double *src, double *dst, const int count)
       {
         dealii::Timer timer;
-        M.multiply(src, dst, count);
+        operators.multiply_by_mass(src, dst, count);
         mass_seconds += timer.wall_time();
       }
 
@@ -285,6 +326,7 @@ namespace modal_haptics
         for (int pass = 0; pass < 2 && size > 0; ++pass)
           {
             gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C.data(), size);
+            operators.sum_over_processes(C.data(), std::size_t(size) * count);
             gemm('N', 'N', n, count, size, -1., V.data(), n, C.data(), size, 1., X, n);
             for (std::size_t i = 0; i < C.size(); ++i)
               C_sum[i] += C[i];
@@ -293,6 +335,7 @@ namespace modal_haptics
         for (int pass = 0; pass < 2; ++pass)
           {
             gemm('T', 'N', count, count, n, 1., X, n, MX.data(), n, 0., G.data(), count);
+            operators.sum_over_processes(G.data(), G.size());
             int info = 0;
             dpotrf_("U", &count, G.data(), &count, &info);
             if (info != 0)
@@ -372,6 +415,7 @@ namespace modal_haptics
       {
         Z.assign(std::size_t(size) * size, 0.);
         gemm('T', 'N', size, size, n, 1., MV.data(), n, W.data(), n, 0., Z.data(), size);
+        operators.sum_over_processes(Z.data(), Z.size());
         for (int i = 0; i < size; ++i)
           for (int j = 0; j < i; ++j)
             Z[i + std::size_t(j) * size] = Z[j + std::size_t(i) * size] =
@@ -400,15 +444,14 @@ namespace modal_haptics
         for (int c = 0; c < count; ++c)
           for (int i = 0; i < n; ++i)
             R[std::size_t(c) * n + i] -= theta[c] * VZ[std::size_t(c) * n + i];
-        std::vector<double> MR(std::size_t(n) * count), norms(count);
+        std::vector<double> MR(std::size_t(n) * count), norms(count, 0.);
         multiply_by_mass(R.data(), MR.data(), count);
         for (int c = 0; c < count; ++c)
-          {
-            double s = 0.;
-            for (int i = 0; i < n; ++i)
-              s += R[std::size_t(c) * n + i] * MR[std::size_t(c) * n + i];
-            norms[c] = std::sqrt(std::max(s, 0.)) / std::abs(theta[c]);
-          }
+          for (int i = 0; i < n; ++i)
+            norms[c] += R[std::size_t(c) * n + i] * MR[std::size_t(c) * n + i];
+        operators.sum_over_processes(norms.data(), count);
+        for (int c = 0; c < count; ++c)
+          norms[c] = std::sqrt(std::max(norms[c], 0.)) / std::abs(theta[c]);
         return norms;
       }
 
@@ -440,9 +483,8 @@ namespace modal_haptics
         return keep + append_block(seed.data(), seeds, keep);
       }
 
-      const BlockMass                     M;
-      Factorization                      &inverse;
-      const int                           n, nev, block;
+      BlockEigenOperators                &operators;
+      const int                           n, nev, block; // n: this process's rows
       const double                        tolerance;
       const bool                          verbose;
       int                                 capacity = 0;
@@ -450,6 +492,7 @@ namespace modal_haptics
       int                                 first_unconverged = 0;
       std::vector<double>                 V, MV, W, residuals;
       std::vector<double>                 ritz_vectors; // V Z of the wanted pairs, from residual_norms
+      std::vector<double>                 orientation;  // the random start's first column (orient_ritz_vectors)
       std::vector<double>                 arnoldi; // capacity x capacity, first cycle only (orthogonalize_block)
       double                              mass_seconds = 0., orthogonalization_seconds = 0.;
     };
@@ -463,7 +506,18 @@ namespace modal_haptics
                                          const double                        tolerance,
                                          const bool                          verbose)
   {
-    BlockKrylov solver(M, shifted_inverse, n_modes, block_size, tolerance, verbose);
+    SerialBlockOperators operators(M, shifted_inverse);
+    return solve_block_shift_invert(operators, shift, n_modes, block_size, tolerance, verbose);
+  }
+
+  EigenSolution solve_block_shift_invert(BlockEigenOperators &operators,
+                                         const double         shift,
+                                         const unsigned int   n_modes,
+                                         const unsigned int   block_size,
+                                         const double         tolerance,
+                                         const bool           verbose)
+  {
+    BlockKrylov solver(operators, n_modes, block_size, tolerance, verbose);
     return solver.solve(shift);
   }
 } // namespace modal_haptics

@@ -26,6 +26,9 @@
 #include <deal.II/lac/trilinos_vector.h>
 #include <deal.II/numerics/data_out.h>
 
+#include <Epetra_CrsMatrix.h>
+#include <Epetra_MultiVector.h>
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -45,8 +48,65 @@ namespace modal_haptics
     constexpr double two_pi = 2. * M_PI;
     using DistributedVector = TrilinosWrappers::MPI::Vector;
 
+    // The block Krylov eigensolver's operators (eigensolver.h) on this process's rows: Epetra's
+    // product with M (it imports the ghost entries), MUMPS's solves a block at a time (its factor
+    // read once per block, where PARPACK's reverse communication hands out one vector per solve),
+    // the inner products summed by MPI.
+    class DistributedBlockOperators : public BlockEigenOperators
+    {
+    public:
+      DistributedBlockOperators(const TrilinosWrappers::SparseMatrix &M, const DistributedInverse &inverse,
+                                const DistributedVector &layout, const MPI_Comm comm)
+        : M(M.trilinos_matrix())
+        , inverse(inverse)
+        , layout(layout)
+        , comm(comm)
+      {
+        AssertThrow(local_rows() > 0, ExcMessage("The block eigensolver needs unknowns on every process; process " +
+                                                 std::to_string(process()) + " has none (fewer processes?)."));
+      }
+      std::size_t  local_rows() const override { return layout.locally_owned_size(); }
+      std::size_t  global_rows() const override { return layout.size(); }
+      unsigned int process() const override { return Utilities::MPI::this_mpi_process(comm); }
+
+      void multiply_by_mass(const double *src, double *dst, const int count) override
+      {
+        // Views on the column-major blocks: nothing is copied.
+        const int                rows = int(local_rows());
+        const Epetra_MultiVector X(View, M.OperatorDomainMap(), const_cast<double *>(src), rows, count);
+        Epetra_MultiVector       Y(View, M.OperatorRangeMap(), dst, rows, count);
+        AssertThrow(M.Multiply(false, X, Y) == 0, ExcMessage("Epetra's product with M failed."));
+      }
+
+      void solve(double *columns, const int count) override
+      {
+        const std::size_t rows = local_rows();
+        if (work.size() != std::size_t(count))
+          work.assign(count, layout); // copies of the layout share its map (no collective set-up)
+        for (int c = 0; c < count; ++c)
+          std::copy(columns + c * rows, columns + (c + 1) * rows, work[c].trilinos_vector()[0]);
+        inverse.solve_columns(work);
+        for (int c = 0; c < count; ++c)
+          std::copy(work[c].trilinos_vector()[0], work[c].trilinos_vector()[0] + rows, columns + c * rows);
+      }
+
+      void sum_over_processes(double *values, const std::size_t count) const override
+      {
+        const int ierr = MPI_Allreduce(MPI_IN_PLACE, values, int(count), MPI_DOUBLE, MPI_SUM, comm);
+        AssertThrowMPI(ierr);
+      }
+
+    private:
+      const Epetra_CrsMatrix        &M;
+      const DistributedInverse      &inverse;
+      const DistributedVector       &layout;
+      const MPI_Comm                 comm;
+      std::vector<DistributedVector> work;
+    };
+
     // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
-    // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, PARPACK.
+    // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, the block
+    // Krylov eigensolver (or PARPACK, 'Modes/Eigensolver = arpack').
     class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
     {
     public:
@@ -112,7 +172,10 @@ namespace modal_haptics
       }
       std::map<types::global_dof_index, unsigned int> dof_components() const;
       bool factorize_unless_amg();
+      void refuse_shift_above_first_mode() const;
+      void block_krylov_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       void parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      DistributedVector distributed(const dealii::Vector<double> &local) const;
       void lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       // columns[c] = A^-1 columns[c], all at once: one MUMPS solve of the block, or one block CG.
       void apply_inverse(std::vector<DistributedVector> &columns)
@@ -284,7 +347,7 @@ namespace modal_haptics
       assembler.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
-    // MUMPS factorizes K - shift M for PARPACK and the static solves; 'auto' factorizes when MUMPS's
+    // MUMPS factorizes K - shift M for the eigensolver and the static solves; 'auto' factorizes when MUMPS's
     // analysis predicts in-core data within 'Modes/Factor memory limit' (shared by the processes of
     // a node; half the node's available memory by default), and otherwise takes the path without a
     // factorization. Returns whether it factorized (collective: every process decides alike).
@@ -293,9 +356,8 @@ namespace modal_haptics
       const EigensolverKind wanted = scene.modes.eigensolver;
       if (wanted == EigensolverKind::lobpcg_amg)
         return false;
-      if (wanted != EigensolverKind::automatic)
-        log("Modes/Eigensolver (" + eigensolver_name(wanted) + ") and Modes/Operator (" + (scene.modes.factorization_kind == FactorizationKind::cholmod ? "cholmod" : "umfpack") +
-            ") choose the serial solvers; the distributed path uses PARPACK over MUMPS (or 'lobpcg-amg')");
+      if (scene.modes.factorization_kind != FactorizationKind::cholmod)
+        log("Modes/Operator (umfpack) chooses the serial factorization; under MPI MUMPS factorizes K");
       const auto kind = scene.modes.distributed_factorization;
       log(std::string("factorizing K with MUMPS (") +
           (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric, PETSc") + ")");
@@ -324,19 +386,17 @@ namespace modal_haptics
         line << "Modes/Eigensolver = auto: MUMPS's analysis predicts " << predicted / 1e9
              << " GB on the process that needs most, the limit is " << limit / on_node / 1e9 << " GB per process ("
              << limit / 1e9 << " GB for the " << on_node << " on its node): "
-             << (inverse ? "PARPACK over MUMPS" : "lobpcg-amg (no factorization)");
+             << (inverse ? "block Krylov over MUMPS" : "lobpcg-amg (no factorization)");
       log(line.str());
       note_automatic_choice(inverse != nullptr, predicted * on_node, limit);
       return inverse != nullptr;
     }
 
-    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
-    // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
-    // runs on different process counts build nearly the same Krylov space.
-    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
+    // The inertia of MUMPS's L D L^T (Sylvester): a negative eigenvalue of K - shift M is a mode
+    // below the shift, found here before any iteration (with the LU, solve_eigenproblem finds it
+    // among the computed modes).
+    void DistributedSpace::refuse_shift_above_first_mode() const
     {
-      // The inertia of MUMPS's L D L^T (Sylvester): a negative eigenvalue of K - shift M is a mode
-      // below the shift, found here before any iteration (the LU below relies on PARPACK's modes).
       const long below_shift = inverse->negative_eigenvalues();
       AssertThrow(below_shift <= 0,
                   ExcMessage("'Modes/Shift' (" + std::to_string(scene.modes.shift) + " Hz) lies above " +
@@ -344,7 +404,39 @@ namespace modal_haptics
                              " of space '" + task.name +
                              "' (the inertia of MUMPS's L D L^T of K - shift*M): K - shift*M is not positive "
                              "definite. Choose a shift below the first frequency."));
+    }
 
+    // This process's rows as a distributed vector.
+    DistributedVector DistributedSpace::distributed(const dealii::Vector<double> &local) const
+    {
+      DistributedVector v = owned_layout;
+      std::copy(local.begin(), local.end(), v.trilinos_vector()[0]);
+      return v;
+    }
+
+    // The serial path's block Krylov iteration (block_eigensolver.cc) over MUMPS's block solves.
+    void DistributedSpace::block_krylov_modes(std::vector<double>            &eigenvalues,
+                                              std::vector<DistributedVector> &eigenvectors)
+    {
+      DistributedBlockOperators operators(mass_matrix, *inverse, owned_layout, comm);
+      const EigenSolution       solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
+                                                              scene.modes.block_size, scene.modes.tolerance, verbose);
+      result.eigensolve_iteration_seconds = solution.eigensolve_iteration_seconds;
+      result.mass_product_seconds         = solution.mass_product_seconds;
+      result.orthogonalization_seconds    = solution.orthogonalization_seconds;
+      result.n_operator_applications      = solution.n_operator_applications;
+      result.eigensolver_method =
+        "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + "), distributed";
+      eigenvalues = solution.eigenvalues;
+      for (const auto &local : solution.eigenvectors)
+        eigenvectors.push_back(distributed(local));
+    }
+
+    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
+    // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
+    // runs on different process counts build nearly the same Krylov space.
+    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
+    {
       const int n   = result.n_dofs;
       const int nev = scene.modes.maximum_count;
       AssertThrow(nev >= 1 && nev < n - 1,
@@ -426,13 +518,7 @@ namespace modal_haptics
       result.eigensolver_method           = amg->eigensolver_method() + ", distributed";
       eigenvalues = solution.eigenvalues;
       for (const auto &local : solution.eigenvectors)
-        {
-          DistributedVector phi = owned_layout;
-          for (std::size_t k = 0; k < n_local; ++k)
-            phi[owned_dofs.nth_index_in_set(k)] = local[k];
-          phi.compress(VectorOperation::insert);
-          eigenvectors.push_back(std::move(phi));
-        }
+        eigenvectors.push_back(distributed(local));
     }
 
     void DistributedSpace::solve_eigenproblem()
@@ -440,10 +526,16 @@ namespace modal_haptics
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       std::vector<double>            eigenvalues;
       std::vector<DistributedVector> eigenvectors;
-      if (factorize_unless_amg())
-        parpack_modes(eigenvalues, eigenvectors);
-      else
+      if (!factorize_unless_amg())
         lobpcg_amg_modes(eigenvalues, eigenvectors);
+      else
+        {
+          refuse_shift_above_first_mode();
+          if (scene.modes.eigensolver == EigensolverKind::arpack)
+            parpack_modes(eigenvalues, eigenvectors);
+          else
+            block_krylov_modes(eigenvalues, eigenvectors);
+        }
 
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
       // mode below the shift says that the shift lies above the first eigenfrequency (the

@@ -1,6 +1,7 @@
 // One modal space computed by every process of an MPI communicator: a fully distributed mesh,
-// Trilinos matrices, MUMPS (Trilinos Amesos) for the shift-invert factorization and PARPACK for the
-// eigensolve. It runs the same phases as compute_modal_space (modal_space.h) and returns the same
+// Trilinos matrices, MUMPS (PETSc's, symmetric; or Trilinos Amesos' LU) for the shift-invert
+// factorization, and the serial path's block Krylov eigensolver over its block solves (PARPACK with
+// 'Modes/Eigensolver = arpack'). It runs the same phases as compute_modal_space (modal_space.h) and returns the same
 // ModalSpaceResult, complete on every process: what the serial exporters need is evaluated where a
 // process owns the cell and summed over the processes (docs/cluster.md says what that costs).
 #pragma once

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <vector>
 
 namespace modal_haptics
@@ -34,9 +35,37 @@ namespace modal_haptics
                                    double                              tolerance,
                                    bool                                verbose);
 
+  // What the block Krylov eigensolver needs of its problem, on this process's rows: M times a block,
+  // the solves with K - shift M, and sums over the processes. Blocks are column-major, local_rows()
+  // long per column; every n-long product is local, and only the small inner-product matrices are
+  // summed, so the same iteration runs serially (CHOLMOD) and distributed (MUMPS).
+  class BlockEigenOperators
+  {
+  public:
+    virtual ~BlockEigenOperators() = default;
+    virtual std::size_t local_rows() const  = 0;
+    virtual std::size_t global_rows() const = 0;
+    // dst = M src for count columns (dst does not alias src).
+    virtual void multiply_by_mass(const double *src, double *dst, int count) = 0;
+    // columns = (K - shift M)^-1 columns, in place, count at once (one pass over the factor).
+    virtual void solve(double *columns, int count) = 0;
+    // values summed over the processes, in place, the same sums on every process (collective).
+    virtual void sum_over_processes(double *values, std::size_t count) const = 0;
+    // Differs between processes, so that their parts of a random start block differ.
+    virtual unsigned int process() const = 0;
+  };
+
   // The same spectral transformation with a block Krylov method (block_eigensolver.cc): blocks of
   // block_size right-hand sides per solve, thick restarts. Converged when every wanted Ritz pair's residual
-  // ||OP z - theta z||_M / theta is below tolerance.
+  // ||OP z - theta z||_M / theta is below tolerance. The eigenvectors hold this process's rows.
+  EigenSolution solve_block_shift_invert(BlockEigenOperators &operators,
+                                         double               shift,
+                                         unsigned int         n_modes,
+                                         unsigned int         block_size,
+                                         double               tolerance,
+                                         bool                 verbose);
+
+  // The serial case: M's products on deal.II's threads, the solves by the factorization.
   EigenSolution solve_block_shift_invert(const dealii::SparseMatrix<double> &M,
                                          Factorization                      &shifted_inverse,
                                          double                              shift,

@@ -35,7 +35,7 @@ namespace
            "                 groups and selections, then exit\n"
            "  --output-dir   where results go (default: results/<scene name>)\n"
            "  --quiet        no progress lines\n"
-           "  --distributed  the MPI path (Trilinos, MUMPS, PARPACK) even on one process; implied by N > 1\n"
+           "  --distributed  the MPI path (Trilinos, MUMPS, the block Krylov method or PARPACK) even on one process; implied by N > 1\n"
            "\n"
            "Scenarios as separate jobs (docs/cluster.md): mesh once, one job per scenario (each serial or under\n"
            "mpirun), then merge; the merged files equal those of one whole-scene run.\n"

@@ -142,9 +142,9 @@ namespace modal_haptics
                       "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
                       "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
                       "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
-                      "factor fits in 'Factor memory limit', else lobpcg-amg (under mpirun: PARPACK over MUMPS when MUMPS's analysis "
-                      "says its factor fits, else lobpcg-amg). All "
-                      "converge to the same modes. Units: none.");
+                      "factor fits in 'Factor memory limit', else lobpcg-amg. Under mpirun MUMPS factorizes: "
+                      "'block-krylov' and 'arpack' (PARPACK) over it, 'auto' the block Krylov method when MUMPS's "
+                      "analysis says its factor fits, else lobpcg-amg. All converge to the same modes. Units: none.");
     prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
                       "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
                       "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """The eigensolver benchmark: 50 lowest modes of the FACTS plate (facts_plate.geo, linear tets,
 graded around one rib) at several sizes; our default path (block Krylov + CHOLMOD) against ARPACK
-over the same CHOLMOD factorization, deal.II's UMFPACK under ARPACK, SLEPc Krylov-Schur + MUMPS
+over the same CHOLMOD factorization, deal.II's UMFPACK under ARPACK, our distributed path (the same
+block Krylov method over MUMPS's Cholesky, mpirun on 1 and 2 ranks), SLEPc Krylov-Schur + MUMPS
 Cholesky on 1 and 2 ranks, and scipy's eigsh (ARPACK + SuperLU), all on the same K and M, in one
 run: the solvers are interleaved, every repetition runs each of them once, the CSV quotes the
 median with min and max, the peak resident memory (GNU time) and the machine's limits measured in
@@ -15,8 +16,8 @@ Slow peers: ARPACK + UMFPACK and scipy (single-threaded LU, time growing about a
 18k to 222k DoFs: 7.8 -> 300 s and 4.7 -> 757 s, peak 7.5 and 9.8 GB at 254k in FACTS.md) run
 only up to --slow-peer-limit DoFs and --slow-peer-repetitions times; above that the CSV has a
 'skipped' row saying why.
-Large sizes (above --large-from, default 500k DoFs: the ~1M one): only ours and the goal's peer, SLEPc
-on 2 ranks, run, once (about 14 minutes together at 1M). ARPACK + CHOLMOD shares our factorization (its
+Large sizes (above --large-from, default 500k DoFs: the ~1M one): only ours (serial, and over MUMPS
+on 2 ranks) and the goal's peer, SLEPc on 2 ranks, run, once (about 14 minutes together at 1M). ARPACK + CHOLMOD shares our factorization (its
 ratio is known from the smaller sizes), SLEPc on 1 rank would hold the whole MUMPS factor (~19 GB
 beside 24 GiB), and three repetitions of the pair would take over 40 minutes.
 """
@@ -110,13 +111,14 @@ def run(command, env_extra=None):
     return subprocess.CompletedProcess(command, 0, stdout, stderr)
 
 
-def run_ours(build, folder, fine_size, operator, eigensolver, launcher=()):
-    """modal-precompute on the plate; launcher: mpirun and its arguments, when under MPI."""
+def run_ours(build, folder, fine_size, operator, eigensolver, launcher=(), env_extra=None, options=()):
+    """modal-precompute on the plate; launcher: mpirun and its arguments, when under MPI; options:
+    more command-line options (--distributed: the MPI path on one rank)."""
     os.makedirs(folder, exist_ok=True)
     prm = os.path.join(folder, f"facts_plate_{operator}_{eigensolver}.prm")
     open(prm, "w").write(scene(fine_size, operator, eigensolver))
     out = run(list(launcher) + TIME + [os.path.join(build, "bin", "modal-precompute"), prm, "--output-dir", folder,
-                                       "--quiet"])
+                                       "--quiet"] + list(options), env_extra)
     report = json.load(open(os.path.join(folder, "report.json")))
     rib = [s for s in report["spaces"] if s["name"] == "rib"][0]
     e = rib["eigensolver"]
@@ -172,7 +174,7 @@ def main():
                         help="above this many DoFs only ours and SLEPc on 2 ranks run, once (see the module doc)")
     parser.add_argument("--skip-arpack-above", type=int, default=2000000,
                         help="ARPACK + CHOLMOD runs only up to this many DoFs")
-    parser.add_argument("--solvers", default="ours,arpack,lobpcg,lobpcg2,slepc1,slepc2,umfpack,scipy",
+    parser.add_argument("--solvers", default="ours,arpack,lobpcg,lobpcg2,mumps1,mumps2,slepc1,slepc2,umfpack,scipy",
                         help="which solvers run (ours is always first: it exports K and M); the others get a "
                              "'skipped: not in --solvers' row")
     parser.add_argument("--memory-reserve-mb", type=float, default=0.,
@@ -193,16 +195,22 @@ def main():
                  "arpack": "ARPACK + CHOLMOD supernodal (METIS, OpenBLAS 2 threads)",
                  "lobpcg": "ours: LOBPCG (Anasazi) + AMG (ML), no factorization",
                  "lobpcg2": "ours: LOBPCG (Anasazi) + AMG (ML), no factorization, distributed",
+                 "mumps1": "ours, distributed: block Krylov over MUMPS Cholesky (PETSc; OpenBLAS 1 thread/rank)",
+                 "mumps2": "ours, distributed: block Krylov over MUMPS Cholesky (PETSc; OpenBLAS 1 thread/rank)",
                  "slepc1": "SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
                  "slepc2": "SLEPc Krylov-Schur + MUMPS Cholesky (OpenBLAS 1 thread/rank)",
                  "umfpack": "ARPACK + deal.II SparseDirectUMFPACK (OpenBLAS)",
                  "scipy": "scipy eigsh sigma=0 (ARPACK + SuperLU)"}
-        ranks = dict(ours=1, arpack=1, lobpcg=1, lobpcg2=2, slepc1=1, slepc2=2, umfpack=1, scipy=1)
+        ranks = dict(ours=1, arpack=1, lobpcg=1, lobpcg2=2, mumps1=1, mumps2=2, slepc1=1, slepc2=2, umfpack=1, scipy=1)
         runners = {
             "ours": lambda: run_ours(args.build, folder, fine, "cholmod", "block-krylov"),
             "arpack": lambda: run_ours(args.build, folder, fine, "cholmod", "arpack"),
             "lobpcg": lambda: run_ours(args.build, folder, fine, "cholmod", "lobpcg-amg"),
             "lobpcg2": lambda: run_ours(args.build, folder, fine, "cholmod", "lobpcg-amg", mpirun + ["2"]),
+            # The same MUMPS as the SLEPc peers below, on as many ranks and BLAS threads.
+            "mumps1": lambda: run_ours(args.build, folder, fine, "cholmod", "block-krylov", mpirun + ["1"], one_thread,
+                                       ["--distributed"]),
+            "mumps2": lambda: run_ours(args.build, folder, fine, "cholmod", "block-krylov", mpirun + ["2"], one_thread),
             "slepc1": lambda: run_peer(mpirun + ["1"] + TIME + [os.path.join(args.build, "bin", "bench-slepc-peer"), K, M,
                                                                 str(NEV)], one_thread),
             "slepc2": lambda: run_peer(mpirun + ["2"] + TIME + [os.path.join(args.build, "bin", "bench-slepc-peer"), K, M,
@@ -231,9 +239,9 @@ def main():
                     if repetition >= args.slow_peer_repetitions:
                         continue
                 if n is not None and n > args.large_from:
-                    if key not in ("ours", "slepc2"):
-                        skipped[key] = (f"skipped above --large-from {args.large_from} DoFs: only ours and the goal's "
-                                        "peer (SLEPc on 2 ranks) run there, once")
+                    if key not in ("ours", "slepc2", "mumps2"):
+                        skipped[key] = (f"skipped above --large-from {args.large_from} DoFs: only ours (serial, and "
+                                        "over MUMPS on 2 ranks) and the goal's peer (SLEPc on 2 ranks) run there, once")
                         continue
                     if repetition >= 1:
                         continue

@@ -73,7 +73,7 @@ def read_path_rows(path, paths):
         if not row.get("seconds"):
             continue
         key = ("lobpcg2" if "distributed" in row["solver"] else "lobpcg") if "LOBPCG" in row["solver"] else \
-            "direct" if "block Krylov" in row["solver"] else None
+            "direct" if "block Krylov" in row["solver"] and "MUMPS" not in row["solver"] else None
         if key:
             paths[key].append((int(row["n_dofs"]), float(row["seconds"]), float(row["peak_rss_mb_per_process"])))
 

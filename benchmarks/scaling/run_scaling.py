@@ -2,10 +2,12 @@
 """Scaling of the distributed precompute (docs/cluster.md, docs/performance.md): the FACTS plate of
 the eigensolver benchmark (50 modes of its graded 'rib' space) run by `mpirun -np N modal-precompute
 --distributed` for N = 1 and 2, interleaved and repeated, with each of MUMPS's two wrappers
-('Modes/Distributed factorization': PETSc's symmetric mode, Trilinos Amesos' LU); wall time per
-phase of the rib space, total time, the largest peak memory of one process, speedup. Writes a CSV.
+('Modes/Distributed factorization': PETSc's symmetric mode, Trilinos Amesos' LU) and each eigensolver
+over it ('Modes/Eigensolver': the block Krylov method, PARPACK); wall time per phase of the rib
+space, total time, the largest peak memory of one process, speedup. One BLAS thread per process.
+Writes a CSV.
   run_scaling.py --build build --out benchmarks/results/<host>/scaling.csv [--sizes 0.5,0.36] [--repeat 2]
-                 [--factorizations mumps-cholesky,mumps-lu]
+                 [--factorizations mumps-cholesky,mumps-lu] [--eigensolvers block-krylov,arpack]
 """
 import argparse
 import csv
@@ -24,12 +26,12 @@ from test_mpi_np1_vs_np2 import mpi_command, mpi_environment  # noqa: E402
 PHASES = ["assembly", "eigensolve", "interpolation", "static_correction", "validation"]
 
 
-def run(build, folder, fine_size, processes, factorization):
+def run(build, folder, fine_size, processes, factorization, eigensolver):
     os.makedirs(folder, exist_ok=True)
     prm = os.path.join(folder, "facts_plate.prm")
-    text = scene(fine_size, "cholmod", "arpack").replace("set Export matrices = true", "set Export matrices = false")
-    text = text.replace("set Eigensolver = arpack",
-                        f"set Eigensolver = arpack\n  set Distributed factorization = {factorization}")
+    text = scene(fine_size, "cholmod", eigensolver).replace("set Export matrices = true", "set Export matrices = false")
+    text = text.replace(f"set Eigensolver = {eigensolver}",
+                        f"set Eigensolver = {eigensolver}\n  set Distributed factorization = {factorization}")
     open(prm, "w").write(text)
     command = mpi_command("mpirun", processes) + [os.path.join(build, "bin", "modal-precompute"), prm,
                                                    "--output-dir", folder, "--quiet", "--distributed"]
@@ -39,7 +41,7 @@ def run(build, folder, fine_size, processes, factorization):
     report = json.load(open(os.path.join(folder, "report.json")))
     rib = [s for s in report["spaces"] if s["name"] == "rib"][0]
     row = dict(fine_size_mm=fine_size, n_dofs=rib["n_dofs"], processes=processes, factorization=factorization,
-               factor_nonzeros=rib["eigensolver"]["factor_nonzeros"],
+               eigensolver=eigensolver, factor_nonzeros=rib["eigensolver"]["factor_nonzeros"],
                total_s=report["timings_s"]["total"], max_peak_memory_mb=report["processes"]["max_peak_memory_mb"])
     for phase in PHASES:
         row[f"{phase}_s"] = rib["timings_s"].get(phase, 0.)
@@ -55,23 +57,26 @@ def main():
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--factorizations", default="mumps-cholesky,mumps-lu",
                         help="'Modes/Distributed factorization' values, each run at np 1 and 2")
+    parser.add_argument("--eigensolvers", default="block-krylov",
+                        help="'Modes/Eigensolver' values over each factorization (block-krylov, arpack: PARPACK)")
     args = parser.parse_args()
     medians = []
-    factorizations = args.factorizations.split(",")
+    configurations = [(f, e) for f in args.factorizations.split(",") for e in args.eigensolvers.split(",")]
     for fine in (float(s) for s in args.sizes.split(",")):
-        runs = {(f, p): [] for f in factorizations for p in (1, 2)}
+        runs = {(c, p): [] for c in configurations for p in (1, 2)}
         for repetition in range(args.repeat):
-            for factorization in factorizations:
+            for configuration in configurations:
                 for processes in (1, 2):  # interleaved: all see the same machine state
-                    folder = os.path.join(args.work, f"fine_{fine}_{factorization}_np{processes}")
-                    row = run(args.build, folder, fine, processes, factorization)
-                    runs[(factorization, processes)].append(row)
-                    print(f"[{fine} mm, {row['n_dofs']} DoFs, {factorization}, np {processes}, run {repetition + 1}] "
-                          f"eigensolve {row['eigensolve_s']:.1f} s, total {row['total_s']:.1f} s, "
+                    name = "_".join(configuration)
+                    folder = os.path.join(args.work, f"fine_{fine}_{name}_np{processes}")
+                    row = run(args.build, folder, fine, processes, *configuration)
+                    runs[(configuration, processes)].append(row)
+                    print(f"[{fine} mm, {row['n_dofs']} DoFs, {' + '.join(configuration)}, np {processes}, "
+                          f"run {repetition + 1}] eigensolve {row['eigensolve_s']:.1f} s, total {row['total_s']:.1f} s, "
                           f"{row['max_peak_memory_mb']:.0f} MB per process", flush=True)
-        for factorization in factorizations:
+        for configuration in configurations:
             for processes in (1, 2):
-                rows = runs[(factorization, processes)]
+                rows = runs[(configuration, processes)]
                 median = dict(rows[0])
                 for key in ["total_s", "max_peak_memory_mb"] + [f"{p}_s" for p in PHASES]:
                     values = [r[key] for r in rows]
@@ -83,7 +88,7 @@ def main():
             for key in ("eigensolve_s", "total_s"):
                 two[f"speedup_{key[:-2]}"] = one[key] / two[key]
             two["memory_per_process_vs_np1"] = two["max_peak_memory_mb"] / one["max_peak_memory_mb"]
-            print(f"[{fine} mm, {factorization}] np 2 against np 1: eigensolve {two['speedup_eigensolve']:.2f}x, "
+            print(f"[{fine} mm, {' + '.join(configuration)}] np 2 against np 1: eigensolve {two['speedup_eigensolve']:.2f}x, "
                   f"total {two['speedup_total']:.2f}x, memory per process {100 * two['memory_per_process_vs_np1']:.0f} %")
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     fields = sorted({k for row in medians for k in row}, key=lambda k: (k not in medians[0], k))

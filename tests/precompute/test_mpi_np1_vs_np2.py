@@ -16,6 +16,9 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
 * MUMPS through both wrappers: np = 2 factorizes with the symmetric mode (PETSc, the default), and
   with 'Distributed factorization = mumps-lu' (Trilinos Amesos' LU) its .h5 equals the serial one
   as above;
+* both eigensolvers over MUMPS: the runs above take the serial path's block Krylov method (MUMPS's
+  block solves), and with 'Eigensolver = arpack' np = 2 runs PARPACK, whose .h5 equals the serial
+  one as above;
 * with 'Modes/Shift' at a tenth of the first frequency (MUMPS and CHOLMOD then factorize K - shift M and
   both paths refine their static solves against K): np = 2 vs serial, every validation error and the
   full contact responses to 1e-8, solve residuals <= 1e-9, more than one refinement step on both;
@@ -189,15 +192,19 @@ def main():
                 expect(max(x["contact_rel_error_corrected"], y["contact_rel_error_corrected"]) <= 1e-8,
                        f"{case}: corrected contact error {y['contact_rel_error_corrected']:.1e} <= 1e-8 ({label})")
 
-    # MUMPS's two wrappers: the default symmetric mode (PETSc) above, and the LU (Trilinos Amesos).
+    # MUMPS's two wrappers: the default symmetric mode (PETSc) above, and the LU (Trilinos Amesos);
+    # the eigensolvers over it: the block Krylov method by default (above), PARPACK when asked.
     expect(all("mumps-cholesky" in space["eigensolver"]["method"] for space in np2["spaces"]),
            "np=2 factorized with MUMPS's symmetric mode (the default)")
-    lu_dir = os.path.join(args.workdir, "np2_lu")
-    lu, _ = run(mpi_command(args.mpirun, 2) + [args.binary], lu_dir, np1_dir,
-                extra="subsection Modes\n  set Distributed factorization = mumps-lu\nend\n")
-    expect(all("mumps-lu" in space["eigensolver"]["method"] for space in lu["spaces"]),
-           "np=2 with 'Distributed factorization = mumps-lu' factorized with MUMPS's LU")
-    compare_h5(os.path.join(lu_dir, SCENE + ".h5"), h5["serial"], "np=2 MUMPS LU vs serial", expect)
+    expect(all("block Krylov" in space["eigensolver"]["method"] for space in np1["spaces"] + np2["spaces"]),
+           "np=1 and np=2 ran the block Krylov eigensolver over MUMPS (the default)")
+    for name, setting, method, label in [("np2_lu", "Distributed factorization = mumps-lu", "mumps-lu", "MUMPS LU"),
+                                         ("np2_parpack", "Eigensolver = arpack", "PARPACK", "PARPACK")]:
+        other, _ = run(mpi_command(args.mpirun, 2) + [args.binary], os.path.join(args.workdir, name), np1_dir,
+                       extra=f"subsection Modes\n  set {setting}\nend\n")
+        expect(all(method in space["eigensolver"]["method"] for space in other["spaces"]),
+               f"np=2 with '{setting}' ran {method}")
+        compare_h5(os.path.join(args.workdir, name, SCENE + ".h5"), h5["serial"], f"np=2 {label} vs serial", expect)
 
     # A shifted factorization: the static solves of both paths are refined against K, so np = 2 and the
     # serial path give the same full responses and validation errors (before the distributed path refined,
@@ -225,7 +232,7 @@ def main():
 
     # Errors under mpirun: a parse error (every process) and run-time errors (inside the space; MUMPS's
     # symmetric indefinite mode factorizes K - shift M above the first eigenvalue, which the serial
-    # Cholesky refuses, and PARPACK then finds a mode below the shift).
+    # Cholesky refuses, and the eigensolver then finds a mode below the shift).
     bad_dir = os.path.join(args.workdir, "bad")
     os.makedirs(bad_dir, exist_ok=True)
     base = open(os.path.join(HERE, "small_scene.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))

@@ -15,9 +15,14 @@ Done twice: serial jobs against a serial run (tolerance 1e-12, and the .mrt byte
 serial path is deterministic), and (with --mpirun) jobs under `mpirun -np 2` against a run under
 `mpirun -np 2` (the distributed path numbers DoFs differently from the serial one, so each is
 compared with its own kind). Two whole runs under mpirun -np 2 already differ in the last digits
-(MPI reductions and MUMPS are not bit-reproducible: 2.8e-11 of 29.5 in the modes, 8e-13 of 1.0 in
-a transfer matrix, measured), so that comparison allows 1e-10 of the largest entry, and 1e-9
-absolute for the report's round-off-level figures (residuals, corrected errors).
+(MUMPS's solves are not bit-reproducible there), and the block Krylov eigensolver amplifies that
+to the level of its tolerance ('Modes/Tolerance' 1e-10 on the Ritz residuals): measured, 1.6e-9 of
+29 in the modes, 3e-10 relative in the validation's corrected field errors, and now and then one
+block more or less before the stop (4e-9 against 2.6e-10 in the largest eigen-residual). So that
+comparison allows 1e-8 of the largest entry, 1e-8 absolute for the report's round-off-level figures
+(residuals, corrected errors), and the eigensolver's counts of solved vectors may differ; the
+modes' signs are fixed by the eigensolver (a positive product with its random start column), so
+they do not flip between runs.
 
 Bad inputs exit non-zero with a message naming what is wrong, and a refused merge writes nothing:
 a missing scenario, a duplicated scenario, a partial result of another scene, other parameters, a
@@ -46,6 +51,8 @@ ROUND_OFF_LEVEL = {"orthonormality_error", "max_relative_residual", "contact_rel
                    "solve_relative_residual", "two_contact_rel_error_corrected"}
 # Report entries that measure the run rather than the results (and every time in seconds, "*_s").
 RUN_DEPENDENT = {"processes", "seconds", "seconds_per_candidate", "reused", "h5_bytes", "parameter_file"}
+# The eigensolver's counts, which depend on where round-off puts its stop when runs are not bit-reproducible.
+ITERATION_COUNTS = {"operator_applications", "solved_vectors"}
 
 failures = []
 
@@ -150,28 +157,31 @@ def compare_mrt(merged, whole, label, tolerance):
     return open(merged, "rb").read() == open(whole, "rb").read()
 
 
-def report_differences(a, b, tolerance, path=""):
-    """Where two reports differ, ignoring what measures the run; numbers to `tolerance` relative."""
+def report_differences(a, b, tolerance, ignored, path=""):
+    """Where two reports differ, but for the `ignored` keys; numbers to `tolerance` relative."""
     if isinstance(a, dict) and isinstance(b, dict):
-        keys = {k for k in set(a) | set(b) if k not in RUN_DEPENDENT and not k.endswith("_s")}
+        keys = {k for k in set(a) | set(b) if k not in ignored and not k.endswith("_s")}
         return [d for k in sorted(keys) for d in
-                (report_differences(a[k], b[k], tolerance, f"{path}/{k}") if k in a and k in b else [f"{path}/{k}"])]
+                (report_differences(a[k], b[k], tolerance, ignored, f"{path}/{k}") if k in a and k in b
+                 else [f"{path}/{k}"])]
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{path}: {len(a)} vs {len(b)} entries"]
-        return [d for k, (x, y) in enumerate(zip(a, b)) for d in report_differences(x, y, tolerance, f"{path}[{k}]")]
+        return [d for k, (x, y) in enumerate(zip(a, b))
+                for d in report_differences(x, y, tolerance, ignored, f"{path}[{k}]")]
     if isinstance(a, float) or isinstance(b, float):
         key = path.split("/")[-1].split("[")[0]
-        allowed = 1e-9 if tolerance > 0 and key in ROUND_OFF_LEVEL else tolerance * abs(b)
+        allowed = max(1e-9, tolerance) if key in ROUND_OFF_LEVEL else tolerance * abs(b)
         return [] if abs(a - b) <= allowed else [f"{path}: {a!r} vs {b!r}"]
     return [] if a == b else [f"{path}: {a!r} vs {b!r}"]
 
 
-def compare_reports(merged, whole, label, tolerance):
+def compare_reports(merged, whole, label, tolerance, bit_reproducible):
     m, w = json.load(open(merged)), json.load(open(whole))
-    differences = report_differences(m, w, tolerance)
-    expect(not differences, f"{label} report.json: equal but for times, memory, process counts "
-           f"(numbers to {tolerance:g}) {differences[:5] or ''}")
+    ignored = RUN_DEPENDENT | (set() if bit_reproducible else ITERATION_COUNTS)
+    differences = report_differences(m, w, tolerance, ignored)
+    expect(not differences, f"{label} report.json: equal but for times, memory, process counts"
+           f"{'' if bit_reproducible else ', solved vectors'} (numbers to {tolerance:g}) {differences[:5] or ''}")
     expect(m["processes"]["count"] == w["processes"]["count"], f"{label} report.json: processes.count "
            f"{m['processes']['count']} (the largest job's) = the one run's {w['processes']['count']}")
 
@@ -191,7 +201,8 @@ def run_and_merge(args, label, command, mesh_folder, tolerance, bit_reproducible
     identical = compare_mrt(os.path.join(jobs, SCENE + ".mrt"), os.path.join(whole, SCENE + ".mrt"), label, tolerance)
     if bit_reproducible:
         expect(identical, f"{label} .mrt: byte for byte the one-run file")
-    compare_reports(os.path.join(jobs, "report.json"), os.path.join(whole, "report.json"), label, tolerance)
+    compare_reports(os.path.join(jobs, "report.json"), os.path.join(whole, "report.json"), label, tolerance,
+                    bit_reproducible)
     for name in SCENARIOS:
         vtu = f"modes_{name}.vtu"
         copied = open(os.path.join(jobs, vtu), "rb").read() == open(os.path.join(jobs, "partial", vtu), "rb").read()
@@ -268,7 +279,7 @@ def main():
 
     serial_jobs = run_and_merge(args, "serial", [], meshes, 1e-12, True)
     if args.mpirun:
-        run_and_merge(args, "np2", mpi_command(args.mpirun, 2), meshes, 1e-10, False)
+        run_and_merge(args, "np2", mpi_command(args.mpirun, 2), meshes, 1e-8, False)
     bad_inputs(args, meshes, serial_jobs)
 
     print(f"{len(failures)} failed")
