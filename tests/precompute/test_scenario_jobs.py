@@ -20,7 +20,8 @@ to the level of its tolerance ('Modes/Tolerance' 1e-10 on the Ritz residuals): m
 29 in the modes, 3e-10 relative in the validation's corrected field errors, and now and then one
 block more or less before the stop (4e-9 against 2.6e-10 in the largest eigen-residual). So that
 comparison allows 1e-8 of the largest entry, 1e-8 absolute for the report's round-off-level figures
-(residuals, corrected errors), and the eigensolver's counts of solved vectors may differ; the
+(residuals, corrected errors), and the eigensolver's counts of solved vectors and MUMPS's workspace
+relaxation (a factorization redone with more workspace, named in the method) may differ; the
 modes' signs are fixed by the eigensolver (a positive product with its random start column), so
 they do not flip between runs.
 
@@ -30,6 +31,7 @@ file that is no partial result, an unknown scenario, a job without meshes.
 """
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -176,8 +178,18 @@ def report_differences(a, b, tolerance, ignored, path=""):
     return [] if a == b else [f"{path}: {a!r} vs {b!r}"]
 
 
+def without_workspace_relaxation(report):
+    """MUMPS's dynamic scheduling at np = 2 now and then needs more workspace than its analysis said,
+    and that factorization is redone with more (the method then says so): a property of the run."""
+    for space in report["spaces"]:
+        space["eigensolver"]["method"] = re.sub(r" \[workspace relaxed to \d+ %\]", "", space["eigensolver"]["method"])
+    return report
+
+
 def compare_reports(merged, whole, label, tolerance, bit_reproducible):
     m, w = json.load(open(merged)), json.load(open(whole))
+    if not bit_reproducible:
+        m, w = without_workspace_relaxation(m), without_workspace_relaxation(w)
     ignored = RUN_DEPENDENT | (set() if bit_reproducible else ITERATION_COUNTS)
     differences = report_differences(m, w, tolerance, ignored)
     expect(not differences, f"{label} report.json: equal but for times, memory, process counts"
