@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """On paper (docs/cluster.md): what the measured per-phase scaling predicts for 10 M and 100 M DoFs.
 
-Reads the measured CSVs of benchmarks/results/<host>/ (scaling.csv: the distributed precompute,
-93k, 223k and 446k DoFs, np = 1 and 2; eigensolver_*.csv: the serial CHOLMOD phases at 18k, 93k, 222k;
+Reads the measured CSVs of benchmarks/results/<host>/ (scaling_block_krylov.csv: the distributed
+precompute with today's direct path, MUMPS's symmetric mode and the block Krylov method, at 93k,
+223k and 446k DoFs, np = 1 and 2, with the eigensolve's factorization timed apart;
 eigensolver_lobpcg.csv: the path without a factorization beside the direct one, one run),
 fits growth exponents t ~ n^e from them, and extrapolates each phase with the exponent theory
 gives (stated beside the measured one) to the target sizes on a stated number of processes with a
@@ -30,31 +31,11 @@ def exponent(points):
 
 def read_scaling(path):
     rows = {}
+    numeric = re.compile(r"^[-+0-9.e]+$")
     for row in csv.DictReader(open(path)):
-        rows[(int(row["processes"]), int(row["n_dofs"]))] = {k: float(v) for k, v in row.items() if v and "min_max" not in k}
+        rows[(int(row["processes"]), int(row["n_dofs"]))] = {k: float(v) for k, v in row.items()
+                                                             if v and "min_max" not in k and numeric.match(v)}
     return rows
-
-
-def read_cholmod(results):
-    """(n, factorize s, seconds per solve) of the CHOLMOD rows of the eigensolver benchmark: the
-    factorization is the same in both CHOLMOD rows (the faster of the two is taken, timings are
-    noisy), one solve from the ARPACK row (one vector per solve, as PARPACK solves). Only the CSVs
-    of one run of one code (eigensolver_18k_93k.csv and eigensolver_222k.csv, with a 'phases'
-    column): the later ones (comment lines, 'phases_median_s') were measured with another code,
-    under another load."""
-    factorize, per_solve = {}, {}
-    for name in sorted(os.listdir(results)):
-        if name.startswith("eigensolver_") and name.endswith(".csv"):
-            for row in csv.DictReader(line for line in open(os.path.join(results, name)) if not line.startswith("#")):
-                if "phases" not in row or "CHOLMOD" not in row["solver"]:
-                    continue
-                n = int(row["n_dofs"])
-                seconds = float(re.search(r"factorize ([\d.]+) s", row["phases"]).group(1))
-                factorize[n] = min(seconds, factorize.get(n, seconds))
-                if row["solver"].startswith("ARPACK"):
-                    solves, total = re.search(r"(\d+) solves ([\d.]+) s", row["phases"]).groups()
-                    per_solve[n] = float(total) / int(solves)
-    return sorted((n, factorize[n], per_solve[n]) for n in per_solve)
 
 
 def read_paths(results):
@@ -141,7 +122,7 @@ def main():
     parser.add_argument("--iterative-efficiency", type=float, default=0.5,
                         help="assumed parallel efficiency of LOBPCG + AMG (sparse products, V-cycles, small reductions)")
     args = parser.parse_args()
-    rows = read_scaling(os.path.join(args.results, "scaling.csv"))
+    rows = read_scaling(os.path.join(args.results, "scaling_block_krylov.csv"))
     sizes = {p: sorted(n for q, n in rows if q == p) for p in (1, 2)}
     n0 = sizes[1][-1]  # the largest measured size: the anchor
     base = rows[(1, n0)]
@@ -155,19 +136,20 @@ def main():
               "validation": (4 / 3, "n^(4/3) per load")}
     for phase in PHASES:
         e = {p: exponent([(n, rows[(p, n)][f"{phase}_s"]) for n in sizes[p]]) for p in (1, 2)}
-        note = theory.get(phase, (None, "factorization n^2 + solves n^(4/3), below"))[1]
+        note = theory.get(phase, (None, "factorization n^2 + iteration n^(4/3), below"))[1]
         if phase == "validation":
             note = "not exercised: the benchmark has 0 validation samples (times are bookkeeping, < 1 ms)"
         print(f"| {phase} | {e[1]:.2f} | {e[2]:.2f} | {base[f'{phase}_s']:.2f} s | {note} |")
 
-    cholmod = read_cholmod(args.results)
-    e_factor = exponent([(n, f) for n, f, _ in cholmod])
-    e_solve = exponent([(n, s) for n, _, s in cholmod])
-    e_factor_top = exponent([(n, f) for n, f, _ in cholmod[-2:]])
-    e_solve_top = exponent([(n, s) for n, _, s in cholmod[-2:]])
-    print(f"\nSerial CHOLMOD inside the eigensolve ({', '.join(str(n) for n, _, _ in cholmod)} DoFs): factorization "
-          f"e = {e_factor:.2f} (largest two sizes {e_factor_top:.2f}; theory 2), one solve e = {e_solve:.2f} "
-          f"({e_solve_top:.2f}; theory 4/3).")
+    # The eigensolve's two parts, measured apart: MUMPS's analysis and factorization, and the block
+    # Krylov iteration (its solves, M products and orthogonalization).
+    def factorization(row):
+        return row["eigensolve_analyze_s"] + row["eigensolve_factorize_s"]
+    e_factor = exponent([(n, factorization(rows[(1, n)])) for n in sizes[1]])
+    e_iteration = exponent([(n, rows[(1, n)]["eigensolve_s"] - factorization(rows[(1, n)])) for n in sizes[1]])
+    print(f"\nInside the distributed eigensolve at np = 1: factorization (MUMPS's analysis + factorization) "
+          f"e = {e_factor:.2f} (theory 2), iteration (block Krylov, its solves reading the factor) e = {e_iteration:.2f} "
+          "(theory 4/3).")
 
     # Memory per process = D / np + R: D is what the processes share out (matrices, the factor, the
     # Lanczos vectors), R what each holds in full (the whole mesh, the gathered modes, the libraries).
@@ -182,14 +164,12 @@ def main():
           f"R = {split[sizes[1][0]][1]:.0f} MB; at {n0}: D = {d0:.0f} MB, R = {r0:.0f} MB; "
           f"e(D) = {e_d:.2f} (theory: factor fill n^(4/3)), e(R) = {e_r:.2f} (theory: n, the replicated mesh and modes).")
 
-    # The eigensolve at the anchor split as the serial CHOLMOD run splits it (factorization vs solves).
-    n_c, factor_c, solve_c = cholmod[-1]
-    solves = 111
-    factor_share = factor_c / (factor_c + solves * solve_c)
     eig = base["eigensolve_s"]
-    factor0, solves0 = eig * factor_share, eig * (1 - factor_share)
-    print(f"\nThe distributed eigensolve at {n0} ({eig:.1f} s, np = 1) split as CHOLMOD's at {n_c}: factorization "
-          f"{100 * factor_share:.0f} %, {solves} solves {100 * (1 - factor_share):.0f} %.")
+    factor0 = factorization(base)
+    solves0 = eig - factor0
+    solves = int(base["eigensolve_solves"])
+    print(f"\nThe distributed eigensolve at {n0} ({eig:.1f} s, np = 1): factorization {100 * factor0 / eig:.0f} %, "
+          f"iteration ({solves} solved vectors) {100 * solves0 / eig:.0f} %.")
 
     E = args.efficiency
     print(f"\n### Predicted wall time and memory (parallel efficiency {E:g} assumed for the direct solver, 1 for "
@@ -199,7 +179,7 @@ def main():
     predictions = {}
     for label, work, e, eff in [("assembly", base["assembly_s"], 1.0, 1.0),
                                 ("eigensolve: factorization (n^2)", factor0, 2.0, E),
-                                (f"eigensolve: {solves} solves (n^(4/3) each)", solves0, 4 / 3, E),
+                                (f"eigensolve: iteration, {solves} solves (n^(4/3) each)", solves0, 4 / 3, E),
                                 ("static correction (n^(4/3) per load)", base["static_correction_s"], 4 / 3, E),
                                 ("interpolation", base["interpolation_s"], 1.0, 1.0)]:
         values = [work * (n / n0) ** e / (p * eff) for n, p in TARGETS]
@@ -221,7 +201,7 @@ def main():
         print(f"| memory {what} | " + " | ".join(cells) + " |")
     for n, p in TARGETS:
         total_factor_tb = d0 * (n / n0) ** (4 / 3) / 1024 ** 2
-        print(f"\nAt {n / 1e6:.0f} M DoFs the shared part D (mostly MUMPS's LU factor) totals {total_factor_tb:.1f} TB; "
+        print(f"\nAt {n / 1e6:.0f} M DoFs the shared part D (mostly MUMPS's factor) totals {total_factor_tb:.1f} TB; "
               f"the factorization is {100 * predictions['eigensolve: factorization (n^2)'][TARGETS.index((n, p))] / totals[TARGETS.index((n, p))]:.0f} % "
               "of the predicted time.")
     print_iterative_path(args.results, args.iterative_efficiency)
