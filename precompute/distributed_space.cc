@@ -421,10 +421,7 @@ namespace modal_haptics
       DistributedBlockOperators operators(mass_matrix, *inverse, owned_layout, comm);
       const EigenSolution       solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
                                                               scene.modes.block_size, scene.modes.tolerance, verbose);
-      result.eigensolve_iteration_seconds = solution.eigensolve_iteration_seconds;
-      result.mass_product_seconds         = solution.mass_product_seconds;
-      result.orthogonalization_seconds    = solution.orthogonalization_seconds;
-      result.n_operator_applications      = solution.n_operator_applications;
+      space_parts::record_iteration(result, solution);
       result.eigensolver_method =
         "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + "), distributed";
       eigenvalues = solution.eigenvalues;

@@ -307,10 +307,7 @@ namespace modal_haptics
         method == EigensolverKind::block_krylov ?
           "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
           "ARPACK dsaupd mode 3 (shift-invert)";
-      result.n_operator_applications = eigen.n_operator_applications;
-      result.eigensolve_iteration_seconds          = eigen.eigensolve_iteration_seconds;
-      result.mass_product_seconds      = eigen.mass_product_seconds;
-      result.orthogonalization_seconds = eigen.orthogonalization_seconds;
+      space_parts::record_iteration(result, eigen);
       identify_rigid_body_modes();
       // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first
       // elastic eigenvalue.

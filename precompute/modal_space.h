@@ -405,6 +405,10 @@ namespace modal_haptics
     std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,
                                                unsigned int direction);
 
+    // What the iteration of a factorization's eigensolver (block Krylov, ARPACK) reports: its solves
+    // and their time, with its M products and orthogonalization apart.
+    void record_iteration(ModalSpaceResult &result, const EigenSolution &solution);
+
     // The loads of the static correction, candidates first, then the shared vertices that are not
     // candidates; sizes the result's candidate blocks and compliances (cross compliance if asked).
     std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,

@@ -33,6 +33,14 @@ namespace modal_haptics
     }
 
     // The shared vertices (compared across spaces) are solved with the candidates.
+    void record_iteration(ModalSpaceResult &result, const EigenSolution &solution)
+    {
+      result.n_operator_applications      = solution.n_operator_applications;
+      result.eigensolve_iteration_seconds = solution.eigensolve_iteration_seconds;
+      result.mass_product_seconds         = solution.mass_product_seconds;
+      result.orthogonalization_seconds    = solution.orthogonalization_seconds;
+    }
+
     std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
                                                      ModalSpaceResult &result)
     {
