@@ -78,17 +78,7 @@ namespace modal_haptics
         AssertThrow(M.Multiply(false, X, Y) == 0, ExcMessage("Epetra's product with M failed."));
       }
 
-      void solve(double *columns, const int count) override
-      {
-        const std::size_t rows = local_rows();
-        if (work.size() != std::size_t(count))
-          work.assign(count, layout); // copies of the layout share its map (no collective set-up)
-        for (int c = 0; c < count; ++c)
-          std::copy(columns + c * rows, columns + (c + 1) * rows, work[c].trilinos_vector()[0]);
-        inverse.solve_columns(work);
-        for (int c = 0; c < count; ++c)
-          std::copy(work[c].trilinos_vector()[0], work[c].trilinos_vector()[0] + rows, columns + c * rows);
-      }
+      void solve(double *columns, const int count) override { inverse.solve_block(columns, count); }
 
       void sum_over_processes(double *values, const std::size_t count) const override
       {
@@ -97,11 +87,10 @@ namespace modal_haptics
       }
 
     private:
-      const Epetra_CrsMatrix        &M;
-      const DistributedInverse      &inverse;
-      const DistributedVector       &layout;
-      const MPI_Comm                 comm;
-      std::vector<DistributedVector> work;
+      const Epetra_CrsMatrix   &M;
+      const DistributedInverse &inverse;
+      const DistributedVector  &layout;
+      const MPI_Comm            comm;
     };
 
     // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
@@ -360,7 +349,7 @@ namespace modal_haptics
         log("Modes/Operator (umfpack) chooses the serial factorization; under MPI MUMPS factorizes K");
       const auto kind = scene.modes.distributed_factorization;
       log(std::string("factorizing K with MUMPS (") +
-          (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric, PETSc") + ")");
+          (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric") + ")");
       if (shift != 0.)
         {
           shifted_matrix.copy_from(stiffness_matrix);

@@ -1,5 +1,5 @@
 // One modal space computed by every process of an MPI communicator: a fully distributed mesh,
-// Trilinos matrices, MUMPS (PETSc's, symmetric; or Trilinos Amesos' LU) for the shift-invert
+// Trilinos matrices, MUMPS (its own interface, symmetric; or Trilinos Amesos' LU) for the shift-invert
 // factorization, and the serial path's block Krylov eigensolver over its block solves (PARPACK with
 // 'Modes/Eigensolver = arpack'). It runs the same phases as compute_modal_space (modal_space.h) and returns the same
 // ModalSpaceResult, complete on every process: what the serial exporters need is evaluated where a

@@ -33,6 +33,21 @@ namespace modal_haptics
     return previous;
   }
 
+  std::vector<int> nested_dissection_of_nodes(std::vector<int> &xadj, std::vector<int> &adjncy,
+                                              std::vector<int> &weight)
+  {
+    static_assert(sizeof(idx_t) == sizeof(int), "METIS's idx_t is expected to be 32 bits wide (Debian's)");
+    idx_t options[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(options);
+    idx_t            vertices = idx_t(weight.size());
+    std::vector<int> order(vertices), inverse(vertices);
+    const int        status =
+      METIS_NodeND(&vertices, xadj.data(), adjncy.data(), weight.data(), options, order.data(), inverse.data());
+    AssertThrow(status == METIS_OK,
+                dealii::ExcMessage("METIS_NodeND failed (status " + std::to_string(status) + ", out of memory?)."));
+    return order;
+  }
+
   namespace
   {
     // Whether mpirun (Open MPI), a PMI launcher (MPICH's Hydra) or PMIx (srun) started this process:
@@ -89,61 +104,39 @@ namespace modal_haptics
       return std::clamp(dealii::MultithreadInfo::n_threads(), 1u, 8u);
     }
 
-    // A fill-reducing ordering: METIS's nested dissection of the graph of the mesh's nodes, not of
-    // the DoFs. Consecutive rows with the same sparsity pattern (a node's three displacement
-    // components, which deal.II numbers together) are one vertex, weighed by their count: a third
-    // of the vertices and a ninth of the edges, so METIS runs several times faster, and a
-    // separator never cuts a node's components apart. Returns CHOLMOD's Perm (Perm[k]: the row of
-    // A that comes k-th).
+    // The node graph's nested dissection (nested_dissection_of_nodes) as CHOLMOD's Perm (Perm[k]:
+    // the row of A that comes k-th).
     std::vector<SuiteSparse_long> node_graph_ordering(const dealii::SparsityPattern &pattern)
     {
-      const std::size_t n = pattern.n_rows();
-      const auto        sorted_row = [&](const std::size_t row) {
+      const std::size_t n          = pattern.n_rows();
+      const auto        first_rows = node_first_rows(n, [&](const std::size_t row) {
         std::vector<std::size_t> columns;
         for (auto it = pattern.begin(row); it != pattern.end(row); ++it)
           columns.push_back(it->column());
         std::sort(columns.begin(), columns.end());
         return columns;
-      };
-      // Nodes: runs of rows with equal patterns; first_row[g] .. first_row[g + 1] - 1 is node g.
-      std::vector<idx_t>       node_of_row(n);
-      std::vector<std::size_t> first_row;
-      std::vector<std::size_t> previous;
-      for (std::size_t row = 0; row < n; ++row)
-        {
-          auto columns = sorted_row(row);
-          if (first_row.empty() || columns != previous)
-            first_row.push_back(row);
-          node_of_row[row] = idx_t(first_row.size() - 1);
-          previous.swap(columns);
-        }
-      const idx_t n_nodes = idx_t(first_row.size());
-      first_row.push_back(n);
+      });
+      const std::size_t n_nodes = first_rows.size() - 1;
+      std::vector<int>  node_of_row(n);
+      for (std::size_t g = 0; g < n_nodes; ++g)
+        std::fill(node_of_row.begin() + first_rows[g], node_of_row.begin() + first_rows[g + 1], int(g));
 
-      std::vector<idx_t> xadj{0}, adjncy, weight(n_nodes);
-      for (idx_t g = 0; g < n_nodes; ++g)
+      std::vector<int> xadj{0}, adjncy, weight(n_nodes);
+      for (std::size_t g = 0; g < n_nodes; ++g)
         {
-          weight[g]           = idx_t(first_row[g + 1] - first_row[g]);
+          weight[g]                = int(first_rows[g + 1] - first_rows[g]);
           const std::size_t before = adjncy.size();
-          for (auto it = pattern.begin(first_row[g]); it != pattern.end(first_row[g]); ++it)
-            if (node_of_row[it->column()] != g)
+          for (auto it = pattern.begin(first_rows[g]); it != pattern.end(first_rows[g]); ++it)
+            if (node_of_row[it->column()] != int(g))
               adjncy.push_back(node_of_row[it->column()]);
           std::sort(adjncy.begin() + before, adjncy.end());
           adjncy.erase(std::unique(adjncy.begin() + before, adjncy.end()), adjncy.end());
-          xadj.push_back(idx_t(adjncy.size()));
+          xadj.push_back(int(adjncy.size()));
         }
-      idx_t options[METIS_NOPTIONS];
-      METIS_SetDefaultOptions(options);
-      std::vector<idx_t> order(n_nodes), inverse(n_nodes);
-      idx_t              vertices = n_nodes;
-      const int status = METIS_NodeND(&vertices, xadj.data(), adjncy.data(), weight.data(), options, order.data(),
-                                      inverse.data());
-      AssertThrow(status == METIS_OK, ExcMessage("METIS_NodeND failed (status " + std::to_string(status) +
-                                                 ", out of memory?)."));
       std::vector<SuiteSparse_long> permutation;
       permutation.reserve(n);
-      for (const idx_t g : order)
-        for (std::size_t row = first_row[g]; row < first_row[g + 1]; ++row)
+      for (const int g : nested_dissection_of_nodes(xadj, adjncy, weight))
+        for (std::size_t row = first_rows[g]; row < first_rows[g + 1]; ++row)
           permutation.push_back(SuiteSparse_long(row));
       return permutation;
     }

@@ -9,8 +9,10 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace modal_haptics
 {
@@ -44,6 +46,33 @@ namespace modal_haptics
   private:
     const int previous;
   };
+
+  // The mesh's nodes among a matrix's rows: runs of consecutive rows with the same sparsity pattern
+  // (a node's three displacement components, which deal.II numbers together). sorted_row(i) gives
+  // row i's columns in increasing order. Returns each node's first row, then n_rows.
+  template <typename SortedRow>
+  std::vector<std::size_t> node_first_rows(const std::size_t n_rows, const SortedRow &sorted_row)
+  {
+    std::vector<std::size_t> first_rows;
+    decltype(sorted_row(0))  previous;
+    for (std::size_t row = 0; row < n_rows; ++row)
+      {
+        auto columns = sorted_row(row);
+        if (first_rows.empty() || columns != previous)
+          first_rows.push_back(row);
+        previous.swap(columns);
+      }
+    first_rows.push_back(n_rows);
+    return first_rows;
+  }
+
+  // A fill-reducing ordering of the nodes: METIS's nested dissection of their graph (adjacency
+  // lists without self loops, as METIS's CSR arrays; weight: each node's rows), on the node graph
+  // rather than the rows' because it has a third of the vertices and a ninth of the edges (METIS
+  // runs several times faster) and a separator never cuts a node's components apart. Returns the
+  // nodes in pivot order. The serial (CHOLMOD) and the distributed (MUMPS) factorizations use it.
+  std::vector<int> nested_dissection_of_nodes(std::vector<int> &xadj, std::vector<int> &adjncy,
+                                              std::vector<int> &weight);
 
   // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
   int set_openblas_threads(int threads);

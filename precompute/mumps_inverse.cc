@@ -9,7 +9,8 @@
 #include <Epetra_CrsMatrix.h>
 #include <Epetra_FEVector.h>
 #include <Epetra_MpiComm.h>
-#include <petscmat.h>
+#include <dmumps_c.h>
+#include <mpi.h>
 
 #include <algorithm>
 #include <cmath>
@@ -36,30 +37,131 @@ namespace modal_haptics
 
   namespace
   {
-    void check(const PetscErrorCode code, const char *call)
-    {
-      AssertThrow(code == 0, ExcMessage(std::string("PETSc's ") + call + " failed (error " + std::to_string(code) +
-                                        ") while factorizing K with MUMPS."));
-    }
-
     // A NaN or infinity out of a solve would otherwise surface far away (PARPACK's "info -9999"
-    // after DLASCL complaints): said here, where it appears, with whether the right-hand side
+    // after DLASCL complaints): said here, where it appears, with whether the right-hand sides
     // already had one. One pass over the local entries, small beside the solve.
     bool all_finite(const double *values, const std::size_t count)
     {
       return std::all_of(values, values + count, [](const double v) { return std::isfinite(v); });
     }
 
-    void expect_finite_solution(const Vector &solution, const double *right_hand_side)
+    void expect_finite_solution(const double *solution, const std::size_t count, const bool loads_finite,
+                                const MPI_Comm comm)
     {
-      const auto count = solution.locally_owned_size();
-      if (all_finite(solution.trilinos_vector()[0], count))
+      if (all_finite(solution, count))
         return;
-      const auto process = dealii::Utilities::MPI::this_mpi_process(solution.get_mpi_communicator());
-      AssertThrow(false, ExcMessage("MUMPS's solve returned a non-finite value on process " + std::to_string(process) +
-                                    (all_finite(right_hand_side, count) ? " from a finite right-hand side"
-                                                                         : ", whose right-hand side was not finite either") +
+      AssertThrow(false, ExcMessage("MUMPS's solve returned a non-finite value on process " +
+                                    std::to_string(dealii::Utilities::MPI::this_mpi_process(comm)) +
+                                    (loads_finite ? " from finite right-hand sides" :
+                                                    ", whose right-hand sides were not finite either") +
                                     "."));
+    }
+
+    // Row i of E (a local index), its global columns in increasing order.
+    std::vector<long long> sorted_global_row(const Epetra_CrsMatrix &E, const std::size_t i)
+    {
+      int     count;
+      double *values;
+      int    *indices;
+      E.ExtractMyRowView(int(i), count, values, indices);
+      std::vector<long long> columns(count);
+      for (int k = 0; k < count; ++k)
+        columns[k] = E.ColMap().GID64(indices[k]);
+      std::sort(columns.begin(), columns.end());
+      return columns;
+    }
+
+    // The nodes (node_first_rows, factorization.h) of a matrix whose processes own consecutive
+    // ranges of rows in the order of their ranks: every node's first row, known to every process.
+    struct DistributedNodes
+    {
+      std::vector<long long> first_rows;      // by global node number
+      std::vector<int>       counts, offsets; // each process's nodes
+      long long              n_rows = 0;
+
+      DistributedNodes(const std::vector<std::size_t> &own_first_rows, const long long first_row,
+                       const long long n_rows, const MPI_Comm comm)
+        : n_rows(n_rows)
+      {
+        const int n_own = int(own_first_rows.size()) - 1, n_processes = dealii::Utilities::MPI::n_mpi_processes(comm);
+        counts.resize(n_processes);
+        offsets.assign(n_processes, 0);
+        AssertThrowMPI(MPI_Allgather(&n_own, 1, MPI_INT, counts.data(), 1, MPI_INT, comm));
+        for (int p = 1; p < n_processes; ++p)
+          offsets[p] = offsets[p - 1] + counts[p - 1];
+        std::vector<long long> own(n_own);
+        for (int g = 0; g < n_own; ++g)
+          own[g] = first_row + (long long)(own_first_rows[g]);
+        first_rows.resize(offsets.back() + counts.back());
+        AssertThrowMPI(MPI_Allgatherv(own.data(), n_own, MPI_LONG_LONG, first_rows.data(), counts.data(),
+                                      offsets.data(), MPI_LONG_LONG, comm));
+        AssertThrow(std::is_sorted(first_rows.begin(), first_rows.end()),
+                    ExcMessage("The processes' rows are not in the order of their ranks."));
+      }
+      int node_of(const long long row) const
+      {
+        return int(std::upper_bound(first_rows.begin(), first_rows.end(), row) - first_rows.begin()) - 1;
+      }
+      long long end_row(const int node) const
+      {
+        return std::size_t(node + 1) < first_rows.size() ? first_rows[node + 1] : n_rows;
+      }
+    };
+
+    // Gathers a distributed vector of ints onto process 0 (elsewhere: empty).
+    std::vector<int> gather_on_host(const std::vector<int> &own, const MPI_Comm comm)
+    {
+      const bool       host  = dealii::Utilities::MPI::this_mpi_process(comm) == 0;
+      const int        count = int(own.size());
+      std::vector<int> counts(host ? dealii::Utilities::MPI::n_mpi_processes(comm) : 0), offsets(counts.size(), 0);
+      AssertThrowMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
+      for (std::size_t p = 1; p < counts.size(); ++p)
+        offsets[p] = offsets[p - 1] + counts[p - 1];
+      std::vector<int> all(host ? offsets.back() + counts.back() : 0);
+      AssertThrowMPI(MPI_Gatherv(own.data(), count, MPI_INT, all.data(), counts.data(), offsets.data(), MPI_INT, 0,
+                                 comm));
+      return all;
+    }
+
+    // MUMPS's pivot order (PERM_IN, each row's 1-based position; on process 0, MUMPS's host, and
+    // empty elsewhere): the serial path's ordering, METIS's nested dissection of the nodes' graph
+    // (factorization.h). Each process finds its own nodes among its rows and lists their neighbours;
+    // the host gathers that graph (a ninth of the matrix's entries) and orders it. Debian's MUMPS is
+    // built without METIS and SCOTCH: its own choice was PORD, whose factor had 7-12 % more entries
+    // than this ordering's and took 7-27 % longer to compute at 406k DoFs (docs/cluster.md).
+    std::vector<MUMPS_INT> node_graph_pivot_order(const Epetra_CrsMatrix &E, const long long first_row,
+                                                  const MPI_Comm comm)
+    {
+      const auto own_first_rows =
+        node_first_rows(std::size_t(E.NumMyRows()), [&](const std::size_t i) { return sorted_global_row(E, i); });
+      const DistributedNodes nodes(own_first_rows, first_row, E.NumGlobalRows64(), comm);
+      const int              first_node = nodes.offsets[dealii::Utilities::MPI::this_mpi_process(comm)];
+
+      std::vector<int> degrees, neighbours, weights;
+      for (std::size_t g = 0; g + 1 < own_first_rows.size(); ++g)
+        {
+          weights.push_back(int(own_first_rows[g + 1] - own_first_rows[g]));
+          const std::size_t before = neighbours.size();
+          for (const long long column : sorted_global_row(E, own_first_rows[g]))
+            if (const int node = nodes.node_of(column);
+                node != first_node + int(g) && (neighbours.size() == before || neighbours.back() != node))
+              neighbours.push_back(node); // sorted columns: a node's rows come one after the other
+          degrees.push_back(int(neighbours.size() - before));
+        }
+      const std::vector<int> all_degrees = gather_on_host(degrees, comm);
+      std::vector<int>       all_weights = gather_on_host(weights, comm), adjncy = gather_on_host(neighbours, comm);
+      if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
+        return {};
+
+      std::vector<int> xadj(all_degrees.size() + 1, 0);
+      for (std::size_t g = 0; g < all_degrees.size(); ++g)
+        xadj[g + 1] = xadj[g] + all_degrees[g];
+      std::vector<MUMPS_INT> position(nodes.n_rows);
+      MUMPS_INT              next = 1;
+      for (const int g : nested_dissection_of_nodes(xadj, adjncy, all_weights))
+        for (long long row = nodes.first_rows[g]; row < nodes.end_row(g); ++row)
+          position[row] = next++;
+      return position;
     }
 
     // Amesos_Mumps through deal.II: MUMPS's unsymmetric LU.
@@ -71,6 +173,7 @@ namespace modal_haptics
         , stats(stats)
       {
         stats.method = "mumps-lu (Trilinos Amesos_Mumps, distributed)";
+        layout.reinit(A.locally_owned_range_indices(), A.get_mpi_communicator());
         dealii::Timer timer;
         solver.initialize(A);
         stats.factorize_seconds = timer.wall_time();
@@ -79,232 +182,351 @@ namespace modal_haptics
       void vmult(Vector &dst, const Vector &src) const override
       {
         dealii::Timer timer;
+        const bool    loads_finite = all_finite(src.trilinos_vector()[0], src.locally_owned_size());
         solver.solve(dst, src);
-        expect_finite_solution(dst, src.trilinos_vector()[0]);
+        expect_finite_solution(dst.trilinos_vector()[0], dst.locally_owned_size(), loads_finite,
+                               dst.get_mpi_communicator());
         stats.solve_seconds += timer.wall_time();
         ++stats.n_solved_vectors;
       }
 
+      // Column by column: Amesos solves one vector at a time.
+      void solve_block(double *columns, const int count) const override
+      {
+        const std::size_t rows = layout.locally_owned_size();
+        Vector            load(layout), solution(layout);
+        for (int c = 0; c < count; ++c)
+          {
+            std::copy(columns + c * rows, columns + (c + 1) * rows, load.trilinos_vector()[0]);
+            vmult(solution, load);
+            std::copy(solution.trilinos_vector()[0], solution.trilinos_vector()[0] + rows, columns + c * rows);
+          }
+      }
+
     private:
+      Vector                                         layout;
       mutable dealii::SolverControl                  control;
       mutable dealii::TrilinosWrappers::SolverDirect solver;
       FactorizationStatistics                       &stats;
     };
 
-    // PETSc's MUMPS in its symmetric mode. A is copied row by row into a PETSc matrix with the
-    // same contiguous row ownership (deal.II's owned DoFs); the solves wrap the Trilinos vectors'
-    // local arrays, copying nothing.
-    class PetscMumpsCholesky : public DistributedInverse
+    // MUMPS in its symmetric mode, called directly (its C interface): the distributed matrix is
+    // handed over as the upper triangle's triplets, the right-hand sides stay where they are (MUMPS's
+    // distributed right-hand sides, ICNTL(20) = 10, read the caller's block in place) and the
+    // solution comes back distributed as MUMPS's factor is (ICNTL(21) = 1), moved to the owners of
+    // its rows by one MPI_Alltoallv whose plan is kept while MUMPS's rows stay the same. PETSc's
+    // MatMatSolve, the earlier way in, rebuilt and sorted that plan at every call (3 % of an np = 2
+    // eigensolve's samples at 406k DoFs, docs/cluster.md) and held a second copy of the matrix.
+    class MumpsCholesky : public DistributedInverse
     {
     public:
-      // Copies A and runs MUMPS's analysis (ordering, symbolic factorization): what the factor will
-      // need is known from here on (predicted_bytes_per_process), and factorize() computes it.
-      PetscMumpsCholesky(const dealii::TrilinosWrappers::SparseMatrix &A, const bool positive_definite,
-                         FactorizationStatistics &stats)
+      // Copies A's upper triangle and runs MUMPS's analysis (ordering, symbolic factorization): what
+      // the factor will need is known from here on (predicted_bytes_per_process), and factorize()
+      // computes it.
+      MumpsCholesky(const dealii::TrilinosWrappers::SparseMatrix &A, const bool positive_definite,
+                    FactorizationStatistics &stats)
         : positive_definite(positive_definite)
         , stats(stats)
       {
-        stats.method = std::string("mumps-cholesky (PETSc's MUMPS, symmetric ") +
-                       (positive_definite ? "positive definite" : "indefinite, with pivoting") + ", distributed)";
-        const Epetra_CrsMatrix &E    = A.trilinos_matrix();
-        comm                         = dynamic_cast<const Epetra_MpiComm &>(E.Comm()).Comm();
-        n_local                      = E.NumMyRows();
+        stats.method = std::string("mumps-cholesky (MUMPS, symmetric ") +
+                       (positive_definite ? "positive definite" : "indefinite, with pivoting") +
+                       ", METIS node ordering, distributed)";
+        const Epetra_CrsMatrix &E = A.trilinos_matrix();
+        // MUMPS's own communicator: its messages cannot meet Trilinos' or deal.II's.
+        AssertThrowMPI(MPI_Comm_dup(dynamic_cast<const Epetra_MpiComm &>(E.Comm()).Comm(), &comm));
+        n_local                   = E.NumMyRows();
+        first_row                 = E.RowMap().MinMyGID64();
+        AssertThrow(E.RowMap().MaxMyGID64() - first_row + 1 == n_local,
+                    ExcMessage("MUMPS's distributed path needs each process's DoFs to be one contiguous range."));
+        AssertThrow(E.NumGlobalRows64() < std::numeric_limits<MUMPS_INT>::max(),
+                    ExcMessage("K has " + std::to_string(E.NumGlobalRows64()) +
+                               " rows, more than MUMPS's 32-bit indices address."));
         dealii::Timer timer;
-        copy_matrix(E, comm, positive_definite);
-        check(MatFactorInfoInitialize(&info), "MatFactorInfoInitialize");
-        analyze(-1);
+        start_instance(int(E.NumGlobalRows64()));
+        copy_upper_triangle(E);
+        // The pivot order is ours (ICNTL(7) = 1), read by the host in a sequential analysis.
+        pivot_order         = node_graph_pivot_order(E, first_row, comm);
+        mumps.perm_in       = pivot_order.data();
+        mumps.icntl[7 - 1]  = 1;
+        mumps.icntl[28 - 1] = 1;
+        run(1, "analysis");
+        std::vector<MUMPS_INT>().swap(pivot_order);
         stats.analyze_seconds = timer.wall_time();
+      }
+
+      ~MumpsCholesky() override
+      {
+        mumps.job = -2; // JOB_END: frees MUMPS's data
+        dmumps_c(&mumps);
+        MPI_Comm_free(&comm);
       }
 
       // MUMPS's INFOG(16) after the analysis: its in-core data for the factorization, in MB, on the
       // process that needs most.
-      double predicted_bytes_per_process() const
-      {
-        PetscInt megabytes = 0;
-        check(MatMumpsGetInfog(factor, 16, &megabytes), "MatMumpsGetInfog");
-        return 1e6 * double(megabytes);
-      }
+      double predicted_bytes_per_process() const { return 1e6 * double(mumps.infog[16 - 1]); }
 
       // MUMPS works in the space its analysis estimated plus ICNTL(14) per cent; its dynamic
       // scheduling between processes can need more (INFOG(1) = -9 on the test scene's 4,686 DoFs at
-      // np = 2, for some of gmsh's meshes). PETSc then only marks the factor as failed, and every
-      // solve with it returns infinities: the status is checked, and a workspace shortfall is
-      // factorized anew with the relaxation doubled (up to 640 %).
+      // np = 2, for some of gmsh's meshes): a workspace shortfall is factorized anew with the
+      // relaxation doubled (up to 640 %), as MUMPS's manual advises.
       void factorize()
       {
         dealii::Timer timer;
-        PetscInt      relaxed_to = 0; // the ICNTL(14) of the last analysis, once it had to be raised
+        int           relaxed_to = 0; // the ICNTL(14) of the last attempt, once it had to be raised
+        mumps.a_loc   = matrix_values.data(); // the values only now: the analysis orders by the pattern
         for (;;)
           {
-            check(MatCholeskyFactorNumeric(factor, matrix, &info), "MatCholeskyFactorNumeric");
-            PetscInt status = 0, detail = 0, relaxation = 0;
-            check(MatMumpsGetInfog(factor, 1, &status), "MatMumpsGetInfog");
+            mumps.job = 2;
+            dmumps_c(&mumps);
+            const int status = mumps.infog[1 - 1];
             if (status >= 0)
               break;
-            check(MatMumpsGetInfog(factor, 2, &detail), "MatMumpsGetInfog");
-            check(MatMumpsGetIcntl(factor, 14, &relaxation), "MatMumpsGetIcntl");
+            const int  relaxation      = mumps.icntl[14 - 1];
             const bool workspace_short = status == -8 || status == -9 || status == -11 || status == -12 ||
                                          status == -14 || status == -15 || status == -17 || status == -20;
-            relaxed_to = std::max<PetscInt>({40, 2 * relaxation, 2 * relaxed_to});
+            relaxed_to = std::max({40, 2 * relaxation, 2 * relaxed_to});
             AssertThrow(workspace_short && relaxed_to <= 640,
                         ExcMessage("MUMPS's factorization of K failed: INFOG(1) = " + std::to_string(status) +
-                                   ", INFOG(2) = " + std::to_string(detail) + ", workspace relaxation ICNTL(14) = " +
-                                   std::to_string(relaxation) + " % (MUMPS's manual, section 'Error diagnostics'; " +
-                                   "-10: K is singular, is the part held? -13: out of memory)."));
-            analyze(relaxed_to);
+                                   ", INFOG(2) = " + std::to_string(mumps.infog[2 - 1]) +
+                                   ", workspace relaxation ICNTL(14) = " + std::to_string(relaxation) +
+                                   " % (MUMPS's manual, section 'Error diagnostics'; -10: K is singular, is the part "
+                                   "held? -13: out of memory)."));
+            mumps.icntl[14 - 1] = relaxed_to;
           }
         if (relaxed_to > 0)
           stats.method += " [workspace relaxed to " + std::to_string(relaxed_to) + " %]";
         stats.factorize_seconds = timer.wall_time();
-        PetscInt entries = 0; // INFOG(29): the factor's entries, in millions when negative
-        check(MatMumpsGetInfog(factor, 29, &entries), "MatMumpsGetInfog");
-        if (!positive_definite)
-          {
-            PetscInt negative_pivots = 0; // INFOG(12) with SYM = 2: the negative pivots of D
-            check(MatMumpsGetInfog(factor, 12, &negative_pivots), "MatMumpsGetInfog");
-            negative = negative_pivots;
-          }
+        // The factor is MUMPS's own now: the triplets are not read again (no iterative refinement).
+        std::vector<MUMPS_INT>().swap(matrix_rows);
+        std::vector<MUMPS_INT>().swap(matrix_columns);
+        std::vector<double>().swap(matrix_values);
+        const int entries = mumps.infog[29 - 1]; // the factor's entries, in millions when negative
         stats.factor_nonzeros = entries >= 0 ? double(entries) : -1e6 * double(entries);
-        check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &b), "VecCreateMPIWithArray");
-        check(VecCreateMPIWithArray(comm, 1, n_local, PETSC_DECIDE, nullptr, &x), "VecCreateMPIWithArray");
+        if (!positive_definite)
+          negative = mumps.infog[12 - 1]; // with SYM = 2: the negative pivots of D
+        solution_rows.resize(mumps.info[23 - 1]); // INFO(23): the solution's rows on this process
+        for (int i = 0; i < n_local; ++i)
+          owned_rows.push_back(MUMPS_INT(first_row + i + 1));
       }
 
-      ~PetscMumpsCholesky() override
+      void solve_block(double *columns, const int count) const override
       {
-        VecDestroy(&x);
-        VecDestroy(&b);
-        MatDestroy(&factor);
-        MatDestroy(&matrix);
+        dealii::Timer timer;
+        const bool    loads_finite = all_finite(columns, std::size_t(n_local) * count);
+        solution.resize(solution_rows.size() * count);
+        mumps.nrhs     = count;
+        mumps.nloc_rhs = n_local;
+        mumps.lrhs_loc = n_local;
+        mumps.irhs_loc = const_cast<MUMPS_INT *>(owned_rows.data()); // read only
+        mumps.rhs_loc  = columns;
+        mumps.lsol_loc = MUMPS_INT(solution_rows.size());
+        mumps.sol_loc  = solution.data();
+        mumps.isol_loc = solution_rows.data();
+        // MUMPS's blocking of right-hand sides (ICNTL(27)) is 32 columns by default: a static
+        // correction block of 48 would read the factor twice. The whole block in one pass: the
+        // default scene's static correction at np = 2 took 8 % less time (docs/cluster.md).
+        mumps.icntl[27 - 1] = count;
+        run(3, "solve");
+        move_solution_to_owners(columns, count);
+        expect_finite_solution(columns, std::size_t(n_local) * count, loads_finite, comm);
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += count;
       }
 
       void vmult(Vector &dst, const Vector &src) const override
       {
-        dealii::Timer timer;
-        check(VecPlaceArray(b, src.trilinos_vector()[0]), "VecPlaceArray");
-        check(VecPlaceArray(x, dst.trilinos_vector()[0]), "VecPlaceArray");
-        check(MatSolve(factor, b, x), "MatSolve");
-        check(VecResetArray(x), "VecResetArray");
-        check(VecResetArray(b), "VecResetArray");
-        expect_finite_solution(dst, src.trilinos_vector()[0]);
-        stats.solve_seconds += timer.wall_time();
-        ++stats.n_solved_vectors;
+        dst = src;
+        solve_block(dst.trilinos_vector()[0], 1);
       }
 
+      // One block of all columns (MUMPS reads its factor once for them).
       void solve_columns(std::vector<Vector> &columns) const override
       {
-        if (columns.empty())
-          return;
-        dealii::Timer  timer;
-        const PetscInt n_columns = PetscInt(columns.size());
-        Mat            B, X;
-        check(MatCreateDense(comm, n_local, PETSC_DECIDE, PETSC_DETERMINE, n_columns, nullptr, &B), "MatCreateDense");
-        check(MatCreateDense(comm, n_local, PETSC_DECIDE, PETSC_DETERMINE, n_columns, nullptr, &X), "MatCreateDense");
-        PetscInt     ld;
-        PetscScalar *values;
-        check(MatDenseGetLDA(B, &ld), "MatDenseGetLDA");
-        check(MatDenseGetArray(B, &values), "MatDenseGetArray");
-        for (PetscInt c = 0; c < n_columns; ++c)
-          std::copy(columns[c].trilinos_vector()[0], columns[c].trilinos_vector()[0] + n_local, values + c * ld);
-        check(MatDenseRestoreArray(B, &values), "MatDenseRestoreArray");
-        // MUMPS's blocking of right-hand sides (ICNTL(27)) is 32 columns by default: a static
-        // correction block of 48 would read the factor twice. The whole block in one pass: the
-        // default scene's static correction at np = 2 took 8 % less time (docs/cluster.md).
-        check(MatMumpsSetIcntl(factor, 27, n_columns), "MatMumpsSetIcntl");
-        check(MatMatSolve(factor, B, X), "MatMatSolve");
-        PetscInt           x_ld, b_ld;
-        const PetscScalar *solutions, *loads;
-        check(MatDenseGetLDA(X, &x_ld), "MatDenseGetLDA");
-        check(MatDenseGetLDA(B, &b_ld), "MatDenseGetLDA");
-        check(MatDenseGetArrayRead(X, &solutions), "MatDenseGetArrayRead");
-        check(MatDenseGetArrayRead(B, &loads), "MatDenseGetArrayRead");
-        // Written over the columns (B keeps their right-hand sides): a new vector per column would
-        // build a new Epetra map each time.
-        for (PetscInt c = 0; c < n_columns; ++c)
-          {
-            std::copy(solutions + c * x_ld, solutions + c * x_ld + n_local, columns[c].trilinos_vector()[0]);
-            expect_finite_solution(columns[c], loads + c * b_ld);
-          }
-        check(MatDenseRestoreArrayRead(B, &loads), "MatDenseRestoreArrayRead");
-        check(MatDenseRestoreArrayRead(X, &solutions), "MatDenseRestoreArrayRead");
-        MatDestroy(&X);
-        MatDestroy(&B);
-        stats.solve_seconds += timer.wall_time();
-        stats.n_solved_vectors += columns.size();
+        const std::size_t rows = n_local;
+        block.resize(rows * columns.size());
+        for (std::size_t c = 0; c < columns.size(); ++c)
+          std::copy(columns[c].trilinos_vector()[0], columns[c].trilinos_vector()[0] + rows, block.data() + c * rows);
+        solve_block(block.data(), int(columns.size()));
+        for (std::size_t c = 0; c < columns.size(); ++c)
+          std::copy(block.data() + c * rows, block.data() + (c + 1) * rows, columns[c].trilinos_vector()[0]);
       }
 
       long negative_eigenvalues() const override { return negative; }
 
     private:
-      // A new MUMPS factor of the matrix and its analysis; relaxation >= 0 sets ICNTL(14), the per
-      // cent added to the analysis's workspace estimate (else MUMPS's default).
-      void analyze(const PetscInt relaxation)
+      // JOB = -1 on every process of comm (the host works too, PAR = 1); SYM = 1 (L D L^T without
+      // pivoting) for a positive definite matrix, else 2. MUMPS's own printing off: its status is
+      // read from INFOG and said in our messages.
+      void start_instance(const int n_global)
       {
-        MatDestroy(&factor);
-        check(MatGetFactor(matrix, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor), "MatGetFactor");
-        if (relaxation >= 0)
-          check(MatMumpsSetIcntl(factor, 14, relaxation), "MatMumpsSetIcntl");
-        check(MatCholeskyFactorSymbolic(factor, matrix, nullptr, &info), "MatCholeskyFactorSymbolic");
-        PetscInt status = 0;
-        check(MatMumpsGetInfog(factor, 1, &status), "MatMumpsGetInfog");
-        AssertThrow(status >= 0, ExcMessage("MUMPS's analysis of K failed: INFOG(1) = " + std::to_string(status) +
-                                            " (MUMPS's manual, section 'Error diagnostics')."));
+        mumps.job          = -1;
+        mumps.par          = 1;
+        mumps.sym          = positive_definite ? 1 : 2;
+        mumps.comm_fortran = MUMPS_INT(MPI_Comm_c2f(comm));
+        dmumps_c(&mumps);
+        AssertThrow(mumps.infog[1 - 1] >= 0, ExcMessage("MUMPS could not start: INFOG(1) = " +
+                                                         std::to_string(mumps.infog[1 - 1]) + "."));
+        mumps.icntl[1 - 1]  = -1; // error messages
+        mumps.icntl[2 - 1]  = -1; // diagnostics
+        mumps.icntl[3 - 1]  = -1; // global information
+        mumps.icntl[4 - 1]  = 0;
+        mumps.icntl[5 - 1]  = 0;  // assembled matrix
+        mumps.icntl[18 - 1] = 3;  // distributed by the caller, as triplets
+        mumps.icntl[20 - 1] = 10; // distributed dense right-hand sides
+        mumps.icntl[21 - 1] = 1;  // distributed solution
+        mumps.n             = n_global;
       }
 
-      // A's rows into an MPI AIJ matrix, preallocated from their counts in and off the diagonal
-      // block; marked symmetric (and positive definite) so MUMPS runs with SYM = 2 (or 1).
-      void copy_matrix(const Epetra_CrsMatrix &E, const MPI_Comm comm, const bool positive_definite)
+      // A's entries on and above the diagonal, 1-based global indices, each row's in increasing
+      // column order (Epetra's rows list owned columns before ghost ones; METIS's ordering, and with
+      // it the factor's size, depends on the order it sees). MUMPS's symmetric modes sum whatever
+      // they get of both triangles, so each entry is given once.
+      void copy_upper_triangle(const Epetra_CrsMatrix &E)
       {
-        const auto     &rows = E.RowMap(), &columns = E.ColMap();
-        const long long first = rows.MinMyGID64(), last = rows.MaxMyGID64();
-        AssertThrow(last - first + 1 == n_local,
-                    ExcMessage("MUMPS through PETSc needs each process's DoFs to be one contiguous range."));
-        std::vector<PetscInt> in_block(n_local, 0), off_block(n_local, 0);
+        const auto                               &columns = E.ColMap();
+        std::vector<std::pair<long long, double>> row_entries;
         for (int i = 0; i < n_local; ++i)
           {
             int     count;
             double *values;
             int    *indices;
             E.ExtractMyRowView(i, count, values, indices);
+            const long long row = first_row + i;
+            row_entries.clear();
             for (int k = 0; k < count; ++k)
+              if (const long long column = columns.GID64(indices[k]); column >= row)
+                row_entries.emplace_back(column, values[k]);
+            std::sort(row_entries.begin(), row_entries.end());
+            for (const auto &[column, value] : row_entries)
               {
-                const long long column = columns.GID64(indices[k]);
-                ++(column >= first && column <= last ? in_block[i] : off_block[i]);
+                matrix_rows.push_back(MUMPS_INT(row + 1));
+                matrix_columns.push_back(MUMPS_INT(column + 1));
+                matrix_values.push_back(value);
               }
           }
-        check(MatCreateAIJ(comm, n_local, n_local, PETSC_DETERMINE, PETSC_DETERMINE, 0, in_block.data(), 0,
-                           off_block.data(), &matrix),
-              "MatCreateAIJ");
-        PetscInt own_first, own_end;
-        check(MatGetOwnershipRange(matrix, &own_first, &own_end), "MatGetOwnershipRange");
-        AssertThrow(own_first == first, ExcMessage("PETSc's row ownership differs from deal.II's owned DoFs."));
-        std::vector<PetscInt> global_columns;
-        for (int i = 0; i < n_local; ++i)
-          {
-            int     count;
-            double *values;
-            int    *indices;
-            E.ExtractMyRowView(i, count, values, indices);
-            global_columns.resize(count);
-            for (int k = 0; k < count; ++k)
-              global_columns[k] = PetscInt(columns.GID64(indices[k]));
-            const PetscInt row = PetscInt(first + i);
-            check(MatSetValues(matrix, 1, &row, count, global_columns.data(), values, INSERT_VALUES), "MatSetValues");
-          }
-        check(MatAssemblyBegin(matrix, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-        check(MatAssemblyEnd(matrix, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-        check(MatSetOption(matrix, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
-        if (positive_definite)
-          check(MatSetOption(matrix, MAT_SPD, PETSC_TRUE), "MatSetOption");
+        mumps.nnz_loc = MUMPS_INT8(matrix_values.size());
+        mumps.irn_loc = matrix_rows.data();
+        mumps.jcn_loc = matrix_columns.data();
       }
 
+      void run(const int job, const char *phase) const
+      {
+        mumps.job = job;
+        dmumps_c(&mumps);
+        AssertThrow(mumps.infog[1 - 1] >= 0,
+                    ExcMessage(std::string("MUMPS's ") + phase + " of K failed: INFOG(1) = " +
+                               std::to_string(mumps.infog[1 - 1]) + ", INFOG(2) = " +
+                               std::to_string(mumps.infog[2 - 1]) + " (MUMPS's manual, section 'Error diagnostics')."));
+      }
+
+      // MUMPS returns each process the solution rows of the pivots it eliminated (ISOL_loc), in its
+      // own order: they go to the processes that own them, into columns (n_local rows each). The
+      // plan follows ISOL_loc, which stays the same from one solve to the next with one factor:
+      // rebuilt only when any process sees it change (one small reduction per solve).
+      void move_solution_to_owners(double *columns, const int count) const
+      {
+        int changed = solution_rows != exchange.planned_rows;
+        AssertThrowMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm));
+        if (changed)
+          plan_exchange();
+        const auto &x = exchange;
+        const int   n_processes = int(x.send_counts.size());
+        send.resize(x.send_rows.size() * count);
+        receive.resize(x.receive_rows.size() * count);
+        std::vector<int> send_counts(n_processes), send_offsets(n_processes), receive_counts(n_processes),
+          receive_offsets(n_processes);
+        const std::size_t lsol = solution_rows.size();
+        for (int p = 0; p < n_processes; ++p)
+          {
+            send_counts[p]     = x.send_counts[p] * count;
+            send_offsets[p]    = x.send_offsets[p] * count;
+            receive_counts[p]  = x.receive_counts[p] * count;
+            receive_offsets[p] = x.receive_offsets[p] * count;
+            double *out        = send.data() + send_offsets[p];
+            for (int c = 0; c < count; ++c)
+              for (int k = 0; k < x.send_counts[p]; ++k)
+                *out++ = solution[c * lsol + x.send_rows[x.send_offsets[p] + k]];
+          }
+        AssertThrowMPI(MPI_Alltoallv(send.data(), send_counts.data(), send_offsets.data(), MPI_DOUBLE,
+                                     receive.data(), receive_counts.data(), receive_offsets.data(), MPI_DOUBLE, comm));
+        for (int p = 0; p < n_processes; ++p)
+          {
+            const double *in = receive.data() + receive_offsets[p];
+            for (int c = 0; c < count; ++c)
+              for (int k = 0; k < x.receive_counts[p]; ++k)
+                columns[std::size_t(c) * n_local + x.receive_rows[x.receive_offsets[p] + k]] = *in++;
+          }
+      }
+
+      // Who owns each of MUMPS's solution rows (the processes' contiguous ranges, gathered), and
+      // which local rows each process receives (the global rows, sent once).
+      void plan_exchange() const
+      {
+        const int            n_processes = dealii::Utilities::MPI::n_mpi_processes(comm);
+        std::vector<long long> starts(n_processes + 1);
+        AssertThrowMPI(MPI_Allgather(&first_row, 1, MPI_LONG_LONG, starts.data(), 1, MPI_LONG_LONG, comm));
+        starts[n_processes] = mumps.n;
+        const auto owner    = [&](const long long row) {
+          return int(std::upper_bound(starts.begin(), starts.end(), row) - starts.begin()) - 1;
+        };
+        auto &x = exchange;
+        x.send_counts.assign(n_processes, 0);
+        for (const MUMPS_INT row : solution_rows)
+          ++x.send_counts[owner(row - 1)];
+        x.send_offsets.assign(n_processes, 0);
+        for (int p = 1; p < n_processes; ++p)
+          x.send_offsets[p] = x.send_offsets[p - 1] + x.send_counts[p - 1];
+        x.send_rows.resize(solution_rows.size());
+        std::vector<int>       filled = x.send_offsets;
+        std::vector<MUMPS_INT> global_rows(solution_rows.size());
+        for (std::size_t i = 0; i < solution_rows.size(); ++i)
+          {
+            const int slot    = filled[owner(solution_rows[i] - 1)]++;
+            x.send_rows[slot] = int(i);
+            global_rows[slot] = solution_rows[i];
+          }
+        x.receive_counts.resize(n_processes);
+        AssertThrowMPI(MPI_Alltoall(x.send_counts.data(), 1, MPI_INT, x.receive_counts.data(), 1, MPI_INT, comm));
+        x.receive_offsets.assign(n_processes, 0);
+        for (int p = 1; p < n_processes; ++p)
+          x.receive_offsets[p] = x.receive_offsets[p - 1] + x.receive_counts[p - 1];
+        const int received = x.receive_offsets.back() + x.receive_counts.back();
+        AssertThrow(received == n_local, ExcMessage("MUMPS's solution covers " + std::to_string(received) + " of the " +
+                                                    std::to_string(n_local) + " rows this process owns."));
+        std::vector<MUMPS_INT> receive_global(received);
+        AssertThrowMPI(MPI_Alltoallv(global_rows.data(), x.send_counts.data(), x.send_offsets.data(), MPI_INT,
+                                     receive_global.data(), x.receive_counts.data(), x.receive_offsets.data(), MPI_INT,
+                                     comm));
+        x.receive_rows.resize(received);
+        for (int k = 0; k < received; ++k)
+          x.receive_rows[k] = int(receive_global[k] - 1 - first_row);
+        x.planned_rows = solution_rows;
+      }
+
+      // Each process's part of the move from MUMPS's solution rows to their owners, in rows (the
+      // counts of a solve are these times its columns).
+      struct Exchange
+      {
+        std::vector<int>       send_counts, send_offsets, receive_counts, receive_offsets;
+        std::vector<int>       send_rows;    // indices into MUMPS's local solution, by destination
+        std::vector<int>       receive_rows; // local rows, by source
+        std::vector<MUMPS_INT> planned_rows; // the ISOL_loc this plan was made for
+      };
+
       const bool               positive_definite;
-      MatFactorInfo            info;
-      MPI_Comm                 comm     = MPI_COMM_NULL;
-      long                     negative = -1; // INFOG(12), read only in the indefinite mode
-      int                      n_local = 0;
-      Mat                      matrix  = nullptr, factor = nullptr;
-      Vec                      b = nullptr, x = nullptr;
       FactorizationStatistics &stats;
+      MPI_Comm                 comm      = MPI_COMM_NULL;
+      int                      n_local   = 0;
+      long long                first_row = 0;
+      long                     negative  = -1; // INFOG(12), read only in the indefinite mode
+      mutable DMUMPS_STRUC_C   mumps     = {};
+      std::vector<MUMPS_INT>   matrix_rows, matrix_columns; // the upper triangle, until factorized
+      std::vector<double>      matrix_values;
+      std::vector<MUMPS_INT>   pivot_order;                 // PERM_IN, on the host, until analyzed
+      std::vector<MUMPS_INT>   owned_rows;                  // 1-based: the right-hand sides' rows
+      mutable std::vector<MUMPS_INT> solution_rows;         // ISOL_loc
+      mutable std::vector<double>    solution, send, receive, block;
+      mutable Exchange               exchange;
     };
   } // namespace
 
@@ -318,7 +540,7 @@ namespace modal_haptics
     predicted_bytes_per_process = -1.;
     if (kind == DistributedFactorizationKind::mumps_lu)
       return std::make_unique<AmesosMumpsLU>(A, stats);
-    auto inverse = std::make_unique<PetscMumpsCholesky>(A, positive_definite, stats);
+    auto inverse = std::make_unique<MumpsCholesky>(A, positive_definite, stats);
     predicted_bytes_per_process = inverse->predicted_bytes_per_process();
     if (predicted_bytes_per_process > max_bytes_per_process)
       return nullptr;

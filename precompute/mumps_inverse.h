@@ -1,12 +1,12 @@
 // The distributed space's direct solver: MUMPS's factorization of A = K - shift M, computed once
 // and applied as x = A^-1 b (PARPACK's shift-invert operator and the static solves). Two wrappers:
-// - PETSc's (the default): MUMPS in its symmetric mode, L D L^T on the upper triangle (about half
+// - MUMPS's own C interface (the default): its symmetric mode, L D L^T on the upper triangle (about half
 //   the factor of an LU and half its flops), positive definite (no pivoting) when the shift is not
 //   positive, general symmetric with pivoting otherwise (K - shift M indefinite above the first
 //   eigenvalue);
 // - Trilinos Amesos_Mumps through deal.II's SolverDirect: MUMPS's unsymmetric LU, kept as the peer
 //   (Amesos_Mumps always calls MUMPS with SYM = 0: its symmetric mode is unreachable there).
-// PETSc's headers stay inside mumps_inverse.cc (compile time).
+// MUMPS's headers stay inside mumps_inverse.cc.
 #pragma once
 
 #include "factorization.h"
@@ -27,15 +27,18 @@ namespace modal_haptics
     // dst = A^-1 src (collective).
     virtual void vmult(dealii::TrilinosWrappers::MPI::Vector       &dst,
                        const dealii::TrilinosWrappers::MPI::Vector &src) const = 0;
-    // columns[c] = A^-1 columns[c] for every c, in place (collective). PETSc's path solves them as
+    // columns[c] = A^-1 columns[c] for every c, in place (collective). MUMPS's symmetric path solves them as
     // one block of right-hand sides (MUMPS reads its factor once for all); Amesos' one by one.
     virtual void solve_columns(std::vector<dealii::TrilinosWrappers::MPI::Vector> &columns) const;
+    // The same on count columns of this process's rows stored one after the other (column-major,
+    // as the block eigensolver keeps them), in place (collective).
+    virtual void solve_block(double *columns, int count) const = 0;
     // The number of A's negative eigenvalues (the inertia of an L D L^T factorization: MUMPS's
     // INFOG(12) in its symmetric indefinite mode), or -1 where the factorization does not tell.
     virtual long negative_eigenvalues() const { return -1; }
   };
 
-  // Factorizes A (collective); stats gets the method, the time and, for the PETSc path, the
+  // Factorizes A (collective); stats gets the method, the time and, for the symmetric path, the
   // factor's entries (MUMPS INFOG(29)). positive_definite: A is (K with a shift <= 0).
   std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
                                                          DistributedFactorizationKind kind, bool positive_definite,

@@ -2,7 +2,7 @@
 """Scaling of the distributed precompute (docs/cluster.md, docs/performance.md): the FACTS plate of
 the eigensolver benchmark (50 modes of its graded 'rib' space) run by `mpirun -np N modal-precompute
 --distributed` for N = 1 and 2, interleaved and repeated, with each of MUMPS's two wrappers
-('Modes/Distributed factorization': PETSc's symmetric mode, Trilinos Amesos' LU) and each eigensolver
+('Modes/Distributed factorization': MUMPS's symmetric mode through its C interface, Trilinos Amesos' LU) and each eigensolver
 over it ('Modes/Eigensolver': the block Krylov method, PARPACK); wall time per phase of the rib
 space, total time, the largest peak memory of one process, speedup. One BLAS thread per process.
 Writes a CSV.
