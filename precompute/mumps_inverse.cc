@@ -228,9 +228,6 @@ namespace modal_haptics
         : positive_definite(positive_definite)
         , stats(stats)
       {
-        stats.method = std::string("mumps-cholesky (MUMPS, symmetric ") +
-                       (positive_definite ? "positive definite" : "indefinite, with pivoting") +
-                       ", METIS node ordering, distributed)";
         const Epetra_CrsMatrix &E = A.trilinos_matrix();
         // MUMPS's own communicator: its messages cannot meet Trilinos' or deal.II's.
         AssertThrowMPI(MPI_Comm_dup(dynamic_cast<const Epetra_MpiComm &>(E.Comm()).Comm(), &comm));
@@ -252,6 +249,12 @@ namespace modal_haptics
         run(1, "analysis");
         std::vector<MUMPS_INT>().swap(pivot_order);
         stats.analyze_seconds = timer.wall_time();
+        // INFOG(7): the ordering MUMPS used; 1 is ours. Said, should MUMPS ever put its own in place.
+        const int ordering = mumps.infog[7 - 1];
+        stats.method       = std::string("mumps-cholesky (MUMPS, symmetric ") +
+                       (positive_definite ? "positive definite" : "indefinite, with pivoting") + ", " +
+                       (ordering == 1 ? "METIS node ordering" : "MUMPS's ordering " + std::to_string(ordering)) +
+                       ", distributed)";
       }
 
       ~MumpsCholesky() override

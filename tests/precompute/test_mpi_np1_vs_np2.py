@@ -192,10 +192,13 @@ def main():
                 expect(max(x["contact_rel_error_corrected"], y["contact_rel_error_corrected"]) <= 1e-8,
                        f"{case}: corrected contact error {y['contact_rel_error_corrected']:.1e} <= 1e-8 ({label})")
 
-    # MUMPS's two wrappers: the default symmetric mode (PETSc) above, and the LU (Trilinos Amesos);
-    # the eigensolvers over it: the block Krylov method by default (above), PARPACK when asked.
+    # MUMPS's two wrappers: the default symmetric mode (MUMPS's C interface, with the serial path's
+    # METIS order as its pivot order: MUMPS's INFOG(7) says it used it) above, and the LU (Trilinos
+    # Amesos); the eigensolvers over it: the block Krylov method by default (above), PARPACK when asked.
     expect(all("mumps-cholesky" in space["eigensolver"]["method"] for space in np2["spaces"]),
            "np=2 factorized with MUMPS's symmetric mode (the default)")
+    expect(all("METIS node ordering" in space["eigensolver"]["method"] for space in np1["spaces"] + np2["spaces"]),
+           "np=1 and np=2: MUMPS used our METIS order (INFOG(7) = 1)")
     expect(all("block Krylov" in space["eigensolver"]["method"] for space in np1["spaces"] + np2["spaces"]),
            "np=1 and np=2 ran the block Krylov eigensolver over MUMPS (the default)")
     for name, setting, method, label in [("np2_lu", "Distributed factorization = mumps-lu", "mumps-lu", "MUMPS LU"),
