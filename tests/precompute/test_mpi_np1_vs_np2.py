@@ -13,7 +13,8 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   serial file; the mesh and display surface bit for bit; everything else to 1e-9 (eigenvalues) or
   1e-7 (what depends on the modes), compared through what does not depend on the basis chosen
   within the kept subspace (X X^T over the modes, singular values of the transfer matrices);
-* MUMPS through both wrappers: np = 2 factorizes with the symmetric mode (PETSc, the default), and
+* MUMPS through both wrappers: np = 2 factorizes with the symmetric mode (MUMPS's C interface, the
+  default; np = 1 and 2 with our METIS order, which MUMPS's INFOG(7) confirms), and
   with 'Distributed factorization = mumps-lu' (Trilinos Amesos' LU) its .h5 equals the serial one
   as above;
 * both eigensolvers over MUMPS: the runs above take the serial path's block Krylov method (MUMPS's
@@ -25,8 +26,10 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
 * a bad .prm, a bad clamp group and a shift above the first frequency under mpirun -np 2 exit non-zero
   with the message, no hang (the shift refused by the inertia of MUMPS's L D L^T, before PARPACK);
 * the meshes in mumps_workspace/ (gmsh's output for this scene in one CI run), on which MUMPS's
-  workspace estimate fell short at np = 2 (INFOG(1) = -9; PETSc then returned infinities from every
-  solve): np = 2 runs and gives the serial path's frequencies to 1e-9 on them.
+  workspace estimate fell short at np = 2 with PORD's order through PETSc (INFOG(1) = -9; PETSc then
+  returned infinities from every solve): np = 2 runs and gives the serial path's frequencies to 1e-9
+  on them (with METIS's order MUMPS's estimate no longer falls short there, even at ICNTL(14) = 0, so
+  the relaxation's retry is not exercised by this test any more).
 """
 import argparse
 import json
