@@ -380,14 +380,10 @@ namespace modal_haptics
         mumps.n             = n_global;
       }
 
-      // A's entries on and above the diagonal, 1-based global indices, each row's in increasing
-      // column order (Epetra's rows list owned columns before ghost ones; METIS's ordering, and with
-      // it the factor's size, depends on the order it sees). MUMPS's symmetric modes sum whatever
-      // they get of both triangles, so each entry is given once.
+      // A's entries on and above the diagonal, 1-based global indices: MUMPS's symmetric modes sum
+      // whatever they get of both triangles, so each entry is given once.
       void copy_upper_triangle(const Epetra_CrsMatrix &E)
       {
-        const auto                               &columns = E.ColMap();
-        std::vector<std::pair<long long, double>> row_entries;
         for (int i = 0; i < n_local; ++i)
           {
             int     count;
@@ -395,17 +391,13 @@ namespace modal_haptics
             int    *indices;
             E.ExtractMyRowView(i, count, values, indices);
             const long long row = first_row + i;
-            row_entries.clear();
             for (int k = 0; k < count; ++k)
-              if (const long long column = columns.GID64(indices[k]); column >= row)
-                row_entries.emplace_back(column, values[k]);
-            std::sort(row_entries.begin(), row_entries.end());
-            for (const auto &[column, value] : row_entries)
-              {
-                matrix_rows.push_back(MUMPS_INT(row + 1));
-                matrix_columns.push_back(MUMPS_INT(column + 1));
-                matrix_values.push_back(value);
-              }
+              if (const long long column = E.ColMap().GID64(indices[k]); column >= row)
+                {
+                  matrix_rows.push_back(MUMPS_INT(row + 1));
+                  matrix_columns.push_back(MUMPS_INT(column + 1));
+                  matrix_values.push_back(values[k]);
+                }
           }
         mumps.nnz_loc = MUMPS_INT8(matrix_values.size());
         mumps.irn_loc = matrix_rows.data();
