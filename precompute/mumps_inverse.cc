@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -108,8 +109,12 @@ namespace modal_haptics
       }
     };
 
-    // Gathers a distributed vector of ints onto process 0 (elsewhere: empty).
-    std::vector<int> gather_on_host(const std::vector<int> &own, const MPI_Comm comm)
+    MPI_Datatype mpi_type(const int *) { return MPI_INT; }
+    MPI_Datatype mpi_type(const double *) { return MPI_DOUBLE; }
+
+    // Gathers each process's values onto process 0, in the processes' order (elsewhere: empty).
+    template <typename T>
+    std::vector<T> gather_on_host(const std::vector<T> &own, const MPI_Comm comm)
     {
       const bool       host  = dealii::Utilities::MPI::this_mpi_process(comm) == 0;
       const int        count = int(own.size());
@@ -117,9 +122,9 @@ namespace modal_haptics
       AssertThrowMPI(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm));
       for (std::size_t p = 1; p < counts.size(); ++p)
         offsets[p] = offsets[p - 1] + counts[p - 1];
-      std::vector<int> all(host ? offsets.back() + counts.back() : 0);
-      AssertThrowMPI(MPI_Gatherv(own.data(), count, MPI_INT, all.data(), counts.data(), offsets.data(), MPI_INT, 0,
-                                 comm));
+      std::vector<T> all(host ? offsets.back() + counts.back() : 0);
+      const auto     type = mpi_type(own.data());
+      AssertThrowMPI(MPI_Gatherv(own.data(), count, type, all.data(), counts.data(), offsets.data(), type, 0, comm));
       return all;
     }
 
@@ -317,11 +322,25 @@ namespace modal_haptics
         dealii::Timer timer;
         const bool    loads_finite = all_finite(columns, std::size_t(n_local) * count);
         solution.resize(solution_rows.size() * count);
-        mumps.nrhs     = count;
-        mumps.nloc_rhs = n_local;
-        mumps.lrhs_loc = n_local;
-        mumps.irhs_loc = const_cast<MUMPS_INT *>(owned_rows.data()); // read only
-        mumps.rhs_loc  = columns;
+        mumps.nrhs = count;
+        if (gather_if_sparse(columns, count))
+          {
+            // Centralised sparse right-hand sides (ICNTL(20) = 1): MUMPS prunes the forward
+            // elimination to the paths of their nonzeros in the elimination tree.
+            mumps.icntl[20 - 1] = 1;
+            mumps.nz_rhs        = MUMPS_INT(sparse_values.size());
+            mumps.rhs_sparse    = sparse_values.data();
+            mumps.irhs_sparse   = sparse_rows.data();
+            mumps.irhs_ptr      = sparse_starts.data();
+          }
+        else
+          {
+            mumps.icntl[20 - 1] = 10;
+            mumps.nloc_rhs      = n_local;
+            mumps.lrhs_loc      = n_local;
+            mumps.irhs_loc      = const_cast<MUMPS_INT *>(owned_rows.data()); // read only
+            mumps.rhs_loc       = columns;
+          }
         mumps.lsol_loc = MUMPS_INT(solution_rows.size());
         mumps.sol_loc  = solution.data();
         mumps.isol_loc = solution_rows.data();
@@ -412,6 +431,54 @@ namespace modal_haptics
                     ExcMessage(std::string("MUMPS's ") + phase + " of K failed: INFOG(1) = " +
                                std::to_string(mumps.infog[1 - 1]) + ", INFOG(2) = " +
                                std::to_string(mumps.infog[2 - 1]) + " (MUMPS's manual, section 'Error diagnostics')."));
+      }
+
+      // Right-hand sides whose nonzeros are at most 1 % of their entries (the static correction's
+      // patch loads: tens of rows in 10^5) are gathered on the host in MUMPS's compressed-column
+      // form (sparse_*); returns whether they were (collective: every process decides alike).
+      bool gather_if_sparse(const double *columns, const int count) const
+      {
+        std::vector<int> per_column(count, 0);
+        for (int c = 0; c < count; ++c)
+          per_column[c] = int(std::count_if(columns + std::size_t(c) * n_local, columns + std::size_t(c + 1) * n_local,
+                                            [](const double v) { return v != 0.; }));
+        long long nonzeros = std::accumulate(per_column.begin(), per_column.end(), 0LL);
+        AssertThrowMPI(MPI_Allreduce(MPI_IN_PLACE, &nonzeros, 1, MPI_LONG_LONG, MPI_SUM, comm));
+        if (nonzeros == 0 || nonzeros > 0.01 * double(mumps.n) * count)
+          return false;
+        std::vector<int>    own_rows;
+        std::vector<double> own_values;
+        for (int c = 0; c < count; ++c)
+          for (int i = 0; i < n_local; ++i)
+            if (const double v = columns[std::size_t(c) * n_local + i]; v != 0.)
+              {
+                own_rows.push_back(int(first_row + i + 1));
+                own_values.push_back(v);
+              }
+        const std::vector<int> counts = gather_on_host(per_column, comm), rows = gather_on_host(own_rows, comm);
+        const std::vector<double> values = gather_on_host(own_values, comm);
+        if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
+          return true;
+        // counts: process-major (each process's count per column); rows and values likewise.
+        const int n_processes = int(counts.size()) / count;
+        std::vector<std::size_t> offset(n_processes, 0); // where each process's entries start
+        for (int p = 1; p < n_processes; ++p)
+          offset[p] = offset[p - 1] + std::accumulate(&counts[(p - 1) * count], &counts[p * count], std::size_t(0));
+        sparse_starts.assign(1, 1);
+        sparse_rows.clear();
+        sparse_values.clear();
+        for (int c = 0; c < count; ++c)
+          {
+            for (int p = 0; p < n_processes; ++p)
+              {
+                const int k = counts[p * count + c];
+                sparse_rows.insert(sparse_rows.end(), &rows[offset[p]], &rows[offset[p]] + k);
+                sparse_values.insert(sparse_values.end(), &values[offset[p]], &values[offset[p]] + k);
+                offset[p] += k;
+              }
+            sparse_starts.push_back(MUMPS_INT(sparse_rows.size() + 1));
+          }
+        return true;
       }
 
       // MUMPS returns each process the solution rows of the pivots it eliminated (ISOL_loc), in its
@@ -521,6 +588,8 @@ namespace modal_haptics
       std::vector<MUMPS_INT>   owned_rows;                  // 1-based: the right-hand sides' rows
       mutable std::vector<MUMPS_INT> solution_rows;         // ISOL_loc
       mutable std::vector<double>    solution, send, receive, block;
+      mutable std::vector<MUMPS_INT> sparse_rows, sparse_starts; // the host's sparse right-hand sides
+      mutable std::vector<double>    sparse_values;
       mutable Exchange               exchange;
     };
   } // namespace
