@@ -33,16 +33,18 @@ namespace modal_haptics
     return previous;
   }
 
-  std::vector<int> nested_dissection_of_nodes(std::vector<int> &xadj, std::vector<int> &adjncy,
-                                              std::vector<int> &weight)
+  std::vector<int> nested_dissection_of_nodes(NodeGraph &graph)
   {
     static_assert(sizeof(idx_t) == sizeof(int), "METIS's idx_t is expected to be 32 bits wide (Debian's)");
+    std::vector<int> xadj(graph.degrees.size() + 1, 0);
+    for (std::size_t g = 0; g < graph.degrees.size(); ++g)
+      xadj[g + 1] = xadj[g] + graph.degrees[g];
     idx_t options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(options);
-    idx_t            vertices = idx_t(weight.size());
+    idx_t            vertices = idx_t(graph.weights.size());
     std::vector<int> order(vertices), inverse(vertices);
-    const int        status =
-      METIS_NodeND(&vertices, xadj.data(), adjncy.data(), weight.data(), options, order.data(), inverse.data());
+    const int        status   = METIS_NodeND(&vertices, xadj.data(), graph.neighbours.data(), graph.weights.data(),
+                                             options, order.data(), inverse.data());
     AssertThrow(status == METIS_OK,
                 dealii::ExcMessage("METIS_NodeND failed (status " + std::to_string(status) + ", out of memory?)."));
     return order;
@@ -109,33 +111,23 @@ namespace modal_haptics
     std::vector<SuiteSparse_long> node_graph_ordering(const dealii::SparsityPattern &pattern)
     {
       const std::size_t n          = pattern.n_rows();
-      const auto        first_rows = node_first_rows(n, [&](const std::size_t row) {
+      const auto        sorted_row = [&](const std::size_t row) {
         std::vector<std::size_t> columns;
         for (auto it = pattern.begin(row); it != pattern.end(row); ++it)
           columns.push_back(it->column());
         std::sort(columns.begin(), columns.end());
         return columns;
-      });
-      const std::size_t n_nodes = first_rows.size() - 1;
-      std::vector<int>  node_of_row(n);
-      for (std::size_t g = 0; g < n_nodes; ++g)
+      };
+      const auto       first_rows = node_first_rows(n, sorted_row);
+      std::vector<int> node_of_row(n);
+      for (std::size_t g = 0; g + 1 < first_rows.size(); ++g)
         std::fill(node_of_row.begin() + first_rows[g], node_of_row.begin() + first_rows[g + 1], int(g));
+      NodeGraph graph =
+        node_graph(first_rows, sorted_row, [&](const std::size_t column) { return node_of_row[column]; }, 0);
 
-      std::vector<int> xadj{0}, adjncy, weight(n_nodes);
-      for (std::size_t g = 0; g < n_nodes; ++g)
-        {
-          weight[g]                = int(first_rows[g + 1] - first_rows[g]);
-          const std::size_t before = adjncy.size();
-          for (auto it = pattern.begin(first_rows[g]); it != pattern.end(first_rows[g]); ++it)
-            if (node_of_row[it->column()] != int(g))
-              adjncy.push_back(node_of_row[it->column()]);
-          std::sort(adjncy.begin() + before, adjncy.end());
-          adjncy.erase(std::unique(adjncy.begin() + before, adjncy.end()), adjncy.end());
-          xadj.push_back(int(adjncy.size()));
-        }
       std::vector<SuiteSparse_long> permutation;
       permutation.reserve(n);
-      for (const int g : nested_dissection_of_nodes(xadj, adjncy, weight))
+      for (const int g : nested_dissection_of_nodes(graph))
         for (std::size_t row = first_rows[g]; row < first_rows[g + 1]; ++row)
           permutation.push_back(SuiteSparse_long(row));
       return permutation;

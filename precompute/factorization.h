@@ -66,13 +66,41 @@ namespace modal_haptics
     return first_rows;
   }
 
-  // A fill-reducing ordering of the nodes: METIS's nested dissection of their graph (adjacency
-  // lists without self loops, as METIS's CSR arrays; weight: each node's rows), on the node graph
-  // rather than the rows' because it has a third of the vertices and a ninth of the edges (METIS
-  // runs several times faster) and a separator never cuts a node's components apart. Returns the
-  // nodes in pivot order. The serial (CHOLMOD) and the distributed (MUMPS) factorizations use it.
-  std::vector<int> nested_dissection_of_nodes(std::vector<int> &xadj, std::vector<int> &adjncy,
-                                              std::vector<int> &weight);
+  // A graph of mesh nodes, node by node: how many neighbours each has (nodes it shares a matrix
+  // entry with, itself left out), the neighbours one node after the other, and each node's rows.
+  struct NodeGraph
+  {
+    std::vector<int> degrees, neighbours, weights;
+  };
+
+  // The graph of the nodes that first_rows delimits (node_first_rows, its last entry the end):
+  // node_of(column) numbers the node that holds a column, and the g-th node here is number
+  // first_node + g. The columns come sorted, so a node's rows come one after the other and each
+  // neighbour is listed once.
+  template <typename SortedRow, typename NodeOf>
+  NodeGraph node_graph(const std::vector<std::size_t> &first_rows, const SortedRow &sorted_row, const NodeOf &node_of,
+                       const int first_node)
+  {
+    NodeGraph graph;
+    for (std::size_t g = 0; g + 1 < first_rows.size(); ++g)
+      {
+        graph.weights.push_back(int(first_rows[g + 1] - first_rows[g]));
+        const std::size_t before = graph.neighbours.size();
+        for (const auto column : sorted_row(first_rows[g]))
+          if (const int node = node_of(column);
+              node != first_node + int(g) && (graph.neighbours.size() == before || graph.neighbours.back() != node))
+            graph.neighbours.push_back(node);
+        graph.degrees.push_back(int(graph.neighbours.size() - before));
+      }
+    return graph;
+  }
+
+  // A fill-reducing ordering of the nodes: METIS's nested dissection of their graph, on the node
+  // graph rather than the rows' because it has a third of the vertices and a ninth of the edges
+  // (METIS runs several times faster) and a separator never cuts a node's components apart.
+  // Returns the nodes in pivot order. The serial (CHOLMOD) and the distributed (MUMPS)
+  // factorizations use it.
+  std::vector<int> nested_dissection_of_nodes(NodeGraph &graph);
 
   // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
   int set_openblas_threads(int threads);

@@ -137,33 +137,20 @@ namespace modal_haptics
     std::vector<MUMPS_INT> node_graph_pivot_order(const Epetra_CrsMatrix &E, const long long first_row,
                                                   const MPI_Comm comm)
     {
-      const auto own_first_rows =
-        node_first_rows(std::size_t(E.NumMyRows()), [&](const std::size_t i) { return sorted_global_row(E, i); });
+      const auto sorted_row     = [&](const std::size_t i) { return sorted_global_row(E, i); };
+      const auto own_first_rows = node_first_rows(std::size_t(E.NumMyRows()), sorted_row);
       const DistributedNodes nodes(own_first_rows, first_row, E.NumGlobalRows64(), comm);
-      const int              first_node = nodes.offsets[dealii::Utilities::MPI::this_mpi_process(comm)];
+      const NodeGraph        own =
+        node_graph(own_first_rows, sorted_row, [&](const long long column) { return nodes.node_of(column); },
+                   nodes.offsets[dealii::Utilities::MPI::this_mpi_process(comm)]);
 
-      std::vector<int> degrees, neighbours, weights;
-      for (std::size_t g = 0; g + 1 < own_first_rows.size(); ++g)
-        {
-          weights.push_back(int(own_first_rows[g + 1] - own_first_rows[g]));
-          const std::size_t before = neighbours.size();
-          for (const long long column : sorted_global_row(E, own_first_rows[g]))
-            if (const int node = nodes.node_of(column);
-                node != first_node + int(g) && (neighbours.size() == before || neighbours.back() != node))
-              neighbours.push_back(node); // sorted columns: a node's rows come one after the other
-          degrees.push_back(int(neighbours.size() - before));
-        }
-      const std::vector<int> all_degrees = gather_on_host(degrees, comm);
-      std::vector<int>       all_weights = gather_on_host(weights, comm), adjncy = gather_on_host(neighbours, comm);
+      NodeGraph all{gather_on_host(own.degrees, comm), gather_on_host(own.neighbours, comm),
+                    gather_on_host(own.weights, comm)};
       if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
         return {};
-
-      std::vector<int> xadj(all_degrees.size() + 1, 0);
-      for (std::size_t g = 0; g < all_degrees.size(); ++g)
-        xadj[g + 1] = xadj[g] + all_degrees[g];
       std::vector<MUMPS_INT> position(nodes.n_rows);
       MUMPS_INT              next = 1;
-      for (const int g : nested_dissection_of_nodes(xadj, adjncy, all_weights))
+      for (const int g : nested_dissection_of_nodes(all))
         for (long long row = nodes.first_rows[g]; row < nodes.end_row(g); ++row)
           position[row] = next++;
       return position;

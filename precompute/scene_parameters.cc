@@ -172,8 +172,8 @@ namespace modal_haptics
                       m.distributed_factorization == DistributedFactorizationKind::mumps_lu ? "mumps-lu" : "mumps-cholesky",
                       Patterns::Selection("mumps-cholesky|mumps-lu"),
                       "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
-                      "(MUMPS through PETSc in its symmetric mode, L D L^T: about half the factor and the flops "
-                      "of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
+                      "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
+                      "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
     prm.leave_subsection();
   }
 

@@ -44,7 +44,7 @@ namespace modal_haptics
 
   enum class DistributedFactorizationKind
   {
-    mumps_cholesky, // PETSc's MUMPS in its symmetric mode (L D L^T): the default
+    mumps_cholesky, // MUMPS in its symmetric mode (L D L^T), through its C interface: the default
     mumps_lu        // Trilinos Amesos_Mumps: MUMPS's unsymmetric LU, kept as a peer
   };
 
