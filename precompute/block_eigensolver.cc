@@ -20,6 +20,9 @@
 // Cost: every dense operation is a GEMM on the contiguous column-major bases, and M is applied to
 // a whole block at once (one pass over M for all columns, M X of the newest block reused as the
 // right-hand side of its solve): one M product per solved vector plus the residuals' per cycle.
+// Where V, M V and W do not fit the memory limit (10^6 DoFs on one machine) M V is not stored: the
+// Gram-Schmidt passes multiply the block by M instead (three M products per block instead of one)
+// and the Rayleigh-Ritz step forms V^T (M W).
 #include "eigensolver.h"
 
 #include "blas_lapack.h"
@@ -141,7 +144,7 @@ namespace modal_haptics
     {
     public:
       BlockKrylov(BlockEigenOperators &operators, unsigned int n_modes, unsigned int block_size, double tolerance,
-                  bool verbose)
+                  double memory_limit_bytes, bool verbose)
         : operators(operators)
         , n(operators.local_rows())
         , nev(n_modes)
@@ -155,9 +158,12 @@ namespace modal_haptics
         capacity = int(std::min<std::size_t>(n_global - 1, block * ((3 * nev + block - 1) / block + 1)));
         AssertThrow(capacity > nev + block, ExcMessage("Too few unknowns (" + std::to_string(n_global) + ") for " +
                                                        std::to_string(nev) + " modes."));
+        store_mass_images = mass_images_fit(memory_limit_bytes);
         V.assign(std::size_t(n) * capacity, 0.);
-        MV.assign(std::size_t(n) * capacity, 0.);
+        if (store_mass_images)
+          MV.assign(std::size_t(n) * capacity, 0.);
         W.assign(std::size_t(n) * capacity, 0.);
+        newest_MX.assign(std::size_t(n) * block, 0.);
       }
 
       EigenSolution solve(const double shift)
@@ -205,6 +211,7 @@ namespace modal_haptics
                   }
                 solve_new_block(size, added);
                 size += added;
+                say_progress(size, timer.wall_time());
               }
             rayleigh_ritz(size, theta, Z);
             const int converged = count_converged(size, theta, Z);
@@ -239,6 +246,7 @@ namespace modal_haptics
         solution.eigensolve_iteration_seconds            = timer.wall_time();
         solution.mass_product_seconds      = mass_seconds;
         solution.orthogonalization_seconds = orthogonalization_seconds;
+        solution.mass_images_stored        = store_mass_images;
         return solution;
       }
 
@@ -285,10 +293,51 @@ namespace modal_haptics
         solved += count;
       }
 
-      // W = OP V for the count basis columns from 'first' on (their M V is stored).
+      // W = OP V for the count basis columns from 'first' on, the newest ones (their M V is newest_MX).
       void solve_new_block(const int first, const int count)
       {
-        solve_images(&MV[std::size_t(first) * n], &W[std::size_t(first) * n], count);
+        solve_images(newest_MX.data(), &W[std::size_t(first) * n], count);
+      }
+
+      // The basis keeps M V beside V and W (Gram-Schmidt then reads it instead of multiplying by
+      // M) when the three fit the limit; else M V is recomputed where needed (two more M products
+      // per block, M W once per cycle): at 2.15 M DoFs on one process V, M V and W take 8 GB beside
+      // the factor's in-core data. The same choice on every process.
+      bool mass_images_fit(const double limit_bytes) const
+      {
+        const double bases_bytes     = 3. * 8. * double(n) * capacity;
+        double       short_of_memory = bases_bytes > limit_bytes ? 1. : 0.;
+        operators.sum_over_processes(&short_of_memory, 1);
+        if (verbose && short_of_memory > 0.)
+          std::cout << "[eigensolve]   M V recomputed, not stored: V, M V and OP V would take " << bases_bytes / 1e9
+                    << " GB on this process, over the limit of " << limit_bytes / 1e9 << " GB" << std::endl;
+        return short_of_memory == 0.;
+      }
+
+      // C = (M V)^T X for the first size basis columns (scratch: n x count).
+      void mass_products_with_basis(const int size, const double *X, const int count, double *C,
+                                    std::vector<double> &scratch)
+      {
+        if (store_mass_images)
+          gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C, size);
+        else
+          {
+            scratch.resize(std::size_t(n) * count);
+            multiply_by_mass(X, scratch.data(), count);
+            gemm('T', 'N', size, count, n, 1., V.data(), n, scratch.data(), n, 0., C, size);
+          }
+        operators.sum_over_processes(C, std::size_t(size) * count);
+      }
+
+      // A line every 30 s while the basis grows: a block solve takes tens of seconds with the
+      // factor on disk at 10^6 DoFs.
+      void say_progress(const int size, const double seconds)
+      {
+        if (!verbose || seconds < last_progress_line + 30.)
+          return;
+        last_progress_line = seconds;
+        std::cout << "[eigensolve]   basis " << size << " of " << capacity << ", " << solved << " vectors solved, "
+                  << seconds << " s" << std::endl;
       }
 
       void multiply_by_mass(const double *src, double *dst, const int count)
@@ -316,8 +365,10 @@ namespace modal_haptics
       {
         dealii::Timer       timer;
         double              mass_before = mass_seconds;
-        std::vector<double> C(std::size_t(std::max(size, 1)) * count), C_sum(C.size(), 0.),
-          MX(std::size_t(n) * count), G(count * count), R(count * count, 0.);
+        std::vector<double> C(std::size_t(std::max(size, 1)) * count), C_sum(C.size(), 0.), G(count * count),
+          R(count * count, 0.);
+        std::vector<double> &MX = newest_MX;
+        MX.resize(std::size_t(n) * count);
         for (int i = 0; i < count; ++i)
           R[i + i * count] = 1.;
         // Two passes of classical Gram-Schmidt against the basis (each reads M V and V once), then
@@ -325,8 +376,7 @@ namespace modal_haptics
         // the block (X^T M X = R^T R, X <- X R^-1, M X <- M X R^-1: only the block is touched).
         for (int pass = 0; pass < 2 && size > 0; ++pass)
           {
-            gemm('T', 'N', size, count, n, 1., MV.data(), n, X, n, 0., C.data(), size);
-            operators.sum_over_processes(C.data(), std::size_t(size) * count);
+            mass_products_with_basis(size, X, count, C.data(), MX);
             gemm('N', 'N', n, count, size, -1., V.data(), n, C.data(), size, 1., X, n);
             for (std::size_t i = 0; i < C.size(); ++i)
               C_sum[i] += C[i];
@@ -349,7 +399,8 @@ namespace modal_haptics
             dtrmm_("L", "U", "N", "N", &count, &count, &one, G.data(), &count, R.data(), &count); // R <- G R
           }
         std::copy(X, X + std::size_t(n) * count, V.begin() + std::size_t(size) * n);
-        std::copy(MX.begin(), MX.end(), MV.begin() + std::size_t(size) * n);
+        if (store_mass_images)
+          std::copy(MX.begin(), MX.end(), MV.begin() + std::size_t(size) * n);
         if (record)
           record_arnoldi_column(size, count, C_sum, R);
         orthogonalization_seconds += timer.wall_time() - (mass_seconds - mass_before);
@@ -410,12 +461,18 @@ namespace modal_haptics
         AssertThrow(info == 0, ExcMessage("LAPACK's dsyev failed in the Rayleigh-Ritz step."));
       }
 
-      // H = (M V)^T W, symmetrized; its eigenpairs, largest theta first.
-      void rayleigh_ritz(const int size, std::vector<double> &theta, std::vector<double> &Z) const
+      // H = (M V)^T W, symmetrized; its eigenpairs, largest theta first. Without M V stored:
+      // V^T (M W), M W 16 columns at a time (each pass reads V once).
+      void rayleigh_ritz(const int size, std::vector<double> &theta, std::vector<double> &Z)
       {
         Z.assign(std::size_t(size) * size, 0.);
-        gemm('T', 'N', size, size, n, 1., MV.data(), n, W.data(), n, 0., Z.data(), size);
-        operators.sum_over_processes(Z.data(), Z.size());
+        std::vector<double> scratch;
+        const int           chunk = store_mass_images ? size : 16;
+        for (int first = 0; first < size; first += chunk)
+          {
+            const int count = std::min(chunk, size - first);
+            mass_products_with_basis(size, &W[std::size_t(first) * n], count, &Z[std::size_t(first) * size], scratch);
+          }
         for (int i = 0; i < size; ++i)
           for (int j = 0; j < i; ++j)
             Z[i + std::size_t(j) * size] = Z[j + std::size_t(i) * size] =
@@ -444,11 +501,17 @@ namespace modal_haptics
         for (int c = 0; c < count; ++c)
           for (int i = 0; i < n; ++i)
             R[std::size_t(c) * n + i] -= theta[c] * VZ[std::size_t(c) * n + i];
-        std::vector<double> MR(std::size_t(n) * count), norms(count, 0.);
-        multiply_by_mass(R.data(), MR.data(), count);
-        for (int c = 0; c < count; ++c)
-          for (int i = 0; i < n; ++i)
-            norms[c] += R[std::size_t(c) * n + i] * MR[std::size_t(c) * n + i];
+        // M R 16 columns at a time: at 10^6 rows a whole n x count block is most of a GB.
+        const int           chunk = 16;
+        std::vector<double> MR(std::size_t(n) * std::min(chunk, count)), norms(count, 0.);
+        for (int first = 0; first < count; first += chunk)
+          {
+            const int columns = std::min(chunk, count - first);
+            multiply_by_mass(&R[std::size_t(first) * n], MR.data(), columns);
+            for (int c = 0; c < columns; ++c)
+              for (int i = 0; i < n; ++i)
+                norms[first + c] += R[std::size_t(first + c) * n + i] * MR[std::size_t(c) * n + i];
+          }
         operators.sum_over_processes(norms.data(), count);
         for (int c = 0; c < count; ++c)
           norms[c] = std::sqrt(std::max(norms[c], 0.)) / std::abs(theta[c]);
@@ -472,6 +535,7 @@ namespace modal_haptics
         const int keep = std::min(size - block, nev + block);
         std::vector<double> scratch(std::size_t(n) * keep);
         for (auto *basis : {&V, &MV, &W})
+          if (!basis->empty())
           {
             gemm('N', 'N', n, keep, size, 1., basis->data(), n, Z.data(), size, 0., scratch.data(), n);
             std::copy(scratch.begin(), scratch.end(), basis->begin());
@@ -490,7 +554,10 @@ namespace modal_haptics
       int                                 capacity = 0;
       unsigned int                        solved   = 0;
       int                                 first_unconverged = 0;
+      bool                                store_mass_images = true; // M V kept (mass_images_fit)
       std::vector<double>                 V, MV, W, residuals;
+      std::vector<double>                 newest_MX; // M X of the block appended last: its solve's right-hand side
+      double                              last_progress_line = 0.;
       std::vector<double>                 ritz_vectors; // V Z of the wanted pairs, from residual_norms
       std::vector<double>                 orientation;  // the random start's first column (orient_ritz_vectors)
       std::vector<double>                 arnoldi; // capacity x capacity, first cycle only (orthogonalize_block)
@@ -498,16 +565,23 @@ namespace modal_haptics
     };
   } // namespace
 
+  std::string block_krylov_method(const unsigned int block_size, const EigenSolution &solution)
+  {
+    return "block Krylov (shift-invert, blocks of " + std::to_string(block_size) +
+           (solution.mass_images_stored ? "" : ", M V recomputed") + ")";
+  }
+
   EigenSolution solve_block_shift_invert(const dealii::SparseMatrix<double> &M,
                                          Factorization                      &shifted_inverse,
                                          const double                        shift,
                                          const unsigned int                  n_modes,
                                          const unsigned int                  block_size,
                                          const double                        tolerance,
+                                         const double                        memory_limit_bytes,
                                          const bool                          verbose)
   {
     SerialBlockOperators operators(M, shifted_inverse);
-    return solve_block_shift_invert(operators, shift, n_modes, block_size, tolerance, verbose);
+    return solve_block_shift_invert(operators, shift, n_modes, block_size, tolerance, memory_limit_bytes, verbose);
   }
 
   EigenSolution solve_block_shift_invert(BlockEigenOperators &operators,
@@ -515,9 +589,10 @@ namespace modal_haptics
                                          const unsigned int   n_modes,
                                          const unsigned int   block_size,
                                          const double         tolerance,
+                                         const double         memory_limit_bytes,
                                          const bool           verbose)
   {
-    BlockKrylov solver(operators, n_modes, block_size, tolerance, verbose);
+    BlockKrylov solver(operators, n_modes, block_size, tolerance, memory_limit_bytes, verbose);
     return solver.solve(shift);
   }
 } // namespace modal_haptics

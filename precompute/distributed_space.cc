@@ -336,10 +336,12 @@ namespace modal_haptics
       assembler.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
-    // MUMPS factorizes K - shift M for the eigensolver and the static solves; 'auto' factorizes when MUMPS's
-    // analysis predicts in-core data within 'Modes/Factor memory limit' (shared by the processes of
-    // a node; half the node's available memory by default), and otherwise takes the path without a
-    // factorization. Returns whether it factorized (collective: every process decides alike).
+    // MUMPS factorizes K - shift M for the eigensolver and the static solves, its factor in memory
+    // or on disk ('Modes/Factor storage'; auto: on disk when MUMPS's analysis predicts in-core data
+    // over 'Modes/Factor memory limit', shared by the processes of a node, half the node's available
+    // memory by default). 'Eigensolver = auto' takes the path without a factorization when even the
+    // storage taken would exceed the limit. Returns whether it factorized (collective: every process
+    // decides alike).
     bool DistributedSpace::factorize_unless_amg()
     {
       const EigensolverKind wanted = scene.modes.eigensolver;
@@ -355,29 +357,34 @@ namespace modal_haptics
           shifted_matrix.copy_from(stiffness_matrix);
           shifted_matrix.add(-shift, mass_matrix);
         }
-      const auto &A = shift != 0. ? shifted_matrix : stiffness_matrix;
-      if (wanted != EigensolverKind::automatic)
-        {
-          inverse = make_mumps_inverse(A, kind, shift <= 0., result.factorization);
-          return true;
-        }
+      const auto        &A       = shift != 0. ? shifted_matrix : stiffness_matrix;
       const unsigned int on_node = processes_on_this_node(comm);
-      const double       limit   = Utilities::MPI::min(scene.modes.factor_memory_limit > 0. ?
-                                                         1e9 * scene.modes.factor_memory_limit :
-                                                         0.5 * available_memory_bytes(),
-                                                       comm);
-      double predicted = 0.;
-      inverse          = make_mumps_inverse_within(A, kind, shift <= 0., result.factorization, limit / on_node, predicted);
-      std::ostringstream line;
-      if (predicted < 0.)
-        line << "Modes/Eigensolver = auto: MUMPS's LU (Amesos) does not predict its memory; factorized";
-      else
-        line << "Modes/Eigensolver = auto: MUMPS's analysis predicts " << predicted / 1e9
-             << " GB on the process that needs most, the limit is " << limit / on_node / 1e9 << " GB per process ("
-             << limit / 1e9 << " GB for the " << on_node << " on its node): "
-             << (inverse ? "block Krylov over MUMPS" : "lobpcg-amg (no factorization)");
-      log(line.str());
-      note_automatic_choice(inverse != nullptr, predicted * on_node, limit);
+      const double       limit   = Utilities::MPI::min(memory_budget_bytes(scene.modes.factor_memory_limit), comm);
+      const bool      automatic = wanted == EigensolverKind::automatic;
+      FactorPlacement placement;
+      placement.storage                 = scene.modes.factor_storage;
+      placement.directory               = scene.modes.factor_directory;
+      placement.limit_bytes_per_process = limit / on_node;
+      placement.refuse_over_limit       = automatic;
+      const auto decided = [&](const FactorPrediction &predicted, const bool will_factorize) {
+        std::ostringstream line;
+        if (predicted.in_core_bytes < 0.)
+          line << "MUMPS's LU (Amesos) does not predict its memory: factorizing in memory";
+        else
+          line << "MUMPS's analysis predicts " << predicted.in_core_bytes / 1e9 << " GB in core, "
+               << predicted.out_of_core_bytes / 1e9 << " GB with the factor (" << predicted.factor_bytes / 1e9
+               << " GB) on disk, on the process that needs most; the limit is " << limit / on_node / 1e9
+               << " GB per process (" << limit / 1e9 << " GB for the " << on_node << " on its node): "
+               << (!will_factorize     ? "lobpcg-amg (no factorization)" :
+                   predicted.on_disk ? "factorizing, the factor on disk" :
+                                       "factorizing, the factor in memory");
+        log(line.str());
+        if (automatic)
+          note_automatic_choice(will_factorize,
+                                (predicted.on_disk ? predicted.out_of_core_bytes : predicted.in_core_bytes) * on_node,
+                                limit);
+      };
+      inverse = make_mumps_inverse(A, kind, shift <= 0., placement, result.factorization, decided);
       return inverse != nullptr;
     }
 
@@ -408,11 +415,13 @@ namespace modal_haptics
                                               std::vector<DistributedVector> &eigenvectors)
     {
       DistributedBlockOperators operators(mass_matrix, *inverse, owned_layout, comm);
-      const EigenSolution       solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
-                                                              scene.modes.block_size, scene.modes.tolerance, verbose);
+      const double memory_limit =
+        Utilities::MPI::min(memory_budget_bytes(scene.modes.factor_memory_limit), comm) / processes_on_this_node(comm);
+      const EigenSolution solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
+                                                              scene.modes.block_size, scene.modes.tolerance,
+                                                              memory_limit, verbose);
       space_parts::record_iteration(result, solution);
-      result.eigensolver_method =
-        "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + "), distributed";
+      result.eigensolver_method = block_krylov_method(scene.modes.block_size, solution) + ", distributed";
       eigenvalues = solution.eigenvalues;
       for (const auto &local : solution.eigenvectors)
         eigenvectors.push_back(distributed(local));

@@ -23,7 +23,12 @@ namespace modal_haptics
     double       eigensolve_iteration_seconds = 0.; // wall time inside the iteration (ARPACK's Lanczos or block Krylov)
     double       mass_product_seconds    = 0.;        // block Krylov: the products with M, in eigensolve_iteration_seconds
     double       orthogonalization_seconds = 0.;      // block Krylov: Gram-Schmidt + Cholesky QR, in eigensolve_iteration_seconds
+    bool         mass_images_stored = true;           // block Krylov: M V kept beside V and OP V
   };
+
+  // The report's words for the block Krylov method: "block Krylov (shift-invert, blocks of 4)", and
+  // whether M V was recomputed instead of stored.
+  std::string block_krylov_method(unsigned int block_size, const EigenSolution &solution);
 
   // Computes the n_modes eigenpairs closest to the shift (rad^2/s^2) with the factorization of
   // K - shift M. ARPACK errors are user-visible (AssertThrow), also in Release builds.
@@ -57,12 +62,15 @@ namespace modal_haptics
 
   // The same spectral transformation with a block Krylov method (block_eigensolver.cc): blocks of
   // block_size right-hand sides per solve, thick restarts. Converged when every wanted Ritz pair's residual
-  // ||OP z - theta z||_M / theta is below tolerance. The eigenvectors hold this process's rows.
+  // ||OP z - theta z||_M / theta is below tolerance. The eigenvectors hold this process's rows. The
+  // basis keeps M V beside V and OP V when the three fit memory_limit_bytes on every process (else
+  // M V is recomputed where it is needed: a third less memory, more M products).
   EigenSolution solve_block_shift_invert(BlockEigenOperators &operators,
                                          double               shift,
                                          unsigned int         n_modes,
                                          unsigned int         block_size,
                                          double               tolerance,
+                                         double               memory_limit_bytes,
                                          bool                 verbose);
 
   // The serial case: M's products on deal.II's threads, the solves by the factorization.
@@ -72,6 +80,7 @@ namespace modal_haptics
                                          unsigned int                        n_modes,
                                          unsigned int                        block_size,
                                          double                              tolerance,
+                                         double                              memory_limit_bytes,
                                          bool                                verbose);
 
   struct EigenSelfCheck

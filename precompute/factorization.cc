@@ -359,6 +359,11 @@ namespace modal_haptics
     return std::numeric_limits<double>::infinity(); // not Linux: the factorization is always tried
   }
 
+  double memory_budget_bytes(const double limit_gb)
+  {
+    return limit_gb > 0. ? 1e9 * limit_gb : 0.5 * available_memory_bytes();
+  }
+
   unsigned int processes_on_this_node(const MPI_Comm comm)
   {
     MPI_Comm node;

@@ -155,6 +155,9 @@ namespace modal_haptics
   // MemAvailable of /proc/meminfo (infinity where there is none).
   double available_memory_bytes();
 
+  // 'Modes/Factor memory limit' in bytes (limit_gb in GB), or half the memory available now when it is 0.
+  double memory_budget_bytes(double limit_gb);
+
   // The MPI processes of comm that share this one's node (and its memory).
   unsigned int processes_on_this_node(MPI_Comm comm);
 

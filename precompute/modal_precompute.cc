@@ -28,7 +28,12 @@ namespace modal_haptics
     , distributed(distributed)
     , writes_files(!distributed || dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) == 0)
     , timer(std::cout, verbose ? TimerOutput::summary : TimerOutput::never, TimerOutput::wall_times)
-  {}
+  {
+    // Said before any meshing: the serial path's CHOLMOD has no out-of-core mode.
+    AssertThrow(distributed || scene.modes.factor_storage != FactorStorage::disk,
+                ExcMessage("'Modes/Factor storage = disk' keeps MUMPS's factor out of core, which is the distributed "
+                           "path's: run modal-precompute with --distributed (one process is enough) or under mpirun."));
+  }
 
   namespace
   {

@@ -225,14 +225,15 @@ namespace modal_haptics
         factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
       else
         {
-          const double limit = scene.modes.factor_memory_limit > 0. ? 1e9 * scene.modes.factor_memory_limit :
-                                                                      0.5 * available_memory_bytes();
+          const double limit = memory_budget_bytes(scene.modes.factor_memory_limit);
           double       predicted = 0.;
           factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
           std::ostringstream line;
           line << "Modes/Eigensolver = auto: CHOLMOD's analysis predicts a factor of " << predicted / 1e9
                << " GB, the limit is " << limit / 1e9 << " GB: "
-               << (factorization ? "block-krylov" : "lobpcg-amg (no factorization)");
+               << (factorization ? "block-krylov" :
+                                   "lobpcg-amg (no factorization; with --distributed, also on one process, MUMPS "
+                                   "would factorize with its factor on disk: 'Modes/Factor storage')");
           log(line.str());
           note_automatic_choice(factorization != nullptr, predicted, limit);
           if (!factorization)
@@ -281,7 +282,8 @@ namespace modal_haptics
             eigen = solve_with_lobpcg_amg();
           else if (method == EigensolverKind::block_krylov)
             eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
-                                             scene.modes.block_size, scene.modes.tolerance, verbose);
+                                             scene.modes.block_size, scene.modes.tolerance,
+                                             memory_budget_bytes(scene.modes.factor_memory_limit), verbose);
           else
             eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
                                        scene.modes.maximum_count, scene.modes.tolerance, verbose);
@@ -305,7 +307,7 @@ namespace modal_haptics
         method == EigensolverKind::lobpcg_amg ?
           amg_inverse()->eigensolver_method() :
         method == EigensolverKind::block_krylov ?
-          "block Krylov (shift-invert, blocks of " + std::to_string(scene.modes.block_size) + ")" :
+          block_krylov_method(scene.modes.block_size, eigen) :
           "ARPACK dsaupd mode 3 (shift-invert)";
       space_parts::record_iteration(result, eigen);
       identify_rigid_body_modes();

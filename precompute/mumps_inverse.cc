@@ -12,8 +12,13 @@
 #include <dmumps_c.h>
 #include <mpi.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -108,6 +113,9 @@ namespace modal_haptics
         return std::size_t(node + 1) < first_rows.size() ? first_rows[node + 1] : n_rows;
       }
     };
+
+    // MUMPS's large counts (INFOG(3), INFOG(29)): in millions when negative.
+    double mumps_count(const MUMPS_INT value) { return value >= 0 ? double(value) : -1e6 * double(value); }
 
     MPI_Datatype mpi_type(const int *) { return MPI_INT; }
     MPI_Datatype mpi_type(const double *) { return MPI_DOUBLE; }
@@ -257,8 +265,46 @@ namespace modal_haptics
       }
 
       // MUMPS's INFOG(16) after the analysis: its in-core data for the factorization, in MB, on the
-      // process that needs most.
-      double predicted_bytes_per_process() const { return 1e6 * double(mumps.infog[16 - 1]); }
+      // process that needs most; INFOG(26) the same for the factor on disk (the fronts being worked
+      // on and the stack of their contributions).
+      double predicted_in_core_bytes_per_process() const { return 1e6 * double(mumps.infog[16 - 1]); }
+      double predicted_out_of_core_bytes_per_process() const { return 1e6 * double(mumps.infog[26 - 1]); }
+      // INFOG(3): the factor's values on all processes together, what the files hold out of core.
+      double predicted_factor_bytes() const { return 8. * mumps_count(mumps.infog[3 - 1]); }
+
+      // The factor goes to files in directory (ICNTL(22) = 1) instead of memory; checked here, on
+      // every process, where a missing directory or a full disk can still be named (MUMPS would
+      // stop halfway through the factorization). The room asked for is the whole factor's, as if
+      // all processes shared the directory. Empty: $MUMPS_OOC_TMPDIR (MUMPS's own variable), else
+      // $TMPDIR, else /tmp.
+      void store_factor_on_disk(std::string directory)
+      {
+        for (const char *variable : {"MUMPS_OOC_TMPDIR", "TMPDIR"})
+          if (directory.empty() && std::getenv(variable) != nullptr)
+            directory = std::getenv(variable);
+        if (directory.empty())
+          directory = "/tmp";
+        const double factor_bytes = predicted_factor_bytes();
+        std::string  problem;
+        std::error_code error;
+        if (!std::filesystem::is_directory(directory, error))
+          problem = "is not a directory";
+        else if (access(directory.c_str(), W_OK | X_OK) != 0)
+          problem = "is not writable";
+        else if (directory.size() >= sizeof(mumps.ooc_tmpdir))
+          problem = "is longer than MUMPS's " + std::to_string(sizeof(mumps.ooc_tmpdir) - 1) + " characters";
+        else if (const double free = double(std::filesystem::space(directory, error).available); free < factor_bytes)
+          problem = "has " + std::to_string(free / 1e9) + " GB free, MUMPS's factor needs about " +
+                    std::to_string(factor_bytes / 1e9) + " GB";
+        const bool fine_everywhere = dealii::Utilities::MPI::max(int(!problem.empty()), comm) == 0;
+        AssertThrow(fine_everywhere,
+                    ExcMessage("'Modes/Factor directory' (" + directory + ") " +
+                               (problem.empty() ? "failed on another process" : problem) +
+                               ": MUMPS cannot keep its factor there (Factor storage = disk, or auto out of core)."));
+        std::strncpy(mumps.ooc_tmpdir, directory.c_str(), sizeof(mumps.ooc_tmpdir) - 1);
+        mumps.icntl[22 - 1] = 1;
+        stats.method.insert(stats.method.rfind(')'), ", factor on disk in " + directory);
+      }
 
       // MUMPS works in the space its analysis estimated plus ICNTL(14) per cent; its dynamic
       // scheduling between processes can need more (INFOG(1) = -9 on the test scene's 4,686 DoFs at
@@ -295,8 +341,7 @@ namespace modal_haptics
         std::vector<MUMPS_INT>().swap(matrix_rows);
         std::vector<MUMPS_INT>().swap(matrix_columns);
         std::vector<double>().swap(matrix_values);
-        const int entries = mumps.infog[29 - 1]; // the factor's entries, in millions when negative
-        stats.factor_nonzeros = entries >= 0 ? double(entries) : -1e6 * double(entries);
+        stats.factor_nonzeros = mumps_count(mumps.infog[29 - 1]);
         if (!positive_definite)
           negative = mumps.infog[12 - 1]; // with SYM = 2: the negative pivots of D
         solution_rows.resize(mumps.info[23 - 1]); // INFO(23): the solution's rows on this process
@@ -581,30 +626,35 @@ namespace modal_haptics
     };
   } // namespace
 
-  std::unique_ptr<DistributedInverse> make_mumps_inverse_within(const dealii::TrilinosWrappers::SparseMatrix &A,
-                                                                const DistributedFactorizationKind kind,
-                                                                const bool positive_definite,
-                                                                FactorizationStatistics &stats,
-                                                                const double max_bytes_per_process,
-                                                                double &predicted_bytes_per_process)
+  std::unique_ptr<DistributedInverse>
+  make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A, const DistributedFactorizationKind kind,
+                     const bool positive_definite, const FactorPlacement &placement, FactorizationStatistics &stats,
+                     const std::function<void(const FactorPrediction &, bool will_factorize)> &decided)
   {
-    predicted_bytes_per_process = -1.;
+    FactorPrediction prediction;
     if (kind == DistributedFactorizationKind::mumps_lu)
-      return std::make_unique<AmesosMumpsLU>(A, stats);
-    auto inverse = std::make_unique<MumpsCholesky>(A, positive_definite, stats);
-    predicted_bytes_per_process = inverse->predicted_bytes_per_process();
-    if (predicted_bytes_per_process > max_bytes_per_process)
+      {
+        AssertThrow(placement.storage != FactorStorage::disk,
+                    ExcMessage("'Modes/Factor storage = disk' needs 'Modes/Distributed factorization = "
+                               "mumps-cholesky': MUMPS's LU through Trilinos Amesos keeps its factor in memory."));
+        decided(prediction, true);
+        return std::make_unique<AmesosMumpsLU>(A, stats);
+      }
+    auto inverse                 = std::make_unique<MumpsCholesky>(A, positive_definite, stats);
+    prediction.in_core_bytes     = inverse->predicted_in_core_bytes_per_process();
+    prediction.out_of_core_bytes = inverse->predicted_out_of_core_bytes_per_process();
+    prediction.factor_bytes      = inverse->predicted_factor_bytes();
+    prediction.on_disk           = placement.storage == FactorStorage::disk ||
+                         (placement.storage == FactorStorage::automatic &&
+                          prediction.in_core_bytes > placement.limit_bytes_per_process);
+    const double need      = prediction.on_disk ? prediction.out_of_core_bytes : prediction.in_core_bytes;
+    const bool   factorize = !placement.refuse_over_limit || need <= placement.limit_bytes_per_process;
+    decided(prediction, factorize);
+    if (!factorize)
       return nullptr;
+    if (prediction.on_disk)
+      inverse->store_factor_on_disk(placement.directory);
     inverse->factorize();
     return inverse;
-  }
-
-  std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
-                                                         const DistributedFactorizationKind kind,
-                                                         const bool positive_definite, FactorizationStatistics &stats)
-  {
-    double predicted = 0.;
-    return make_mumps_inverse_within(A, kind, positive_definite, stats, std::numeric_limits<double>::infinity(),
-                                     predicted);
   }
 } // namespace modal_haptics

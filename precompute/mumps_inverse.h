@@ -15,7 +15,10 @@
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
+#include <functional>
+#include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace modal_haptics
@@ -38,19 +41,32 @@ namespace modal_haptics
     virtual long negative_eigenvalues() const { return -1; }
   };
 
-  // Factorizes A (collective); stats gets the method, the time and, for the symmetric path, the
-  // factor's entries (MUMPS INFOG(29)). positive_definite: A is (K with a shift <= 0).
-  std::unique_ptr<DistributedInverse> make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A,
-                                                         DistributedFactorizationKind kind, bool positive_definite,
-                                                         FactorizationStatistics &stats);
+  // Where MUMPS keeps its factor, and the in-core data it may take per process.
+  struct FactorPlacement
+  {
+    FactorStorage storage = FactorStorage::memory; // automatic: in core within the limit, else on disk
+    std::string   directory;                       // the out-of-core files' directory
+    double        limit_bytes_per_process = std::numeric_limits<double>::infinity();
+    bool          refuse_over_limit       = false; // nothing factorized when even the storage taken exceeds the limit
+  };
 
-  // The same, unless MUMPS's analysis predicts more than max_bytes_per_process of in-core data on
-  // the process that needs most (INFOG(16)): then nullptr, nothing factorized ('Eigensolver = auto').
-  // predicted_bytes_per_process gets that prediction; the LU path (Amesos) cannot tell before it
-  // factorizes: -1, and it factorizes.
-  std::unique_ptr<DistributedInverse> make_mumps_inverse_within(const dealii::TrilinosWrappers::SparseMatrix &A,
-                                                                DistributedFactorizationKind kind,
-                                                                bool positive_definite, FactorizationStatistics &stats,
-                                                                double max_bytes_per_process,
-                                                                double &predicted_bytes_per_process);
+  // What MUMPS's analysis predicted, on the process that needs most (INFOG(16) and INFOG(26)), and
+  // where the factor went; -1 where the LU (Amesos) cannot tell before it factorizes.
+  struct FactorPrediction
+  {
+    double in_core_bytes     = -1.;
+    double out_of_core_bytes = -1.;
+    double factor_bytes      = -1.; // the factor's values, all processes (INFOG(3))
+    bool   on_disk           = false;
+  };
+
+  // Factorizes A (collective) as placement says; stats gets the method, the time and, for the
+  // symmetric path, the factor's entries (MUMPS INFOG(29)). positive_definite: A is (K with a shift
+  // <= 0). nullptr (nothing factorized) only with placement.refuse_over_limit ('Eigensolver = auto').
+  // The LU path (Amesos) keeps its factor in memory and always factorizes. decided(prediction, will_factorize)
+  // is called once the choice is made, before the factorization (minutes at 10^6 DoFs).
+  std::unique_ptr<DistributedInverse>
+  make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A, DistributedFactorizationKind kind,
+                     bool positive_definite, const FactorPlacement &placement, FactorizationStatistics &stats,
+                     const std::function<void(const FactorPrediction &, bool will_factorize)> &decided);
 } // namespace modal_haptics

@@ -27,6 +27,11 @@ namespace modal_haptics
        {EigensolverKind::block_krylov, "block-krylov"},
        {EigensolverKind::arpack, "arpack"},
        {EigensolverKind::lobpcg_amg, "lobpcg-amg"}}};
+
+    const char *factor_storage_name(const FactorStorage storage)
+    {
+      return storage == FactorStorage::memory ? "memory" : storage == FactorStorage::disk ? "disk" : "auto";
+    }
   }
 
   std::string eigensolver_name(const EigensolverKind kind)
@@ -160,8 +165,10 @@ namespace modal_haptics
                       "Eigensolver = auto: the largest direct factor (as CHOLMOD's analysis predicts it) that is "
                       "computed; a larger one switches to lobpcg-amg. Under mpirun the limit of a node's processes "
                       "together, each held to its share against MUMPS's prediction of its in-core data (the "
-                      "symmetric mode; the LU always factorizes). 0: half the memory available when the space is "
-                      "solved. Units: GB (1e9 bytes).");
+                      "symmetric mode; the LU always factorizes). The same limit decides whether the distributed "
+                      "path's MUMPS factor stays in memory ('Factor storage = auto') and whether the block Krylov "
+                      "method keeps M V beside its bases V and OP V (else recomputed: a third less memory). 0: "
+                      "half the memory available when the space is solved. Units: GB (1e9 bytes).");
     prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
                       "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
     prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
@@ -174,6 +181,18 @@ namespace modal_haptics
                       "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
                       "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
                       "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
+    prm.declare_entry("Factor storage", factor_storage_name(m.factor_storage), Patterns::Selection("auto|memory|disk"),
+                      "The distributed path (under mpirun, or --distributed): where MUMPS keeps its factor. "
+                      "'memory': in core. 'disk': out of core, in 'Factor directory' (MUMPS writes the factor "
+                      "once and reads it back at every block solve; its in-core data shrinks to the fronts being "
+                      "worked on, so parts whose factor exceeds the memory still take the direct path). 'auto': "
+                      "in memory when MUMPS's analysis predicts in-core data within 'Factor memory limit', else "
+                      "on disk; with 'Eigensolver = auto', lobpcg-amg only when even the out-of-core data "
+                      "would not fit. The serial path (CHOLMOD) keeps its factor in memory. Units: none.");
+    prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
+                      "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
+                      "removed when the space is done. Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
+                      "Units: none (a path).");
     prm.leave_subsection();
   }
 
@@ -197,6 +216,11 @@ namespace modal_haptics
     lobpcg_modes_per_run = prm.get_integer("LOBPCG modes per run");
     factor_memory_limit = prm.get_double("Factor memory limit");
     block_size     = prm.get_integer("Block size");
+    const std::string storage = prm.get("Factor storage");
+    factor_storage = storage == "memory" ? FactorStorage::memory :
+                     storage == "disk"   ? FactorStorage::disk :
+                                           FactorStorage::automatic;
+    factor_directory = prm.get("Factor directory");
     prm.leave_subsection();
     // The default minimum follows a smaller requested count: asking for 5 modes must not fail on a
     // default nobody wrote. A minimum written above the maximum is still an error.

@@ -48,6 +48,14 @@ namespace modal_haptics
     mumps_lu        // Trilinos Amesos_Mumps: MUMPS's unsymmetric LU, kept as a peer
   };
 
+  // Where the distributed path's MUMPS factor lives (the serial path's CHOLMOD factor is in memory).
+  enum class FactorStorage
+  {
+    automatic, // in memory when MUMPS's analysis says it fits 'Factor memory limit', else on disk
+    memory,    // in core
+    disk       // out of core: MUMPS writes the factor to files and reads it back at every solve
+  };
+
   enum class EigensolverKind
   {
     automatic,    // block_krylov when CHOLMOD's analysis says its factor fits in memory, else lobpcg_amg
@@ -75,6 +83,8 @@ namespace modal_haptics
     unsigned int lobpcg_modes_per_run = 0; // lobpcg-amg: the most modes one LOBPCG run seeks; 0: automatic
     double       factor_memory_limit = 0.; // auto: the largest direct factor [GB]; 0: half the available memory
     unsigned int block_size    = 4;     // right-hand sides per block solve of the block Krylov method
+    FactorStorage factor_storage = FactorStorage::automatic;
+    std::string   factor_directory; // MUMPS's out-of-core files; empty: $MUMPS_OOC_TMPDIR, $TMPDIR or /tmp
 
     // The cut-off frequency [Hz] the rule gives, +inf for CutOffRule::none.
     double cut_off_frequency() const;

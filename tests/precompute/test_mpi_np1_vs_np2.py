@@ -23,8 +23,15 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
 * with 'Modes/Shift' at a tenth of the first frequency (MUMPS and CHOLMOD then factorize K - shift M and
   both paths refine their static solves against K): np = 2 vs serial, every validation error and the
   full contact responses to 1e-8, solve residuals <= 1e-9, more than one refinement step on both;
-* a bad .prm, a bad clamp group and a shift above the first frequency under mpirun -np 2 exit non-zero
-  with the message, no hang (the shift refused by the inertia of MUMPS's L D L^T, before PARPACK);
+* MUMPS's factor on disk (out of core, 'Modes/Factor storage'): asked for at np = 2, and chosen by
+  'auto' at np = 1 when the in-core data would exceed 'Factor memory limit': the method says so, the
+  .h5 equals the serial one as above, and the factor's files are removed after the runs; under that
+  limit the block Krylov method recomputes M V instead of storing it (np = 1 and serially): the same
+  .h5 as above;
+* a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
+  under mpirun -np 2 exit non-zero with the message, no hang (the shift refused by the inertia of
+  MUMPS's L D L^T, before PARPACK); 'Factor storage = disk' on the serial path exits non-zero naming
+  the parameter and --distributed;
 * the meshes in mumps_workspace/ (gmsh's output for this scene in one CI run), on which MUMPS's
   workspace estimate fell short at np = 2 with PORD's order through PETSc (INFOG(1) = -9; PETSc then
   returned infinities from every solve): np = 2 runs and gives the serial path's frequencies to 1e-9
@@ -204,13 +211,29 @@ def main():
            "np=1 and np=2: MUMPS used our METIS order (INFOG(7) = 1)")
     expect(all("block Krylov" in space["eigensolver"]["method"] for space in np1["spaces"] + np2["spaces"]),
            "np=1 and np=2 ran the block Krylov eigensolver over MUMPS (the default)")
-    for name, setting, method, label in [("np2_lu", "Distributed factorization = mumps-lu", "mumps-lu", "MUMPS LU"),
-                                         ("np2_parpack", "Eigensolver = arpack", "PARPACK", "PARPACK")]:
-        other, _ = run(mpi_command(args.mpirun, 2) + [args.binary], os.path.join(args.workdir, name), np1_dir,
-                       extra=f"subsection Modes\n  set {setting}\nend\n")
-        expect(all(method in space["eigensolver"]["method"] for space in other["spaces"]),
-               f"np=2 with '{setting}' ran {method}")
-        compare_h5(os.path.join(args.workdir, name, SCENE + ".h5"), h5["serial"], f"np=2 {label} vs serial", expect)
+    # MUMPS's factor on disk (out of core): asked for at np = 2, and chosen by 'Factor storage = auto'
+    # at np = 1 when the in-core data would exceed 'Factor memory limit'; its files are gone afterwards.
+    factor_directory = os.path.join(args.workdir, "factor_files")
+    os.makedirs(factor_directory, exist_ok=True)
+    on_disk = f"Factor directory = {factor_directory}"
+    # Under the same limit the block Krylov method does not store M V (the serial run below too).
+    launch = {"np=2": mpi_command(args.mpirun, 2) + [args.binary],
+              "np=1": mpi_command(args.mpirun, 1) + [args.binary, "--distributed"], "serial": [args.binary]}
+    tiny_limit = ["Eigensolver = block-krylov", "Factor memory limit = 1e-6"]
+    for name, where, settings, methods, label in [
+            ("np2_lu", "np=2", ["Distributed factorization = mumps-lu"], ["mumps-lu"], "MUMPS LU"),
+            ("np2_parpack", "np=2", ["Eigensolver = arpack"], ["PARPACK"], "PARPACK"),
+            ("np2_disk", "np=2", ["Factor storage = disk", on_disk], ["factor on disk"], "MUMPS out of core"),
+            ("np1_auto_disk", "np=1", tiny_limit + [on_disk], ["factor on disk", "M V recomputed"],
+             "MUMPS out of core (auto), no M V"),
+            ("serial_no_mv", "serial", tiny_limit, ["M V recomputed"], "block Krylov without M V")]:
+        other, _ = run(launch[where], os.path.join(args.workdir, name), np1_dir,
+                       extra="subsection Modes\n" + "".join(f"  set {s}\n" for s in settings) + "end\n")
+        expect(all(m in space["eigensolver"]["method"] for space in other["spaces"] for m in methods),
+               f"{where} with {settings} ran {' and '.join(methods)}")
+        compare_h5(os.path.join(args.workdir, name, SCENE + ".h5"), h5["serial"], f"{where} {label} vs serial", expect)
+    left = os.listdir(factor_directory)
+    expect(not left, f"MUMPS's factor files removed after the runs ({len(left)} left)")
 
     # A shifted factorization: the static solves of both paths are refined against K, so np = 2 and the
     # serial path give the same full responses and validation errors (before the distributed path refined,
@@ -246,7 +269,9 @@ def main():
                               ("missing clamp group", "subsection Geometry\n  set Clamp groups = bolts\nend\n", "bolts"),
                               ("shift above the first frequency",
                                f"subsection Modes\n  set Shift = {1.05 * first_frequency}\nend\n",
-                               "(the inertia of MUMPS's L D L^T")]:
+                               "(the inertia of MUMPS's L D L^T"),
+                              ("missing factor directory", "subsection Modes\n  set Factor storage = disk\n"
+                               f"  set Factor directory = {bad_dir}/nowhere\nend\n", "'Modes/Factor directory'")]:
         prm = os.path.join(bad_dir, case.replace(" ", "_") + ".prm")
         open(prm, "w").write(base + extra)
         try:
@@ -256,6 +281,15 @@ def main():
                    f"{case} under mpirun -np 2: exit {done.returncode}, message names '{word}'")
         except subprocess.TimeoutExpired:
             expect(False, f"{case} under mpirun -np 2: no hang")
+
+    # The serial path (CHOLMOD) has no factor on disk: said before any meshing.
+    prm = os.path.join(bad_dir, "serial_disk.prm")
+    open(prm, "w").write(base + "subsection Modes\n  set Factor storage = disk\nend\n")
+    done = subprocess.run([args.binary, prm, "--output-dir", bad_dir, "--quiet"], capture_output=True, text=True,
+                          timeout=120)
+    expect(done.returncode != 0 and "--distributed" in done.stderr and "Factor storage" in done.stderr,
+           f"'Factor storage = disk' on the serial path: exit {done.returncode}, message names the parameter and "
+           "--distributed")
 
     # MUMPS's workspace: a mesh on which its estimate fell short at np = 2 (factorized anew with more).
     workspace_meshes = os.path.join(HERE, "mumps_workspace")
