@@ -382,7 +382,7 @@ namespace modal_haptics
         if (automatic)
           note_automatic_choice(will_factorize,
                                 (predicted.on_disk ? predicted.out_of_core_bytes : predicted.in_core_bytes) * on_node,
-                                limit);
+                                limit, predicted.on_disk);
       };
       inverse = make_mumps_inverse(A, kind, shift <= 0., placement, result.factorization, decided);
       return inverse != nullptr;

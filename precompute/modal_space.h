@@ -289,7 +289,8 @@ namespace modal_haptics
       // (SpaceBase::run). Only what does not move with
       // the machine's free memory when the factor fits (scenario jobs compare their reports with a
       // one-run report's).
-      void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes);
+      // on_disk: the factor was put on disk (MUMPS) to fit, predicted_bytes then its out-of-core data.
+      void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes, bool on_disk = false);
       PhaseInputs inputs() const
       {
         return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};

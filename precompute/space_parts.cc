@@ -67,14 +67,17 @@ namespace modal_haptics
       result.degree = scene.element_degree;
     }
 
-    void SpaceBase::note_automatic_choice(const bool factorized, const double predicted_bytes, const double limit_bytes)
+    void SpaceBase::note_automatic_choice(const bool factorized, const double predicted_bytes, const double limit_bytes,
+                                          const bool on_disk)
     {
       std::ostringstream why;
-      if (factorized)
+      if (factorized && on_disk)
+        why << " (auto: the factor on disk, its in-core data fits the limit)";
+      else if (factorized)
         why << " (auto: the predicted factor fits the limit)";
       else
-        why << " (auto: predicted factor " << predicted_bytes / 1e9 << " GB over the limit " << limit_bytes / 1e9
-            << " GB)";
+        why << " (auto: predicted " << (on_disk ? "in-core data with the factor on disk " : "factor ")
+            << predicted_bytes / 1e9 << " GB over the limit " << limit_bytes / 1e9 << " GB)";
       automatic_choice = why.str();
     }
 
