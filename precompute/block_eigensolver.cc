@@ -535,8 +535,9 @@ namespace modal_haptics
         const int keep = std::min(size - block, nev + block);
         std::vector<double> scratch(std::size_t(n) * keep);
         for (auto *basis : {&V, &MV, &W})
-          if (!basis->empty())
           {
+            if (basis->empty()) // M V, when it is recomputed instead of stored
+              continue;
             gemm('N', 'N', n, keep, size, 1., basis->data(), n, Z.data(), size, 0., scratch.data(), n);
             std::copy(scratch.begin(), scratch.end(), basis->begin());
           }
