@@ -342,6 +342,7 @@ namespace modal_haptics
         std::vector<MUMPS_INT>().swap(matrix_columns);
         std::vector<double>().swap(matrix_values);
         stats.factor_nonzeros = mumps_count(mumps.infog[29 - 1]);
+        stats.factor_flops    = mumps.rinfog[3 - 1]; // the elimination's operations, all processes
         if (!positive_definite)
           negative = mumps.infog[12 - 1]; // with SYM = 2: the negative pivots of D
         solution_rows.resize(mumps.info[23 - 1]); // INFO(23): the solution's rows on this process

@@ -284,7 +284,7 @@ def main():
                                                    for p in good[0]["phases"])
                 row["solved_vectors"] = good[0]["solved"]
                 row["factor_nonzeros"] = good[0]["factor_nonzeros"]
-                if good[0]["factor_flops"] > 0:  # CHOLMOD counts them, UMFPACK through deal.II does not
+                if good[0]["factor_flops"] > 0:  # CHOLMOD and MUMPS count them, UMFPACK through deal.II does not
                     row["factor_gflops"] = good[0]["factor_flops"] / 1e9 / statistics.median(r["phases"]["factorize"]
                                                                                              for r in good)
             if key == "ours":
