@@ -800,10 +800,7 @@ namespace modal_haptics
 
     // What one solver run may take on this process: half of its share of the memory its node
     // has available now, the smallest over the processes (so that all decide alike).
-    double memory_budget(const MPI_Comm comm)
-    {
-      return dealii::Utilities::MPI::min(0.5 * available_memory_bytes(), comm) / processes_on_this_node(comm);
-    }
+    double memory_budget(const MPI_Comm comm) { return memory_budget_per_process_bytes(0., comm); }
 
     // Bytes per row that one LOBPCG run holds for a block of b columns: Anasazi's twelve blocks
     // (X, H, P and their A and M products, the residual, a work block, the start), the

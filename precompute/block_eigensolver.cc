@@ -467,7 +467,7 @@ namespace modal_haptics
       {
         Z.assign(std::size_t(size) * size, 0.);
         std::vector<double> scratch;
-        const int           chunk = store_mass_images ? size : 16;
+        const int           chunk = store_mass_images ? size : columns_per_mass_pass;
         for (int first = 0; first < size; first += chunk)
           {
             const int count = std::min(chunk, size - first);
@@ -501,8 +501,8 @@ namespace modal_haptics
         for (int c = 0; c < count; ++c)
           for (int i = 0; i < n; ++i)
             R[std::size_t(c) * n + i] -= theta[c] * VZ[std::size_t(c) * n + i];
-        // M R 16 columns at a time: at 10^6 rows a whole n x count block is most of a GB.
-        const int           chunk = 16;
+        // M R a few columns at a time: at 10^6 rows a whole n x count block is most of a GB.
+        const int           chunk = columns_per_mass_pass;
         std::vector<double> MR(std::size_t(n) * std::min(chunk, count)), norms(count, 0.);
         for (int first = 0; first < count; first += chunk)
           {
@@ -556,6 +556,9 @@ namespace modal_haptics
       unsigned int                        solved   = 0;
       int                                 first_unconverged = 0;
       bool                                store_mass_images = true; // M V kept (mass_images_fit)
+      // Products with M whose results are not kept (V^T M W without M V, the residuals' M R) go
+      // this many columns at a time: the scratch stays small and each pass over V reads it once.
+      static constexpr int                columns_per_mass_pass = 16;
       std::vector<double>                 V, MV, W, residuals;
       std::vector<double>                 newest_MX; // M X of the block appended last: its solve's right-hand side
       double                              last_progress_line = 0.;

@@ -358,13 +358,14 @@ namespace modal_haptics
           shifted_matrix.add(-shift, mass_matrix);
         }
       const auto        &A       = shift != 0. ? shifted_matrix : stiffness_matrix;
-      const unsigned int on_node = processes_on_this_node(comm);
-      const double       limit   = Utilities::MPI::min(memory_budget_bytes(scene.modes.factor_memory_limit), comm);
+      const unsigned int on_node     = processes_on_this_node(comm);
+      const double       per_process = memory_budget_per_process_bytes(scene.modes.factor_memory_limit, comm);
+      const double       limit       = per_process * on_node; // the node's
       const bool      automatic = wanted == EigensolverKind::automatic;
       FactorPlacement placement;
       placement.storage                 = scene.modes.factor_storage;
       placement.directory               = scene.modes.factor_directory;
-      placement.limit_bytes_per_process = limit / on_node;
+      placement.limit_bytes_per_process = per_process;
       placement.refuse_over_limit       = automatic;
       const auto decided = [&](const FactorPrediction &predicted, const bool will_factorize) {
         std::ostringstream line;
@@ -373,7 +374,7 @@ namespace modal_haptics
         else
           line << "MUMPS's analysis predicts " << predicted.in_core_bytes / 1e9 << " GB in core, "
                << predicted.out_of_core_bytes / 1e9 << " GB with the factor (" << predicted.factor_bytes / 1e9
-               << " GB) on disk, on the process that needs most; the limit is " << limit / on_node / 1e9
+               << " GB) on disk, on the process that needs most; the limit is " << per_process / 1e9
                << " GB per process (" << limit / 1e9 << " GB for the " << on_node << " on its node): "
                << (!will_factorize     ? "lobpcg-amg (no factorization)" :
                    predicted.on_disk ? "factorizing, the factor on disk" :
@@ -415,8 +416,7 @@ namespace modal_haptics
                                               std::vector<DistributedVector> &eigenvectors)
     {
       DistributedBlockOperators operators(mass_matrix, *inverse, owned_layout, comm);
-      const double memory_limit =
-        Utilities::MPI::min(memory_budget_bytes(scene.modes.factor_memory_limit), comm) / processes_on_this_node(comm);
+      const double memory_limit = memory_budget_per_process_bytes(scene.modes.factor_memory_limit, comm);
       const EigenSolution solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
                                                               scene.modes.block_size, scene.modes.tolerance,
                                                               memory_limit, verbose);

@@ -364,6 +364,11 @@ namespace modal_haptics
     return limit_gb > 0. ? 1e9 * limit_gb : 0.5 * available_memory_bytes();
   }
 
+  double memory_budget_per_process_bytes(const double limit_gb, const MPI_Comm comm)
+  {
+    return dealii::Utilities::MPI::min(memory_budget_bytes(limit_gb), comm) / processes_on_this_node(comm);
+  }
+
   unsigned int processes_on_this_node(const MPI_Comm comm)
   {
     MPI_Comm node;

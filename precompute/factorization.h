@@ -161,6 +161,10 @@ namespace modal_haptics
   // The MPI processes of comm that share this one's node (and its memory).
   unsigned int processes_on_this_node(MPI_Comm comm);
 
+  // This process's share of its node's memory_budget_bytes(limit_gb), the smallest over comm's
+  // processes so that all decide alike.
+  double memory_budget_per_process_bytes(double limit_gb, MPI_Comm comm);
+
   std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
                                                             double shift);

@@ -114,6 +114,24 @@ namespace modal_haptics
       }
     };
 
+    // What keeps MUMPS's factor files out of directory, or empty: it must be a writable directory
+    // with room for factor_bytes and a name of at most max_length characters.
+    std::string factor_directory_problem(const std::string &directory, const double factor_bytes,
+                                         const std::size_t max_length)
+    {
+      std::error_code error;
+      if (!std::filesystem::is_directory(directory, error))
+        return "is not a directory";
+      if (access(directory.c_str(), W_OK | X_OK) != 0)
+        return "is not writable";
+      if (directory.size() > max_length)
+        return "is longer than MUMPS's " + std::to_string(max_length) + " characters";
+      if (const double free = double(std::filesystem::space(directory, error).available); free < factor_bytes)
+        return "has " + std::to_string(free / 1e9) + " GB free, MUMPS's factor needs about " +
+               std::to_string(factor_bytes / 1e9) + " GB";
+      return "";
+    }
+
     // MUMPS's large counts (INFOG(3), INFOG(29)): in millions when negative.
     double mumps_count(const MUMPS_INT value) { return value >= 0 ? double(value) : -1e6 * double(value); }
 
@@ -284,18 +302,8 @@ namespace modal_haptics
             directory = std::getenv(variable);
         if (directory.empty())
           directory = "/tmp";
-        const double factor_bytes = predicted_factor_bytes();
-        std::string  problem;
-        std::error_code error;
-        if (!std::filesystem::is_directory(directory, error))
-          problem = "is not a directory";
-        else if (access(directory.c_str(), W_OK | X_OK) != 0)
-          problem = "is not writable";
-        else if (directory.size() >= sizeof(mumps.ooc_tmpdir))
-          problem = "is longer than MUMPS's " + std::to_string(sizeof(mumps.ooc_tmpdir) - 1) + " characters";
-        else if (const double free = double(std::filesystem::space(directory, error).available); free < factor_bytes)
-          problem = "has " + std::to_string(free / 1e9) + " GB free, MUMPS's factor needs about " +
-                    std::to_string(factor_bytes / 1e9) + " GB";
+        const std::string problem =
+          factor_directory_problem(directory, predicted_factor_bytes(), sizeof(mumps.ooc_tmpdir) - 1);
         const bool fine_everywhere = dealii::Utilities::MPI::max(int(!problem.empty()), comm) == 0;
         AssertThrow(fine_everywhere,
                     ExcMessage("'Modes/Factor directory' (" + directory + ") " +

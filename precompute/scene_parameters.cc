@@ -28,9 +28,15 @@ namespace modal_haptics
        {EigensolverKind::arpack, "arpack"},
        {EigensolverKind::lobpcg_amg, "lobpcg-amg"}}};
 
+    const std::array<std::pair<FactorStorage, const char *>, 3> factor_storage_names = {
+      {{FactorStorage::automatic, "auto"}, {FactorStorage::memory, "memory"}, {FactorStorage::disk, "disk"}}};
+
     const char *factor_storage_name(const FactorStorage storage)
     {
-      return storage == FactorStorage::memory ? "memory" : storage == FactorStorage::disk ? "disk" : "auto";
+      for (const auto &[kind, name] : factor_storage_names)
+        if (kind == storage)
+          return name;
+      return "?";
     }
   }
 
@@ -216,10 +222,9 @@ namespace modal_haptics
     lobpcg_modes_per_run = prm.get_integer("LOBPCG modes per run");
     factor_memory_limit = prm.get_double("Factor memory limit");
     block_size     = prm.get_integer("Block size");
-    const std::string storage = prm.get("Factor storage");
-    factor_storage = storage == "memory" ? FactorStorage::memory :
-                     storage == "disk"   ? FactorStorage::disk :
-                                           FactorStorage::automatic;
+    for (const auto &[kind, name] : factor_storage_names) // the pattern admits only these names
+      if (prm.get("Factor storage") == name)
+        factor_storage = kind;
     factor_directory = prm.get("Factor directory");
     prm.leave_subsection();
     // The default minimum follows a smaller requested count: asking for 5 modes must not fail on a
