@@ -295,8 +295,9 @@ namespace modal_haptics
       AssertThrow(free.motions.empty(),
                   ExcMessage("Space '" + task.name + "': the supports leave " + std::to_string(free.motions.size()) +
                              " rigid-body motions free (" + free.describe() + "); such a part runs on the serial "
-                             "path only: the distributed path neither identifies the rigid-body modes nor keeps its "
-                             "static answers free of them. Run modal-precompute without mpirun or --distributed."));
+                             "path's CHOLMOD only: MUMPS's path neither identifies the rigid-body modes nor keeps its "
+                             "static answers free of them. Run modal-precompute without mpirun or --distributed, "
+                             "and without 'Modes/Factor storage = disk'."));
       std::vector<unsigned int> clamped;
       for (const auto i : owned_dofs)
         if (constraints.is_constrained(i))
@@ -315,7 +316,7 @@ namespace modal_haptics
       log(std::to_string(result.n_cells) + " tets, " + std::to_string(result.n_vertices) + " vertices, " +
           std::to_string(result.n_dofs) + " DoFs (P" + std::to_string(scene.element_degree) + "), " +
           std::to_string(result.n_clamped_dofs) + " clamped, on " +
-          std::to_string(Utilities::MPI::n_mpi_processes(comm)) + " processes");
+          std::to_string(Utilities::MPI::n_mpi_processes(comm)) + " process(es)");
     }
 
     void DistributedSpace::assemble_system()
@@ -765,6 +766,38 @@ namespace modal_haptics
     }
 
   } // namespace
+
+  void gather_rows_on_root(ModalSpaceResult &space, const MPI_Comm comm)
+  {
+    if (!space.owned_rows)
+      return;
+    const auto vertices    = dealii::Utilities::MPI::gather(comm, space.owned_rows->vertices);
+    const auto coordinates = dealii::Utilities::MPI::gather(comm, space.mesh_vertices);
+    const auto modes       = dealii::Utilities::MPI::gather(comm, space.modes_at_vertices);
+    const auto tets        = dealii::Utilities::MPI::gather(comm, space.owned_rows->tets);
+    const auto tet_rows    = dealii::Utilities::MPI::gather(comm, space.mesh_tets);
+    space.owned_rows.reset();
+    if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
+      return;
+    const std::size_t r = space.eigenvalues.size(), nv = space.n_vertices;
+    space.mesh_vertices.assign(3 * nv, 0.);
+    space.modes_at_vertices.assign(r * nv * 3, 0.);
+    space.mesh_tets.assign(4 * std::size_t(space.n_cells), 0);
+    for (std::size_t p = 0; p < vertices.size(); ++p)
+      {
+        const std::size_t owned = vertices[p].size();
+        for (std::size_t k = 0; k < owned; ++k)
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              const std::size_t v = vertices[p][k];
+              space.mesh_vertices[3 * v + c] = coordinates[p][3 * k + c];
+              for (std::size_t i = 0; i < r; ++i)
+                space.modes_at_vertices[(i * nv + v) * 3 + c] = modes[p][(i * owned + k) * 3 + c];
+            }
+        for (std::size_t k = 0; k < tets[p].size(); ++k)
+          std::copy_n(&tet_rows[p][4 * k], 4, &space.mesh_tets[4 * std::size_t(tets[p][k])]);
+      }
+  }
 
   ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
                                                    const ContactSurface  &display,

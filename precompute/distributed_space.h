@@ -19,4 +19,10 @@ namespace modal_haptics
                                                    dealii::TimerOutput   &timer,
                                                    bool                   verbose,
                                                    MPI_Comm               comm);
+
+  // A distributed space keeps only each process's own rows of the per-vertex and per-tet data
+  // (ModalSpaceResult::owned_rows). What one file or the serial exporters take (a scenario job's
+  // partial result, the serial path's space handed over to MUMPS) gets every row, in mesh order,
+  // on process 0 (collective).
+  void gather_rows_on_root(ModalSpaceResult &space, MPI_Comm comm);
 } // namespace modal_haptics

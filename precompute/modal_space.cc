@@ -5,6 +5,7 @@
 
 #include "amg_eigensolver.h"
 #include "atomic_file.h"
+#include "distributed_space.h"
 #include "space_phases.h"
 
 #include <deal.II/base/exceptions.h>
@@ -49,6 +50,14 @@ namespace modal_haptics
   namespace
   {
     constexpr double two_pi = 2. * M_PI;
+
+    // Thrown by the serial space when CHOLMOD's factor would not fit and MUMPS, whose factor may
+    // go to disk, is to compute the space instead (compute_modal_space catches it, once the serial
+    // space and its matrices are gone). why: what CHOLMOD's analysis predicted, against what limit.
+    struct HandOverToMumps
+    {
+      std::string why;
+    };
 
     // The serial backend of the space phases (space_phases.h): deal.II sparse matrices, a CHOLMOD or
     // UMFPACK factorization of K - shift M, every DoF on this process.
@@ -127,6 +136,8 @@ namespace modal_haptics
       void setup_system();
       void assemble_system();
       EigensolverKind factorize_unless_amg();
+      bool            mumps_may_take_over() const;
+      bool            factorize_within_limit(bool automatic);
       EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
       void identify_rigid_body_modes();
@@ -208,43 +219,71 @@ namespace modal_haptics
       assembler.set_mass_properties(result);
     }
 
-    // The direct path factorizes K - shift M (CHOLMOD or UMFPACK); 'auto' factorizes when CHOLMOD's
-    // analysis predicts a factor within 'Modes/Factor memory limit' (half the available memory by
-    // default), and otherwise takes the path without a factorization. Returns the eigensolver that
-    // runs.
+    // The direct path factorizes K - shift M (CHOLMOD or UMFPACK). Returns the eigensolver that runs:
+    // lobpcg-amg when asked for, or when 'Eigensolver = auto' finds no factor that fits
+    // (factorize_within_limit).
     EigensolverKind SerialSpace::factorize_unless_amg()
     {
       const EigensolverKind wanted = scene.modes.eigensolver;
       if (wanted == EigensolverKind::lobpcg_amg)
         return wanted;
-      const bool cholmod = scene.modes.factorization_kind == FactorizationKind::cholmod;
+      const bool automatic = wanted == EigensolverKind::automatic;
+      const bool cholmod   = scene.modes.factorization_kind == FactorizationKind::cholmod;
       log("factorizing K (" + std::string(cholmod ? "CHOLMOD" : "UMFPACK") + ")");
       if (!cholmod)
         factorization = make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
-      else if (wanted != EigensolverKind::automatic)
+      else if (!automatic && !mumps_may_take_over())
         factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
-      else
-        {
-          const double limit = memory_budget_bytes(scene.modes.factor_memory_limit);
-          double       predicted = 0.;
-          factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
-          std::ostringstream line;
-          line << "Modes/Eigensolver = auto: CHOLMOD's analysis predicts a factor of " << predicted / 1e9
-               << " GB, the limit is " << limit / 1e9 << " GB: "
-               << (factorization ? "block-krylov" :
-                                   "lobpcg-amg (no factorization; with --distributed, also on one process, MUMPS "
-                                   "would factorize with its factor on disk: 'Modes/Factor storage')");
-          log(line.str());
-          note_automatic_choice(factorization != nullptr, predicted, limit);
-          if (!factorization)
-            return EigensolverKind::lobpcg_amg;
-        }
+      else if (!factorize_within_limit(automatic))
+        return EigensolverKind::lobpcg_amg;
       const auto &f = factorization->statistics();
       std::ostringstream line;
       line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
            << f.factorize_seconds << " s";
       log(line.str());
       return wanted == EigensolverKind::automatic ? EigensolverKind::block_krylov : wanted;
+    }
+
+    // 'Factor storage = auto' lets MUMPS, whose factor may go to disk, take the space over when
+    // CHOLMOD's factor would not fit; its path does not take parts with free rigid-body motions.
+    bool SerialSpace::mumps_may_take_over() const
+    {
+      return scene.modes.factor_storage == FactorStorage::automatic && supports.free_motions(Point<3>()).motions.empty();
+    }
+
+    // CHOLMOD's factorization when its analysis predicts a factor within 'Modes/Factor memory limit'
+    // (half the available memory by default). Past it MUMPS takes the space over on this process
+    // when it may (HandOverToMumps: its factor in memory or on disk as its own analysis says, or
+    // lobpcg-amg with 'Eigensolver = auto' if even that would not fit); else 'Eigensolver = auto'
+    // returns false (lobpcg-amg) and an eigensolver asked for by name factorizes anyway.
+    bool SerialSpace::factorize_within_limit(const bool automatic)
+    {
+      const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
+      double       predicted = 0.;
+      factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
+      std::ostringstream over;
+      over << "CHOLMOD's analysis predicts a factor of " << predicted / 1e9 << " GB, 'Modes/Factor memory limit' is "
+           << limit / 1e9 << " GB";
+      if (!factorization && mumps_may_take_over())
+        throw HandOverToMumps{"'Modes/Factor storage = auto': " + over.str()};
+      const std::string why_not_mumps =
+        scene.modes.factor_storage == FactorStorage::automatic ?
+          "MUMPS's path, whose factor may go to disk, does not take parts with free rigid-body motions" :
+          "'Factor storage = memory' keeps MUMPS's factor off disk";
+      if (automatic)
+        {
+          log("Modes/Eigensolver = auto: " + over.str() + ": " +
+              (factorization ? "block-krylov" : "lobpcg-amg (no factorization; " + why_not_mumps + ")"));
+          note_automatic_choice(factorization != nullptr, predicted, limit);
+          return factorization != nullptr;
+        }
+      if (!factorization)
+        {
+          log(over.str() + ": factorizing all the same, as 'Modes/Eigensolver' names the method (" + why_not_mumps +
+              ")");
+          factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
+        }
+      return true;
     }
 
     // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
@@ -655,6 +694,20 @@ namespace modal_haptics
       log("exported K and M to " + scene.output_directory + "/" + task.name + "_{K,M}.csr");
     }
 
+    // The space computed by MUMPS on this one process: the distributed backend on MPI_COMM_SELF
+    // (as --distributed runs it), its rows then put in the serial result's mesh order.
+    ModalSpaceResult compute_with_mumps_on_this_process(const SceneParameters &scene, const ContactSurface &display,
+                                                        const SpaceTask &task, const std::string &vtu_file,
+                                                        TimerOutput &timer, const bool verbose, const std::string &why)
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << why << ": MUMPS computes the space on this process" << std::endl;
+      ModalSpaceResult result =
+        compute_modal_space_distributed(scene, display, task, vtu_file, timer, verbose, MPI_COMM_SELF);
+      gather_rows_on_root(result, MPI_COMM_SELF);
+      result.eigensolver_method += " [MUMPS on one process, for the serial run: " + why + "]";
+      return result;
+    }
   } // namespace
 
   ModalSpaceResult compute_modal_space(const SceneParameters &scene,
@@ -664,7 +717,25 @@ namespace modal_haptics
                                        TimerOutput           &timer,
                                        const bool             verbose)
   {
-    SerialSpace space(scene, display, task, vtu_file, timer, verbose);
-    return space.run();
+    const bool factorizes = scene.modes.eigensolver != EigensolverKind::lobpcg_amg;
+    if (factorizes && scene.modes.factor_storage == FactorStorage::disk)
+      return compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
+                                                "'Modes/Factor storage = disk'");
+    Timer serial_attempt;
+    try
+      {
+        SerialSpace space(scene, display, task, vtu_file, timer, verbose);
+        return space.run();
+      }
+    catch (const HandOverToMumps &hand_over)
+      {
+        // The serial assembly and CHOLMOD's analysis were spent before the choice (seconds against
+        // the minutes of a factor that does not fit in memory); the report keeps them apart.
+        const double     spent  = serial_attempt.wall_time();
+        ModalSpaceResult result = compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
+                                                                     hand_over.why);
+        result.timings_s["serial_attempt"] = spent;
+        return result;
+      }
   }
 } // namespace modal_haptics

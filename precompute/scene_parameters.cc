@@ -153,9 +153,11 @@ namespace modal_haptics
                       "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
                       "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
                       "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
-                      "factor fits in 'Factor memory limit', else lobpcg-amg. Under mpirun MUMPS factorizes: "
+                      "factor fits in 'Factor memory limit', else MUMPS on this one process, its factor in memory or "
+                      "on disk ('Factor storage'), else lobpcg-amg (also where MUMPS cannot serve: 'Factor storage = "
+                      "memory', a part with free rigid-body motions). Under mpirun MUMPS factorizes: "
                       "'block-krylov' and 'arpack' (PARPACK) over it, 'auto' the block Krylov method when MUMPS's "
-                      "analysis says its factor fits, else lobpcg-amg. All converge to the same modes. Units: none.");
+                      "analysis says its factor fits, in memory or on disk, else lobpcg-amg. All converge to the same modes. Units: none.");
     prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
                       "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
                       "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
@@ -168,8 +170,9 @@ namespace modal_haptics
                       "once when that run fits half the memory available (per process), else as many as fit. "
                       "Units: none.");
     prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
-                      "Eigensolver = auto: the largest direct factor (as CHOLMOD's analysis predicts it) that is "
-                      "computed; a larger one switches to lobpcg-amg. Under mpirun the limit of a node's processes "
+                      "The largest direct factor (as CHOLMOD's analysis predicts it) that a serial run computes in "
+                      "memory: a larger one goes to MUMPS on this process ('Factor storage = auto'), or to "
+                      "lobpcg-amg ('Eigensolver = auto' where MUMPS cannot take it). Under mpirun the limit of a node's processes "
                       "together, each held to its share against MUMPS's prediction of its in-core data (the "
                       "symmetric mode; the LU always factorizes). The same limit decides whether the distributed "
                       "path's MUMPS factor stays in memory ('Factor storage = auto') and whether the block Krylov "
@@ -188,13 +191,17 @@ namespace modal_haptics
                       "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
                       "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
     prm.declare_entry("Factor storage", factor_storage_name(m.factor_storage), Patterns::Selection("auto|memory|disk"),
-                      "The distributed path (under mpirun, or --distributed): where MUMPS keeps its factor. "
+                      "Where MUMPS keeps its factor (under mpirun, with --distributed, or on a serial run that hands a "
+                      "space to MUMPS). "
                       "'memory': in core. 'disk': out of core, in 'Factor directory' (MUMPS writes the factor "
                       "once and reads it back at every block solve; its in-core data shrinks to the fronts being "
                       "worked on, so parts whose factor exceeds the memory still take the direct path). 'auto': "
                       "in memory when MUMPS's analysis predicts in-core data within 'Factor memory limit', else "
                       "on disk; with 'Eigensolver = auto', lobpcg-amg only when even the out-of-core data "
-                      "would not fit. The serial path (CHOLMOD) keeps its factor in memory. Units: none.");
+                      "would not fit. A serial run keeps CHOLMOD's factor in memory and hands a space to MUMPS on its "
+                      "one process with 'disk', or with 'auto' when CHOLMOD's factor would exceed 'Factor memory "
+                      "limit' (not a part with free rigid-body motions, which MUMPS's path does not take). 'memory' "
+                      "keeps a serial run on CHOLMOD. Units: none.");
     prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
                       "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
                       "removed when the space is done. Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "

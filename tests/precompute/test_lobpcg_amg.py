@@ -12,13 +12,17 @@ LOBPCG runs of at most 3 modes (Modes/LOBPCG modes per run). For each:
   with the shift) equal to the direct path's to 1e-8, and the corrected contact error <= 1e-8;
 * the report names the method, and for P2 the preconditioner's vertex (P1) space.
 And 'auto' with a factor memory limit below the cantilever's factor switches to lobpcg-amg, saying so,
-and with the default limit factorizes.
+and with the default limit factorizes; serially, with a limit below CHOLMOD's factor but above MUMPS's
+in-core data with its factor on disk (the P2 cantilever at 2.5 mm), 'auto' and 'block-krylov' (with
+'Factor storage = auto') hand the space to MUMPS on the one process, its factor on disk: frequencies
+equal to CHOLMOD's to 1e-8, the self-checks, the factor files removed; the free beam with 'Factor storage = disk' exits non-zero naming it.
 With --mpirun: the P2 cantilever (in one run and in three) under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
 matrices, its static solves one block CG per block of loads) against the same direct run, with the
 same limits; and 'auto' there, decided by MUMPS's analysis, both ways.
 """
 import os
 import shutil
+import subprocess
 import sys
 
 from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
@@ -82,6 +86,48 @@ def run_pair(binary, workdir, name, prm_file, degree, checks, mpirun=None, amg_l
     return amg_dir
 
 
+def serial_hands_over_to_mumps_on_disk(args, checks):
+    """A serial run past CHOLMOD's factor, where MUMPS's out-of-core data fits: the P2 cantilever at
+    2.5 mm (38k DoFs: CHOLMOD's factor 0.09 GB, MUMPS's in-core data 0.12 GB, 0.03 GB with its factor
+    on disk) under a limit of 0.05 GB, with 'Eigensolver = auto' and with 'block-krylov' named (both
+    with 'Factor storage = auto', the default), against CHOLMOD's block Krylov run on its meshes."""
+    fine = lambda lines: scene_text("cantilever.prm", lines).replace("set Coarse size = 5", "set Coarse size = 2.5")
+    direct_dir = os.path.join(args.workdir, "fine_direct")
+    os.makedirs(direct_dir)
+    shutil.copy(os.path.join(HERE, "cantilever.geo"), direct_dir)
+    direct, _ = run_precompute(args.binary, direct_dir, fine(["Eigensolver = block-krylov"]))
+    factor_files = os.path.join(args.workdir, "factor_files")
+    os.makedirs(factor_files)
+    for eigensolver in ["auto", "block-krylov"]:
+        folder = os.path.join(args.workdir, f"fine_{eigensolver}_limit")
+        os.makedirs(folder)
+        shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
+        handed, _ = run_precompute(args.binary, folder, fine([f"Eigensolver = {eigensolver}", "Factor memory limit = 0.05",
+                                                              f"Factor directory = {factor_files}"]),
+                                   meshes_from=direct_dir)
+        d, a = space(direct), space(handed)
+        method = a["eigensolver"]["method"]
+        print(f"--- {eigensolver}, serial, {a['n_dofs']} DoFs, factor memory limit 0.05 GB: {method}")
+        for words in ["factor on disk", "MUMPS on one process", "CHOLMOD's analysis predicts"]:
+            checks.below(f"the method says '{words}' (0: it does)", 0 if words in method else 1, 0)
+        worst = max(abs(fa - fd) / fd for fa, fd in zip(a["computed_frequencies_hz"], d["computed_frequencies_hz"]))
+        checks.below("frequencies, MUMPS on disk vs CHOLMOD (max relative difference)", worst, 1e-8)
+        checks.below("max |Phi^T M Phi - I|", a["orthonormality_error"], 1e-10)
+        # The block Krylov method's residuals at its default tolerance: 1.4e-8 here, CHOLMOD's run 1.6e-8.
+        checks.below("max ||K phi - lambda M phi|| / ||lambda M phi||", a["max_relative_residual"], 1e-7)
+    checks.below("MUMPS's factor files left", len(os.listdir(factor_files)), 0)
+    # A part with free rigid-body motions stays on CHOLMOD: MUMPS's path does not take it.
+    free_dir = os.path.join(args.workdir, "free_beam_disk")
+    os.makedirs(free_dir)
+    shutil.copy(os.path.join(HERE, "cantilever.geo"), free_dir)
+    prm = os.path.join(free_dir, "scene.prm")
+    open(prm, "w").write(scene_text("free_beam.prm", ["Factor storage = disk"]))
+    done = subprocess.run([args.binary, prm, "--output-dir", free_dir, "--quiet"], capture_output=True, text=True)
+    print(f"--- free beam, serial, 'Factor storage = disk': exit {done.returncode}")
+    checks.below("free beam on disk refused, naming 'Factor storage = disk' (0: it is)",
+                 0 if done.returncode != 0 and "Factor storage = disk" in done.stderr else 1, 0)
+
+
 def main():
     args = binary_and_fresh_workdir(mpirun_help="also run LOBPCG + AMG under mpirun -np 2")
     checks = Checks()
@@ -109,6 +155,7 @@ def main():
             print(f"--- auto, {label}, factor memory limit {limit} GB: {method}")
             checks.below(f"auto chose {expected} (0: it did)", 0 if method.startswith(expected) else 1, 0)
             checks.below("auto said why, in the report (0: it did)", 0 if why in method else 1, 0)
+    serial_hands_over_to_mumps_on_disk(args, checks)
     sys.exit(0 if checks.ok else 1)
 
 

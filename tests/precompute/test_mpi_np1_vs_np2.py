@@ -26,13 +26,14 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   full contact responses to 1e-8, solve residuals <= 1e-9, more than one refinement step on both;
 * MUMPS's factor on disk (out of core, 'Modes/Factor storage'): asked for at np = 2, and chosen by
   'auto' at np = 1 when the in-core data would exceed 'Factor memory limit': the method says so, the
-  .h5 equals the serial one as above, and the factor's files are removed after the runs; under that
+  .h5 equals the serial one as above, and the factor's files are removed after the runs; asked for in
+  a serial run (without mpirun or --distributed), which hands every space to MUMPS on its one process:
+  the same .h5 and the method says so; under that
   limit the block Krylov method recomputes M V instead of storing it (np = 1, and serially with blocks
   of 16 at a tolerance of 1e-12, whose thick restarts then run without M V): the same .h5 as above;
 * a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
   under mpirun -np 2 exit non-zero with the message, no hang (the shift refused by the inertia of
-  MUMPS's L D L^T, before PARPACK); 'Factor storage = disk' on the serial path exits non-zero naming
-  the parameter and --distributed;
+  MUMPS's L D L^T, before PARPACK);
 * the meshes in mumps_workspace/ (gmsh's output for this scene in one CI run), on which MUMPS's
   workspace estimate fell short at np = 2 with PORD's order through PETSc (INFOG(1) = -9; PETSc then
   returned infinities from every solve): np = 2 runs and gives the serial path's frequencies to 1e-9
@@ -233,8 +234,13 @@ def main():
             ("np2_disk", "np=2", ["Factor storage = disk", on_disk], ["factor on disk"], "MUMPS out of core"),
             ("np1_auto_disk", "np=1", tiny_limit + [on_disk], ["factor on disk", "M V recomputed"],
              "MUMPS out of core (auto), no M V"),
+            # A serial run hands each space to MUMPS on its one process.
+            ("serial_disk", "serial", ["Factor storage = disk", on_disk], ["factor on disk", "MUMPS on one process"],
+             "serial run, MUMPS out of core"),
             # Blocks of 16 at a tighter tolerance: nine cycles, so the thick restarts run without M V too.
-            ("serial_no_mv", "serial", tiny_limit + ["Block size = 16", "Tolerance = 1e-12"], ["M V recomputed"],
+            # ('Factor storage = memory': past the limit a serial run would hand the space to MUMPS.)
+            ("serial_no_mv", "serial", tiny_limit + ["Factor storage = memory", "Block size = 16", "Tolerance = 1e-12"],
+             ["M V recomputed", "cholmod"],
              "block Krylov without M V, restarted")]:
         other, _ = run(launch[where], os.path.join(args.workdir, name), np1_dir,
                        extra="subsection Modes\n" + "".join(f"  set {s}\n" for s in settings) + "end\n")
@@ -290,15 +296,6 @@ def main():
                    f"{case} under mpirun -np 2: exit {done.returncode}, message names '{word}'")
         except subprocess.TimeoutExpired:
             expect(False, f"{case} under mpirun -np 2: no hang")
-
-    # The serial path (CHOLMOD) has no factor on disk: said before any meshing.
-    prm = os.path.join(bad_dir, "serial_disk.prm")
-    open(prm, "w").write(base + "subsection Modes\n  set Factor storage = disk\nend\n")
-    done = subprocess.run([args.binary, prm, "--output-dir", bad_dir, "--quiet"], capture_output=True, text=True,
-                          timeout=120)
-    expect(done.returncode != 0 and "--distributed" in done.stderr and "Factor storage" in done.stderr,
-           f"'Factor storage = disk' on the serial path: exit {done.returncode}, message names the parameter and "
-           "--distributed")
 
     # MUMPS's workspace: a mesh on which its estimate fell short at np = 2 (factorized anew with more).
     workspace_meshes = os.path.join(HERE, "mumps_workspace")
