@@ -15,11 +15,15 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <iostream>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -131,6 +135,65 @@ namespace modal_haptics
                std::to_string(factor_bytes / 1e9) + " GB";
       return "";
     }
+
+    // Each process keeps its factor files in its own subdirectory of the factor directory, named
+    // after the host and its PID, and removes it with everything in it when its factorization is
+    // freed. A run killed before that (Ctrl-C, the out-of-memory killer) leaves its subdirectory
+    // behind, tens of GB at 10^6 DoFs: the next run on that host removes the subdirectories whose
+    // process is gone, and says so.
+    class PrivateFactorDirectory
+    {
+    public:
+      explicit PrivateFactorDirectory(const std::string &directory)
+      {
+        remove_dead_runs_files(directory);
+        static unsigned int count = 0; // distinct names for the spaces of one run
+        path = directory + "/" + name_prefix() + std::to_string(getpid()) + "-" + std::to_string(count++);
+        std::error_code error;
+        std::filesystem::create_directory(path, error);
+        AssertThrow(!error, ExcMessage("'Modes/Factor directory': cannot create " + path + " for MUMPS's factor files: " +
+                                       error.message()));
+      }
+      ~PrivateFactorDirectory()
+      {
+        std::error_code error;
+        std::filesystem::remove_all(path, error);
+      }
+      PrivateFactorDirectory(const PrivateFactorDirectory &) = delete;
+      PrivateFactorDirectory &operator=(const PrivateFactorDirectory &) = delete;
+
+      std::string path;
+
+    private:
+      static std::string name_prefix()
+      {
+        char host[256] = {};
+        gethostname(host, sizeof(host) - 1);
+        return std::string("modal-precompute-mumps-") + host + "-";
+      }
+
+      static void remove_dead_runs_files(const std::string &directory)
+      {
+        const std::string prefix = name_prefix();
+        std::error_code   error;
+        for (const auto &entry : std::filesystem::directory_iterator(directory, error))
+          {
+            const std::string name = entry.path().filename().string();
+            if (name.compare(0, prefix.size(), prefix) != 0)
+              continue;
+            const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
+            if (pid <= 0 || pid == long(getpid()) || kill(pid_t(pid), 0) == 0 || errno != ESRCH)
+              continue; // a process of this host that is still alive, or not ours to judge
+            std::uintmax_t bytes = 0;
+            for (const auto &file : std::filesystem::recursive_directory_iterator(entry.path(), error))
+              bytes += file.is_regular_file(error) ? file.file_size(error) : 0;
+            std::filesystem::remove_all(entry.path(), error);
+            std::cerr << "Note: removed " << entry.path().string() << " (" << double(bytes) / 1e9
+                      << " GB of MUMPS's factor files left by process " << pid << ", which ended before it could)"
+                      << std::endl;
+          }
+      }
+    };
 
     // MUMPS's large counts (INFOG(3), INFOG(29)): in millions when negative.
     double mumps_count(const MUMPS_INT value) { return value >= 0 ? double(value) : -1e6 * double(value); }
@@ -277,7 +340,7 @@ namespace modal_haptics
 
       ~MumpsCholesky() override
       {
-        mumps.job = -2; // JOB_END: frees MUMPS's data
+        mumps.job = -2; // JOB_END: frees MUMPS's data (and removes its files; private_directory then goes)
         dmumps_c(&mumps);
         MPI_Comm_free(&comm);
       }
@@ -309,7 +372,12 @@ namespace modal_haptics
                     ExcMessage("'Modes/Factor directory' (" + directory + ") " +
                                (problem.empty() ? "failed on another process" : problem) +
                                ": MUMPS cannot keep its factor there (Factor storage = disk, or auto out of core)."));
-        std::strncpy(mumps.ooc_tmpdir, directory.c_str(), sizeof(mumps.ooc_tmpdir) - 1);
+        private_directory = std::make_unique<PrivateFactorDirectory>(directory);
+        AssertThrow(private_directory->path.size() < sizeof(mumps.ooc_tmpdir),
+                    ExcMessage("'Modes/Factor directory' (" + directory + ") is too long: MUMPS takes " +
+                               std::to_string(sizeof(mumps.ooc_tmpdir) - 1) + " characters for " +
+                               private_directory->path));
+        std::strncpy(mumps.ooc_tmpdir, private_directory->path.c_str(), sizeof(mumps.ooc_tmpdir) - 1);
         mumps.icntl[22 - 1] = 1;
         stats.method.insert(stats.method.rfind(')'), ", factor on disk in " + directory);
       }
@@ -632,6 +700,7 @@ namespace modal_haptics
       mutable std::vector<MUMPS_INT> sparse_rows, sparse_starts; // the host's sparse right-hand sides
       mutable std::vector<double>    sparse_values;
       mutable Exchange               exchange;
+      std::unique_ptr<PrivateFactorDirectory> private_directory; // out of core: this process's factor files
     };
   } // namespace
 

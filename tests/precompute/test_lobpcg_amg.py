@@ -15,7 +15,8 @@ And 'auto' with a factor memory limit below the cantilever's factor switches to 
 and with the default limit factorizes; serially, with a limit below CHOLMOD's factor but above MUMPS's
 in-core data with its factor on disk (the P2 cantilever at 2.5 mm), 'auto' and 'block-krylov' (with
 'Factor storage = auto') hand the space to MUMPS on the one process, its factor on disk: frequencies
-equal to CHOLMOD's to 1e-8, the self-checks, the factor files removed; the free beam with 'Factor storage = disk' exits non-zero naming it.
+equal to CHOLMOD's to 1e-8, the self-checks, the factor files removed; a run killed (SIGKILL) while
+its factor is on disk leaves its own subdirectory there, which the next run removes, saying so; the free beam with 'Factor storage = disk' exits non-zero naming it.
 With --mpirun: the P2 cantilever (in one run and in three) under mpirun -np 2 (LOBPCG + AMG on the distributed path's Trilinos
 matrices, its static solves one block CG per block of loads) against the same direct run, with the
 same limits; and 'auto' there, decided by MUMPS's analysis, both ways.
@@ -24,8 +25,9 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, run_precompute
 from test_mpi_np1_vs_np2 import mpi_command, mpi_environment
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -116,6 +118,33 @@ def serial_hands_over_to_mumps_on_disk(args, checks):
         # The block Krylov method's residuals at its default tolerance: 1.4e-8 here, CHOLMOD's run 1.6e-8.
         checks.below("max ||K phi - lambda M phi|| / ||lambda M phi||", a["max_relative_residual"], 1e-7)
     checks.below("MUMPS's factor files left", len(os.listdir(factor_files)), 0)
+    killed_runs_factor_files_removed_by_the_next(args, checks, fine, direct_dir, factor_files)
+
+
+def killed_runs_factor_files_removed_by_the_next(args, checks, fine, direct_dir, factor_files):
+    """A run killed (SIGKILL, as the out-of-memory killer does) while its factor is on disk leaves
+    its own subdirectory of the factor directory; the next run on the host removes it and says so."""
+    folder = os.path.join(args.workdir, "fine_killed")
+    os.makedirs(folder)
+    shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
+    copy_meshes(direct_dir, folder)
+    prm = os.path.join(folder, "scene.prm")
+    open(prm, "w").write(fine(["Factor storage = disk", f"Factor directory = {factor_files}"]))
+    run = subprocess.Popen([args.binary, prm, "--output-dir", folder, "--quiet"], stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+    written = []
+    deadline = time.time() + 120
+    while not written and run.poll() is None and time.time() < deadline:
+        written = [os.path.join(d, f) for d, _, files in os.walk(factor_files) for f in files]
+        time.sleep(0.02)
+    run.kill()
+    run.wait()
+    left = os.listdir(factor_files)
+    print(f"--- killed while its factor was on disk: {len(written)} files written, {left} left")
+    checks.below("the killed run left its factor subdirectory (0: it did)", 0 if written and left else 1, 0)
+    _, stderr = run_precompute(args.binary, folder, fine(["Factor storage = disk", f"Factor directory = {factor_files}"]))
+    checks.below("the next run removed it, saying so (0: it did)",
+                 0 if not os.listdir(factor_files) and "Note: removed" in stderr else 1, 0)
     # A part with free rigid-body motions stays on CHOLMOD: MUMPS's path does not take it.
     free_dir = os.path.join(args.workdir, "free_beam_disk")
     os.makedirs(free_dir)
