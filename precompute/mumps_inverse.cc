@@ -119,17 +119,14 @@ namespace modal_haptics
     };
 
     // What keeps MUMPS's factor files out of directory, or empty: it must be a writable directory
-    // with room for factor_bytes and a name of at most max_length characters.
-    std::string factor_directory_problem(const std::string &directory, const double factor_bytes,
-                                         const std::size_t max_length)
+    // with room for factor_bytes.
+    std::string factor_directory_problem(const std::string &directory, const double factor_bytes)
     {
       std::error_code error;
       if (!std::filesystem::is_directory(directory, error))
         return "is not a directory";
       if (access(directory.c_str(), W_OK | X_OK) != 0)
         return "is not writable";
-      if (directory.size() > max_length)
-        return "is longer than MUMPS's " + std::to_string(max_length) + " characters";
       if (const double free = double(std::filesystem::space(directory, error).available); free < factor_bytes)
         return "has " + std::to_string(free / 1e9) + " GB free, MUMPS's factor needs about " +
                std::to_string(factor_bytes / 1e9) + " GB";
@@ -144,6 +141,7 @@ namespace modal_haptics
     class PrivateFactorDirectory
     {
     public:
+      // Creates it; problem says what failed (empty: nothing), for the caller's collective check.
       explicit PrivateFactorDirectory(const std::string &directory)
       {
         remove_dead_runs_files(directory);
@@ -151,8 +149,8 @@ namespace modal_haptics
         path = directory + "/" + name_prefix() + std::to_string(getpid()) + "-" + std::to_string(count++);
         std::error_code error;
         std::filesystem::create_directory(path, error);
-        AssertThrow(!error, ExcMessage("'Modes/Factor directory': cannot create " + path + " for MUMPS's factor files: " +
-                                       error.message()));
+        if (error)
+          problem = "cannot hold " + path + " (" + error.message() + ")";
       }
       ~PrivateFactorDirectory()
       {
@@ -162,7 +160,7 @@ namespace modal_haptics
       PrivateFactorDirectory(const PrivateFactorDirectory &) = delete;
       PrivateFactorDirectory &operator=(const PrivateFactorDirectory &) = delete;
 
-      std::string path;
+      std::string path, problem;
 
     private:
       static std::string name_prefix()
@@ -356,7 +354,8 @@ namespace modal_haptics
       // The factor goes to files in directory (ICNTL(22) = 1) instead of memory; checked here, on
       // every process, where a missing directory or a full disk can still be named (MUMPS would
       // stop halfway through the factorization). The room asked for is the whole factor's, as if
-      // all processes shared the directory. Empty: $MUMPS_OOC_TMPDIR (MUMPS's own variable), else
+      // all processes shared the directory; each process then writes in its own subdirectory
+      // (PrivateFactorDirectory). Empty: $MUMPS_OOC_TMPDIR (MUMPS's own variable), else
       // $TMPDIR, else /tmp.
       void store_factor_on_disk(std::string directory)
       {
@@ -365,18 +364,22 @@ namespace modal_haptics
             directory = std::getenv(variable);
         if (directory.empty())
           directory = "/tmp";
-        const std::string problem =
-          factor_directory_problem(directory, predicted_factor_bytes(), sizeof(mumps.ooc_tmpdir) - 1);
+        std::string                             problem = factor_directory_problem(directory, predicted_factor_bytes());
+        std::unique_ptr<PrivateFactorDirectory> own;
+        if (problem.empty())
+          {
+            own     = std::make_unique<PrivateFactorDirectory>(directory);
+            problem = own->problem;
+            if (problem.empty() && own->path.size() >= sizeof(mumps.ooc_tmpdir))
+              problem = "is too long: MUMPS takes " + std::to_string(sizeof(mumps.ooc_tmpdir) - 1) +
+                        " characters for its files' directory " + own->path;
+          }
         const bool fine_everywhere = dealii::Utilities::MPI::max(int(!problem.empty()), comm) == 0;
         AssertThrow(fine_everywhere,
                     ExcMessage("'Modes/Factor directory' (" + directory + ") " +
                                (problem.empty() ? "failed on another process" : problem) +
                                ": MUMPS cannot keep its factor there (Factor storage = disk, or auto out of core)."));
-        private_directory = std::make_unique<PrivateFactorDirectory>(directory);
-        AssertThrow(private_directory->path.size() < sizeof(mumps.ooc_tmpdir),
-                    ExcMessage("'Modes/Factor directory' (" + directory + ") is too long: MUMPS takes " +
-                               std::to_string(sizeof(mumps.ooc_tmpdir) - 1) + " characters for " +
-                               private_directory->path));
+        private_directory = std::move(own);
         std::strncpy(mumps.ooc_tmpdir, private_directory->path.c_str(), sizeof(mumps.ooc_tmpdir) - 1);
         mumps.icntl[22 - 1] = 1;
         stats.method.insert(stats.method.rfind(')'), ", factor on disk in " + directory);
