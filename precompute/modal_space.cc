@@ -136,8 +136,7 @@ namespace modal_haptics
       void setup_system();
       void assemble_system();
       EigensolverKind factorize_unless_amg();
-      bool            mumps_may_take_over() const;
-      bool            factorize_within_limit(bool automatic);
+      bool            factorize_within_limit(bool automatic, bool mumps_may_take_over);
       EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
       void identify_rigid_body_modes();
@@ -229,26 +228,23 @@ namespace modal_haptics
         return wanted;
       const bool automatic = wanted == EigensolverKind::automatic;
       const bool cholmod   = scene.modes.factorization_kind == FactorizationKind::cholmod;
+      // 'Factor storage = auto' lets MUMPS, whose factor may go to disk, take the space over when
+      // CHOLMOD's factor would not fit; its path does not take parts with free rigid-body motions.
+      const bool mumps_may_take_over = scene.modes.factor_storage == FactorStorage::automatic &&
+                                       supports.free_motions(Point<3>()).motions.empty();
       log("factorizing K (" + std::string(cholmod ? "CHOLMOD" : "UMFPACK") + ")");
       if (!cholmod)
         factorization = make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
-      else if (!automatic && !mumps_may_take_over())
+      else if (!automatic && !mumps_may_take_over)
         factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
-      else if (!factorize_within_limit(automatic))
+      else if (!factorize_within_limit(automatic, mumps_may_take_over))
         return EigensolverKind::lobpcg_amg;
       const auto &f = factorization->statistics();
       std::ostringstream line;
       line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
            << f.factorize_seconds << " s";
       log(line.str());
-      return wanted == EigensolverKind::automatic ? EigensolverKind::block_krylov : wanted;
-    }
-
-    // 'Factor storage = auto' lets MUMPS, whose factor may go to disk, take the space over when
-    // CHOLMOD's factor would not fit; its path does not take parts with free rigid-body motions.
-    bool SerialSpace::mumps_may_take_over() const
-    {
-      return scene.modes.factor_storage == FactorStorage::automatic && supports.free_motions(Point<3>()).motions.empty();
+      return automatic ? EigensolverKind::block_krylov : wanted;
     }
 
     // CHOLMOD's factorization when its analysis predicts a factor within 'Modes/Factor memory limit'
@@ -256,7 +252,7 @@ namespace modal_haptics
     // when it may (HandOverToMumps: its factor in memory or on disk as its own analysis says, or
     // lobpcg-amg with 'Eigensolver = auto' if even that would not fit); else 'Eigensolver = auto'
     // returns false (lobpcg-amg) and an eigensolver asked for by name factorizes anyway.
-    bool SerialSpace::factorize_within_limit(const bool automatic)
+    bool SerialSpace::factorize_within_limit(const bool automatic, const bool mumps_may_take_over)
     {
       const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
       double       predicted = 0.;
@@ -264,7 +260,7 @@ namespace modal_haptics
       std::ostringstream over;
       over << "CHOLMOD's analysis predicts a factor of " << predicted / 1e9 << " GB, 'Modes/Factor memory limit' is "
            << limit / 1e9 << " GB";
-      if (!factorization && mumps_may_take_over())
+      if (!factorization && mumps_may_take_over)
         throw HandOverToMumps{"'Modes/Factor storage = auto': " + over.str()};
       const std::string why_not_mumps =
         scene.modes.factor_storage == FactorStorage::automatic ?

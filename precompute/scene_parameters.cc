@@ -204,7 +204,8 @@ namespace modal_haptics
                       "keeps a serial run on CHOLMOD. Units: none.");
     prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
                       "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
-                      "removed when the space is done. Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
+                      "each process's in its own subdirectory, removed when the space is done (a killed run's by "
+                      "the next run on the host). Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
                       "Units: none (a path).");
     prm.leave_subsection();
   }

@@ -48,17 +48,19 @@ namespace modal_haptics
     mumps_lu        // Trilinos Amesos_Mumps: MUMPS's unsymmetric LU, kept as a peer
   };
 
-  // Where the distributed path's MUMPS factor lives (the serial path's CHOLMOD factor is in memory).
+  // Where MUMPS's factor lives (under mpirun, --distributed, or a serial run's space handed to MUMPS;
+  // CHOLMOD's factor is always in memory).
   enum class FactorStorage
   {
-    automatic, // in memory when MUMPS's analysis says it fits 'Factor memory limit', else on disk
+    automatic, // in memory when MUMPS's analysis says it fits 'Factor memory limit', else on disk; a
+               // serial run hands a space to MUMPS when CHOLMOD's factor would not fit
     memory,    // in core
     disk       // out of core: MUMPS writes the factor to files and reads it back at every solve
   };
 
   enum class EigensolverKind
   {
-    automatic,    // block_krylov when CHOLMOD's analysis says its factor fits in memory, else lobpcg_amg
+    automatic,    // block_krylov over whichever factor fits (CHOLMOD's, MUMPS's in memory or on disk), else lobpcg_amg
     block_krylov, // block Krylov on the shift-invert operator (blocks of solves with the factorization)
     arpack,       // ARPACK's dsaupd on the shift-invert operator, one vector per solve
     lobpcg_amg    // LOBPCG preconditioned by AMG: no factorization (amg_eigensolver.h)

@@ -145,7 +145,10 @@ def killed_runs_factor_files_removed_by_the_next(args, checks, fine, direct_dir,
     _, stderr = run_precompute(args.binary, folder, fine(["Factor storage = disk", f"Factor directory = {factor_files}"]))
     checks.below("the next run removed it, saying so (0: it did)",
                  0 if not os.listdir(factor_files) and "Note: removed" in stderr else 1, 0)
-    # A part with free rigid-body motions stays on CHOLMOD: MUMPS's path does not take it.
+
+
+def free_part_refused_on_disk(args, checks):
+    """A part with free rigid-body motions stays on CHOLMOD: MUMPS's path does not take it."""
     free_dir = os.path.join(args.workdir, "free_beam_disk")
     os.makedirs(free_dir)
     shutil.copy(os.path.join(HERE, "cantilever.geo"), free_dir)
@@ -185,6 +188,7 @@ def main():
             checks.below(f"auto chose {expected} (0: it did)", 0 if method.startswith(expected) else 1, 0)
             checks.below("auto said why, in the report (0: it did)", 0 if why in method else 1, 0)
     serial_hands_over_to_mumps_on_disk(args, checks)
+    free_part_refused_on_disk(args, checks)
     sys.exit(0 if checks.ok else 1)
 
 
