@@ -18,7 +18,7 @@
 #include "../command_line.h"
 #include "../eigensolver/csr_file.h"
 
-#include "factorization.h"
+#include "solvers/factorization.h"
 
 #include <deal.II/base/timer.h>
 #include <deal.II/lac/sparse_matrix.h>

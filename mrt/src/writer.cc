@@ -77,6 +77,16 @@ namespace mrt
         }
     }
 
+    std::vector<double> packed_scene_scalars(const SceneScalars &named)
+    {
+      std::vector<double> packed(scene_scalar::count, 0.);
+      packed[scene_scalar::patch_radius] = named.patch_radius;
+      packed[scene_scalar::mass]         = named.mass;
+      std::copy(named.centre_of_mass.begin(), named.centre_of_mass.end(), packed.begin() + scene_scalar::centre_of_mass);
+      std::copy(named.inertia.begin(), named.inertia.end(), packed.begin() + scene_scalar::inertia);
+      return packed;
+    }
+
     std::vector<Section> sections_of(const BasisContent &c)
     {
       std::vector<Section> out;
@@ -86,7 +96,7 @@ namespace mrt
       out.push_back(make(patch_offsets, scene_wide, u32, c.patch_offsets));
       out.push_back(make(patch_vertices, scene_wide, u32, c.patch_vertices));
       out.push_back(make(patch_weights, scene_wide, f64, c.patch_weights));
-      out.push_back(make(scene_scalars, scene_wide, f64, c.scene_scalars));
+      out.push_back(make(scene_scalars, scene_wide, f64, packed_scene_scalars(c.scene_scalars)));
       for (std::uint32_t s = 0; s < c.spaces.size(); ++s)
         add_space_sections(out, c, s);
       for (const BasisTransferContent &t : c.transfers)

@@ -77,7 +77,7 @@ struct modalrt_basis : modalrt::HookAllocated
   modalrt::Vector<std::uint32_t> region;    // nv
   modalrt::Vector<std::uint32_t> patch_offsets, patch_vertices;
   modalrt::Vector<double>        patch_weights;
-  std::array<double, 14>     scene_scalars{}; // SCENE_SCALARS: patch radius [m], mass [kg], centre of mass (3) [m], inertia (9) [kg m^2]
+  std::array<double, modalrt::format::scene_scalar::count> scene_scalars{}; // SCENE_SCALARS, by the places format.h names
 
   modalrt::Vector<modalrt::ModalSpace>  spaces;
   // The TRANSFER matrices the file holds, sorted by (to, from): memory in proportion to the file,
@@ -92,10 +92,10 @@ struct modalrt_basis : modalrt::HookAllocated
   modalrt::SpatialGrid grid;
 
   std::uint32_t space_count() const { return std::uint32_t(spaces.size()); }
-  double        patch_radius() const { return scene_scalars[0]; }        // [m]
-  double        mass() const { return scene_scalars[1]; }                // [kg]
-  const double *centre_of_mass() const { return &scene_scalars[2]; }     // 3 [m]
-  const double *inertia() const { return &scene_scalars[5]; }            // 9, about the centre of mass [kg m^2]
+  double        patch_radius() const { return scene_scalars[modalrt::format::scene_scalar::patch_radius]; }   // [m]
+  double        mass() const { return scene_scalars[modalrt::format::scene_scalar::mass]; }                   // [kg]
+  const double *centre_of_mass() const { return &scene_scalars[modalrt::format::scene_scalar::centre_of_mass]; } // 3 [m]
+  const double *inertia() const { return &scene_scalars[modalrt::format::scene_scalar::inertia]; } // 9, about the centre of mass [kg m^2]
   bool          float64_modes() const { return mode_scalar_type == 3; }
   // T from space `from` into space `to` (r_to x r_from, row-major), empty if absent. Binary search,
   // no allocation (a tick may call it).

@@ -8,7 +8,7 @@
 // solves on their elimination-tree paths) against B^T of the full solve, for columns of one to six
 // nonzeros scattered or clustered, an empty column, every thread count; a memory limit below Y's
 // size makes it decline.
-#include "supernodal_solve.h"
+#include "solvers/supernodal_solve.h"
 
 #include <cholmod.h>
 

@@ -70,8 +70,7 @@ namespace
     c.patch_offsets  = {0, 1, 2, 3, 4};
     c.patch_vertices = {0, 1, 2, 3};
     c.patch_weights  = {1, 1, 1, 1};
-    c.scene_scalars.assign(14, 0.0);
-    c.scene_scalars[1] = 1.0;
+    c.scene_scalars.mass = 1.0;
     modalrt::BasisSpaceContent s;
     s.name           = "global";
     s.eigenvalues    = {100.0, 400.0};
@@ -120,7 +119,7 @@ namespace
     ENSURE(info.display_triangle_count == c.triangles.size() / 3);
     ENSURE(info.max_modes == 16 && info.mode_scalar_bytes == (float64 ? 8u : 4u));
     ENSURE(info.max_patch_size > 1);
-    ENSURE(info.patch_radius == 0.03 && info.mass == c.scene_scalars[1]);
+    ENSURE(info.patch_radius == 0.03 && info.mass == c.scene_scalars.mass);
     ENSURE(std::memcmp(modalrt_basis_display_vertices(b), c.vertices.data(), c.vertices.size() * 8) == 0);
     ENSURE(std::memcmp(modalrt_basis_display_triangles(b), c.triangles.data(), c.triangles.size() * 4) == 0);
     ENSURE(std::memcmp(modalrt_basis_display_regions(b), c.region.data(), c.region.size() * 4) == 0);

@@ -16,7 +16,18 @@ namespace mrt
   constexpr std::size_t   table_entry_bytes = 40;
   constexpr std::size_t   section_alignment = 64;
   constexpr std::uint32_t scene_wide        = 0xFFFFFFFFu; // `space` of scene-wide sections
-  constexpr std::size_t   scene_scalar_count = 14;
+
+  // The SCENE_SCALARS section by position: the writer (writer.cc) and the kernel's loader take each
+  // scalar's place from here, never from a literal index (docs/basis-format.md lists them).
+  namespace scene_scalar
+  {
+    constexpr std::size_t patch_radius   = 0;  // rho [m]
+    constexpr std::size_t mass           = 1;  // [kg]
+    constexpr std::size_t centre_of_mass = 2;  // 3 values [m]
+    constexpr std::size_t inertia        = 5;  // 9 values, row-major, about the centre of mass [kg m^2]
+    constexpr std::size_t count          = 14; // the section's length
+  } // namespace scene_scalar
+  constexpr std::size_t scene_scalar_count = scene_scalar::count;
 
   enum ScalarType : std::uint32_t
   {

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <array>
 #include <vector>
 
 namespace mrt
@@ -40,6 +41,15 @@ namespace mrt
     std::vector<unsigned char> bytes;
   };
 
+  // The scene-wide scalars by name; the writer puts each at its place (format.h, scene_scalar).
+  struct SceneScalars
+  {
+    double                patch_radius = 0.;  // rho [m]
+    double                mass         = 0.;  // [kg]
+    std::array<double, 3> centre_of_mass{};   // [m]
+    std::array<double, 9> inertia{};          // about the centre of mass, row-major [kg m^2]
+  };
+
   struct BasisContent
   {
     std::vector<double>        vertices;  // 3 nv [m]
@@ -47,7 +57,7 @@ namespace mrt
     std::vector<std::uint32_t> region;    // nv
     std::vector<std::uint32_t> patch_offsets, patch_vertices;
     std::vector<double>        patch_weights;
-    std::vector<double>        scene_scalars; // scene_scalar_count
+    SceneScalars               scene_scalars;
     bool                       float64_modes = true;
     std::uint32_t              version_minor = mrt::version_minor;
     std::vector<BasisSpaceContent>    spaces;    // space s is spaces[s]; space 0 is the global space

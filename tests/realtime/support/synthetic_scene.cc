@@ -374,20 +374,18 @@ namespace modalrt
       return rhs;
     }
 
-    std::vector<double> scene_scalars(double rho, double mass, const std::vector<double> &com,
-                                      const std::vector<double> &x, double node_mass)
+    SceneScalars scene_scalars(double rho, double mass, const std::vector<double> &com,
+                               const std::vector<double> &x, double node_mass)
     {
-      std::vector<double> s{rho, mass, com[0], com[1], com[2]};
-      double              I[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      SceneScalars s{rho, mass, {com[0], com[1], com[2]}, {}};
       for (std::size_t n = 0; n < x.size() / 3; ++n)
         {
           const double r[3] = {x[3 * n] - com[0], x[3 * n + 1] - com[1], x[3 * n + 2] - com[2]};
           const double r2   = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
-              I[3 * a + b] += node_mass * ((a == b ? r2 : 0.0) - r[a] * r[b]);
+              s.inertia[3 * a + b] += node_mass * ((a == b ? r2 : 0.0) - r[a] * r[b]);
         }
-      s.insert(s.end(), I, I + 9);
       return s;
     }
   } // namespace
@@ -435,7 +433,7 @@ namespace modalrt
       c.region.push_back(o.spaces > 1 && c.vertices[3 * v] > 0.5 * o.length ? 1u : 0u);
     make_patches(c, g, o.patch_radius);
     const double mass = 1.0;
-    c.scene_scalars   = {o.patch_radius, mass, 0.5 * o.length, 0.5 * o.width, 0, 1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 2e-3};
+    c.scene_scalars   = {o.patch_radius, mass, {0.5 * o.length, 0.5 * o.width, 0}, {1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 2e-3}};
 
     for (std::uint32_t s = 0; s < o.spaces; ++s)
       {

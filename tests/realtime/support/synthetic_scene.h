@@ -23,6 +23,7 @@ namespace modalrt
 {
   // The writer's names, as the tests use them.
   using mrt::BasisContent;
+  using mrt::SceneScalars;
   using mrt::BasisSpaceContent;
   using mrt::BasisTransferContent;
   using mrt::ExtraSection;

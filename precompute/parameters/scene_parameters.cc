@@ -1,0 +1,426 @@
+#include "parameters/scene_parameters.h"
+
+#include "parameters/parameter_sections.h"
+#include "parameters/parameter_text.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/utilities.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <set>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+  using dealii::ParameterHandler;
+  using parameter_text::Notation;
+  using parameter_text::text;
+  namespace Patterns = dealii::Patterns;
+
+  namespace
+  {
+    const std::array<std::pair<EigensolverKind, const char *>, 4> eigensolver_names = {
+      {{EigensolverKind::automatic, "auto"},
+       {EigensolverKind::block_krylov, "block-krylov"},
+       {EigensolverKind::arpack, "arpack"},
+       {EigensolverKind::lobpcg_amg, "lobpcg-amg"}}};
+
+    const std::array<std::pair<FactorStorage, const char *>, 3> factor_storage_names = {
+      {{FactorStorage::automatic, "auto"}, {FactorStorage::memory, "memory"}, {FactorStorage::disk, "disk"}}};
+
+    const char *factor_storage_name(const FactorStorage storage)
+    {
+      for (const auto &[kind, name] : factor_storage_names)
+        if (kind == storage)
+          return name;
+      return "?";
+    }
+  }
+
+  std::string eigensolver_name(const EigensolverKind kind)
+  {
+    for (const auto &[k, name] : eigensolver_names)
+      if (k == kind)
+        return name;
+    return "?";
+  }
+
+  EigensolverKind eigensolver_kind(const std::string &name)
+  {
+    for (const auto &[kind, spelling] : eigensolver_names)
+      if (name == spelling)
+        return kind;
+    AssertThrow(false, ExcMessage("'Modes/Eigensolver' is '" + name + "': not one of auto, block-krylov, arpack, lobpcg-amg."));
+    return EigensolverKind::automatic;
+  }
+
+  double ModeParameters::cut_off_frequency() const
+  {
+    switch (cut_off_rule)
+      {
+        case CutOffRule::display:
+          return display_rate / 2.;
+        case CutOffRule::haptic:
+          return haptic_rate / 2.;
+        case CutOffRule::none:
+        default:
+          return std::numeric_limits<double>::infinity();
+      }
+  }
+
+  double DampingParameters::ratio(const double omega) const
+  {
+    if (!rayleigh)
+      return modal_ratio;
+    // Rayleigh damping C = alpha M + beta K gives zeta = alpha / (2 omega) + beta omega / 2; a rigid
+    // mode (omega = 0) with alpha > 0 is infinitely over-damped, which we cap.
+    if (omega <= 0.)
+      return alpha > 0. ? 1e6 : 0.;
+    return alpha / (2. * omega) + beta * omega / 2.;
+  }
+
+  using namespace parameter_sections;
+
+  // ---- The precompute's structs --------------------------------------------------------------------
+  void MaterialParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const MaterialParameters m;
+    prm.enter_subsection("Material");
+    prm.declare_entry("Young's modulus", text(m.youngs_modulus), Patterns::Double(0.),
+                      "Young's modulus E (> 0). ABS: 2.3e9. Units: Pa.");
+    prm.declare_entry("Poisson's ratio", text(m.poissons_ratio), Patterns::Double(-1., 0.5),
+                      "Poisson's ratio nu, in (-1, 0.5). Units: none.");
+    prm.declare_entry("Density", text(m.density), Patterns::Double(0.), "Mass density rho (> 0). Units: kg/m^3.");
+    prm.leave_subsection();
+  }
+
+  void MaterialParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Material");
+    youngs_modulus = prm.get_double("Young's modulus");
+    poissons_ratio = prm.get_double("Poisson's ratio");
+    density        = prm.get_double("Density");
+    prm.leave_subsection();
+    // The Patterns hold the closed ranges; the open ends are checked here.
+    AssertThrow(youngs_modulus > 0. && std::isfinite(youngs_modulus),
+                ExcMessage("'Material/Young's modulus' = " + text(youngs_modulus) + " Pa: must be > 0."));
+    AssertThrow(poissons_ratio > -1. && poissons_ratio < 0.5,
+                ExcMessage("'Material/Poisson's ratio' = " + text(poissons_ratio) +
+                           ": must lie in (-1, 0.5)."));
+    AssertThrow(density > 0. && std::isfinite(density),
+                ExcMessage("'Material/Density' = " + text(density) + " kg/m^3: must be > 0."));
+  }
+
+  namespace
+  {
+    const char *cut_off_rule_name(const CutOffRule rule)
+    {
+      return rule == CutOffRule::none ? "none" : rule == CutOffRule::display ? "display" : "haptic";
+    }
+  } // namespace
+
+  void ModeParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const ModeParameters m;
+    prm.enter_subsection("Modes");
+    prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
+                      "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
+    prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
+                      "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
+                        ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");
+    prm.declare_entry("Cut-off rule", cut_off_rule_name(m.cut_off_rule), Patterns::Selection("none|display|haptic"),
+                      "Which modes are dropped: 'display' drops modes above half the display rate (the "
+                      "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
+                      "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
+    prm.declare_entry("Display rate", text(m.display_rate), Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
+    prm.declare_entry("Haptic rate", text(m.haptic_rate), Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
+    prm.declare_entry("Shift", text(m.shift), Patterns::Double(),
+                      "Shift of the shift-invert transformation, as a frequency; must lie below the first "
+                      "frequency, and below zero for a free-floating part (no clamp groups), where a "
+                      "magnitude of about a tenth of the first elastic frequency is best: the static solves "
+                      "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
+                      "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
+    prm.declare_entry("Tolerance", text(m.tolerance), Patterns::Double(1e-16, 1e-2),
+                      "ARPACK's relative tolerance on the Ritz values. Units: none.");
+    prm.declare_entry("Eigensolver", eigensolver_name(m.eigensolver), Patterns::Selection("auto|block-krylov|arpack|lobpcg-amg"),
+                      "'block-krylov': a block Krylov method on the shift-invert operator (a sparse direct "
+                      "factorization of K - shift M; blocks of 'Block size' right-hand sides per solve, thick "
+                      "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
+                      "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
+                      "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
+                      "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
+                      "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
+                      "factor fits in 'Factor memory limit', else MUMPS on this one process, its factor in memory or "
+                      "on disk ('Factor storage'), else lobpcg-amg (also where MUMPS cannot serve: 'Factor storage = "
+                      "memory', a part with free rigid-body motions). Under mpirun MUMPS factorizes: "
+                      "'block-krylov' and 'arpack' (PARPACK) over it, 'auto' the block Krylov method when MUMPS's "
+                      "analysis says its factor fits, in memory or on disk, else lobpcg-amg. All converge to the same modes. Units: none.");
+    prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
+                      "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
+                      "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
+                      "error is about its square: 1e-6 gave frequencies equal to the direct path's to 5e-11; "
+                      "below about 1e-8 rounding stalls LOBPCG. Units: none.");
+    prm.declare_entry("LOBPCG modes per run", text(m.lobpcg_modes_per_run), Patterns::Integer(0),
+                      "lobpcg-amg: the most modes one LOBPCG run seeks; more modes are found by further runs, "
+                      "each in the M-orthogonal complement of the modes found before (smaller blocks, so less "
+                      "memory, but more iterations: 1.2x the time for two runs of 25 on a P2 plate). 0: all at "
+                      "once when that run fits half the memory available (per process), else as many as fit. "
+                      "Units: none.");
+    prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
+                      "The largest direct factor (as CHOLMOD's analysis predicts it) that a serial run computes in "
+                      "memory: a larger one goes to MUMPS on this process ('Factor storage = auto'), or to "
+                      "lobpcg-amg ('Eigensolver = auto' where MUMPS cannot take it). Under mpirun the limit of a node's processes "
+                      "together, each held to its share against MUMPS's prediction of its in-core data (the "
+                      "symmetric mode; the LU always factorizes). The same limit decides whether the distributed "
+                      "path's MUMPS factor stays in memory ('Factor storage = auto') and whether the block Krylov "
+                      "method keeps M V beside its bases V and OP V (else recomputed: a third less memory). 0: "
+                      "half the memory available when the space is solved. Units: GB (1e9 bytes).");
+    prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
+                      "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
+    prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
+                      Patterns::Selection("cholmod|umfpack"),
+                      "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
+                      "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
+    prm.declare_entry("Distributed factorization",
+                      m.distributed_factorization == DistributedFactorizationKind::mumps_lu ? "mumps-lu" : "mumps-cholesky",
+                      Patterns::Selection("mumps-cholesky|mumps-lu"),
+                      "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
+                      "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
+                      "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
+    prm.declare_entry("Factor storage", factor_storage_name(m.factor_storage), Patterns::Selection("auto|memory|disk"),
+                      "Where MUMPS keeps its factor (under mpirun, with --distributed, or on a serial run that hands a "
+                      "space to MUMPS). "
+                      "'memory': in core. 'disk': out of core, in 'Factor directory' (MUMPS writes the factor "
+                      "once and reads it back at every block solve; its in-core data shrinks to the fronts being "
+                      "worked on, so parts whose factor exceeds the memory still take the direct path). 'auto': "
+                      "in memory when MUMPS's analysis predicts in-core data within 'Factor memory limit', else "
+                      "on disk; with 'Eigensolver = auto', lobpcg-amg only when even the out-of-core data "
+                      "would not fit. A serial run keeps CHOLMOD's factor in memory and hands a space to MUMPS on its "
+                      "one process with 'disk', or with 'auto' when CHOLMOD's factor would exceed 'Factor memory "
+                      "limit' (not a part with free rigid-body motions, which MUMPS's path does not take). 'memory' "
+                      "keeps a serial run on CHOLMOD. Units: none.");
+    prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
+                      "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
+                      "each process's in its own subdirectory, removed when the space is done (a killed run's by "
+                      "the next run on the host). Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
+                      "Units: none (a path).");
+    prm.leave_subsection();
+  }
+
+  void ModeParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Modes");
+    maximum_count = prm.get_integer("Maximum number of modes");
+    minimum_count = prm.get_integer("Minimum number of modes");
+    const std::string rule = prm.get("Cut-off rule");
+    cut_off_rule   = rule == "none" ? CutOffRule::none : rule == "display" ? CutOffRule::display : CutOffRule::haptic;
+    display_rate   = prm.get_double("Display rate");
+    haptic_rate    = prm.get_double("Haptic rate");
+    shift          = prm.get_double("Shift");
+    tolerance      = prm.get_double("Tolerance");
+    factorization_kind = prm.get("Operator") == "umfpack" ? FactorizationKind::umfpack : FactorizationKind::cholmod;
+    distributed_factorization = prm.get("Distributed factorization") == "mumps-lu" ?
+                                  DistributedFactorizationKind::mumps_lu :
+                                  DistributedFactorizationKind::mumps_cholesky;
+    eigensolver    = eigensolver_kind(prm.get("Eigensolver"));
+    lobpcg_tolerance = prm.get_double("LOBPCG tolerance");
+    lobpcg_modes_per_run = prm.get_integer("LOBPCG modes per run");
+    factor_memory_limit = prm.get_double("Factor memory limit");
+    block_size     = prm.get_integer("Block size");
+    for (const auto &[kind, name] : factor_storage_names) // the pattern admits only these names
+      if (prm.get("Factor storage") == name)
+        factor_storage = kind;
+    factor_directory = prm.get("Factor directory");
+    prm.leave_subsection();
+    // The default minimum follows a smaller requested count: asking for 5 modes must not fail on a
+    // default nobody wrote. A minimum written above the maximum is still an error.
+    if (minimum_count == ModeParameters().minimum_count && maximum_count < minimum_count)
+      minimum_count = maximum_count;
+    AssertThrow(minimum_count <= maximum_count,
+                ExcMessage("'Modes/Minimum number of modes' = " + text(minimum_count) +
+                           " exceeds 'Maximum number of modes' = " + text(maximum_count) + "."));
+    // Said here, where --validate sees it; 'auto' switching to lobpcg-amg is checked where it does.
+    AssertThrow(eigensolver != EigensolverKind::lobpcg_amg || shift <= 0.,
+                ExcMessage("'Modes/Eigensolver = lobpcg-amg' needs 'Modes/Shift' <= 0 (K - shift M must be positive "
+                           "definite for the AMG and CG); it is " + text(shift) + " Hz."));
+  }
+
+  void DampingParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const DampingParameters d;
+    prm.enter_subsection("Damping");
+    prm.declare_entry("Model", d.rayleigh ? "rayleigh" : "modal", Patterns::Selection("rayleigh|modal"),
+                      "'rayleigh': C = alpha M + beta K; 'modal': one damping ratio for every mode. Units: none.");
+    prm.declare_entry("Rayleigh alpha", text(d.alpha), Patterns::Double(0.), "Mass-proportional coefficient. Units: 1/s.");
+    prm.declare_entry("Rayleigh beta", text(d.beta), Patterns::Double(0.), "Stiffness-proportional coefficient. Units: s.");
+    prm.declare_entry("Modal damping ratio", text(d.modal_ratio), Patterns::Double(0.),
+                      "Damping ratio zeta. Units: none.");
+    prm.leave_subsection();
+  }
+
+  void DampingParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Damping");
+    rayleigh    = prm.get("Model") == "rayleigh";
+    alpha       = prm.get_double("Rayleigh alpha");
+    beta        = prm.get_double("Rayleigh beta");
+    modal_ratio = prm.get_double("Modal damping ratio");
+    prm.leave_subsection();
+  }
+
+  void ContactParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const ContactParameters c;
+    prm.enter_subsection("Contact");
+    prm.declare_entry("Patch radius", text(c.patch_radius), Patterns::Double(0.),
+                      "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
+                      "load)." + geometry_units);
+    prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
+                      "Static-correction candidates of the global space: every n-th display vertex outside "
+                      "every VOI; 0 = none. Units: none.");
+    prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
+                      "At most this many candidates per space (thinned evenly). Units: none.");
+    prm.declare_entry("Cross compliance", text(c.cross_compliance), Patterns::Bool(),
+                      "Store the residual compliance between every pair of candidates of a space (two "
+                      "hands on one rib). Units: none.");
+    prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
+                      "Candidates per space validated against full static FE, in x, y and z. Units: none.");
+    prm.declare_entry("Validation points", "", Patterns::Anything(),
+                      "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
+                      "of each becomes a static-correction candidate." + geometry_units);
+    prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
+                      "The display correction field of a contact is kept where it exceeds this fraction of "
+                      "its maximum (it is local); the validation reports the error this truncation leaves. "
+                      "Units: none.");
+    prm.leave_subsection();
+  }
+
+  void ContactParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Contact");
+    patch_radius               = prm.get_double("Patch radius");
+    global_candidate_stride    = prm.get_integer("Global candidate stride");
+    maximum_candidates         = prm.get_integer("Maximum candidates");
+    cross_compliance           = prm.get_bool("Cross compliance");
+    validation_samples         = prm.get_integer("Validation samples");
+    correction_field_tolerance = prm.get_double("Correction field tolerance");
+    for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
+      validation_points.push_back(parse_point(point, "Contact/Validation points"));
+    prm.leave_subsection();
+  }
+
+  void OutputParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const OutputParameters o;
+    prm.enter_subsection("Output");
+    prm.declare_entry("Mode precision", o.float64_modes ? "float64" : "float32", Patterns::Selection("float32|float64"),
+                      "Scalar type of the display modes in the .mrt file. Units: none.");
+    prm.declare_entry("VTU modes", text(o.vtu_modes), Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
+    prm.declare_entry("Export matrices", text(o.export_matrices), Patterns::Bool(),
+                      "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
+                      "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");
+    prm.leave_subsection();
+  }
+
+  void OutputParameters::parse_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Output");
+    float64_modes   = prm.get("Mode precision") == "float64";
+    vtu_modes       = prm.get_integer("VTU modes");
+    export_matrices = prm.get_bool("Export matrices");
+    prm.leave_subsection();
+  }
+
+  // ---- The scene: its name, then every subsection, then the checks across them ---------------------
+  void declare_scene_parameters(ParameterHandler &prm)
+  {
+    prm.enter_subsection("Scene");
+    prm.declare_entry("Name", SceneParameters().scene_name, Patterns::Anything(),
+                      "Name of the scene: results go to results/<name>/ and files are named after it. "
+                      "Letters, digits, '_' and '-' only. Units: none.");
+    prm.leave_subsection();
+    declare_geometry(prm);
+    declare_meshing(prm);
+    declare_scenarios(prm);
+    MaterialParameters::declare_parameters(prm);
+    ModeParameters::declare_parameters(prm);
+    DampingParameters::declare_parameters(prm);
+    ContactParameters::declare_parameters(prm);
+    OutputParameters::declare_parameters(prm);
+  }
+
+  namespace
+  {
+    // Checks that need two subsections.
+    void check_across_subsections(const SceneParameters &scene)
+    {
+      AssertThrow(!scene.free_floating() || scene.modes.shift < 0.,
+                  ExcMessage("The part is free-floating (no 'Geometry/Supports' and no 'Clamp groups'), so K is singular: set "
+                             "'Modes/Shift' below zero (e.g. -0.1 times the first elastic frequency), not " +
+                             text(scene.modes.shift) + " Hz."));
+      AssertThrow(!scene.free_floating() || scene.modes.maximum_count > 6,
+                  ExcMessage("The part is free-floating: its six lowest modes are rigid-body motions, so "
+                             "'Modes/Maximum number of modes' = " + std::to_string(scene.modes.maximum_count) +
+                             " leaves no elastic mode; ask for at least 7."));
+      const std::string &geometry = scene.meshing.geometry;
+      AssertThrow(!(geometry.size() > 4 && geometry.substr(geometry.size() - 4) == ".msh" &&
+                    !scene.volumes_of_interest.empty()),
+                  ExcMessage("Geometry '" + geometry + "' is a .msh file, which cannot be re-graded "
+                             "around a VOI: give the geometry as STEP/.geo, or remove the 'Scenario' subsections."));
+    }
+
+    // Linear tets lock as nu -> 0.5 (the divergence-free constraint leaves them almost no motion):
+    // frequencies and stiffness come out too high. Not an error, the user may want to see it, but a
+    // warning (tests/precompute/test_nearly_incompressible.py measures the error).
+    void warn_about_locking(const SceneParameters &scene)
+    {
+      if (scene.element_degree == 1 && scene.material.poissons_ratio >= 0.45)
+        std::cerr << "Warning: 'Material/Poisson's ratio' = " << scene.material.poissons_ratio
+                  << " with 'Meshing/Element degree' = 1: linear tets lock on nearly incompressible materials "
+                     "(too stiff, frequencies too high); use Element degree = 2." << std::endl;
+    }
+  } // namespace
+
+  SceneParameters parse_scene_parameters(ParameterHandler &prm,
+                                         const std::string &parameter_file,
+                                         const std::string &output_directory_override)
+  {
+    SceneParameters scene;
+    scene.parameter_file = parameter_file;
+    prm.enter_subsection("Scene");
+    scene.scene_name = prm.get("Name");
+    prm.leave_subsection();
+    AssertThrow(!scene.scene_name.empty() &&
+                  scene.scene_name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") ==
+                    std::string::npos,
+                ExcMessage("'Scene/Name' = '" + scene.scene_name + "': use letters, digits, '_' and '-' only."));
+    scene.output_directory =
+      output_directory_override.empty() ? "results/" + scene.scene_name : output_directory_override;
+
+    parse_geometry(prm, scene);
+    parse_meshing(prm, scene);
+    parse_scenarios(prm, scene);
+    scene.material.parse_parameters(prm);
+    scene.modes.parse_parameters(prm);
+    scene.damping.parse_parameters(prm);
+    scene.contact.parse_parameters(prm);
+    scene.output.parse_parameters(prm);
+    check_across_subsections(scene);
+    warn_about_locking(scene);
+    return scene;
+  }
+
+  SceneParameters read_scene_parameters(ParameterHandler &prm,
+                                        const std::string &parameter_file,
+                                        const std::string &output_directory_override)
+  {
+    AssertThrow(std::filesystem::exists(parameter_file),
+                ExcMessage("Parameter file '" + parameter_file + "' does not exist."));
+    declare_scene_parameters(prm);
+    prm.parse_input(parameter_file);
+    return parse_scene_parameters(prm, parameter_file, output_directory_override);
+  }
+} // namespace modal_haptics

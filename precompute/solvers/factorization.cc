@@ -1,0 +1,388 @@
+#include "solvers/factorization.h"
+
+#include "solvers/supernodal_solve.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/multithread_info.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/lac/sparse_direct.h>
+
+#include <cholmod.h>
+#include <dlfcn.h>
+#include <unistd.h>
+#include <metis.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <string>
+
+namespace modal_haptics
+{
+  using dealii::ExcMessage;
+
+  int set_openblas_threads(const int threads)
+  {
+    auto *set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+    auto *get = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+    if (set == nullptr || get == nullptr)
+      return 0;
+    const int previous = get();
+    set(threads);
+    return previous;
+  }
+
+  std::vector<int> nested_dissection_of_nodes(NodeGraph &graph)
+  {
+    static_assert(sizeof(idx_t) == sizeof(int), "METIS's idx_t is expected to be 32 bits wide (Debian's)");
+    std::vector<int> xadj(graph.degrees.size() + 1, 0);
+    for (std::size_t g = 0; g < graph.degrees.size(); ++g)
+      xadj[g + 1] = xadj[g] + graph.degrees[g];
+    idx_t options[METIS_NOPTIONS];
+    METIS_SetDefaultOptions(options);
+    idx_t            vertices = idx_t(graph.weights.size());
+    std::vector<int> order(vertices), inverse(vertices);
+    const int        status   = METIS_NodeND(&vertices, xadj.data(), graph.neighbours.data(), graph.weights.data(),
+                                             options, order.data(), inverse.data());
+    AssertThrow(status == METIS_OK,
+                dealii::ExcMessage("METIS_NodeND failed (status " + std::to_string(status) + ", out of memory?)."));
+    return order;
+  }
+
+  namespace
+  {
+    // Whether mpirun (Open MPI), a PMI launcher (MPICH's Hydra) or PMIx (srun) started this process:
+    // what they put in the environment before MPI_Init.
+    bool started_by_mpi_launcher()
+    {
+      for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+        if (std::getenv(variable) != nullptr)
+          return true;
+      return false;
+    }
+  } // namespace
+
+  // The spin is read from OPENBLAS_THREAD_TIMEOUT (2^value cycles) when the library loads, before
+  // main, and no call changes it: hence the restart. 2^20 cycles (about 0.4 ms) is long enough for
+  // the factorization's back-to-back calls (docs/performance.md). Not under an MPI launcher: there
+  // each process has one BLAS thread (no idle worker to spin), and a process that replaces itself
+  // under the launcher's daemon is one risk more for nothing.
+  void shorten_openblas_spin_unless_set(char **argv)
+  {
+    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") != nullptr || started_by_mpi_launcher())
+      return;
+    setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
+    execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on with the long spin
+  }
+
+  BlasThreads::BlasThreads(const int threads)
+    : previous(set_openblas_threads(threads))
+  {}
+
+  BlasThreads::~BlasThreads()
+  {
+    if (previous > 0)
+      set_openblas_threads(previous);
+  }
+
+  void Factorization::vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src)
+  {
+    dst = src;
+    solve_block(dst.data(), 1);
+  }
+
+  namespace
+  {
+    const char *not_positive_definite_message =
+      "The stiffness matrix K - shift*M is not positive definite. Either the part is not held (check the "
+      "clamp groups: a free-floating part needs a negative 'Modes/Shift'), or 'Modes/Shift' lies above the "
+      "first eigenfrequency.";
+
+    // deal.II's thread count (the cores, or DEAL_II_NUM_THREADS), at most 8: beyond that the top of
+    // the tree, solved by one thread, grows while the subtrees shrink.
+    unsigned int solve_threads()
+    {
+      return std::clamp(dealii::MultithreadInfo::n_threads(), 1u, 8u);
+    }
+
+    // The node graph's nested dissection (nested_dissection_of_nodes) as CHOLMOD's Perm (Perm[k]:
+    // the row of A that comes k-th).
+    std::vector<SuiteSparse_long> node_graph_ordering(const dealii::SparsityPattern &pattern)
+    {
+      const std::size_t n          = pattern.n_rows();
+      const auto        sorted_row = [&](const std::size_t row) {
+        std::vector<std::size_t> columns;
+        for (auto it = pattern.begin(row); it != pattern.end(row); ++it)
+          columns.push_back(it->column());
+        std::sort(columns.begin(), columns.end());
+        return columns;
+      };
+      const auto       first_rows = node_first_rows(n, sorted_row);
+      std::vector<int> node_of_row(n);
+      for (std::size_t g = 0; g + 1 < first_rows.size(); ++g)
+        std::fill(node_of_row.begin() + first_rows[g], node_of_row.begin() + first_rows[g + 1], int(g));
+      NodeGraph graph =
+        node_graph(first_rows, sorted_row, [&](const std::size_t column) { return node_of_row[column]; }, 0);
+
+      std::vector<SuiteSparse_long> permutation;
+      permutation.reserve(n);
+      for (const int g : nested_dissection_of_nodes(graph))
+        for (std::size_t row = first_rows[g]; row < first_rows[g + 1]; ++row)
+          permutation.push_back(SuiteSparse_long(row));
+      return permutation;
+    }
+
+    class CholmodFactorization : public Factorization
+    {
+    public:
+      // Analyzes A = K - shift M; factorizes it when the factor the analysis predicts takes at most
+      // memory_limit bytes (fits() tells).
+      CholmodFactorization(const dealii::SparseMatrix<double> &K,
+                           const dealii::SparseMatrix<double> *M,
+                           const double shift,
+                           const double memory_limit)
+      {
+        cholmod_l_start(&common);
+        // One ordering, METIS nested dissection (the fill-reducing ordering that pays on 3D
+        // meshes) of the node graph, given to CHOLMOD.
+        common.nmethods           = 1;
+        common.method[0].ordering = CHOLMOD_GIVEN;
+        common.postorder          = 1;
+        common.supernodal         = CHOLMOD_SUPERNODAL;
+        common.quick_return_if_not_posdef = 1;
+        stats.method              = "cholmod-supernodal-metis";
+
+        cholmod_sparse *A = copy_upper_triangle(K, M, shift);
+        dealii::Timer timer;
+        auto          ordering = node_graph_ordering(K.get_sparsity_pattern());
+        factor                 = cholmod_l_analyze_p(A, ordering.data(), nullptr, 0, &common);
+        const int  analysis_status = common.status;
+        const bool analyzed        = factor != nullptr && analysis_status == CHOLMOD_OK;
+        stats.analyze_seconds      = timer.wall_time();
+        // The supernodal analysis sizes the factor's values (xsize doubles) before any is computed.
+        stats.predicted_factor_bytes = analyzed ? 8. * double(factor->xsize) : 0.;
+        fits_in_memory               = stats.predicted_factor_bytes <= memory_limit;
+        int  factorization_status  = CHOLMOD_OK;
+        bool positive_definite     = false;
+        if (analyzed && fits_in_memory)
+          {
+            timer.restart();
+            cholmod_l_factorize(A, factor, &common);
+            stats.factorize_seconds = timer.wall_time();
+            factorization_status    = common.status;
+            positive_definite       = factorization_status == CHOLMOD_OK && factor->minor == factor->n;
+            stats.factor_nonzeros   = common.lnz;
+            stats.factor_flops      = common.fl;
+          }
+        cholmod_l_free_sparse(&A, &common);
+        if (!positive_definite)
+          release();
+        AssertThrow(analyzed, ExcMessage("CHOLMOD's analysis failed (status " + std::to_string(analysis_status) +
+                                         ", out of memory?)."));
+        if (!fits_in_memory)
+          return;
+        AssertThrow(factorization_status == CHOLMOD_OK || factorization_status == CHOLMOD_NOT_POSDEF,
+                    ExcMessage("CHOLMOD's factorization failed (status " + std::to_string(factorization_status) +
+                               ", out of memory?)."));
+        AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
+        try
+          {
+            triangular_solves   = std::make_unique<SupernodalSolve>(*factor, solve_threads());
+            stats.solve_threads = triangular_solves->n_threads();
+          }
+        catch (...)
+          {
+            release();
+            throw;
+          }
+      }
+
+      bool fits() const { return fits_in_memory; }
+
+      ~CholmodFactorization() override { release(); }
+
+      // The triangular solves run on SupernodalSolve (subtrees of the elimination tree on parallel
+      // threads, one BLAS thread each: supernodal_solve.h says why not cholmod_solve).
+      void solve_block(double *columns, const unsigned int n_rhs) override
+      {
+        dealii::Timer     timer;
+        const BlasThreads one_blas_thread(1);
+        triangular_solves->solve(columns, n_rhs);
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += n_rhs;
+      }
+
+      // Y = L^-1 P B may take as much memory as the factor itself, or 1 GB where the factor is
+      // smaller (the default scene's 400 candidates: Y is 0.59 GB beside a 0.41 GB factor);
+      // beyond that the caller solves.
+      bool gram_of_inverse(const std::vector<SparseColumn> &B, std::vector<double> &G) override
+      {
+        dealii::Timer     timer;
+        const BlasThreads one_blas_thread(1);
+        const double      memory_limit = std::max(stats.predicted_factor_bytes, 1e9);
+        const bool        done         = triangular_solves->gram_of_inverse(B, memory_limit, G);
+        stats.solve_seconds += timer.wall_time();
+        if (done)
+          stats.n_solved_vectors += B.size();
+        return done;
+      }
+
+    private:
+      // Frees the factor (if any) and CHOLMOD's workspace, once: by the destructor, by the
+      // constructor's failure paths (after which no destructor runs) or when the factor does not fit.
+      void release()
+      {
+        if (released)
+          return;
+        cholmod_l_free_factor(&factor, &common);
+        cholmod_l_finish(&common);
+        released = true;
+      }
+
+      // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
+      // form holds the rows i <= j, which by symmetry are the entries of deal.II's CSR row j with
+      // column <= j. M has K's sparsity pattern, so its entries are walked in step.
+      cholmod_sparse *copy_upper_triangle(const dealii::SparseMatrix<double> &K,
+                                          const dealii::SparseMatrix<double> *M,
+                                          const double shift)
+      {
+        const auto n   = K.m();
+        std::size_t nnz = 0;
+        for (std::size_t row = 0; row < n; ++row)
+          for (auto it = K.begin(row); it != K.end(row); ++it)
+            nnz += (it->column() <= row);
+
+        cholmod_sparse *A = cholmod_l_allocate_sparse(n, n, nnz, /*sorted*/ 0, /*packed*/ 1, /*stype*/ 1,
+                                                      CHOLMOD_REAL, &common);
+        auto *column_start = static_cast<SuiteSparse_long *>(A->p);
+        auto *row_index    = static_cast<SuiteSparse_long *>(A->i);
+        auto *values       = static_cast<double *>(A->x);
+        const bool shifted = M != nullptr && shift != 0.;
+        std::size_t k      = 0;
+        for (std::size_t j = 0; j < n; ++j)
+          {
+            column_start[j] = k;
+            auto m_it       = shifted ? M->begin(j) : K.begin(j);
+            for (auto it = K.begin(j); it != K.end(j); ++it, ++m_it)
+              if (it->column() <= j)
+                {
+                  row_index[k] = it->column();
+                  values[k]    = shifted ? it->value() - shift * m_it->value() : it->value();
+                  ++k;
+                }
+          }
+        column_start[n] = k;
+        return A;
+      }
+
+      cholmod_common                   common;
+      cholmod_factor                  *factor = nullptr;
+      bool                             fits_in_memory = true;
+      bool                             released       = false;
+      std::unique_ptr<SupernodalSolve> triangular_solves;
+    };
+
+    class UmfpackFactorization : public Factorization
+    {
+    public:
+      UmfpackFactorization(const dealii::SparseMatrix<double> &K,
+                           const dealii::SparseMatrix<double> *M,
+                           const double shift)
+      {
+        stats.method = "umfpack-lu";
+        dealii::Timer timer;
+        if (M != nullptr && shift != 0.)
+          {
+            shifted.reinit(K.get_sparsity_pattern());
+            shifted.copy_from(K);
+            shifted.add(-shift, *M);
+            solver.initialize(shifted);
+          }
+        else
+          solver.initialize(K);
+        stats.factorize_seconds = timer.wall_time();
+        size = K.m();
+      }
+
+      void solve_block(double *columns, const unsigned int n_rhs) override
+      {
+        dealii::Timer          timer;
+        dealii::Vector<double> column(size);
+        for (unsigned int c = 0; c < n_rhs; ++c)
+          {
+            std::copy(columns + c * size, columns + (c + 1) * size, column.begin());
+            solver.solve(column);
+            std::copy(column.begin(), column.end(), columns + c * size);
+          }
+        stats.solve_seconds += timer.wall_time();
+        stats.n_solved_vectors += n_rhs;
+      }
+
+    private:
+      dealii::SparseMatrix<double>  shifted;
+      dealii::SparseDirectUMFPACK   solver;
+      std::size_t                   size = 0;
+    };
+  } // namespace
+
+  std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            const double shift)
+  {
+    return std::make_unique<CholmodFactorization>(K, M, shift, std::numeric_limits<double>::infinity());
+  }
+
+  std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
+                                                                   const dealii::SparseMatrix<double> *M,
+                                                                   const double shift, const double memory_limit,
+                                                                   double &predicted_factor_bytes)
+  {
+    auto factorization     = std::make_unique<CholmodFactorization>(K, M, shift, memory_limit);
+    predicted_factor_bytes = factorization->statistics().predicted_factor_bytes;
+    if (!factorization->fits())
+      return nullptr;
+    return factorization;
+  }
+
+  double available_memory_bytes()
+  {
+    std::ifstream meminfo("/proc/meminfo");
+    std::string   key;
+    double        kilobytes = 0.;
+    while (meminfo >> key >> kilobytes)
+      {
+        if (key == "MemAvailable:")
+          return 1024. * kilobytes;
+        meminfo.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+      }
+    return std::numeric_limits<double>::infinity(); // not Linux: the factorization is always tried
+  }
+
+  double memory_budget_bytes(const double limit_gb)
+  {
+    return limit_gb > 0. ? 1e9 * limit_gb : 0.5 * available_memory_bytes();
+  }
+
+  double memory_budget_per_process_bytes(const double limit_gb, const MPI_Comm comm)
+  {
+    return dealii::Utilities::MPI::min(memory_budget_bytes(limit_gb), comm) / processes_on_this_node(comm);
+  }
+
+  unsigned int processes_on_this_node(const MPI_Comm comm)
+  {
+    MPI_Comm node;
+    MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    int count = 1;
+    MPI_Comm_size(node, &count);
+    MPI_Comm_free(&node);
+    return count;
+  }
+
+  std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            const double shift)
+  {
+    return std::make_unique<UmfpackFactorization>(K, M, shift);
+  }
+} // namespace modal_haptics

@@ -1,0 +1,159 @@
+// Sparse direct factorizations of A = K - sigma M behind the shift-invert eigensolve, the static
+// correction and the validation solves: factor once, solve many (blocks of right-hand sides).
+#pragma once
+
+#include "solvers/solver_statistics.h"
+#include "solvers/supernodal_solve.h"
+
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/vector.h>
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  // OpenBLAS' thread count, set for a scope and restored after it (no-op with another BLAS: the
+  // functions are looked up at run time; the system BLAS is whatever Debian's alternatives pick).
+  // The triangular solves set one: their threads are their own (supernodal_solve.h), and BLAS
+  // threads inside a supernode's small block only add synchronization (250k DoFs, loaded machine:
+  // a 4-column solve 0.73-0.80 s on 1 thread, 0.86-1.69 s on 2). The factorization and the Krylov
+  // basis' GEMMs keep every thread.
+  class BlasThreads
+  {
+  public:
+    explicit BlasThreads(int threads);
+    ~BlasThreads();
+    BlasThreads(const BlasThreads &) = delete;
+    BlasThreads &operator=(const BlasThreads &) = delete;
+
+  private:
+    const int previous;
+  };
+
+  // The mesh's nodes among a matrix's rows: runs of consecutive rows with the same sparsity pattern
+  // (a node's three displacement components, which deal.II numbers together). sorted_row(i) gives
+  // row i's columns in increasing order. Returns each node's first row, then n_rows.
+  template <typename SortedRow>
+  std::vector<std::size_t> node_first_rows(const std::size_t n_rows, const SortedRow &sorted_row)
+  {
+    std::vector<std::size_t> first_rows;
+    decltype(sorted_row(0))  previous;
+    for (std::size_t row = 0; row < n_rows; ++row)
+      {
+        auto columns = sorted_row(row);
+        if (first_rows.empty() || columns != previous)
+          first_rows.push_back(row);
+        previous.swap(columns);
+      }
+    first_rows.push_back(n_rows);
+    return first_rows;
+  }
+
+  // A graph of mesh nodes, node by node: how many neighbours each has (nodes it shares a matrix
+  // entry with, itself left out), the neighbours one node after the other, and each node's rows.
+  struct NodeGraph
+  {
+    std::vector<int> degrees, neighbours, weights;
+  };
+
+  // The graph of the nodes that first_rows delimits (node_first_rows, its last entry the end):
+  // node_of(column) numbers the node that holds a column, and the g-th node here is number
+  // first_node + g. The columns come sorted, so a node's rows come one after the other and each
+  // neighbour is listed once.
+  template <typename SortedRow, typename NodeOf>
+  NodeGraph node_graph(const std::vector<std::size_t> &first_rows, const SortedRow &sorted_row, const NodeOf &node_of,
+                       const int first_node)
+  {
+    NodeGraph graph;
+    for (std::size_t g = 0; g + 1 < first_rows.size(); ++g)
+      {
+        graph.weights.push_back(int(first_rows[g + 1] - first_rows[g]));
+        const std::size_t before = graph.neighbours.size();
+        for (const auto column : sorted_row(first_rows[g]))
+          if (const int node = node_of(column);
+              node != first_node + int(g) && (graph.neighbours.size() == before || graph.neighbours.back() != node))
+            graph.neighbours.push_back(node);
+        graph.degrees.push_back(int(graph.neighbours.size() - before));
+      }
+    return graph;
+  }
+
+  // A fill-reducing ordering of the nodes: METIS's nested dissection of their graph, on the node
+  // graph rather than the rows' because it has a third of the vertices and a ninth of the edges
+  // (METIS runs several times faster) and a separator never cuts a node's components apart.
+  // Returns the nodes in pivot order. The serial (CHOLMOD) and the distributed (MUMPS)
+  // factorizations use it.
+  std::vector<int> nested_dissection_of_nodes(NodeGraph &graph);
+
+  // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
+  int set_openblas_threads(int threads);
+
+  // OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s) after every call before they
+  // sleep; on 2 cores the spinning worker takes a core from our own threads (the triangular solves
+  // start right after the eigensolver's GEMMs on the basis: 250k DoFs, 7.0 s of solves against
+  // 6.4 s with a short spin). Unless the user has set OPENBLAS_THREAD_TIMEOUT, or an MPI launcher
+  // started the process, sets it to 20 and restarts the program (execv of itself, same PID, same
+  // arguments): the first line of main, before anything else has happened.
+  void shorten_openblas_spin_unless_set(char **argv);
+
+  class Factorization
+  {
+  public:
+    virtual ~Factorization() = default;
+
+    // Solves A X = B in place for n_rhs columns stored one after the other (column-major, each of
+    // length n). A block is much cheaper per column than single solves: the factor is read once.
+    virtual void solve_block(double *columns, unsigned int n_rhs) = 0;
+
+    // G = B^T A^-1 B (column-major) for sparse columns B, when the factorization gives it without
+    // a full solve per column (CHOLMOD's: SupernodalSolve::gram_of_inverse); false otherwise, and
+    // the caller solves.
+    virtual bool gram_of_inverse(const std::vector<SparseColumn> & /*B*/, std::vector<double> & /*G*/)
+    {
+      return false;
+    }
+
+    // The shift-invert operator for ARPACK: dst = A^{-1} src.
+    void vmult(dealii::Vector<double> &dst, const dealii::Vector<double> &src);
+
+    const FactorizationStatistics &statistics() const { return stats; }
+
+  protected:
+    FactorizationStatistics stats;
+  };
+
+  // Factorizes K - shift M (shift in rad^2/s^2; M may be null when shift = 0). Throws ExcMessage
+  // when the matrix is not positive definite (a shift above the first eigenvalue, a part that is
+  // not clamped), naming what to change.
+  std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            double shift);
+  // The same, only when the analysis predicts a factor of at most memory_limit bytes; otherwise
+  // nullptr, without factorizing (predicted_factor_bytes says what it would have taken).
+  std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
+                                                                   const dealii::SparseMatrix<double> *M,
+                                                                   double shift, double memory_limit,
+                                                                   double &predicted_factor_bytes);
+
+  // MemAvailable of /proc/meminfo (infinity where there is none).
+  double available_memory_bytes();
+
+  // 'Modes/Factor memory limit' in bytes (limit_gb in GB), or half the memory available now when it is 0.
+  double memory_budget_bytes(double limit_gb);
+
+  // The MPI processes of comm that share this one's node (and its memory).
+  unsigned int processes_on_this_node(MPI_Comm comm);
+
+  // This process's share of its node's memory_budget_bytes(limit_gb), the smallest over comm's
+  // processes so that all decide alike.
+  double memory_budget_per_process_bytes(double limit_gb, MPI_Comm comm);
+
+  std::unique_ptr<Factorization> make_umfpack_factorization(const dealii::SparseMatrix<double> &K,
+                                                            const dealii::SparseMatrix<double> *M,
+                                                            double shift);
+} // namespace modal_haptics

@@ -1,0 +1,677 @@
+#include "solvers/supernodal_solve.h"
+
+#include "solvers/blas_lapack.h"
+
+#include <algorithm>
+#include <functional>
+#include <numeric>
+#include <stdexcept>
+#include <thread>
+
+namespace modal_haptics
+{
+  namespace
+  {
+    // Runs work(t) for t = 0 .. threads - 1, t = 0 on the calling thread. If a thread cannot be
+    // started, the ones running are joined before the error goes on.
+    void run_on_threads(const unsigned int threads, const std::function<void(unsigned int)> &work)
+    {
+      std::vector<std::thread> helpers;
+      const auto join_all = [&] {
+        for (auto &helper : helpers)
+          helper.join();
+      };
+      try
+        {
+          for (unsigned int t = 1; t < threads; ++t)
+            helpers.emplace_back(work, t);
+        }
+      catch (...)
+        {
+          join_all();
+          throw;
+        }
+      work(0);
+      join_all();
+    }
+  } // namespace
+
+  SupernodalSolve::SupernodalSolve(const cholmod_factor &factor, const unsigned int threads)
+    : n(factor.n)
+    , n_supernodes(factor.nsuper)
+    , max_rows_below(factor.maxesize)
+    , first_column(static_cast<const Index *>(factor.super))
+    , row_start(static_cast<const Index *>(factor.pi))
+    , value_start(static_cast<const Index *>(factor.px))
+    , rows(static_cast<const Index *>(factor.s))
+    , permutation(static_cast<const Index *>(factor.Perm))
+    , values(static_cast<const double *>(factor.x))
+  {
+    if (!factor.is_super || !factor.is_ll || factor.xtype != CHOLMOD_REAL || factor.itype != CHOLMOD_LONG)
+      throw std::invalid_argument("SupernodalSolve needs a real supernodal L L^T factor from cholmod_l_factorize.");
+    for (Index s = 0; s < n_supernodes; ++s)
+      max_rows = std::max(max_rows, row_start[s + 1] - row_start[s]);
+    assign_subtrees(std::max(1u, threads));
+  }
+
+  namespace
+  {
+    using Index = SuiteSparse_long;
+
+    // The elimination tree of the supernodes, weighed by their entries of L (what a solve reads).
+    struct SupernodeTree
+    {
+      std::vector<Index>              supernode_of_column;
+      std::vector<Index>              parent;   // -1 at a root
+      std::vector<std::vector<Index>> children;
+      std::vector<double>             entries, subtree_entries;
+      std::vector<Index>              roots;    // ascending
+      double                          total_entries = 0.;
+    };
+
+    SupernodeTree supernode_tree(const Index n, const Index n_supernodes, const Index *first_column,
+                                 const Index *row_start, const Index *rows)
+    {
+      SupernodeTree tree;
+      auto         &supernode_of_column = tree.supernode_of_column;
+      supernode_of_column.resize(n);
+      tree.parent.assign(n_supernodes, -1);
+      tree.children.resize(n_supernodes);
+      tree.entries.resize(n_supernodes);
+      for (Index s = 0; s < n_supernodes; ++s)
+        for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+          supernode_of_column[c] = s;
+      for (Index s = 0; s < n_supernodes; ++s)
+        {
+          const Index n_columns = first_column[s + 1] - first_column[s], n_rows = row_start[s + 1] - row_start[s];
+          tree.entries[s] = double(n_rows) * n_columns;
+          tree.total_entries += tree.entries[s];
+          if (n_rows > n_columns)
+            {
+              tree.parent[s] = supernode_of_column[rows[row_start[s] + n_columns]];
+              tree.children[tree.parent[s]].push_back(s);
+            }
+          else
+            tree.roots.push_back(s);
+        }
+      // A parent comes after its children (elimination tree): one ascending pass sums the subtrees.
+      tree.subtree_entries = tree.entries;
+      for (Index s = 0; s < n_supernodes; ++s)
+        if (tree.parent[s] >= 0)
+          tree.subtree_entries[tree.parent[s]] += tree.subtree_entries[s];
+      return tree;
+    }
+
+    // Packs the subtrees of 'roots' onto the threads (sorting the roots, heaviest first, each onto
+    // the least loaded thread); returns the largest load, and each root's thread in thread_of when given.
+    double pack_subtrees(const SupernodeTree &tree, const unsigned int threads, std::vector<Index> &roots,
+                         std::vector<int> *thread_of)
+    {
+      const auto &subtree_entries = tree.subtree_entries;
+      std::sort(roots.begin(), roots.end(),
+                [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; });
+      std::vector<double> load(threads, 0.);
+      for (const Index s : roots)
+        {
+          const auto lightest = std::min_element(load.begin(), load.end()) - load.begin();
+          load[lightest] += subtree_entries[s];
+          if (thread_of != nullptr)
+            (*thread_of)[s] = int(lightest);
+        }
+      return *std::max_element(load.begin(), load.end());
+    }
+
+    // The top of the tree: again and again the heaviest subtree is cut off its root, which joins
+    // the top, and its children's subtrees are packed instead; the cut that minimizes top + the most
+    // loaded thread is kept. Cutting stops once the top alone costs more than that best (a
+    // chain-like tree has no parallelism to give). Returns the supernodes of the top, in cut order.
+    std::vector<Index> best_top(const SupernodeTree &tree, const unsigned int threads)
+    {
+      std::vector<Index> candidates = tree.roots; // roots of the subtrees outside the top
+      std::vector<Index> cuts;                    // the supernodes cut, in order
+      std::size_t        best_n_cuts = 0;
+      double             top = 0., best_cost = pack_subtrees(tree, threads, candidates, nullptr);
+      while (threads > 1 && !candidates.empty() && !tree.children[candidates.front()].empty() && top < best_cost)
+        {
+          const Index heaviest = candidates.front();
+          candidates.erase(candidates.begin());
+          candidates.insert(candidates.end(), tree.children[heaviest].begin(), tree.children[heaviest].end());
+          cuts.push_back(heaviest);
+          top += tree.entries[heaviest];
+          const double cost = top + pack_subtrees(tree, threads, candidates, nullptr);
+          if (cost < best_cost)
+            {
+              best_cost   = cost;
+              best_n_cuts = cuts.size();
+            }
+        }
+      cuts.resize(best_n_cuts);
+      return cuts;
+    }
+
+    // The thread of every supernode outside the top: the roots of the subtrees below the top are
+    // packed onto the threads, every other supernode goes with its subtree's root. Returns the most
+    // loaded thread's entries.
+    double assign_threads(const SupernodeTree &tree, const unsigned int threads, const std::vector<bool> &in_top,
+                          std::vector<int> &thread_of)
+    {
+      const Index        n_supernodes = tree.parent.size();
+      std::vector<Index> roots;
+      for (Index s = 0; s < n_supernodes; ++s)
+        if (!in_top[s] && (tree.parent[s] < 0 || in_top[tree.parent[s]]))
+          roots.push_back(s);
+      thread_of.assign(n_supernodes, -1);
+      const double largest = pack_subtrees(tree, threads, roots, &thread_of);
+      for (Index s = n_supernodes - 1; s >= 0; --s)
+        if (!in_top[s] && thread_of[s] < 0)
+          thread_of[s] = thread_of[tree.parent[s]];
+      return largest;
+    }
+  } // namespace
+
+  // Splits the elimination tree of the supernodes into subtrees for the threads, weighed by their
+  // entries of L (what a solve reads). The subtrees of the roots are packed onto the threads
+  // (largest first, each onto the least loaded thread); then, again and again, the heaviest
+  // subtree is cut off its root, which joins the top (solved by one thread, after the subtrees),
+  // and its children's subtrees are packed instead. A solve then costs about top + the most
+  // loaded thread: the cut that minimizes it is kept (best_top).
+  void SupernodalSolve::assign_subtrees(const unsigned int threads)
+  {
+    SupernodeTree tree  = supernode_tree(n, n_supernodes, first_column, row_start, rows);
+    total_entries       = tree.total_entries;
+    supernode_of_column = std::move(tree.supernode_of_column);
+    parent_supernode    = tree.parent;
+    std::vector<bool> in_top(n_supernodes, false);
+    for (const Index s : best_top(tree, threads))
+      {
+        in_top[s] = true;
+        top_entries += tree.entries[s];
+      }
+    std::vector<int> thread_of;
+    largest_thread_entries = assign_threads(tree, threads, in_top, thread_of);
+
+    subtrees_of_thread.assign(threads, {});
+    top_position.assign(n, -1);
+    for (Index s = 0; s < n_supernodes; ++s)
+      if (in_top[s])
+        {
+          top_supernodes.push_back(s);
+          for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+            top_position[c] = n_top_columns++;
+        }
+      else
+        subtrees_of_thread[thread_of[s]].push_back(s);
+  }
+
+  // One supernode's block of L: its columns' diagonal triangle L11 (n_columns x n_columns, at L)
+  // above L21 (below x n_columns, at L + n_columns; rows_below are their rows), column-major with
+  // leading dimension n_rows; its columns are first .. first + n_columns - 1.
+  struct SupernodalSolve::Block
+  {
+    Block(const SupernodalSolve &solve, const Index supernode)
+      : first(solve.first_column[supernode])
+      , n_columns(solve.first_column[supernode + 1] - first)
+      , n_rows(solve.row_start[supernode + 1] - solve.row_start[supernode])
+      , below(n_rows - n_columns)
+      , L(solve.values + solve.value_start[supernode])
+      , rows_below(solve.rows + solve.row_start[supernode] + n_columns)
+    {}
+
+    const Index   first;
+    const int     n_columns, n_rows, below;
+    const double *L;
+    const Index  *rows_below;
+  };
+
+  void SupernodalSolve::forward(const Index supernode, double *X, const int n_rhs, double *workspace,
+                                double *top_updates) const
+  {
+    const Block  b(*this, supernode);
+    const int    ld  = int(n);
+    double      *own = X + b.first;
+    const double one = 1., zero = 0.;
+    dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
+    if (b.below == 0)
+      return;
+    // workspace = L21 y_own, then scattered onto the rows below (ancestors' columns).
+    dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, own, &ld, &zero,
+           workspace, &b.below);
+    for (int c = 0; c < n_rhs; ++c)
+      for (int i = 0; i < b.below; ++i)
+        {
+          const Index  row    = b.rows_below[i];
+          const double update = workspace[i + std::size_t(c) * b.below];
+          const Index  top    = top_updates != nullptr ? top_position[row] : -1;
+          if (top >= 0)
+            top_updates[top + std::size_t(c) * n_top_columns] -= update;
+          else
+            X[row + std::size_t(c) * n] -= update;
+        }
+  }
+
+  void SupernodalSolve::backward(const Index supernode, double *X, const int n_rhs, double *workspace) const
+  {
+    const Block  b(*this, supernode);
+    const int    ld  = int(n);
+    double      *own = X + b.first;
+    const double one = 1., minus_one = -1.;
+    if (b.below > 0)
+      {
+        // x_own -= L21^T x_below, x_below gathered into the workspace.
+        for (int c = 0; c < n_rhs; ++c)
+          for (int i = 0; i < b.below; ++i)
+            workspace[i + std::size_t(c) * b.below] = X[b.rows_below[i] + std::size_t(c) * n];
+        dgemm_("T", "N", &b.n_columns, &n_rhs, &b.below, &minus_one, b.L + b.n_columns, &b.n_rows, workspace, &b.below,
+               &one, own, &ld);
+      }
+    dtrsm_("L", "L", "T", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
+  }
+
+// The narrow kernels pay only with 256-bit vectors and fused multiply-adds (x86-64-v3: AVX2, FMA;
+// with SSE2 alone they were no faster than the BLAS): they are compiled for them, and solve()
+// takes them only where the processor has them (narrow_kernels_run_here). Elsewhere than on x86-64
+// (unmeasured) the BLAS solves every width.
+#if defined(__x86_64__)
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+#endif
+  namespace
+  {
+    // The narrow kernels work on one supernode's rows gathered into x, row-interleaved (x[i * width
+    // + c]: a row's right-hand sides side by side), and read each entry of L once, column after
+    // column. x's first n_columns rows are the supernode's own, the rest its rows below.
+
+    // L11 y = x_own, then x_below -= L21 y; two columns of L at a time, so that x below them is
+    // read and written once for both. (__restrict: x never aliases L, which lets the compiler
+    // keep L's entries in registers and vectorize across the right-hand sides.)
+    template <int width>
+    void lower_sweep(const double *__restrict L, const int n_columns, const int n_rows, double *__restrict x)
+    {
+      int j = 0;
+      for (; j + 2 <= n_columns; j += 2)
+        {
+          const double *__restrict first = L + std::size_t(j) * n_rows, *__restrict second = first + n_rows;
+          double y0[width], y1[width];
+          for (int c = 0; c < width; ++c)
+            {
+              y0[c] = x[j * width + c] /= first[j];
+              y1[c] = x[(j + 1) * width + c] = (x[(j + 1) * width + c] - first[j + 1] * y0[c]) / second[j + 1];
+            }
+          for (int i = j + 2; i < n_rows; ++i)
+            {
+              const double l0 = first[i], l1 = second[i];
+              for (int c = 0; c < width; ++c)
+                x[i * width + c] -= l0 * y0[c] + l1 * y1[c];
+            }
+        }
+      if (j < n_columns)
+        {
+          const double *__restrict column = L + std::size_t(j) * n_rows;
+          double y[width];
+          for (int c = 0; c < width; ++c)
+            y[c] = x[j * width + c] /= column[j];
+          for (int i = j + 1; i < n_rows; ++i)
+            {
+              const double l = column[i];
+              for (int c = 0; c < width; ++c)
+                x[i * width + c] -= l * y[c];
+            }
+        }
+    }
+
+    // L11^T z = x_own - L21^T x_below, from the last column: each a dot product of its column
+    // with x below the diagonal, two columns at a time (x read once for both), each in two partial
+    // sums (one sum would wait on the latency of every multiply-add).
+    template <int width>
+    void transposed_sweep(const double *__restrict L, const int n_columns, const int n_rows, double *__restrict x)
+    {
+      int j = n_columns - 1;
+      for (; j >= 1; j -= 2)
+        {
+          // Columns j (second) and j - 1 (first): both their sums over the rows below j first.
+          const double *__restrict second = L + std::size_t(j) * n_rows, *__restrict first = second - n_rows;
+          double sum0[2][width] = {}, sum1[2][width] = {};
+          int    i = j + 1;
+          for (; i + 2 <= n_rows; i += 2)
+            for (int u = 0; u < 2; ++u)
+              {
+                const double l0 = first[i + u], l1 = second[i + u];
+                for (int c = 0; c < width; ++c)
+                  {
+                    sum0[u][c] += l0 * x[(i + u) * width + c];
+                    sum1[u][c] += l1 * x[(i + u) * width + c];
+                  }
+              }
+          for (; i < n_rows; ++i)
+            for (int c = 0; c < width; ++c)
+              {
+                sum0[0][c] += first[i] * x[i * width + c];
+                sum1[0][c] += second[i] * x[i * width + c];
+              }
+          for (int c = 0; c < width; ++c)
+            {
+              const double z = x[j * width + c] = (x[j * width + c] - (sum1[0][c] + sum1[1][c])) / second[j];
+              x[(j - 1) * width + c] = (x[(j - 1) * width + c] - (sum0[0][c] + sum0[1][c]) - first[j] * z) / first[j - 1];
+            }
+        }
+      if (j == 0)
+        {
+          double sum[width] = {};
+          for (int i = 1; i < n_rows; ++i)
+            for (int c = 0; c < width; ++c)
+              sum[c] += L[i] * x[i * width + c];
+          for (int c = 0; c < width; ++c)
+            x[c] = (x[c] - sum[c]) / L[0];
+        }
+    }
+  } // namespace
+
+  template <int width>
+  void SupernodalSolve::forward_narrow(const Index supernode, double *X, double *rows_of_block, double *top_updates) const
+  {
+    const Block b(*this, supernode);
+    double     *own = X + std::size_t(b.first) * width;
+    std::copy(own, own + b.n_columns * width, rows_of_block);
+    std::fill(rows_of_block + b.n_columns * width, rows_of_block + b.n_rows * width, 0.);
+    lower_sweep<width>(b.L, b.n_columns, b.n_rows, rows_of_block);
+    std::copy(rows_of_block, rows_of_block + b.n_columns * width, own);
+    // rows_of_block below the own rows: -L21 y, added to the rows below (or to the top's updates).
+    for (int i = 0; i < b.below; ++i)
+      {
+        const Index   row    = b.rows_below[i];
+        const Index   top    = top_updates != nullptr ? top_position[row] : -1;
+        double       *target = top >= 0 ? top_updates + std::size_t(top) * width : X + std::size_t(row) * width;
+        const double *update = rows_of_block + (b.n_columns + i) * width;
+        for (int c = 0; c < width; ++c)
+          target[c] += update[c];
+      }
+  }
+
+  template <int width>
+  void SupernodalSolve::backward_narrow(const Index supernode, double *X, double *rows_of_block) const
+  {
+    const Block b(*this, supernode);
+    double     *own = X + std::size_t(b.first) * width;
+    std::copy(own, own + b.n_columns * width, rows_of_block);
+    for (int i = 0; i < b.below; ++i)
+      std::copy_n(X + std::size_t(b.rows_below[i]) * width, width, rows_of_block + (b.n_columns + i) * width);
+    transposed_sweep<width>(b.L, b.n_columns, b.n_rows, rows_of_block);
+    std::copy(rows_of_block, rows_of_block + b.n_columns * width, own);
+  }
+
+#if defined(__x86_64__)
+#pragma GCC pop_options
+#endif
+
+  namespace
+  {
+    bool narrow_kernels_run_here()
+    {
+#if defined(__x86_64__)
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+      return false;
+#endif
+    }
+  } // namespace
+
+  // P b in, P^T x out; in between L y = P b (the subtrees on their threads, each adding its
+  // updates to the top's rows into its own top_updates, laid out as X; then those summed into X
+  // and the top solved) and L^T x = y (the top, then the subtrees at once: each reads only its
+  // own rows and the top's). X is column-major (interleaved = false) or row-interleaved.
+  template <typename Forward, typename Backward>
+  void SupernodalSolve::solve_in_tree_order(double *columns, const unsigned int n_rhs, const bool interleaved,
+                                            const Forward &forward_step, const Backward &backward_step) const
+  {
+    const unsigned int threads = n_threads();
+    // Row r, right-hand side c of an array with 'length' rows.
+    const auto at = [&](const std::size_t length, const std::size_t r, const std::size_t c) {
+      return interleaved ? r * n_rhs + c : r + c * length;
+    };
+    const std::size_t   length = n;
+    std::vector<double> X(length * n_rhs);
+    for (std::size_t c = 0; c < n_rhs; ++c)
+      for (Index i = 0; i < n; ++i)
+        X[at(length, i, c)] = columns[permutation[i] + c * length];
+    std::vector<std::vector<double>> top_updates(threads, std::vector<double>(std::size_t(n_top_columns) * n_rhs, 0.));
+
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (const Index s : subtrees_of_thread[t])
+        forward_step(s, X.data(), t, top_updates[t].data());
+    });
+    for (const Index s : top_supernodes)
+      for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+        for (std::size_t c = 0; c < n_rhs; ++c)
+          for (unsigned int t = 0; t < threads; ++t)
+            X[at(length, column, c)] += top_updates[t][at(n_top_columns, top_position[column], c)];
+    for (const Index s : top_supernodes)
+      forward_step(s, X.data(), 0, nullptr);
+
+    for (auto s = top_supernodes.rbegin(); s != top_supernodes.rend(); ++s)
+      backward_step(*s, X.data(), 0);
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (auto s = subtrees_of_thread[t].rbegin(); s != subtrees_of_thread[t].rend(); ++s)
+        backward_step(*s, X.data(), t);
+    });
+
+    for (std::size_t c = 0; c < n_rhs; ++c)
+      for (Index i = 0; i < n; ++i)
+        columns[permutation[i] + c * length] = X[at(length, i, c)];
+  }
+
+  template <int width>
+  void SupernodalSolve::solve_narrow(double *columns) const
+  {
+    std::vector<std::vector<double>> rows_of_block(n_threads(), std::vector<double>(std::size_t(max_rows) * width));
+    solve_in_tree_order(
+      columns, width, true,
+      [&](const Index s, double *X, const unsigned int t, double *top) {
+        forward_narrow<width>(s, X, rows_of_block[t].data(), top);
+      },
+      [&](const Index s, double *X, const unsigned int t) { backward_narrow<width>(s, X, rows_of_block[t].data()); });
+  }
+
+  // Up to four right-hand sides, the narrow kernels: per supernode the BLAS would run a TRSM and
+  // a GEMM a few columns wide, whose call and packing overheads bound them (250k DoFs, FACTS
+  // plate, bench-static-correction: 0.18 s for 4 columns with the BLAS, 0.16 s here; one column
+  // 0.14 against 0.12 s). Wider blocks go to the BLAS, which is faster there.
+  void SupernodalSolve::solve(double *columns, const unsigned int n_rhs) const
+  {
+    if (n_rhs == 0 || n == 0)
+      return;
+    static const bool narrow_kernels = narrow_kernels_run_here();
+    if (narrow_kernels)
+      switch (n_rhs)
+      {
+        case 1:
+          return solve_narrow<1>(columns);
+        case 2:
+          return solve_narrow<2>(columns);
+        case 3:
+          {
+            // Padded to four (a zero column): rows of three doubles do not fill the vectors, and
+            // width 3 was slower than 4 (0.19 against 0.16 s per solve at 250k DoFs).
+            std::vector<double> padded(std::size_t(n) * 4, 0.);
+            std::copy(columns, columns + std::size_t(n) * 3, padded.begin());
+            solve_narrow<4>(padded.data());
+            std::copy(padded.begin(), padded.begin() + std::size_t(n) * 3, columns);
+            return;
+          }
+        case 4:
+          return solve_narrow<4>(columns);
+        default:
+          break;
+      }
+    std::vector<std::vector<double>> workspace(n_threads(),
+                                               std::vector<double>(std::max<Index>(max_rows_below, 1) * n_rhs));
+    solve_in_tree_order(
+      columns, n_rhs, false,
+      [&](const Index s, double *X, const unsigned int t, double *top) {
+        forward(s, X, int(n_rhs), workspace[t].data(), top);
+      },
+      [&](const Index s, double *X, const unsigned int t) { backward(s, X, int(n_rhs), workspace[t].data()); });
+  }
+
+  void SupernodalSolve::mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns,
+                                   const std::size_t first, const std::size_t last,
+                                   const std::vector<Index> &position_of_row, std::vector<char> &on_path,
+                                   std::vector<Index> &path) const
+  {
+    for (std::size_t k = first; k < last; ++k)
+      for (const auto &entry : B[columns[k]])
+        // Up the tree until a supernode already on a path (the rest of its path is too).
+        for (Index s = supernode_of_column[position_of_row[entry.first]]; s >= 0 && !on_path[s];
+             s = parent_supernode[s])
+          {
+            on_path[s] = 1;
+            path.push_back(s);
+          }
+  }
+
+  // The supernodes on the paths of each group of 'width' columns (in solve order), ascending:
+  // children before parents, the order of a forward solve.
+  std::vector<std::vector<SupernodalSolve::Index>>
+  SupernodalSolve::group_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &order,
+                               const std::size_t width, const std::vector<Index> &position_of_row) const
+  {
+    std::vector<std::vector<Index>> paths;
+    std::vector<char>               on_path(n_supernodes, 0);
+    for (std::size_t first = 0; first < B.size(); first += width)
+      {
+        paths.emplace_back();
+        mark_paths(B, order, first, std::min(first + width, B.size()), position_of_row, on_path, paths.back());
+        std::sort(paths.back().begin(), paths.back().end());
+        for (const Index s : paths.back())
+          on_path[s] = 0;
+      }
+    return paths;
+  }
+
+  // Y's rows in runs of consecutive supernodes (of all_paths, Y's row order) that the same groups
+  // of columns reach: columns [lo, hi) of the solve order (the columns outside are zero on those
+  // rows).
+  std::vector<SupernodalSolve::RowRun> SupernodalSolve::column_ranges(const std::vector<std::vector<Index>> &paths,
+                                                                      const std::size_t width, const std::size_t m,
+                                                                      const std::vector<Index> &all_paths) const
+  {
+    std::vector<std::size_t> lo(n_supernodes, m), hi(n_supernodes, 0);
+    for (std::size_t group = 0; group < paths.size(); ++group)
+      for (const Index s : paths[group])
+        {
+          lo[s] = std::min(lo[s], group * width);
+          hi[s] = std::max(hi[s], std::min((group + 1) * width, m));
+        }
+    std::vector<RowRun> runs;
+    Index               row = 0;
+    for (const Index s : all_paths)
+      {
+        const Index rows_of_s = first_column[s + 1] - first_column[s];
+        if (!runs.empty() && runs.back().lo == lo[s] && runs.back().hi == hi[s])
+          runs.back().n_rows += rows_of_s;
+        else
+          runs.push_back({row, rows_of_s, lo[s], hi[s]});
+        row += rows_of_s;
+      }
+    return runs;
+  }
+
+  // Y^T Y (m x m) from the runs: each adds Y[its rows, lo:hi]^T Y[its rows, lo:hi], its lower
+  // triangle by blocks of G's columns spread over the threads (one BLAS thread each, like the
+  // solves). The top of the tree reaches every column; a subtree only its own, a short range.
+  std::vector<double> SupernodalSolve::sparse_gram(const std::vector<double> &Y, const Index n_rows_Y,
+                                                   const std::size_t m, const std::vector<RowRun> &runs) const
+  {
+    std::vector<double> G(m * m, 0.);
+    const std::size_t   width    = 64;
+    const unsigned int  threads  = n_threads();
+    const int           ld_Y     = int(std::max<Index>(n_rows_Y, 1)), ld_G = int(m);
+    const double        one      = 1.;
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (std::size_t block = t * width; block < m; block += threads * width)
+        for (const RowRun &run : runs)
+          {
+            const std::size_t first = std::max(block, run.lo), last = std::min(block + width, run.hi);
+            if (first >= last)
+              continue;
+            const int below = int(run.hi - first), columns = int(last - first), k = int(run.n_rows);
+            const double *Y_run = &Y[run.first_row + first * n_rows_Y];
+            dgemm_("T", "N", &below, &columns, &k, &one, Y_run, &ld_Y, Y_run, &ld_Y, &one, &G[first + first * m], &ld_G);
+          }
+    });
+    return G;
+  }
+
+  bool SupernodalSolve::gram_of_inverse(const std::vector<SparseColumn> &B, const double memory_limit,
+                                        std::vector<double> &G) const
+  {
+    const std::size_t  m = B.size();
+    std::vector<Index> position_of_row(n);
+    for (Index i = 0; i < n; ++i)
+      position_of_row[permutation[i]] = i;
+
+    // Y's rows: the columns of L in the supernodes on any column's path, ascending.
+    std::vector<char>  on_any_path(n_supernodes, 0);
+    std::vector<Index> all_paths;
+    std::vector<std::size_t> all_columns(m);
+    std::iota(all_columns.begin(), all_columns.end(), 0);
+    mark_paths(B, all_columns, 0, m, position_of_row, on_any_path, all_paths);
+    std::sort(all_paths.begin(), all_paths.end());
+    std::vector<Index> row_of_Y(n, -1);
+    Index              n_rows_Y = 0;
+    for (const Index s : all_paths)
+      for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+        row_of_Y[column] = n_rows_Y++;
+    if (8. * double(n_rows_Y) * double(m) > memory_limit)
+      return false;
+    std::vector<double> Y(std::size_t(n_rows_Y) * m, 0.);
+
+    // Columns in the order of their first supernode (a postorder of the tree): neighbours in that
+    // order share most of their paths.
+    std::vector<std::size_t> order(m);
+    std::vector<Index>       first_supernode(m, n_supernodes);
+    for (std::size_t k = 0; k < m; ++k)
+      {
+        order[k] = k;
+        for (const auto &entry : B[k])
+          first_supernode[k] = std::min(first_supernode[k], supernode_of_column[position_of_row[entry.first]]);
+      }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](const std::size_t a, const std::size_t b) { return first_supernode[a] < first_supernode[b]; });
+
+    // Groups of columns (in that order), spread over the threads: each forward-solves its group on
+    // the union of the group's paths in a full-length workspace, moves the result into Y (column
+    // k: the k-th in 'order') and clears what it wrote.
+    const std::size_t  width   = 64;
+    const unsigned int threads = n_threads();
+    const auto         paths   = group_paths(B, order, width, position_of_row);
+    run_on_threads(threads, [&](const unsigned int t) {
+      std::vector<double> X(std::size_t(n) * width, 0.);
+      std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * width);
+      for (std::size_t group = t; group < paths.size(); group += threads)
+        {
+          const std::size_t first = group * width, count = std::min(width, m - first);
+          for (std::size_t k = 0; k < count; ++k)
+            for (const auto &[row, value] : B[order[first + k]])
+              X[position_of_row[row] + k * n] += value;
+          for (const Index s : paths[group])
+            forward(s, X.data(), int(count), workspace.data(), nullptr);
+          for (const Index s : paths[group])
+            for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
+              for (std::size_t k = 0; k < count; ++k)
+                {
+                  Y[row_of_Y[column] + (first + k) * n_rows_Y] = X[column + k * n];
+                  X[column + k * n]                            = 0.;
+                }
+        }
+    });
+    const auto gram = sparse_gram(Y, n_rows_Y, m, column_ranges(paths, width, m, all_paths));
+
+    // Back from the order of the solves to B's.
+    G.assign(m * m, 0.);
+    for (std::size_t b = 0; b < m; ++b)
+      for (std::size_t a = b; a < m; ++a)
+        G[order[a] + order[b] * m] = G[order[b] + order[a] * m] = gram[a + b * m];
+    return true;
+  }
+} // namespace modal_haptics

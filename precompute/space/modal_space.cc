@@ -1,0 +1,737 @@
+// The serial space: the serial backend of the space phases (space_phases.h) over deal.II sparse
+// matrices and a CHOLMOD or UMFPACK factorization, its eigensolve (ARPACK or block Krylov, with
+// the rigid-body modes of a free part) and the CSR export of K and M for the benchmarks.
+#include "space/modal_space.h"
+
+#include "solvers/amg_eigensolver.h"
+#include "output/atomic_file.h"
+#include "space/distributed_space.h"
+#include "space/space_phases.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/grid_in.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <optional>
+#include <set>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using namespace dealii;
+
+  namespace
+  {
+    constexpr double two_pi = 2. * M_PI;
+
+    // Thrown by the serial space when CHOLMOD's factor would not fit and MUMPS, whose factor may
+    // go to disk, is to compute the space instead (compute_modal_space catches it, once the serial
+    // space and its matrices are gone). why: what CHOLMOD's analysis predicted, against what limit.
+    struct HandOverToMumps
+    {
+      std::string why;
+    };
+
+    // The serial backend of the space phases (space_phases.h): deal.II sparse matrices, a CHOLMOD or
+    // UMFPACK factorization of K - shift M, every DoF on this process.
+    class SerialSpace : public space_phases::PhasedSpace<SerialSpace>
+    {
+    public:
+      using PhasedSpace::PhasedSpace;
+
+      // The backend of space_phases.h.
+      using Field = Vector<double>;
+      struct Block // columns of n DoFs, one after the other, solved together
+      {
+        std::vector<double> values;
+        std::size_t         n;
+      };
+      const std::vector<Field> &kept_modes() const { return eigen.eigenvectors; }
+      const Field &ghosted(const Field &u) const { return u; }
+      const Field &ghosted_mode(const unsigned int i) const { return eigen.eigenvectors[i]; }
+      Field zero_field() const { return Field(dof_handler.n_dofs()); }
+      std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
+                                                                  double *max_outside) const;
+      Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
+      void relieve_load(Field &load) const { relieve_load(load.begin()); }
+      void solve_static(Field &u) { solve_static(u.data(), 1); }
+      void solve_static(std::vector<Field> &fields);
+      Block new_block(const unsigned int n_columns) const
+      {
+        return {std::vector<double>(n_columns * std::size_t(dof_handler.n_dofs()), 0.), dof_handler.n_dofs()};
+      }
+      void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
+      void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
+      unsigned int columns_per_static_solve(const unsigned int wanted) const
+      {
+        return amg_inverse() ? amg_inverse()->columns_fitting_one_solve(wanted) : wanted;
+      }
+      bool compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance);
+      const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
+      void sum_over_processes(std::vector<double> &) const {}
+      void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
+      Field output_field(const Field &u) const
+      {
+        Field field = u;
+        if (coupled_constraints)
+          constraints.distribute(field);
+        return field;
+      }
+      std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
+      void fill_modes_at_vertices();
+      void write_vtu(DataOut<3> &data_out) const
+      {
+        write_file_atomically(vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
+      }
+
+      DoFHandler<3>                    dof_handler;
+      SparseMatrix<double>             stiffness_matrix, mass_matrix;
+      space_phases::SurfaceOperators   surface;
+      std::vector<Field>               validation_fields; // full - modal error fields for VTU
+      using SpaceBase::mapping;
+
+    private:
+      void assemble() override
+      {
+        read_mesh();
+        setup_system();
+        assemble_system();
+      }
+      void after_assembly() override
+      {
+        if (scene.output.export_matrices)
+          export_matrices();
+      }
+      void solve_eigenproblem() override;
+      void finish() override;
+
+      void read_mesh();
+      void setup_system();
+      void assemble_system();
+      EigensolverKind factorize_unless_amg();
+      bool            factorize_within_limit(bool automatic, bool mumps_may_take_over);
+      EigenSolution   solve_with_lobpcg_amg();
+      void select_modes();
+      void identify_rigid_body_modes();
+      std::vector<Vector<double>> free_motion_fields(const FreeMotions &free) const;
+      std::vector<unsigned int>   dof_components() const; // the displacement component of each DoF
+      void relieve_load(double *load) const;
+      void remove_rigid_motion(double *field) const;
+      void solve_static(double *columns, unsigned int n_rhs);
+      void export_matrices() const;
+
+      const space_parts::PointLocator &locator() const;
+
+      Triangulation<3>          triangulation;
+      AffineConstraints<double> constraints;
+      SparsityPattern           sparsity_pattern;
+      std::unique_ptr<Factorization> factorization; // of K - shift M, or the AMG-preconditioned CG
+      // The factorization on the path without one (null on the direct path).
+      AmgShiftedInverse *amg_inverse() const { return dynamic_cast<AmgShiftedInverse *>(factorization.get()); }
+      double                    shift = 0.;          // [rad^2/s^2]
+      EigenSolution             eigen;
+      bool                      coupled_constraints = false; // constrained entries must be filled in for output
+      // The rigid-body motions the supports leave free, M-orthonormal, and M times each.
+      std::vector<Vector<double>> rigid_modes, mass_times_rigid;
+      mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
+    };
+
+    // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
+    // user error (a hand-made or foreign .msh): refuse them before they turn into negative Jacobians.
+    void SerialSpace::read_mesh()
+    {
+      space_parts::read_mesh(scene, task, triangulation, result);
+    }
+
+    // Homogeneous Dirichlet conditions on the named clamp groups. A group that is missing from the
+    // mesh, or present but with no face, is a user error: silently clamping nothing would give a
+    // free-floating part.
+    void SerialSpace::setup_system()
+    {
+      dof_handler.reinit(triangulation);
+      dof_handler.distribute_dofs(fe);
+      result.n_dofs = dof_handler.n_dofs();
+
+      constraints.clear();
+      supports = space_parts::apply_supports(scene, task, mapping, dof_handler, constraints,
+                                             [this](const std::string &line) { log(line); });
+      constraints.close();
+      result.supports_summary = supports.summary(scene.supports);
+      coupled_constraints     = has_coupling_constraints(constraints);
+      result.n_clamped_dofs = constraints.n_constraints();
+      for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+        if (constraints.is_constrained(i))
+          result.clamped_dofs.push_back(i);
+
+      DynamicSparsityPattern dsp(dof_handler.n_dofs());
+      DoFTools::make_sparsity_pattern(dof_handler, dsp, constraints, /*keep_constrained_dofs*/ false);
+      sparsity_pattern.copy_from(dsp);
+      stiffness_matrix.reinit(sparsity_pattern);
+      mass_matrix.reinit(sparsity_pattern);
+      log(std::to_string(result.n_cells) + " tets, " + std::to_string(result.n_vertices) + " vertices, " +
+          std::to_string(result.n_dofs) + " DoFs (P" + std::to_string(scene.element_degree) + "), " +
+          std::to_string(result.n_clamped_dofs) + " clamped");
+    }
+
+    // K from isotropic linear elasticity, M consistent; and the rigid-body mass properties from the
+    // same quadrature.
+    void SerialSpace::assemble_system()
+    {
+      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
+                                                              dof_handler.active_cell_iterators(),
+                                                              supports.elastic_faces, constraints, stiffness_matrix,
+                                                              mass_matrix);
+
+      // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
+      // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
+      // shift-invert never finds them.
+      for (const auto i : result.clamped_dofs)
+        mass_matrix.set(i, i, 0.);
+      result.n_spurious_rows = result.clamped_dofs.size();
+      assembler.set_mass_properties(result);
+    }
+
+    // The direct path factorizes K - shift M (CHOLMOD or UMFPACK). Returns the eigensolver that runs:
+    // lobpcg-amg when asked for, or when 'Eigensolver = auto' finds no factor that fits
+    // (factorize_within_limit).
+    EigensolverKind SerialSpace::factorize_unless_amg()
+    {
+      const EigensolverKind wanted = scene.modes.eigensolver;
+      if (wanted == EigensolverKind::lobpcg_amg)
+        return wanted;
+      const bool automatic = wanted == EigensolverKind::automatic;
+      const bool cholmod   = scene.modes.factorization_kind == FactorizationKind::cholmod;
+      // 'Factor storage = auto' lets MUMPS, whose factor may go to disk, take the space over when
+      // CHOLMOD's factor would not fit; its path does not take parts with free rigid-body motions.
+      const bool mumps_may_take_over = scene.modes.factor_storage == FactorStorage::automatic &&
+                                       supports.free_motions(Point<3>()).motions.empty();
+      log("factorizing K (" + std::string(cholmod ? "CHOLMOD" : "UMFPACK") + ")");
+      if (!cholmod)
+        factorization = make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
+      else if (!automatic && !mumps_may_take_over)
+        factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
+      else if (!factorize_within_limit(automatic, mumps_may_take_over))
+        return EigensolverKind::lobpcg_amg;
+      const auto &f = factorization->statistics();
+      std::ostringstream line;
+      line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
+           << f.factorize_seconds << " s";
+      log(line.str());
+      return automatic ? EigensolverKind::block_krylov : wanted;
+    }
+
+    // CHOLMOD's factorization when its analysis predicts a factor within 'Modes/Factor memory limit'
+    // (half the available memory by default). Past it MUMPS takes the space over on this process
+    // when it may (HandOverToMumps: its factor in memory or on disk as its own analysis says, or
+    // lobpcg-amg with 'Eigensolver = auto' if even that would not fit); else 'Eigensolver = auto'
+    // returns false (lobpcg-amg) and an eigensolver asked for by name factorizes anyway.
+    bool SerialSpace::factorize_within_limit(const bool automatic, const bool mumps_may_take_over)
+    {
+      const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
+      double       predicted = 0.;
+      factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
+      std::ostringstream over;
+      over << "CHOLMOD's analysis predicts a factor of " << predicted / 1e9 << " GB, 'Modes/Factor memory limit' is "
+           << limit / 1e9 << " GB";
+      if (!factorization && mumps_may_take_over)
+        throw HandOverToMumps{"'Modes/Factor storage = auto': " + over.str()};
+      const std::string why_not_mumps =
+        scene.modes.factor_storage == FactorStorage::automatic ?
+          "MUMPS's path, whose factor may go to disk, does not take parts with free rigid-body motions" :
+          "'Factor storage = memory' keeps MUMPS's factor off disk";
+      if (automatic)
+        {
+          log("Modes/Eigensolver = auto: " + over.str() + ": " +
+              (factorization ? "block-krylov" : "lobpcg-amg (no factorization; " + why_not_mumps + ")"));
+          note_automatic_choice(factorization != nullptr, predicted, limit);
+          return factorization != nullptr;
+        }
+      if (!factorization)
+        {
+          log(over.str() + ": factorizing all the same, as 'Modes/Eigensolver' names the method (" + why_not_mumps +
+              ")");
+          factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
+        }
+      return true;
+    }
+
+    // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
+    EigenSolution SerialSpace::solve_with_lobpcg_amg()
+    {
+      const auto component    = dof_components();
+      bool       node_blocked = true;
+      for (std::size_t i = 0; i < component.size(); ++i)
+        node_blocked = node_blocked && component[i] == i % 3;
+      std::optional<VertexSpaceTransfer> vertex_space;
+      if (scene.element_degree > 1)
+        vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, MPI_COMM_SELF);
+      auto amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
+                                                     rigid_body_motions(Point<3>()), result.clamped_dofs,
+                                                     node_blocked, vertex_space ? &*vertex_space : nullptr);
+      std::ostringstream line;
+      line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
+           << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
+      log(line.str());
+      EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                scene.modes.lobpcg_modes_per_run,
+                                                [this](const std::string &line) { log(line); });
+      log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
+      factorization = std::move(amg);
+      return solution;
+    }
+
+    void SerialSpace::solve_eigenproblem()
+    {
+      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      const EigensolverKind method = factorize_unless_amg();
+      try
+        {
+          if (method == EigensolverKind::lobpcg_amg)
+            eigen = solve_with_lobpcg_amg();
+          else if (method == EigensolverKind::block_krylov)
+            eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
+                                             scene.modes.block_size, scene.modes.tolerance,
+                                             memory_budget_bytes(scene.modes.factor_memory_limit), verbose);
+          else
+            eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+                                       scene.modes.maximum_count, scene.modes.tolerance, verbose);
+        }
+      catch (const ExceptionBase &e)
+        {
+          if (method == EigensolverKind::lobpcg_amg)
+            throw;
+          // Rigid-body modes (or nearly rigid ones, on soft elastic supports) are the shifted inverse's
+          // largest eigenvalues, about 1 / |shift|: with a tiny shift they dwarf the elastic ones and
+          // the block solver stalls (ARPACK does not).
+          std::ostringstream message;
+          e.print_info(message);
+          const bool free = !supports.free_motions(Point<3>()).motions.empty();
+          AssertThrow(false, ExcMessage(message.str() + (free ? " The part has free rigid-body motions: " :
+                                                                " If the part is nearly free (soft elastic supports): ") +
+                                        "a shift of larger magnitude (about a tenth of the first elastic frequency) or "
+                                        "'Modes/Eigensolver = arpack' converges where a shift close to 0 does not."));
+        }
+      result.eigensolver_method =
+        method == EigensolverKind::lobpcg_amg ?
+          amg_inverse()->eigensolver_method() :
+        method == EigensolverKind::block_krylov ?
+          block_krylov_method(scene.modes.block_size, eigen) :
+          "ARPACK dsaupd mode 3 (shift-invert)";
+      space_parts::record_iteration(result, eigen);
+      identify_rigid_body_modes();
+      // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first
+      // elastic eigenvalue.
+      result.self_check = check_eigenpairs(stiffness_matrix, mass_matrix, eigen.eigenvalues, eigen.eigenvectors,
+                                           eigen.eigenvalues[result.n_rigid_body_modes]);
+      std::ostringstream check;
+      check << eigen.eigenvalues.size() << " modes in " << eigen.n_operator_applications << " solves, "
+            << eigen.eigensolve_iteration_seconds << " s; f1 = " << std::sqrt(std::max(eigen.eigenvalues.front(), 0.)) / two_pi
+            << " Hz; max |Phi^T M Phi - I| = " << result.self_check.orthonormality_error
+            << ", max ||K phi - lambda M phi|| / ||lambda M phi|| = " << result.self_check.max_relative_residual
+            << "; spurious eigenvalues: none below infinity (" << result.n_spurious_rows
+            << " constrained rows have M_ii = 0)";
+      log(check.str());
+      select_modes();
+    }
+
+    void SerialSpace::finish()
+    {
+      result.factorization = factorization->statistics();
+      if (amg_inverse() == nullptr)
+        return;
+      const auto        &amg = amg_inverse()->amg_statistics();
+      std::ostringstream line;
+      line << "AMG-preconditioned block CG, deflated by " << amg.deflation_modes << " modes (" << amg.deflation_seconds
+           << " s to set up): " << amg.n_cg_solves << " static solves (columns), " << amg.mean_cg_iterations
+           << " block iterations on average, at most " << amg.max_cg_iterations << ", "
+           << factorization->statistics().solve_seconds << " s";
+      log(line.str());
+    }
+
+    void SerialSpace::select_modes()
+    {
+      std::vector<Vector<double>> kept;
+      for (const unsigned int i : space_parts::select_modes(scene, eigen.eigenvalues, result))
+        kept.push_back(std::move(eigen.eigenvectors[i]));
+      eigen.eigenvectors = std::move(kept);
+      log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
+          std::to_string(result.dropped_modes.size()));
+      if (AmgShiftedInverse *amg = amg_inverse())
+        amg->deflate_by_modes(eigen.eigenvectors);
+    }
+
+    // The n lowest computed modes of a part whose supports leave n rigid-body motions free (a
+    // free-floating part: six) must span those motions (more zero-energy modes mean a mesh in pieces
+    // or a mechanism). They are then replaced by the exact motions (lambda = 0, M-orthonormal) and the
+    // elastic modes are made exactly M-orthogonal to them, so that no rigid drift hides in an elastic
+    // mode and the kernel's omega = 0 modes are pure rigid motion.
+    void SerialSpace::identify_rigid_body_modes()
+    {
+      const Point<3> centre(result.centre_of_mass[0], result.centre_of_mass[1], result.centre_of_mass[2]);
+      const FreeMotions free = supports.free_motions(centre);
+      if (free.motions.empty())
+        return;
+      rigid_modes.clear();
+      mass_times_rigid.clear();
+      for (auto &motion : free_motion_fields(free))
+        {
+          for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt twice in the M inner product
+            remove_rigid_motion(motion.begin());
+          motion /= std::sqrt(mass_matrix.matrix_norm_square(motion));
+          Vector<double> M_motion(motion.size());
+          mass_matrix.vmult(M_motion, motion);
+          rigid_modes.push_back(std::move(motion));
+          mass_times_rigid.push_back(std::move(M_motion));
+        }
+
+      auto &lambda = eigen.eigenvalues;
+      auto &phi    = eigen.eigenvectors;
+      const unsigned int n_rigid = rigid_modes.size();
+      double outside = 0., largest_rigid = 0.;
+      std::ostringstream found;
+      for (unsigned int i = 0; i < n_rigid; ++i)
+        {
+          Vector<double> elastic_part = phi[i];
+          remove_rigid_motion(elastic_part.begin());
+          outside += mass_matrix.matrix_norm_square(elastic_part);
+          largest_rigid = std::max(largest_rigid, std::abs(lambda[i]));
+          result.rigid_computed_frequencies_hz.push_back(std::copysign(std::sqrt(std::abs(lambda[i])), lambda[i]) / two_pi);
+          found << ' ' << result.rigid_computed_frequencies_hz.back();
+        }
+      result.rigid_subspace_sine = std::sqrt(outside);
+      const double first_elastic_hz = std::sqrt(std::max(lambda[n_rigid], 0.)) / two_pi;
+      AssertThrow(result.rigid_subspace_sine < 1e-6 && largest_rigid < 1e-6 * lambda[n_rigid],
+                  ExcMessage("Space '" + task.name + "': its supports leave " + std::to_string(n_rigid) +
+                             " rigid-body motions free (" + free.describe() + "), but its " + std::to_string(n_rigid) +
+                             " lowest modes (" + found.str() + " Hz; the next at " + std::to_string(first_elastic_hz) +
+                             " Hz) are not those motions (M-distance " + std::to_string(result.rigid_subspace_sine) +
+                             "). A mesh in several pieces or a mechanism has more zero-energy modes: check the "
+                             "geometry and the supports ('Geometry/Supports')."));
+      for (unsigned int i = 0; i < phi.size(); ++i)
+        if (i < n_rigid)
+          phi[i] = rigid_modes[i], lambda[i] = 0.;
+        else
+          {
+            remove_rigid_motion(phi[i].begin());
+            phi[i] /= std::sqrt(mass_matrix.matrix_norm_square(phi[i]));
+          }
+      result.n_rigid_body_modes = n_rigid;
+      result.free_motions       = free.describe();
+      std::ostringstream line;
+      line << n_rigid << " free rigid-body motions (" << result.free_motions << "): the lowest modes (computed"
+           << found.str() << " Hz, M-distance from the exact motions " << result.rigid_subspace_sine
+           << "), replaced by the exact motions at 0 Hz; first elastic mode " << first_elastic_hz << " Hz";
+      log(line.str());
+    }
+
+    // The free motions as DoF fields, zero on the constrained DoFs (as every field of the constrained
+    // system): a free motion satisfies the constraints, so it is filled in exactly for output.
+    std::vector<Vector<double>> SerialSpace::free_motion_fields(const FreeMotions &free) const
+    {
+      std::vector<Point<3>> support(dof_handler.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
+      const auto                  component = dof_components();
+      std::vector<Vector<double>> fields;
+      for (unsigned int m = 0; m < free.motions.size(); ++m)
+        {
+          Vector<double> field(dof_handler.n_dofs());
+          for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+            if (!constraints.is_constrained(i))
+              field[i] = free.displacement(m, support[i])[component[i]];
+          fields.push_back(std::move(field));
+        }
+      return fields;
+    }
+
+    // x -= sum_k to_k (from_k . x): the two projections below, which are each other's transposes.
+    void subtract_components(double *x, const std::size_t n, const std::vector<Vector<double>> &from,
+                             const std::vector<Vector<double>> &to)
+    {
+      for (unsigned int k = 0; k < from.size(); ++k)
+        {
+          const double share = std::inner_product(x, x + n, from[k].begin(), 0.);
+          for (std::size_t j = 0; j < n; ++j)
+            x[j] -= share * to[k][j];
+        }
+    }
+
+    // Inertia relief: the load's resultant force and moment accelerate the free part (load M R R^T f),
+    // what remains, f - M R R^T f, is in equilibrium and deforms it.
+    void SerialSpace::relieve_load(double *load) const
+    {
+      subtract_components(load, dof_handler.n_dofs(), rigid_modes, mass_times_rigid);
+    }
+
+    // The field's component M-orthogonal to the rigid-body motions found so far.
+    void SerialSpace::remove_rigid_motion(double *field) const
+    {
+      subtract_components(field, dof_handler.n_dofs(), mass_times_rigid, rigid_modes);
+    }
+
+    // K u = f in place for n_rhs columns, with the factorization of A = K - shift M. Without a shift
+    // that is one solve. With one, the solve is refined, u += A^-1 (f - K u), which shrinks each
+    // elastic mode's error by |shift| / |lambda - shift| per step. A free part's loads are relieved
+    // first and its solutions kept M-orthogonal to the rigid-body motions: the inertia-relief answer.
+    void SerialSpace::solve_static(double *columns, const unsigned int n_rhs)
+    {
+      const std::size_t n = dof_handler.n_dofs();
+      for (unsigned int b = 0; b < n_rhs; ++b)
+        relieve_load(columns + b * n);
+      if (shift == 0.)
+        {
+          factorization->solve_block(columns, n_rhs);
+          return;
+        }
+      const std::vector<double> load(columns, columns + n * n_rhs);
+      std::vector<double>       correction(load);
+      std::fill(columns, columns + n * n_rhs, 0.);
+      Vector<double>     u(n), K_u(n);
+      const unsigned int steps = space_parts::refine_static_solve(
+        [&] {
+          factorization->solve_block(correction.data(), n_rhs);
+          double worst = 0.;
+          for (unsigned int b = 0; b < n_rhs; ++b)
+            {
+              double *x = columns + b * n, *residual = &correction[b * n];
+              const double *f = &load[b * n];
+              for (std::size_t j = 0; j < n; ++j)
+                x[j] += residual[j];
+              remove_rigid_motion(x);
+              std::copy(x, x + n, u.begin());
+              stiffness_matrix.vmult(K_u, u);
+              double residual_norm = 0., load_norm = 0.;
+              for (std::size_t j = 0; j < n; ++j)
+                {
+                  residual[j] = f[j] - K_u[j];
+                  residual_norm += residual[j] * residual[j];
+                  load_norm += f[j] * f[j];
+                }
+              worst = std::max(worst, load_norm > 0. ? std::sqrt(residual_norm / load_norm) : 0.);
+            }
+          return worst;
+        },
+        task.name, scene.modes.shift);
+      result.static_solve_iterations = std::max(result.static_solve_iterations, steps);
+    }
+
+    const space_parts::PointLocator &SerialSpace::locator() const
+    {
+      if (!point_locator)
+        point_locator = std::make_unique<space_parts::PointLocator>(triangulation, mapping);
+      return *point_locator;
+    }
+
+    // Every cell is this process's: each point is located in the whole mesh.
+    std::vector<space_parts::EvaluationPoint>
+    SerialSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
+    {
+      std::vector<space_parts::EvaluationPoint> evaluated;
+      for (const auto &x : points)
+        {
+          const auto located = locator().locate(x);
+          if (max_outside)
+            *max_outside = std::max(*max_outside, located.distance_outside);
+          evaluated.push_back({DoFHandler<3>::active_cell_iterator(&triangulation, located.cell->level(),
+                                                                   located.cell->index(), &dof_handler),
+                               located.unit});
+        }
+      return evaluated;
+    }
+
+    SerialSpace::Field SerialSpace::patch_load(const unsigned int vertex, const std::array<double, 3> &factor) const
+    {
+      Field load = zero_field();
+      surface.add_patch_load(vertex, factor, load);
+      return load;
+    }
+
+    // The fields as one block of columns: one pass over the factor for all of them.
+    void SerialSpace::solve_static(std::vector<Field> &fields)
+    {
+      const std::size_t   n = dof_handler.n_dofs();
+      std::vector<double> columns(n * fields.size());
+      for (std::size_t k = 0; k < fields.size(); ++k)
+        std::copy(fields[k].begin(), fields[k].end(), columns.begin() + k * n);
+      solve_static(columns.data(), fields.size());
+      for (std::size_t k = 0; k < fields.size(); ++k)
+        std::copy(columns.begin() + k * n, columns.begin() + (k + 1) * n, fields[k].begin());
+    }
+
+    // W^T K^-1 W from the factorization when it is a factor of K itself (no shift to refine
+    // against, no inertia relief to apply) and can give it (CHOLMOD's).
+    bool SerialSpace::compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance)
+    {
+      if (shift != 0. || !rigid_modes.empty())
+        return false;
+      std::vector<SparseColumn> W;
+      W.reserve(3 * loads.size());
+      for (const unsigned int v : loads)
+        for (const auto &direction : surface.patch_loads.at(v))
+          W.emplace_back(direction.begin(), direction.end());
+      return factorization->gram_of_inverse(W, compliance);
+    }
+
+    void SerialSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const
+    {
+      const auto &W = surface.patch_loads.at(vertex);
+      for (unsigned int c = 0; c < 3; ++c)
+        for (const auto &[dof, w] : W[c])
+          X.values[(first_column + c) * X.n + dof] += w;
+    }
+
+    // Modes at the mesh vertices for the HDF5 file (P2 vertex DoFs are the vertex values).
+    void SerialSpace::fill_modes_at_vertices()
+    {
+      const unsigned int r = eigen.eigenvectors.size();
+      std::vector<Field> filled_in; // with coupling constraints: the constrained entries' values
+      if (coupled_constraints)
+        for (const auto &mode : eigen.eigenvectors)
+          filled_in.push_back(output_field(mode));
+      const auto &modes = coupled_constraints ? filled_in : eigen.eigenvectors;
+      result.modes_at_vertices.assign(std::size_t(r) * result.n_vertices * 3, 0.);
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        for (unsigned int vtx = 0; vtx < 4; ++vtx)
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              const auto dof = cell->vertex_dof_index(vtx, c);
+              for (unsigned int i = 0; i < r; ++i)
+                result.modes_at_vertices[(std::size_t(i) * result.n_vertices + cell->vertex_index(vtx)) * 3 + c] =
+                  modes[i][dof];
+            }
+    }
+
+    std::vector<unsigned int> SerialSpace::dof_components() const
+    {
+      std::vector<unsigned int>            component(dof_handler.n_dofs());
+      std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        {
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            component[dofs[i]] = fe.system_to_component_index(i).first;
+        }
+      return component;
+    }
+
+    // Translations along x, y, z, then rotations about the axes through 'centre', as DoF fields: the
+    // FE space holds them exactly (they are linear). Clamped DoFs keep their motion: M's clamped rows
+    // are zero, so they add nothing to M-products.
+    std::array<Vector<double>, 6> SerialSpace::rigid_body_motions(const Point<3> &centre) const
+    {
+      std::vector<Point<3>> support(dof_handler.n_dofs());
+      DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
+      const auto component = dof_components();
+      std::array<Vector<double>, 6> motions;
+      for (unsigned int k = 0; k < 6; ++k)
+        {
+          motions[k].reinit(dof_handler.n_dofs());
+          for (types::global_dof_index i = 0; i < dof_handler.n_dofs(); ++i)
+            motions[k][i] = rigid_body_motion(k, support[i] - centre)[component[i]];
+        }
+      return motions;
+    }
+
+
+    // K and M for the benchmark's peers (scipy, SLEPc) in a plain binary CSR: int64 n, int64 nnz,
+    // int64 row_start[n + 1], int32 column[nnz], float64 value[nnz], little-endian, full symmetric
+    // storage, constrained rows as the eigensolve sees them.
+    void SerialSpace::export_matrices() const
+    {
+      for (const auto &[matrix, suffix] : {std::make_pair(&stiffness_matrix, "K"), std::make_pair(&mass_matrix, "M")})
+        write_file_atomically(scene.output_directory + "/" + task.name + "_" + suffix + ".csr",
+                              [&](std::ostream &out) {
+                                const std::int64_t n = matrix->m(), nnz = matrix->n_nonzero_elements();
+                                std::vector<std::int64_t> row_start{0};
+                                std::vector<std::int32_t> columns;
+                                std::vector<double>       values;
+                                for (std::int64_t row = 0; row < n; ++row)
+                                  {
+                                    for (auto it = matrix->begin(row); it != matrix->end(row); ++it)
+                                      columns.push_back(it->column()), values.push_back(it->value());
+                                    row_start.push_back(columns.size());
+                                  }
+                                Assert(std::int64_t(columns.size()) == nnz, ExcInternalError());
+                                const auto write = [&](const auto &v) {
+                                  out.write(reinterpret_cast<const char *>(v.data()), v.size() * sizeof(v[0]));
+                                };
+                                write(std::vector<std::int64_t>{n, nnz});
+                                write(row_start);
+                                write(columns);
+                                write(values);
+                              },
+                              std::ios::binary);
+      log("exported K and M to " + scene.output_directory + "/" + task.name + "_{K,M}.csr");
+    }
+
+    // The space computed by MUMPS on this one process: the distributed backend on MPI_COMM_SELF
+    // (as --distributed runs it), its rows then put in the serial result's mesh order.
+    ModalSpaceResult compute_with_mumps_on_this_process(const SceneParameters &scene, const ContactSurface &display,
+                                                        const SpaceTask &task, const std::string &vtu_file,
+                                                        TimerOutput &timer, const bool verbose, const std::string &why)
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << why << ": MUMPS computes the space on this process" << std::endl;
+      ModalSpaceResult result =
+        compute_modal_space_distributed(scene, display, task, vtu_file, timer, verbose, MPI_COMM_SELF);
+      gather_rows_on_root(result, MPI_COMM_SELF);
+      result.eigensolver_method += " [MUMPS on one process, for the serial run: " + why + "]";
+      return result;
+    }
+  } // namespace
+
+  ModalSpaceResult compute_modal_space(const SceneParameters &scene,
+                                       const ContactSurface  &display,
+                                       const SpaceTask       &task,
+                                       const std::string     &vtu_file,
+                                       TimerOutput           &timer,
+                                       const bool             verbose)
+  {
+    const bool factorizes = scene.modes.eigensolver != EigensolverKind::lobpcg_amg;
+    if (factorizes && scene.modes.factor_storage == FactorStorage::disk)
+      return compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
+                                                "'Modes/Factor storage = disk'");
+    Timer serial_attempt;
+    try
+      {
+        SerialSpace space(scene, display, task, vtu_file, timer, verbose);
+        return space.run();
+      }
+    catch (const HandOverToMumps &hand_over)
+      {
+        // The serial assembly and CHOLMOD's analysis were spent before the choice (seconds against
+        // the minutes of a factor that does not fit in memory); the report keeps them apart.
+        const double     spent  = serial_attempt.wall_time();
+        ModalSpaceResult result = compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
+                                                                     hand_over.why);
+        result.timings_s["serial_attempt"] = spent;
+        return result;
+      }
+  }
+} // namespace modal_haptics

@@ -1,0 +1,294 @@
+// One modal space: a scenario's mesh, its stiffness and mass, its lowest modes, and everything
+// the kernel needs of it on the scene's display surface (modes, contact blocks, static correction,
+// participation factors), checked against full static FE.
+#pragma once
+
+#include "parameters/scene_parameters.h"
+#include "scene/display_surface.h"
+#include "scene/rigid_body_motion.h"
+#include "scene/supports.h"
+#include "solvers/eigensolver.h"
+#include "space/space_result.h"
+
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/fe/mapping.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/full_matrix.h>
+
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <set>
+
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  // Runs the whole pipeline of one space: read mesh, assemble, eigensolve, select, interpolate on
+  // the display surface, static correction, validation, VTU output into vtu_file (none if empty).
+  ModalSpaceResult compute_modal_space(const SceneParameters &scene,
+                                       const ContactSurface  &display,
+                                       const SpaceTask       &task,
+                                       const std::string     &vtu_file,
+                                       dealii::TimerOutput   &timer,
+                                       bool                   verbose);
+
+  // The steps a space takes whatever the linear algebra: used by the serial space (CHOLMOD,
+  // modal_space.cc) and the distributed one (Trilinos + MUMPS, distributed_space.cc), so that both
+  // compute the same quantities the same way.
+  namespace space_parts
+  {
+    using DofWeights = std::vector<std::pair<dealii::types::global_dof_index, double>>;
+
+    // W_v: the consistent nodal load of a unit patch traction, one sparse DoF list per direction.
+    using PatchLoad = std::array<DofWeights, 3>;
+
+    // Reads the space's mesh (geometry units -> m), refuses inverted or degenerate tets and fills
+    // the result's mesh fields.
+    void read_mesh(const SceneParameters &scene, const SpaceTask &task, dealii::Triangulation<3> &mesh,
+                   ModalSpaceResult &result);
+
+    // The scene's supports on a space's FE space (supports.h): their constraints added to
+    // 'constraints' (closed by the caller), what each caught logged, and the motions they leave free
+    // checked against the eigensolve's settings: a free motion needs a negative shift and a maximum
+    // number of modes above the number of free motions.
+    ResolvedSupports apply_supports(const SceneParameters &scene, const SpaceTask &task, const dealii::Mapping<3> &mapping,
+                                    const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
+                                    const std::function<void(std::string)> &log, MPI_Comm comm = MPI_COMM_SELF);
+
+    // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), accumulating the
+    // rigid-body mass moments of the cells it sees.
+    class CellAssembler
+    {
+    public:
+      CellAssembler(const MaterialParameters &material, unsigned int dofs_per_cell);
+      void assemble(const dealii::FEValues<3> &fe_values, dealii::FullMatrix<double> &cell_K,
+                    dealii::FullMatrix<double> &cell_M);
+      // Mass, centre of mass and inertia from the moments, summed over 'reduce' (identity when serial).
+      void set_mass_properties(ModalSpaceResult &result,
+                               const std::function<double(double)> &reduce = [](double x) { return x; }) const;
+
+    private:
+      const MaterialParameters          material;
+      const double                      mu, lambda;
+      std::vector<unsigned int>         component;  // of each shape function (each has one nonzero)
+      std::vector<dealii::Tensor<1, 3>> gradient;   // of that component, at one quadrature point
+      std::vector<double>               value;
+      double                                    mass = 0.;
+      dealii::Tensor<1, 3>                      first_moment;
+      dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
+    };
+
+    // Everything a phase of space_phases.h reads besides its backend and the result.
+    struct PhaseInputs
+    {
+      const SceneParameters                 &scene;
+      const ContactSurface                  &display;
+      const SpaceTask                       &task;
+      const std::string                     &vtu_file;
+      const bool                             verbose;
+      const std::function<void(std::string)> log;
+    };
+
+    // What a space is made of whatever the linear algebra: its inputs, its FE space, its result and
+    // the order of its phases, each timed twice (the program's TimerOutput table, and per space for
+    // the report).
+    class SpaceBase
+    {
+    public:
+      SpaceBase(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
+                const std::string &vtu_file, dealii::TimerOutput &timer, bool verbose);
+      virtual ~SpaceBase() = default;
+      ModalSpaceResult run();
+
+    protected:
+      virtual void assemble() = 0; // mesh, DoFs, clamps, K and M
+      virtual void after_assembly() {}
+      virtual void solve_eigenproblem() = 0; // and mode selection
+      virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
+      virtual void compute_static_correction() = 0;
+      virtual void validate() = 0;
+      virtual void output_results() const = 0;
+      virtual void finish() {}
+      void log(const std::string &message) const;
+      // Eigensolver = auto: why this path, appended to the report's method after the eigensolve
+      // (SpaceBase::run). Only what does not move with
+      // the machine's free memory when the factor fits (scenario jobs compare their reports with a
+      // one-run report's).
+      // on_disk: the factor was put on disk (MUMPS) to fit, predicted_bytes then its out-of-core data.
+      void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes, bool on_disk = false);
+      PhaseInputs inputs() const
+      {
+        return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};
+      }
+
+      const SceneParameters        &scene;
+      const ContactSurface         &display;
+      const SpaceTask              &task;
+      const std::string             vtu_file; // mode shapes + validation error fields, or empty
+      dealii::TimerOutput          &timer;
+      const bool                    verbose;
+      const dealii::FESystem<3>     fe;
+      const dealii::MappingFE<3>    mapping;
+      const dealii::QGaussSimplex<3> quadrature;
+      ModalSpaceResult              result;
+      ResolvedSupports              supports; // set with the constraints (apply_supports)
+      std::string                   automatic_choice; // note_automatic_choice's words, or empty
+    };
+
+    // The stiffness of an elastic support on one face: the integral over the face of
+    // k_n (phi_i . n)(phi_j . n) + k_t (phi_i . phi_j - (phi_i . n)(phi_j . n)).
+    void elastic_face_matrix(const dealii::Mapping<3> &mapping, const dealii::FiniteElement<3> &fe,
+                             const ElasticFace &face, dealii::FullMatrix<double> &face_K);
+
+    // K and M from the given DoF cells and K's share of the elastic supports on the given faces;
+    // returns the assembler with the cells' mass moments.
+    template <typename CellRange, typename MatrixType>
+    CellAssembler assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
+                                      const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
+                                      const CellRange &cells, const std::vector<ElasticFace> &elastic_faces,
+                                      const dealii::AffineConstraints<double> &constraints, MatrixType &K, MatrixType &M)
+    {
+      dealii::FEValues<3> fe_values(mapping, fe, quadrature,
+                                    dealii::update_values | dealii::update_gradients |
+                                      dealii::update_quadrature_points | dealii::update_JxW_values);
+      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
+      dealii::FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
+      std::vector<dealii::types::global_dof_index> dof_indices(dofs_per_cell);
+      CellAssembler                                 assembler(scene.material, dofs_per_cell);
+      for (const auto &cell : cells)
+        {
+          fe_values.reinit(cell);
+          assembler.assemble(fe_values, cell_K, cell_M);
+          cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, K);
+          constraints.distribute_local_to_global(cell_M, dof_indices, M);
+        }
+      for (const auto &face : elastic_faces)
+        {
+          elastic_face_matrix(mapping, fe, face, cell_K);
+          face.cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(cell_K, dof_indices, K);
+        }
+      return assembler;
+    }
+
+    // Applies the cut-off rule to the ascending computed eigenvalues: fills the result's computed and
+    // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
+    std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
+                                           ModalSpaceResult &result);
+
+    // A point of the display surface located in the cells of a mesh that this process owns (all of a
+    // serial mesh): the tet with the largest smallest barycentric coordinate among those whose
+    // bounding boxes hold the point or are the nearest, so that a point slightly outside a coarse
+    // mesh's chordal facets is projected onto the closest cell. Without an owned cell: an invalid
+    // cell, infinitely far outside.
+    struct LocatedPoint
+    {
+      dealii::Triangulation<3>::active_cell_iterator cell;
+      dealii::Point<3>                               unit;             // in the reference tet
+      double                                         distance_outside; // 0 inside, else the clipped barycentric
+    };
+    class PointLocator
+    {
+    public:
+      static constexpr unsigned int n_nearest = 12; // bounding boxes tried
+
+      PointLocator(const dealii::Triangulation<3> &mesh, const dealii::Mapping<3> &mapping);
+      // Among the cells whose boxes hold x or are its n_nearest nearest, these within 'within' (a
+      // squared distance [m^2]): a distributed mesh locates a point on every process among the boxes
+      // nearest over all processes, so that it tries the serial locator's cells.
+      LocatedPoint locate(const meshing::Point3 &x,
+                          double within = std::numeric_limits<double>::infinity()) const;
+      // The squared distances [m^2] to the n_nearest nearest boxes, ascending (infinity for missing ones).
+      std::array<double, n_nearest> nearest_box_distances(const meshing::Point3 &x) const;
+
+    private:
+      std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
+      nearest_boxes(const meshing::Point3 &x) const;
+      std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
+      candidate_boxes(const meshing::Point3 &x) const;
+
+      dealii::GridTools::Cache<3> cache;
+    };
+
+    // Appends factor * N_i(unit) for the nonzero shape functions of one displacement component of a cell.
+    void add_shape_values(const dealii::DoFHandler<3>::active_cell_iterator &cell, const dealii::Point<3> &unit,
+                          unsigned int component, double factor, DofWeights &out);
+
+    // Where a point is evaluated: its DoF cell and its coordinates in the reference tet; an invalid
+    // cell when another process evaluates it. A PointEvaluator places a list of points.
+    struct EvaluationPoint
+    {
+      dealii::DoFHandler<3>::active_cell_iterator cell;
+      dealii::Point<3>                            unit;
+    };
+    using PointEvaluator = std::function<std::vector<EvaluationPoint>(const std::vector<meshing::Point3> &)>;
+
+    // W_v from the patch quadrature; points another process evaluates add nothing here.
+    PatchLoad make_patch_load(const ContactSurface &display, unsigned int vertex, const PointEvaluator &evaluate);
+
+    // B_v Lambda^-1 B_v^T e_direction at a candidate.
+    std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,
+                                               unsigned int direction);
+
+    // What the iteration of a factorization's eigensolver (block Krylov, ARPACK) reports: its solves
+    // and their time, with its M products and orthogonalization apart.
+    void record_iteration(ModalSpaceResult &result, const EigenSolution &solution);
+
+    // The loads of the static correction, candidates first, then the shared vertices that are not
+    // candidates; sizes the result's candidate blocks and compliances (cross compliance if asked).
+    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                     ModalSpaceResult &result);
+
+    // Records what the solve K^-1 W_v e_d of load number 'load' (vertex v) gives: the full compliance
+    // at shared vertices, the candidate's residual compliance, and the cross compliance with every
+    // candidate. averaged(vertex, d) = W_vertex^T K^-1 W_v e_d. Needs the candidate blocks B.
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, unsigned int load,
+                                unsigned int load_vertex,
+                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged);
+    std::string static_correction_summary(const ModalSpaceResult &result, std::size_t n_loads);
+
+    // A static solve with the factorization of A = K - shift M is refined against K itself: 'refine'
+    // makes one step u += A^-1 (f - K u) on its right-hand sides (the first from u = 0) and returns
+    // the worst relative residual ||f - K u|| / ||f|| after it. Each step shrinks an elastic mode's
+    // error by |shift| / |lambda - shift|. Steps until the residual is <= 1e-12, or until it stops
+    // shrinking (the rounding floor) at <= 1e-6; anything else throws, naming the space and
+    // 'Modes/Shift' (shift_hz). Returns the number of steps. Both backends' solve_static use it.
+    unsigned int refine_static_solve(const std::function<double()> &refine, const std::string &space_name,
+                                     double shift_hz);
+
+    // The validation errors of one case from the patch averages (uc) and the fields at the display
+    // vertices (3 nv each, component-fastest) of the full and the modal solution, the latter the sum
+    // of modal_coefficients[i] times mode i.
+    void set_validation_errors(ValidationCase &vc, const ModalSpaceResult &result, const ContactSurface &display,
+                               double correction_field_tolerance, const std::array<double, 3> &uc_full,
+                               const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
+                               const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients);
+
+    // The two-hand check: the first and last validated candidates pushed at once with 'forces'; the
+    // kernel's formula with the cross compliance against the full answers at both (patch averages).
+    constexpr std::array<std::array<double, 3>, 2> two_contact_forces = {{{{0., 0., 1.}}, {{0., 1., 0.}}}};
+    double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
+                             const std::array<std::array<double, 3>, 2> &full_responses);
+
+    // One summary line of the validation for the log.
+    std::string validation_summary(const ModalSpaceResult &result);
+
+    // VTU field names: mode i (0-based) with its frequency, and a validation case's error field.
+    std::string mode_field_name(unsigned int i, double frequency_hz);
+    std::string validation_field_name(const ValidationCase &vc);
+  } // namespace space_parts
+} // namespace modal_haptics

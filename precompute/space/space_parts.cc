@@ -1,0 +1,451 @@
+// The steps a space takes whatever its linear algebra (space_parts in modal_space.h): mesh, clamps,
+// cell matrices, mode selection, point location, patch loads and the bookkeeping of the static
+// correction and the validation.
+#include "space/modal_space.h"
+
+#include <deal.II/base/exceptions.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/timer.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/grid_in.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/grid/grid_tools_cache.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+#include <deal.II/numerics/vector_tools.h>
+
+#include <boost/geometry/index/rtree.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <set>
+#include <sstream>
+
+namespace modal_haptics
+{
+  using namespace dealii;
+
+  namespace
+  {
+    constexpr double two_pi = 2. * M_PI;
+  } // namespace
+
+  namespace space_parts
+  {
+    SpaceBase::SpaceBase(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
+                         const std::string &vtu_file, TimerOutput &timer, const bool verbose)
+      : scene(scene)
+      , display(display)
+      , task(task)
+      , vtu_file(vtu_file)
+      , timer(timer)
+      , verbose(verbose)
+      , fe(FE_SimplexP<3>(scene.element_degree), 3)
+      , mapping(FE_SimplexP<3>(1))
+      , quadrature(scene.element_degree + 1)
+    {
+      result.name   = task.name;
+      result.index  = task.index;
+      result.degree = scene.element_degree;
+    }
+
+    void SpaceBase::note_automatic_choice(const bool factorized, const double predicted_bytes, const double limit_bytes,
+                                          const bool on_disk)
+    {
+      std::ostringstream why;
+      if (factorized && on_disk)
+        why << " (auto: the factor on disk, its in-core data fits the limit)";
+      else if (factorized)
+        why << " (auto: the predicted factor fits the limit)";
+      else
+        why << " (auto: predicted " << (on_disk ? "in-core data with the factor on disk " : "factor ")
+            << predicted_bytes / 1e9 << " GB over the limit " << limit_bytes / 1e9 << " GB)";
+      automatic_choice = why.str();
+    }
+
+    void SpaceBase::log(const std::string &message) const
+    {
+      if (verbose)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+    }
+
+    ModalSpaceResult SpaceBase::run()
+    {
+      const auto phase = [&](const std::string &name, const std::function<void()> &work) {
+        TimerOutput::Scope scope(timer, name);
+        Timer              wall;
+        work();
+        result.timings_s[name] += wall.wall_time();
+      };
+      phase("assembly", [&] { assemble(); });
+      after_assembly();
+      phase("eigensolve", [&] {
+        solve_eigenproblem();
+        result.eigensolver_method += automatic_choice;
+      });
+      phase("interpolation", [&] { interpolate(); });
+      phase("static_correction", [&] { compute_static_correction(); });
+      phase("validation", [&] { validate(); });
+      phase("vtu_output", [&] { output_results(); });
+      finish();
+      return std::move(result);
+    }
+
+    std::string mode_field_name(const unsigned int i, const double frequency_hz)
+    {
+      std::ostringstream name;
+      name << "mode_" << std::setw(2) << std::setfill('0') << i + 1 << "_" << std::fixed << std::setprecision(1)
+           << frequency_hz << "Hz";
+      return name.str();
+    }
+
+    std::string validation_field_name(const ValidationCase &vc)
+    {
+      return "validation_error_v" + std::to_string(vc.vertex) + "_" + "xyz"[vc.direction];
+    }
+
+    void read_mesh(const SceneParameters &scene, const SpaceTask &task, Triangulation<3> &mesh, ModalSpaceResult &result)
+    {
+      GridIn<3> grid_in;
+      grid_in.attach_triangulation(mesh);
+      std::ifstream input(task.msh_file);
+      AssertThrow(input, ExcMessage("Cannot read mesh file '" + task.msh_file + "'."));
+      grid_in.read_msh(input);
+      GridTools::scale(scene.length_unit, mesh);
+
+      const double length_scale = std::pow(GridTools::volume(mesh, MappingFE<3>(FE_SimplexP<3>(1))), 1. / 3.);
+      for (const auto &cell : mesh.active_cell_iterators())
+        {
+          const Tensor<1, 3> a = cell->vertex(1) - cell->vertex(0), b = cell->vertex(2) - cell->vertex(0),
+                             c = cell->vertex(3) - cell->vertex(0);
+          const double signed_volume = (a * cross_product_3d(b, c)) / 6.;
+          AssertThrow(signed_volume > 1e-14 * std::pow(length_scale, 3),
+                      ExcMessage("Mesh '" + task.msh_file + "': tetrahedron " + std::to_string(cell->index()) +
+                                 " at " + [&] { std::ostringstream s; s << cell->center(); return s.str(); }() +
+                                 " is " + (signed_volume < 0 ? "inverted" : "degenerate") + " (signed volume " +
+                                 std::to_string(signed_volume) + " m^3)."));
+        }
+
+      result.n_vertices = mesh.n_vertices();
+      result.n_cells    = mesh.n_active_cells();
+      for (const auto &v : mesh.get_vertices())
+        for (unsigned int d = 0; d < 3; ++d)
+          result.mesh_vertices.push_back(v[d]);
+      for (const auto &cell : mesh.active_cell_iterators())
+        for (unsigned int i = 0; i < 4; ++i)
+          result.mesh_tets.push_back(cell->vertex_index(i));
+    }
+
+    ResolvedSupports apply_supports(const SceneParameters &scene, const SpaceTask &task, const Mapping<3> &mapping,
+                                    const DoFHandler<3> &dof_handler, AffineConstraints<double> &constraints,
+                                    const std::function<void(std::string)> &log, const MPI_Comm comm)
+    {
+      ResolvedSupports supports = resolve_supports(scene.supports, task.msh_file, task.physical_surfaces,
+                                                   scene.length_unit, mapping, dof_handler, constraints, comm);
+      if (!scene.supports.empty())
+        log(supports.summary(scene.supports));
+      const FreeMotions free = supports.free_motions(Point<3>(), comm);
+      if (free.motions.empty())
+        return supports;
+      const std::string which = std::to_string(free.motions.size()) + " rigid-body motion" +
+                                (free.motions.size() > 1 ? "s" : "") + " free (" + free.describe() + ")";
+      log("the supports leave " + which);
+      AssertThrow(scene.modes.shift < 0.,
+                  ExcMessage("Space '" + task.name + "': the supports ('Geometry/Supports') leave " + which +
+                             ", so K is singular: set 'Modes/Shift' below zero (e.g. -0.1 times the first elastic "
+                             "frequency), not " + std::to_string(scene.modes.shift) + " Hz, or hold the part."));
+      AssertThrow(scene.modes.maximum_count > free.motions.size(),
+                  ExcMessage("Space '" + task.name + "': the supports leave " + which + ", so 'Modes/Maximum number "
+                             "of modes' = " + std::to_string(scene.modes.maximum_count) + " leaves no elastic mode."));
+      return supports;
+    }
+
+    void elastic_face_matrix(const Mapping<3> &mapping, const FiniteElement<3> &fe, const ElasticFace &face,
+                             FullMatrix<double> &face_K)
+    {
+      FEFaceValues<3> values(mapping, fe, QGaussSimplex<2>(fe.degree + 1),
+                             update_values | update_normal_vectors | update_JxW_values);
+      values.reinit(face.cell, face.face);
+      const FEValuesExtractors::Vector displacement(0);
+      face_K = 0.;
+      for (const unsigned int q : values.quadrature_point_indices())
+        {
+          const Tensor<1, 3> &n = values.normal_vector(q);
+          for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+            {
+              const Tensor<1, 3> phi_i = values[displacement].value(i, q);
+              for (unsigned int j = 0; j < fe.n_dofs_per_cell(); ++j)
+                {
+                  const Tensor<1, 3> phi_j = values[displacement].value(j, q);
+                  const double       normal_part = (phi_i * n) * (phi_j * n);
+                  face_K(i, j) += (face.normal_stiffness * normal_part +
+                                   face.tangential_stiffness * (phi_i * phi_j - normal_part)) * values.JxW(q);
+                }
+            }
+        }
+    }
+
+    CellAssembler::CellAssembler(const MaterialParameters &material, const unsigned int dofs_per_cell)
+      : material(material)
+      , mu(material.youngs_modulus / (2. * (1. + material.poissons_ratio)))
+      , lambda(material.youngs_modulus * material.poissons_ratio /
+               ((1. + material.poissons_ratio) * (1. - 2. * material.poissons_ratio)))
+      , component(dofs_per_cell)
+      , gradient(dofs_per_cell)
+      , value(dofs_per_cell)
+    {}
+
+    // Each shape function of the vector element is a scalar one, N_i, times a unit vector e_c, so
+    // with the component c of i and d of j:
+    //   K_ij = int lambda d_c N_i d_d N_j + mu (delta_cd grad N_i . grad N_j + d_d N_i d_c N_j),
+    //   M_ij = int rho delta_cd N_i N_j,
+    // the strain tensors' inner products written out: a fraction of their cost per pair.
+    void CellAssembler::assemble(const FEValues<3> &fe_values, FullMatrix<double> &cell_K, FullMatrix<double> &cell_M)
+    {
+      const unsigned int dofs_per_cell = component.size();
+      const auto        &fe            = fe_values.get_fe();
+      for (unsigned int i = 0; i < dofs_per_cell; ++i)
+        component[i] = fe.system_to_component_index(i).first;
+      cell_K = 0.;
+      cell_M = 0.;
+      for (const unsigned int q : fe_values.quadrature_point_indices())
+        {
+          const double JxW = fe_values.JxW(q);
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            {
+              gradient[i] = fe_values.shape_grad(i, q);
+              value[i]    = fe_values.shape_value(i, q);
+            }
+          for (unsigned int i = 0; i < dofs_per_cell; ++i)
+            {
+              const unsigned int   c      = component[i];
+              const Tensor<1, 3>  &grad_i = gradient[i];
+              for (unsigned int j = 0; j <= i; ++j)
+                {
+                  const unsigned int  d      = component[j];
+                  const Tensor<1, 3> &grad_j = gradient[j];
+                  double              k_ij   = lambda * grad_i[c] * grad_j[d] + mu * grad_i[d] * grad_j[c];
+                  if (c == d)
+                    {
+                      k_ij += mu * (grad_i * grad_j);
+                      cell_M(i, j) += material.density * value[i] * value[j] * JxW;
+                    }
+                  cell_K(i, j) += k_ij * JxW;
+                }
+            }
+          const Point<3> &x = fe_values.quadrature_point(q);
+          mass += material.density * JxW;
+          first_moment += material.density * JxW * x;
+          second_moment += material.density * JxW * outer_product(x, x);
+        }
+      for (unsigned int i = 0; i < dofs_per_cell; ++i)
+        for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+          {
+            cell_K(i, j) = cell_K(j, i);
+            cell_M(i, j) = cell_M(j, i);
+          }
+    }
+
+    void CellAssembler::set_mass_properties(ModalSpaceResult &result, const std::function<double(double)> &reduce) const
+    {
+      Tensor<1, 3> first;
+      Tensor<2, 3> second;
+      for (unsigned int a = 0; a < 3; ++a)
+        {
+          first[a] = reduce(first_moment[a]);
+          for (unsigned int b = 0; b < 3; ++b)
+            second[a][b] = reduce(second_moment[a][b]);
+        }
+      result.mass = reduce(mass);
+      const Tensor<1, 3> c = first / result.mass;
+      for (unsigned int d = 0; d < 3; ++d)
+        result.centre_of_mass[d] = c[d];
+      // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
+      const Tensor<2, 3> S = second - result.mass * outer_product(c, c);
+      for (unsigned int a = 0; a < 3; ++a)
+        for (unsigned int b = 0; b < 3; ++b)
+          result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
+    }
+
+    // The cut-off rule drops modes above its frequency, but never below the floor count; the report
+    // says which modes went and why.
+    std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
+                                           ModalSpaceResult &result)
+    {
+      result.computed_frequencies_hz.clear();
+      for (const double lambda : eigenvalues)
+        result.computed_frequencies_hz.push_back(std::sqrt(std::max(lambda, 0.)) / two_pi);
+      result.cut_off_hz = scene.modes.cut_off_frequency();
+      std::vector<unsigned int> kept;
+      for (unsigned int i = 0; i < eigenvalues.size(); ++i)
+        {
+          const double f = result.computed_frequencies_hz[i];
+          if (f > result.cut_off_hz && kept.size() >= scene.modes.minimum_count)
+            {
+              std::ostringstream reason;
+              reason << "above the cut-off " << result.cut_off_hz << " Hz ("
+                     << (scene.modes.cut_off_rule == CutOffRule::display ? "half the display rate" : "half the haptic rate")
+                     << ")";
+              result.dropped_modes.push_back({i, f, reason.str()});
+              continue;
+            }
+          result.eigenvalues.push_back(eigenvalues[i]);
+          result.frequencies_hz.push_back(f);
+          result.damping_ratios.push_back(scene.damping.ratio(std::sqrt(std::max(eigenvalues[i], 0.))));
+          kept.push_back(i);
+        }
+      // A space without modes cannot move: the user asked for something else.
+      AssertThrow(!kept.empty(),
+                  ExcMessage("Space '" + result.name + "': the cut-off " + std::to_string(result.cut_off_hz) +
+                             " Hz ('Modes/Cut-off rule') lies below its first frequency " +
+                             std::to_string(result.computed_frequencies_hz.front()) +
+                             " Hz, so no mode would be kept. Choose another rule or rate, or set "
+                             "'Modes/Minimum number of modes' to at least 1."));
+      return kept;
+    }
+
+    PointLocator::PointLocator(const Triangulation<3> &mesh, const Mapping<3> &mapping)
+      : cache(mesh, mapping)
+    {}
+
+    namespace
+    {
+      double squared_distance(const BoundingBox<3> &box, const Point<3> &p)
+      {
+        double d2 = 0.;
+        for (unsigned int d = 0; d < 3; ++d)
+          d2 += std::pow(std::max({box.lower_bound(d) - p[d], 0., p[d] - box.upper_bound(d)}), 2);
+        return d2;
+      }
+    } // namespace
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::nearest_boxes(const meshing::Point3 &x) const
+    {
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::nearest(Point<3>(x[0], x[1], x[2]), n_nearest), std::back_inserter(near));
+      return near;
+    }
+
+    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
+    PointLocator::candidate_boxes(const meshing::Point3 &x) const
+    {
+      // Every box that holds the point, then the nearest: a point of a fine mesh lies in the boxes of
+      // more tets than the nearest few, and its own tet must be among those tried.
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
+        boost::geometry::index::intersects(Point<3>(x[0], x[1], x[2])), std::back_inserter(near));
+      for (const auto &box_cell : nearest_boxes(x))
+        if (std::none_of(near.begin(), near.end(), [&](const auto &other) { return other.second == box_cell.second; }))
+          near.push_back(box_cell);
+      return near;
+    }
+
+    std::array<double, PointLocator::n_nearest> PointLocator::nearest_box_distances(const meshing::Point3 &x) const
+    {
+      std::array<double, n_nearest> distances;
+      distances.fill(std::numeric_limits<double>::infinity());
+      const auto near = nearest_boxes(x);
+      for (std::size_t k = 0; k < near.size(); ++k)
+        distances[k] = squared_distance(near[k].first, Point<3>(x[0], x[1], x[2]));
+      std::sort(distances.begin(), distances.end());
+      return distances;
+    }
+
+    LocatedPoint PointLocator::locate(const meshing::Point3 &x, const double within) const
+    {
+      const Point<3> p(x[0], x[1], x[2]);
+      auto           near = candidate_boxes(x);
+      near.erase(std::remove_if(near.begin(), near.end(),
+                                [&](const auto &box_cell) { return squared_distance(box_cell.first, p) > within; }),
+                 near.end());
+      if (near.empty())
+        return {Triangulation<3>::active_cell_iterator(), Point<3>(), std::numeric_limits<double>::infinity()};
+      double                                 best_min = -1e300;
+      Triangulation<3>::active_cell_iterator best_cell;
+      std::array<double, 4>                  best_bary{};
+      for (const auto &[box, cell] : near)
+        {
+          Tensor<2, 3> J;
+          for (unsigned int d = 0; d < 3; ++d)
+            for (unsigned int e = 0; e < 3; ++e)
+              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
+          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+          const double                m    = *std::min_element(bary.begin(), bary.end());
+          if (m > best_min)
+            best_min = m, best_cell = cell, best_bary = bary;
+        }
+      double sum = 0.;
+      for (double &b : best_bary)
+        sum += (b = std::max(b, 0.));
+      for (double &b : best_bary)
+        b /= sum;
+      return {best_cell, Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
+    }
+
+    void add_shape_values(const DoFHandler<3>::active_cell_iterator &cell, const Point<3> &unit,
+                          const unsigned int component, const double factor, DofWeights &out)
+    {
+      const auto                          &fe = cell->get_fe();
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      cell->get_dof_indices(dof_indices);
+      for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+        if (fe.system_to_component_index(i).first == component)
+          {
+            const double w = fe.shape_value(i, unit);
+            if (w != 0.)
+              out.emplace_back(dof_indices[i], factor * w);
+          }
+    }
+
+    // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
+    PatchLoad make_patch_load(const ContactSurface &display, const unsigned int vertex, const PointEvaluator &evaluate)
+    {
+      std::array<std::map<types::global_dof_index, double>, 3> columns;
+      DofWeights                                               values;
+      const auto                                               quadrature = patch_quadrature(display, vertex);
+      std::vector<meshing::Point3>                             points;
+      for (const auto &point : quadrature)
+        points.push_back(point.x);
+      const auto evaluated = evaluate(points);
+      for (std::size_t k = 0; k < quadrature.size(); ++k)
+        {
+          const auto &[cell, unit] = evaluated[k];
+          if (cell.state() != IteratorState::valid)
+            continue;
+          for (unsigned int c = 0; c < 3; ++c)
+            {
+              values.clear();
+              add_shape_values(cell, unit, c, quadrature[k].weight, values);
+              for (const auto &[dof, w] : values)
+                columns[c][dof] += w;
+            }
+        }
+      PatchLoad load;
+      for (unsigned int c = 0; c < 3; ++c)
+        load[c].assign(columns[c].begin(), columns[c].end());
+      return load;
+    }
+
+  } // namespace space_parts
+} // namespace modal_haptics

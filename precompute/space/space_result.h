@@ -1,0 +1,181 @@
+// What one modal space computes, apart from how: the result types that the exporters, the partial
+// results of scenario jobs, the study and the truncation read. No FE, mesh or backend headers: a
+// reader of results compiles without them (the assembly and its helpers are in space/modal_space.h).
+#pragma once
+
+#include "solvers/solver_statistics.h"
+
+#include <array>
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace modal_haptics
+{
+  struct DroppedMode
+  {
+    unsigned int index;     // 0-based index among the computed modes
+    double       frequency; // [Hz]
+    std::string  reason;
+  };
+
+  // One full static FE solve of a unit patch load, compared with the modal and corrected answers.
+  struct ValidationCase
+  {
+    unsigned int vertex    = 0; // display vertex
+    unsigned int direction = 0; // 0, 1, 2 = x, y, z
+    std::array<double, 3> full_response{};  // u_c = W^T K^-1 W e [m/N]
+    double contact_rel_error_modal     = 0.; // |u_c,modal - u_c| / |u_c|
+    double contact_rel_error_corrected = 0.; // |u_c,modal + C e - u_c| / |u_c|
+    double field_rel_error_modal       = 0.; // l2 over the display surface, relative to the full field
+    double field_max_error_modal       = 0.; // max over display vertices, relative to the full field's max
+    double field_rel_error_corrected   = 0.; // the same with the correction field added, truncated
+    std::vector<double> field_rel_error_by_modes; // [k-1]: field_rel_error_modal with the first k modes only
+    unsigned int correction_field_vertices = 0; // display vertices the truncated correction field keeps
+    double energy_rel_error_modal      = 0.; // sqrt((u - u_r)^T K (u - u_r) / u^T K u)
+    double solve_relative_residual     = 0.; // ||K u - f|| / ||f|| of the full solve
+  };
+
+  // A space's result is read by three readers, one struct each: the basis (what the .mrt and .h5
+  // files hold), its diagnostics (report.json) and the rows this process holds (MPI bookkeeping,
+  // never written). for_each_field lists every written field once, with its name: the partial
+  // result (partial_result.cc) serializes the basis and the diagnostics through it.
+
+  // The modal basis of a space on the scene's display surface, its mesh and its validation.
+  struct ModalBasis
+  {
+    std::string  name;
+    unsigned int index = 0; // 0 = global
+    unsigned int degree = 2;
+    unsigned int n_vertices = 0, n_cells = 0, n_dofs = 0;
+
+    std::vector<double>       mesh_vertices; // 3 per vertex [m]
+    std::vector<unsigned int> mesh_tets;     // 4 per tet
+    std::vector<unsigned int> clamped_dofs;
+
+    std::vector<double> eigenvalues;    // the kept modes [rad^2/s^2]
+    std::vector<double> frequencies_hz;
+    std::vector<double> damping_ratios;
+
+    std::vector<double> modes_at_vertices; // r x n_vertices x 3 [1/sqrt(kg)] (r x owned vertices x 3, see ProcessRows)
+    std::vector<double> display_modes;     // (3 nv) x r row-major: (3v + c) r + i
+
+    std::vector<unsigned int> candidates;
+    std::vector<double>       candidate_modes;      // nc x 3 x r
+    std::vector<double>       candidate_compliance; // nc x 3 x 3 [m/N]
+    std::vector<double>       cross_compliance;     // (3nc) x (3nc), empty when not stored
+
+    std::vector<double>         participation; // r x 6
+    double                      mass = 0.;     // [kg]
+    std::array<double, 3>       centre_of_mass{};
+    std::array<double, 9>       inertia{};     // about the centre of mass [kg m^2]
+    std::vector<ValidationCase> validation;
+
+    template <typename Self, typename Visitor>
+    static void for_each_field(Self &b, Visitor &&field)
+    {
+      field("name", b.name), field("index", b.index), field("degree", b.degree);
+      field("n_vertices", b.n_vertices), field("n_cells", b.n_cells), field("n_dofs", b.n_dofs);
+      field("mesh_vertices", b.mesh_vertices), field("mesh_tets", b.mesh_tets), field("clamped_dofs", b.clamped_dofs);
+      field("eigenvalues", b.eigenvalues), field("frequencies_hz", b.frequencies_hz);
+      field("damping_ratios", b.damping_ratios), field("modes_at_vertices", b.modes_at_vertices);
+      field("display_modes", b.display_modes), field("candidates", b.candidates);
+      field("candidate_modes", b.candidate_modes), field("candidate_compliance", b.candidate_compliance);
+      field("cross_compliance", b.cross_compliance), field("participation", b.participation);
+      field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
+      field("validation", b.validation);
+    }
+  };
+
+  // How a space was computed and how well: what report.json says beyond the basis.
+  struct SpaceDiagnostics
+  {
+    unsigned int             n_clamped_dofs = 0;
+    std::vector<double>      computed_frequencies_hz; // every computed mode
+    std::vector<DroppedMode> dropped_modes;
+    double                   cut_off_hz = 0.;
+    EigenSelfCheck           self_check;
+    unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
+    std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
+    double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
+
+    // What the supports caught, and the rigid-body motions they leave free (a free-floating part:
+    // all six): the lowest modes, stored as the exact motions at 0 Hz.
+    std::string         supports_summary;
+    std::string         free_motions; // "translation along x, rotation about z"; empty: none
+    unsigned int        n_rigid_body_modes = 0;
+    std::vector<double> rigid_computed_frequencies_hz; // what the eigensolver found, signed sqrt(lambda) / 2 pi
+    double              rigid_subspace_sine = 0.;      // >= sin of the largest angle, computed vs exact rigid span
+    unsigned int        static_solve_iterations = 1;   // most refinement steps one static solve took
+
+    FactorizationStatistics factorization;
+    std::string             eigensolver_method;
+    unsigned int            n_operator_applications = 0;
+    // The eigensolver's iteration with its solves, after the factorization (ARPACK, PARPACK or the
+    // block Krylov solver; report.json's "arpack_s").
+    double                  eigensolve_iteration_seconds = 0.;
+    double                  mass_product_seconds = 0.;      // block Krylov: products with M, in the iteration
+    double                  orthogonalization_seconds = 0.; // block Krylov: Gram-Schmidt, in the iteration
+    double                  correction_seconds_per_candidate = 0.;
+    std::map<std::string, double> timings_s;     // assembly, eigensolve, static_correction, validation
+
+    template <typename Self, typename Visitor>
+    static void for_each_field(Self &d, Visitor &&field)
+    {
+      field("n_clamped_dofs", d.n_clamped_dofs), field("computed_frequencies_hz", d.computed_frequencies_hz);
+      field("dropped_modes", d.dropped_modes), field("cut_off_hz", d.cut_off_hz), field("self_check", d.self_check);
+      field("n_spurious_rows", d.n_spurious_rows), field("full_compliance", d.full_compliance);
+      field("two_contact_rel_error_corrected", d.two_contact_rel_error_corrected);
+      field("supports_summary", d.supports_summary), field("free_motions", d.free_motions);
+      field("n_rigid_body_modes", d.n_rigid_body_modes);
+      field("rigid_computed_frequencies_hz", d.rigid_computed_frequencies_hz);
+      field("rigid_subspace_sine", d.rigid_subspace_sine), field("static_solve_iterations", d.static_solve_iterations);
+      field("factorization", d.factorization), field("eigensolver_method", d.eigensolver_method);
+      field("n_operator_applications", d.n_operator_applications);
+      field("eigensolve_iteration_seconds", d.eigensolve_iteration_seconds);
+      field("mass_product_seconds", d.mass_product_seconds);
+      field("orthogonalization_seconds", d.orthogonalization_seconds);
+      field("correction_seconds_per_candidate", d.correction_seconds_per_candidate), field("timings_s", d.timings_s);
+    }
+  };
+
+  // The rows of the whole mesh a process of a distributed run holds (docs/cluster.md): mesh_vertices
+  // and modes_at_vertices then hold the vertices listed here, in this order, and mesh_tets the tets
+  // listed here; the parallel HDF5 writer puts every row in its place in the file.
+  struct ProcessRows
+  {
+    std::vector<unsigned int> vertices, tets; // indices in the whole mesh
+  };
+
+  struct ModalSpaceResult : ModalBasis, SpaceDiagnostics
+  {
+    std::optional<ProcessRows> owned_rows; // empty: every row, in mesh order (the serial run)
+    std::size_t n_vertex_rows() const { return owned_rows ? owned_rows->vertices.size() : n_vertices; }
+  };
+
+  // The static gain 1 / lambda of a mode, and 0 for a rigid-body mode (lambda = 0): the static
+  // answers of a free-floating part are those of inertia relief (the load's resultant accelerates the
+  // part, the rest deforms it), to which rigid-body modes contribute no deflection.
+  inline double static_gain(const double lambda) { return lambda > 0. ? 1. / lambda : 0.; }
+
+  // What a space must compute beyond its modes: chosen scene-wide, before any space is solved.
+  struct SpaceTask
+  {
+    std::string                 name;
+    unsigned int                index = 0;
+    std::string                 msh_file;
+    std::map<std::string, int>  physical_surfaces;
+    std::vector<unsigned int>   candidates;         // display vertices with a static correction
+    std::vector<unsigned int>   validation_vertices; // a subset of candidates
+    std::vector<unsigned int>   shared_vertices;    // vertices whose full compliance every space reports
+  };
+
+  // The space with its first r modes only (r <= its count), as if the eigensolve had kept r: the
+  // static correction grows by the dropped modes' share, C_v(r) = C_v + sum_{i >= r} b_i b_i^T / lambda_i
+  // (and so for the cross-compliance), so corrected contacts stay exact. Validation cases keep the
+  // errors of the full count (their full-FE responses stay true).
+  ModalSpaceResult truncate_modal_space(const ModalSpaceResult &space, unsigned int r);
+
+} // namespace modal_haptics

@@ -1,0 +1,106 @@
+// modal-study's outputs: reference.csv and study.csv (rewritten after every point, so that a long
+// study that stops keeps what it measured), then study.md and the plots by scripts/study_report.py.
+#include "output/atomic_file.h"
+#include "study/modal_study.h"
+
+#include <filesystem>
+#include <iomanip>
+
+#include <spawn.h>
+#include <sys/wait.h>
+
+extern char **environ;
+
+namespace modal_haptics
+{
+  namespace fs = std::filesystem;
+  using dealii::ExcMessage;
+
+  void write_reference_table(const std::string &output_directory, const std::vector<ReferenceSolution> &references)
+  {
+    write_file_atomically(output_directory + "/reference.csv", [&](std::ostream &out) {
+      out << "patch_radius,n_dofs,seconds,contact,vertex,felt_compliance_m_per_n,frequencies_hz\n"
+          << std::setprecision(10);
+      for (const auto &reference : references)
+        for (std::size_t k = 0; k < reference.contacts.size(); ++k)
+          {
+            out << reference.patch_radius << ',' << reference.n_dofs << ',' << reference.seconds << ',' << k + 1
+                << ',' << reference.contacts[k].vertex << ','
+                << along(reference.contacts[k].full, reference.contacts[k].direction) << ',';
+            for (std::size_t i = 0; i < reference.frequencies_hz.size(); ++i)
+              out << (i ? ";" : "") << reference.frequencies_hz[i];
+            out << '\n';
+          }
+    });
+  }
+
+  void write_study_table(const std::string &output_directory, const std::vector<StudyRow> &rows)
+  {
+    write_file_atomically(output_directory + "/study.csv", [&](std::ostream &out) {
+      out << "point,mesh,degree,coarse_size,fine_size,patch_radius,eigensolver,r_rule,modes,n_dofs,candidates,"
+             "felt_error_modal,felt_error_corrected,felt_error_modal_3x3,felt_error_corrected_3x3,"
+             "truncation_error,correction_residual,display_error_modal,frequency_error_first,frequency_error_max,"
+             "frequencies_compared,meshing_s,assembly_s,eigensolve_s,static_correction_s,validation_s,offline_total_s,"
+             "correction_ms_per_candidate,mrt_bytes,tick_p50_ns,tick_p99_ns,corrected_tick_p50_ns,"
+             "corrected_tick_p99_ns,display_ms,display_vertices,corrected_felt_compliance_m_per_n\n"
+          << std::setprecision(8);
+      for (const auto &row : rows)
+        {
+          const auto &p = row.point;
+          out << p.label() << ',' << p.mesh << ',' << p.degree << ',' << p.coarse_size << ',' << p.fine_size << ','
+              << p.patch_radius << ',' << p.eigensolver << ',' << row.r_rule << ',' << row.r << ',' << row.n_dofs
+              << ',' << row.candidates << ',' << row.felt_error_modal << ',' << row.felt_error_corrected << ','
+              << row.felt_error_modal_3x3 << ',' << row.felt_error_corrected_3x3 << ',' << row.truncation_error
+              << ',' << row.correction_residual << ',' << row.display_error_modal << ','
+              << row.frequency_error_first << ',' << row.frequency_error_max << ',' << row.frequencies_compared;
+          for (const auto phase : {"meshing", "assembly", "eigensolve", "static_correction", "validation", "total"})
+            out << ',' << row.seconds.at(phase);
+          out << ',' << row.correction_ms_per_candidate << ',' << row.mrt_bytes << ',' << row.kernel.tick_p50_ns << ','
+              << row.kernel.tick_p99_ns << ',' << row.kernel.corrected_tick_p50_ns << ','
+              << row.kernel.corrected_tick_p99_ns << ',' << row.kernel.display_ms << ','
+              << row.kernel.display_vertices << ',';
+          for (std::size_t k = 0; k < row.corrected_felt_compliance.size(); ++k)
+            out << (k ? ";" : "") << row.corrected_felt_compliance[k];
+          out << '\n';
+        }
+    });
+  }
+
+  // study_report.py installed beside this program (<prefix>/bin/modal-study finds
+  // <prefix>/share/modal-haptics/scripts), else in the scripts/ folder of the source tree this program
+  // was built from (the build passes both places).
+  fs::path find_report_script()
+  {
+    std::error_code code;
+    const fs::path  exe = fs::read_symlink("/proc/self/exe", code);
+    std::string     tried;
+    for (const fs::path &folder : {code ? fs::path() : exe.parent_path() / MODAL_HAPTICS_SCRIPTS_FROM_BIN,
+                                   fs::path(MODAL_HAPTICS_SCRIPTS_DIR)})
+      {
+        const fs::path script = (folder / "study_report.py").lexically_normal();
+        if (!folder.empty() && fs::is_regular_file(script, code))
+          return script;
+        tried += (tried.empty() ? "" : " nor ") + script.string();
+      }
+    AssertThrow(false, ExcMessage("Cannot find study_report.py: neither " + tried + " exists (use --no-report)."));
+    return {};
+  }
+
+  // scripts/study_report.py: study.md and the plots.
+  int write_report(const std::string &output_directory)
+  {
+    const fs::path script = find_report_script();
+    const std::string        python = "/usr/bin/python3";
+    std::vector<std::string> arguments{python, script.string(), output_directory};
+    std::vector<char *>      argv;
+    for (auto &argument : arguments)
+      argv.push_back(argument.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    AssertThrow(posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ) == 0,
+                ExcMessage("Cannot start " + python + " for " + script.string() + " (use --no-report)."));
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+  }
+} // namespace modal_haptics
