@@ -8,13 +8,17 @@
 //     (modalrt_display_reconstruct_f64 on the same snapshot) within 1e-6 relative;
 //   - frames arrive at >= 30 per second (the issue's figure; how many of them software GL draws on a
 //     loaded 2-core machine is printed, not asserted: it measures the machine, see benchmarks/view);
-//   - a screenshot is not blank (it is written to --screenshot for the README).
+//   - a screenshot is not blank (it is written to --screenshot for the README);
+//   - on Ctrl-C it exits 0 and its haptic thread (the run loop with the mouse device) allocated nothing.
 // Usage: node test_view_browser.mjs --modal-rt BIN --basis FILE [--screenshot PNG]
 import { spawn } from 'node:child_process';
 import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
 const relative = (a, b) => Math.hypot(...a.map((x, i) => x - b[i])) / Math.max(Math.hypot(...b), 1e-300);
 
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+let serverOut = '';
+server.stdout.on('data', (d) => { serverOut += d; });
+const serverExit = new Promise((resolve) => server.on('exit', (code) => resolve(code)));
 const url = await new Promise((resolve, reject) => {
   let out = '';
   server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
@@ -86,6 +90,14 @@ try {
   await page.waitForTimeout(300);
   const after = await (await fetch(`${url}api/state`)).json();
   check(after.hips[0].in_contact === 0, 'releasing the mouse releases the HIP');
+
+  // Ctrl-C: the run loop stops cleanly and says how it ran; the mouse device, like every device of
+  // the loop, allocated nothing in the haptic thread.
+  server.kill('SIGINT');
+  const code = await serverExit;
+  const loop = serverOut.match(/modal-rt view: (\d+) ticks .* (\d+) allocations in the haptic thread/);
+  check(code === 0 && loop !== null && Number(loop[1]) > 1000 && Number(loop[2]) === 0,
+    `modal-rt view exits 0 on SIGINT, no allocation in the haptic thread: ${loop ? loop[0] : serverOut}`);
 } finally {
   await browser.close();
   server.kill('SIGINT');
