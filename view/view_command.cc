@@ -22,6 +22,7 @@ namespace modalrt_view
       double        rate       = 1000.0; // [Hz]
       double        frame_rate = 60.0;   // [Hz] frames pushed to each browser
       double        duration   = 0.0;    // [s] 0: until SIGINT/SIGTERM
+      bool          help       = false;
     };
 
     struct UsageError
@@ -48,6 +49,11 @@ namespace modalrt_view
       for (int i = 0; i < argc; ++i)
         {
           const std::string option = argv[i];
+          if (option == "--help")
+            {
+              o.help = true;
+              return o;
+            }
           if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
               option != "--frame-rate" && option != "--duration")
             throw UsageError{"unknown option '" + option + "'"};
@@ -76,7 +82,7 @@ namespace modalrt_view
   std::string view_usage()
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
-           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)]\n";
+           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--help]\n";
   }
 
   int view_command(int argc, char **argv)
@@ -90,6 +96,11 @@ namespace modalrt_view
       {
         std::fprintf(stderr, "modal-rt view: %s\nusage:\n%s", e.message.c_str(), view_usage().c_str());
         return 2;
+      }
+    if (options.help)
+      {
+        std::printf("usage:\n%s", view_usage().c_str());
+        return 0;
       }
     MouseDevice                 *mouse = nullptr; // made by the loop once the basis is loaded
     modalrt_tool::DeviceSession session;

@@ -6,7 +6,7 @@
 
 namespace modalrt_view
 {
-  // Exit status: 0 success, 1 bad basis or server failure, 2 bad command line.
+  // Exit status: 0 success (or --help), 1 bad basis or server failure, 2 bad command line.
   int         view_command(int argc, char **argv);
   std::string view_usage();
 
