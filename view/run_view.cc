@@ -2,11 +2,9 @@
 
 #include "frame_builder.h"
 #include "triple_buffer.h"
-#include "view_server.h"
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <stdexcept>
@@ -16,7 +14,8 @@ namespace modalrt_view
 {
   namespace
   {
-    using modalrt_tool::Device;
+    using modalrt_tool::TickTiming;
+    using modalrt_tool::ViewContext;
 
     // What the haptic thread publishes after each tick.
     struct TickOutputs
@@ -25,83 +24,53 @@ namespace modalrt_view
       modalrt_hip_output out[run_view_max_hips] = {};
     };
 
-    // The session's device, unchanged, plus a wait-free copy of each tick's outputs for the view.
-    // Tick duration here is the device's view of the tick: read_state to end_tick (device read,
-    // kernel tick, device writes); the wake-up lateness is not seen here (NaN; stats.json has the
-    // run's own latency figures).
-    class WatchedDevice : public Device
+    // The haptic side of the view: each tick's outputs and timing, published wait-free. Tick
+    // duration is wake-up to device written, lateness is wake-up after the deadline, both over the
+    // last full second of wall time.
+    class TickPublisher
     {
     public:
-      WatchedDevice(std::unique_ptr<Device> inner, modalrt_kernel *kernel)
-        : inner_(std::move(inner)), kernel_(kernel), hips_(inner_->hip_count())
-      {
-        close_window(state_.tick.stats, durations_, nullptr, 0, 1.0); // lateness: NaN from the start
-      }
+      explicit TickPublisher(modalrt_kernel *kernel) : kernel_(kernel) {}
 
-      bool              open(std::string &error) override { return inner_->open(error); }
-      void              close() override { inner_->close(); }
-      const modalrt_tool::DeviceSpec &spec() const override { return inner_->spec(); }
-      std::uint32_t     hip_count() const override { return hips_; }
-      bool read_state(double t, modalrt_hip_input *inputs) override
+      // Haptic thread: no allocation, no lock.
+      void ticked(const TickTiming &timing, const modalrt_hip_output *outputs, std::uint32_t hips)
       {
-        begin_ = Clock::now();
-        return inner_->read_state(t, inputs);
-      }
-      void write_force(std::uint32_t hip, const double force[3]) override { inner_->write_force(hip, force); }
-      void track_position(std::uint32_t hip, const double position[3], const double velocity[3],
-                          bool in_contact) override
-      {
-        inner_->track_position(hip, position, velocity, in_contact);
-      }
-      void report_output(std::uint32_t hip, const modalrt_hip_output &output) override
-      {
-        state_.out[hip] = output;
-        inner_->report_output(hip, output);
-      }
-      void end_tick() override
-      {
-        inner_->end_tick();
-        const Clock::time_point end = Clock::now();
-        durations_.add(std::chrono::duration<double, std::micro>(end - begin_).count());
+        using us = std::chrono::duration<double, std::micro>;
+        durations_.add(us(timing.end - timing.begin).count());
+        lateness_.add(us(timing.begin - timing.deadline).count());
         if (window_ticks_++ == 0)
-          window_ = begin_;
-        if (end - window_ >= std::chrono::seconds(1))
+          window_ = timing.begin;
+        if (timing.end - window_ >= std::chrono::seconds(1))
           {
-            close_window(state_.tick.stats, durations_, nullptr, window_ticks_,
-                         std::chrono::duration<double>(end - window_).count());
+            close_window(state_.tick.stats, durations_, &lateness_, window_ticks_,
+                         std::chrono::duration<double>(timing.end - window_).count());
             window_ticks_ = 0;
           }
         stamp_tick(kernel_, state_.tick);
+        std::copy_n(outputs, hips, state_.out);
         exchange_.publish(state_);
       }
-      std::vector<std::pair<std::string, std::uint64_t>> counters() const override { return inner_->counters(); }
 
       // Display thread: the newest tick's outputs.
       void read(TickOutputs &outputs) { exchange_.read(outputs); }
 
     private:
-      using Clock = std::chrono::steady_clock;
-      std::unique_ptr<Device>  inner_;
-      modalrt_kernel          *kernel_;
-      std::uint32_t            hips_;
-      TickOutputs              state_; // haptic thread's
-      TickHistogram            durations_;
-      Clock::time_point        begin_, window_;
-      std::uint64_t            window_ticks_ = 0;
-      TripleBuffer<TickOutputs> exchange_;
+      modalrt_kernel                       *kernel_;
+      TickOutputs                           state_; // haptic thread's
+      TickHistogram                         durations_, lateness_;
+      std::chrono::steady_clock::time_point window_;
+      std::uint64_t                         window_ticks_ = 0;
+      TripleBuffer<TickOutputs>             exchange_;
     };
 
-    class RunView : public modalrt_tool::DisplayObserver, public FrameSource
+    // The page's source of frames: built on the display thread, sent by the server thread.
+    class RunView : public modalrt_tool::RunObserver, public FrameSource
     {
     public:
-      RunView(const modalrt_basis *basis, const std::string &basis_path, WatchedDevice &device, unsigned port,
-              const std::string &driver)
-        : device_(device), builder_(basis, device.hip_count()), driver_(driver),
-          server_(basis, basis_path, *this, [port] {
-            ServerOptions o;
-            o.port = port;
-            return o;
-          }())
+      // `mouse` null: watch-only (the HIPs belong to the session file or the UDP device).
+      RunView(const ViewContext &context, MouseDevice *mouse, const ServerOptions &options)
+        : context_(context), mouse_(mouse), ticks_(context.kernel), builder_(context.basis, context.hips),
+          server_(context.basis, context.basis_path, *this, options)
       {
         // Until the first snapshot the page gets no frame, and /api/state says so.
         state_ = "{\"tick\":null}";
@@ -109,20 +78,29 @@ namespace modalrt_view
       }
       ~RunView() override { server_.stop(); }
 
-      unsigned port() const { return server_.port(); }
+      unsigned    port() const { return server_.port(); }
+      std::size_t basis_bytes() const { return server_.basis_bytes(); }
+
+      void ticked(const TickTiming &timing, const modalrt_hip_output *outputs, std::uint32_t hips) override
+      {
+        ticks_.ticked(timing, outputs, hips);
+      }
 
       // Display thread.
       void displayed(const modalrt_snapshot *snapshot) override
       {
-        device_.read(outputs_);
+        ticks_.read(outputs_);
         builder_.update(snapshot, outputs_.tick, outputs_.out);
         bytes_.clear();
         builder_.frame(bytes_);
         std::string json = builder_.state_json();
-        std::lock_guard<std::mutex> lock(mutex_); // display and server threads only
-        frame_.swap(bytes_);
-        state_.swap(json);
-        fresh_ = true;
+        {
+          std::lock_guard<std::mutex> lock(mutex_); // display and server threads only
+          frame_.swap(bytes_);
+          state_.swap(json);
+          fresh_ = true;
+        }
+        server_.publish();
       }
 
       // Server thread.
@@ -142,54 +120,73 @@ namespace modalrt_view
       }
       std::string command(const std::string &text) override
       {
-        return "error: watch-only: the HIPs of `modal-rt " + driver_ + "` are driven by " +
-               (driver_ == "serve" ? "the UDP device" : "the session file") + "; '" + text + "' ignored";
+        if (mouse_)
+          return mouse_->command(text);
+        return "error: watch-only: the HIPs of `modal-rt " + context_.command + "` are driven by " +
+               (context_.command == "serve" ? "the UDP device" : "the session file") + "; '" + text + "' ignored";
       }
       std::string session_json() override
       {
-        return "{\"driver\":\"" + driver_ + "\",\"watch_only\":true,\"hips\":" + std::to_string(device_.hip_count()) +
-               "}";
+        return "{\"driver\":\"" + (mouse_ ? std::string("mouse") : context_.command) +
+               "\",\"watch_only\":" + (mouse_ ? "false" : "true") + ",\"hips\":" + std::to_string(context_.hips) + "}";
       }
 
     private:
-      WatchedDevice             &device_;
+      ViewContext                context_;
+      MouseDevice               *mouse_;
+      TickPublisher              ticks_;
       FrameBuilder               builder_; // display thread's
       TickOutputs                outputs_; // display thread's
       std::vector<unsigned char> bytes_;   // display thread's
-      std::string                driver_;
       std::mutex                 mutex_;
       std::vector<unsigned char> frame_;
       std::string                state_;
       bool                       fresh_ = false;
       ViewServer                 server_; // last: stopped before the rest is destroyed
     };
+
+    std::unique_ptr<RunView> start_view(const ViewContext &context, MouseDevice *mouse, const ServerOptions &options,
+                                        std::string &error)
+    {
+      if (context.hips > run_view_max_hips)
+        {
+          error = "--view: the view shows at most " + std::to_string(run_view_max_hips) + " HIPs, the session has " +
+                  std::to_string(context.hips);
+          return nullptr;
+        }
+      try
+        {
+          return std::make_unique<RunView>(context, mouse, options);
+        }
+      catch (const std::exception &e)
+        {
+          error = e.what();
+          return nullptr;
+        }
+    }
   } // namespace
 
-  std::unique_ptr<modalrt_tool::DisplayObserver>
-  start_run_view(const modalrt_basis *basis, const std::string &basis_path, modalrt_kernel *kernel,
-                 std::unique_ptr<modalrt_tool::Device> &device, unsigned port, const std::string &driver,
-                 std::string &error)
+  std::unique_ptr<modalrt_tool::RunObserver> start_watch_view(const ViewContext &context, unsigned port,
+                                                              std::string &error)
   {
-    if (device->hip_count() > run_view_max_hips)
-      {
-        error = "--view: the view shows at most " + std::to_string(run_view_max_hips) + " HIPs, the session has " +
-                std::to_string(device->hip_count());
-        return nullptr;
-      }
-    try
-      {
-        auto watched = std::make_unique<WatchedDevice>(std::move(device), kernel);
-        auto view    = std::make_unique<RunView>(basis, basis_path, *watched, port, driver);
-        device       = std::move(watched);
-        std::printf("view: http://127.0.0.1:%u/ (watch-only: the browser watches `modal-rt %s`)\n", view->port(),
-                    driver.c_str());
-        std::fflush(stdout);
-        return view;
-      }
-    catch (const std::exception &e)
-      {
-        error = e.what();
-        return nullptr;
-      }
+    ServerOptions options;
+    options.port = port;
+    auto view    = start_view(context, nullptr, options, error);
+    if (view)
+      std::printf("view: http://127.0.0.1:%u/ (watch-only: the browser watches `modal-rt %s`)\n", view->port(),
+                  context.command.c_str());
+    std::fflush(stdout);
+    return view;
+  }
+
+  std::unique_ptr<modalrt_tool::RunObserver> start_mouse_view(const ViewContext &context, MouseDevice &mouse,
+                                                              const ServerOptions &options, std::string &error)
+  {
+    auto view = start_view(context, &mouse, options, error);
+    if (view)
+      std::printf("view: http://%s:%u/ (basis %s, %zu bytes sent once per browser; Ctrl-C stops)\n",
+                  options.address.c_str(), view->port(), context.basis_path.c_str(), view->basis_bytes());
+    std::fflush(stdout);
+    return view;
   }
 } // namespace modalrt_view

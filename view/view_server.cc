@@ -1,7 +1,7 @@
 #include "view_server.h"
 
 #include <boost/asio/ip/tcp.hpp>
-#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
@@ -248,7 +248,6 @@ namespace modalrt_view
 
     asio::io_context                      io;
     tcp::acceptor                         acceptor{io};
-    asio::steady_timer                    timer{io};
     std::thread                           thread;
     std::list<std::weak_ptr<WebSocketSession>> sessions;
     std::vector<unsigned char>            frame_bytes;
@@ -259,7 +258,7 @@ namespace modalrt_view
     {}
 
     void accept();
-    void tick_frames();
+    void send_frame();
   };
 
   // One browser on /ws: frames out (at most one waiting: a slow browser skips frames, it never
@@ -450,28 +449,17 @@ namespace modalrt_view
     });
   }
 
-  void ViewServer::Impl::tick_frames()
+  // Server thread: the source's newest frame to every browser.
+  void ViewServer::Impl::send_frame()
   {
-    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(1.0 / options.frame_rate));
-    timer.expires_at(timer.expiry() + period);
-    timer.async_wait([this](beast::error_code ec) {
-      if (ec)
-        return;
-      sessions.remove_if([](const std::weak_ptr<WebSocketSession> &w) { return w.expired(); });
-      if (!sessions.empty())
-        {
-          frame_bytes.clear();
-          if (source.frame(frame_bytes))
-            {
-              auto frame = std::make_shared<const std::vector<unsigned char>>(frame_bytes);
-              for (auto &w : sessions)
-                if (auto s = w.lock())
-                  s->send_frame(frame);
-            }
-        }
-      tick_frames();
-    });
+    sessions.remove_if([](const std::weak_ptr<WebSocketSession> &w) { return w.expired(); });
+    frame_bytes.clear();
+    if (sessions.empty() || !source.frame(frame_bytes))
+      return;
+    auto frame = std::make_shared<const std::vector<unsigned char>>(frame_bytes);
+    for (auto &w : sessions)
+      if (auto s = w.lock())
+        s->send_frame(frame);
   }
 
   ViewServer::ViewServer(const modalrt_basis *basis, const std::string &basis_path, FrameSource &source,
@@ -514,8 +502,6 @@ namespace modalrt_view
                                ": " + ec.message());
     s.bound_port = s.acceptor.local_endpoint().port();
     s.accept();
-    s.timer.expires_after(std::chrono::milliseconds(1));
-    s.tick_frames();
     s.thread = std::thread([&s] { s.io.run(); });
   }
 
@@ -525,6 +511,12 @@ namespace modalrt_view
       return;
     impl_->io.stop();
     impl_->thread.join();
+  }
+
+  void ViewServer::publish()
+  {
+    Impl &s = *impl_;
+    asio::post(s.io, [&s] { s.send_frame(); });
   }
 
   unsigned    ViewServer::port() const { return impl_->bound_port; }

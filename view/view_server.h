@@ -2,8 +2,8 @@
 //
 // It serves the page (view/web, with three.js from view/web/node_modules: no CDN), the display basis
 // once (GET /api/basis, binary, see view/README.md), a JSON description of the basis and the report
-// beside it (/api/info, /api/report), the latest state (/api/state), and at frame rate pushes the
-// frames a FrameSource builds to every WebSocket client (/ws). Text messages from a client are
+// beside it (/api/info, /api/report), the latest state (/api/state), and pushes each frame a
+// FrameSource builds to every WebSocket client (/ws) as soon as the source publishes it. Text messages from a client are
 // commands for the FrameSource (the mouse as a device). Nothing here runs in the haptic thread.
 #pragma once
 
@@ -21,8 +21,8 @@ namespace modalrt_view
   {
   public:
     virtual ~FrameSource() = default;
-    // Server thread, at frame rate: the next frame's bytes (view/README.md, "Frame"). Returns false
-    // when there is nothing to send.
+    // Server thread, after each ViewServer::publish: the newest frame's bytes (view/README.md,
+    // "Frame"). Returns false when there is nothing to send.
     virtual bool frame(std::vector<unsigned char> &bytes) = 0;
     // Server thread: a text command from a browser ("press HIP VERTEX FORCE", "release HIP"); returns
     // a reply for that browser ("" for none).
@@ -40,7 +40,6 @@ namespace modalrt_view
     std::string address    = "127.0.0.1"; // loopback unless asked otherwise
     unsigned    port       = 8080;        // 0: any free port
     std::string web_root;                 // folder of index.html (default: the source tree's view/web)
-    double      frame_rate = 60.0;        // [Hz] frames pushed to each browser
   };
 
   // Default web root: MODAL_RT_VIEW_WEB if set, else the source tree's view/web.
@@ -59,6 +58,8 @@ namespace modalrt_view
     void     start();
     void     stop();
     unsigned port() const;
+    // Any thread: the source has a new frame; the server thread sends it to every browser.
+    void publish();
     // Bytes of GET /api/basis (sent once per browser).
     std::size_t basis_bytes() const;
 

@@ -4,15 +4,21 @@
 
 namespace modalrt_tool
 {
+  DeviceSpec default_device_spec(const char *name)
+  {
+    const modalrt_device_def d = modalrt_device_default_def();
+    return DeviceSpec{name, d.max_force, d.max_stiffness, d.max_damping, d.physical_damping};
+  }
+
+  void park_position(const modalrt_basis_info &info, double park[3])
+  {
+    park[0] = 0.5 * (info.bounds_min[0] + info.bounds_max[0]);
+    park[1] = 0.5 * (info.bounds_min[1] + info.bounds_max[1]);
+    park[2] = info.bounds_max[2] + 0.5;
+  }
+
   namespace
   {
-    // What a device can render: the kernel's default device (a desktop impedance device at 1 kHz).
-    DeviceSpec default_spec(const char *name)
-    {
-      const modalrt_device_def d = modalrt_device_default_def();
-      return DeviceSpec{name, d.max_force, d.max_stiffness, d.max_damping, d.physical_damping};
-    }
-
     // The scripted channels of every HIP, sampled with cursors (no search, no allocation).
     class ScriptReader
     {
@@ -36,7 +42,7 @@ namespace modalrt_tool
     class ScriptedProbe final : public Device
     {
     public:
-      explicit ScriptedProbe(const Session &session) : script_(session), spec_(default_spec("scripted probe")) {}
+      explicit ScriptedProbe(const Session &session) : script_(session), spec_(default_device_spec("scripted probe")) {}
 
       bool open(std::string &) override { return true; }
       void close() override {}
@@ -72,7 +78,7 @@ namespace modalrt_tool
     {
     public:
       SimulatedHand(const Session &session, double time_step)
-        : script_(session), spec_(default_spec("simulated hand")), time_step_(time_step), hips_(session.hip_count)
+        : script_(session), spec_(default_device_spec("simulated hand")), time_step_(time_step), hips_(session.hip_count)
       {}
 
       bool open(std::string &error) override

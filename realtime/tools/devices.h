@@ -33,6 +33,20 @@ namespace modalrt_tool
     double      physical_damping = 0.0; // [N s/m] the device's own viscous damping
   };
 
+  // What a device that picks its contacts itself asks of one HIP this tick (the view's mouse
+  // clicks a vertex: contact there now, as a session's `press` event; or the HIP let go).
+  struct ContactRequest
+  {
+    enum Kind
+    {
+      none,
+      press,  // modalrt_kernel_contact_begin at `vertex`
+      release // modalrt_kernel_release_hip
+    };
+    Kind          kind   = none;
+    std::uint32_t vertex = 0;
+  };
+
   class Device
   {
   public:
@@ -55,6 +69,9 @@ namespace modalrt_tool
     // in contact (in_contact 0: the HIP moves freely).
     virtual void track_position(std::uint32_t hip, const double position[3], const double velocity[3],
                                 bool in_contact) = 0;
+    // After a fresh read_state, before the kernel's tick: the contact HIP `hip` asks for. The default
+    // asks for none (contacts come from the session's events and the kernel's snap search).
+    virtual ContactRequest contact_request(std::uint32_t) { return {}; }
     // The kernel's whole output for HIP `hip` (contact, active vertex, space), every tick, for devices
     // that pass it on; the default ignores it.
     virtual void report_output(std::uint32_t, const modalrt_hip_output &) {}
@@ -79,4 +96,11 @@ namespace modalrt_tool
   };
 
   std::unique_ptr<Device> make_device(DeviceKind kind, const Session &session, double time_step);
+
+  // The kernel's default device (a desktop impedance device at 1 kHz) under the name `name`.
+  DeviceSpec default_device_spec(const char *name);
+
+  // Where a HIP that touches nothing waits: half a metre above the middle of the part (farther than
+  // any snap distance from it, well inside the workspace).
+  void park_position(const modalrt_basis_info &info, double park[3]);
 } // namespace modalrt_tool

@@ -5,9 +5,6 @@
 #include "run_outputs.h"
 #include "session.h"
 #include "udp_device.h"
-#ifdef MODAL_RT_WITH_VIEW
-#  include "run_view.h" // view/: --view P, built when Boost.Beast is found
-#endif
 
 #include <modalrt/modalrt.h>
 
@@ -48,6 +45,9 @@ namespace modalrt_tool
       bool        help          = false;
       UdpSettings udp;                   // serve only
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
+      WatchStarter watch        = nullptr; // what serves --view (null: built without the view)
+      const DeviceSession *app  = nullptr; // an app's own device and view: no session file, no outputs
+      std::string command;                 // run, serve, or the app's command
     };
 
     // A bad command line: one message naming the option and the value.
@@ -274,17 +274,6 @@ namespace modalrt_tool
       return true;
     }
 
-    struct Resources
-    {
-      modalrt_basis  *basis  = nullptr;
-      modalrt_kernel *kernel = nullptr;
-      ~Resources()
-      {
-        modalrt_kernel_destroy(kernel);
-        modalrt_basis_destroy(basis);
-      }
-    };
-
     int fail(const std::string &message)
     {
       std::fprintf(stderr, "modal-rt: %s\n", message.c_str());
@@ -316,15 +305,15 @@ namespace modalrt_tool
       return written;
     }
 
-    // The session a command plays: the file (run), or none with --hips HIPs (serve: the device
-    // brings the motion).
+    // The session a command plays: the file (run), or none: serve's device brings the motion of
+    // --hips HIPs (600 s by default), an app's device the motion of its HIPs (until Ctrl-C by default).
     bool load_session(const RunOptions &o, Session &session)
     {
-      if (o.serve)
+      if (o.serve || o.app)
         {
-          session.path      = "(udp)";
-          session.hip_count = o.udp.hips;
-          session.end_time  = o.duration > 0.0 ? o.duration : default_serve_duration;
+          session.path      = o.serve ? "(udp)" : "(" + o.command + ")";
+          session.hip_count = o.serve ? o.udp.hips : 0; // an app's: its device's, once made
+          session.end_time  = o.duration > 0.0 ? o.duration : o.serve ? default_serve_duration : 0.0;
           return true;
         }
       try
@@ -339,58 +328,149 @@ namespace modalrt_tool
         }
     }
 
-    std::unique_ptr<Device> open_device(const RunOptions &o, const Session &session, const modalrt_basis_info &info)
+    std::unique_ptr<Device> make_session_device(const RunOptions &o, const Session &session,
+                                                const modalrt_basis *basis, const modalrt_basis_info &info)
     {
+      if (o.app)
+        return o.app->make_device(basis);
       if (!o.serve)
         return make_device(o.device, session, 1.0 / o.rate);
       UdpSettings settings = o.udp;
-      // Before the first state the HIPs wait half a metre above the part's middle: no contact.
-      settings.park[0] = 0.5 * (info.bounds_min[0] + info.bounds_max[0]);
-      settings.park[1] = 0.5 * (info.bounds_min[1] + info.bounds_max[1]);
-      settings.park[2] = info.bounds_max[2] + 0.5;
+      park_position(info, settings.park); // before the first state: no contact
       return make_udp_device(settings);
     }
 
-    RunReport make_report(const RunOptions &o, const Session &session, double duration, const modalrt_kernel_def &def,
-                          const modalrt_kernel *kernel, const Device &device, const HapticResult &haptic,
-                          const DisplayResult &display, double press_distance)
+    // The basis, the device, the kernel defined for them, and the view watching the session.
+    struct Live
+    {
+      ~Live()
+      {
+        view.reset(); // it reads the kernel: gone first
+        device.reset();
+        modalrt_kernel_destroy(kernel);
+        modalrt_basis_destroy(basis);
+      }
+
+      modalrt_basis               *basis  = nullptr;
+      modalrt_kernel              *kernel = nullptr;
+      modalrt_basis_info           info{};
+      std::unique_ptr<Device>      device;
+      modalrt_kernel_def           def{};
+      double                       press_distance = 0.0; // [m] the session's press points to their vertices
+      std::unique_ptr<RunObserver> view;
+    };
+
+    // Loads the basis, makes and opens the device, creates the kernel for it. false after a message.
+    bool open_live(const RunOptions &o, Session &session, Live &live)
+    {
+      if (modalrt_basis_load(o.basis.c_str(), &live.basis) != MODALRT_OK)
+        {
+          fail("bad basis file '" + o.basis + "': " + modalrt_last_error_message());
+          return false;
+        }
+      modalrt_basis_get_info(live.basis, &live.info);
+      live.press_distance =
+        resolve_press_vertices(session, modalrt_basis_display_vertices(live.basis), live.info.display_vertex_count);
+      live.device = make_session_device(o, session, live.basis, live.info);
+      std::string error;
+      if (!live.device->open(error))
+        {
+          fail("cannot open the device: " + error);
+          return false;
+        }
+      session.hip_count = live.device->hip_count();
+      live.def          = kernel_def(o, live.device->spec(), live.basis, session.hip_count);
+      if (modalrt_kernel_create(live.basis, &live.def, &live.kernel) != MODALRT_OK)
+        {
+          fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
+          return false;
+        }
+      return true;
+    }
+
+    // --view P (the app's watch-only view), or the app's own view of its device.
+    bool start_view(const RunOptions &o, Live &live, std::string &error)
+    {
+      const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command};
+      if (o.app)
+        live.view = o.app->start_view(context, error);
+      else if (o.view_port < 0)
+        return true;
+      else if (!o.watch)
+        error = "--view " + std::to_string(o.view_port) + ": " + built_without_view;
+      else
+        live.view = o.watch(context, unsigned(o.view_port), error);
+      return live.view != nullptr;
+    }
+
+    RunReport make_report(const RunOptions &o, const Session &session, double duration, const Live &live,
+                          const HapticResult &haptic, const DisplayResult &display)
     {
       RunReport report  = summarize(haptic, o.rate);
-      report.command    = o.serve ? "serve" : "run";
+      report.command    = o.command;
       report.basis      = o.basis;
       report.session    = session.path;
       report.output_dir = o.output_dir;
       report.mode       = o.impedance ? "impedance" : "admittance";
-      report.device     = device.spec().name;
+      report.device     = live.device->spec().name;
       report.stopped_by = haptic.interrupted ? "signal" : "end of session";
       report.rate       = o.rate;
       report.duration   = duration;
       report.hips       = session.hip_count;
-      modalrt_kernel_get_stats(kernel, &report.kernel);
+      modalrt_kernel_get_stats(live.kernel, &report.kernel);
       report.haptic             = &haptic;
       report.display            = &display;
-      report.max_press_distance = press_distance;
-      report.coupling_stiffness = def.coupling_stiffness;
-      report.coupling_damping   = def.coupling_damping;
-      report.snap_distance      = def.snap_distance;
-      report.device_counters    = device.counters();
+      report.max_press_distance = live.press_distance;
+      report.coupling_stiffness = live.def.coupling_stiffness;
+      report.coupling_damping   = live.def.coupling_damping;
+      report.snap_distance      = live.def.snap_distance;
+      report.device_counters    = live.device->counters();
       return report;
     }
 
-    // --view P: the browser watches the session (view/run_view.h). The view wraps the device to see
-    // each tick's outputs; the display thread hands it each snapshot.
-    std::unique_ptr<DisplayObserver> open_view(const RunOptions &o, const modalrt_basis *basis, modalrt_kernel *kernel,
-                                               std::unique_ptr<Device> &device, std::string &error)
+    // After the run: the files of --output-dir, the plot and the summary.
+    int write_results(const RunOptions &o, const Session &session, double duration, const Live &live,
+                      const HapticResult &haptic, const DisplayResult &display)
     {
-#ifdef MODAL_RT_WITH_VIEW
-      return modalrt_view::start_run_view(basis, o.basis, kernel, device, unsigned(o.view_port),
-                                          o.serve ? "serve" : "run", error);
-#else
-      (void)basis, (void)kernel, (void)device;
-      error = "--view " + std::to_string(o.view_port) + ": this modal-rt was built without the view (it needs "
-              "Boost.Beast from libboost-dev at configure time; see view/README.md)";
-      return nullptr;
-#endif
+      RunReport report = make_report(o, session, duration, live, haptic, display);
+      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance);
+      std::string error;
+      if (!write_outputs(o, report, haptic, display, session.hip_count, error))
+        return fail(error);
+      report.plot_written = draw_plot(o);
+      if (!o.quiet)
+        print_summary(report);
+      if (!display.error.empty())
+        return fail("frames: " + display.error);
+      return 0;
+    }
+
+    // An app's session writes no files: one line on how its loop ran.
+    void print_loop_line(const std::string &command, double rate, const HapticResult &h)
+    {
+      std::printf("modal-rt %s: %llu ticks at %g Hz (%.1f s), %llu overruns, %llu missed periods, %llu allocations "
+                  "in the haptic thread\n",
+                  command.c_str(), (unsigned long long)h.ticks, rate, h.wall_seconds, (unsigned long long)h.overruns,
+                  (unsigned long long)h.missed_periods, (unsigned long long)h.allocations);
+    }
+
+    // The haptic thread's settings. A session with outputs records every tick (arrays sized here:
+    // tick_limit 0 means the session is too long or empty); an app's session records nothing and
+    // may run until Ctrl-C.
+    HapticSettings haptic_settings(const RunOptions &o, double duration)
+    {
+      HapticSettings haptic;
+      haptic.rate             = o.rate;
+      haptic.record           = !o.app;
+      const auto ticks        = std::uint64_t(std::llround(duration * o.rate));
+      if (haptic.record)
+        haptic.tick_limit = ticks <= max_ticks ? ticks : 0;
+      else
+        haptic.tick_limit = ticks > 0 ? ticks : UINT64_MAX; // until Ctrl-C
+      haptic.impedance        = o.impedance;
+      haptic.trace_decimation = std::uint32_t(std::max(1.0, std::round(o.rate / o.trace_rate)));
+      haptic.spin_us          = o.spin_us;
+      return haptic;
     }
 
     int execute(const RunOptions &o)
@@ -398,64 +478,39 @@ namespace modalrt_tool
       Session session;
       if (!load_session(o, session))
         return 1;
-      const double duration = o.duration > 0.0 ? o.duration : session.end_time;
-      const auto   ticks    = std::uint64_t(std::llround(duration * o.rate));
-      if (ticks == 0 || ticks > max_ticks)
-        return fail("the session is " + std::to_string(ticks) + " ticks long (" + std::to_string(duration) +
-                    " s at " + std::to_string(o.rate) + " Hz): it must be 1 .. " + std::to_string(max_ticks));
-
-      Resources r;
-      if (modalrt_basis_load(o.basis.c_str(), &r.basis) != MODALRT_OK)
-        return fail("bad basis file '" + o.basis + "': " + modalrt_last_error_message());
-      modalrt_basis_info info;
-      modalrt_basis_get_info(r.basis, &info);
-      const double press_distance =
-        resolve_press_vertices(session, modalrt_basis_display_vertices(r.basis), info.display_vertex_count);
-
-      std::unique_ptr<Device> device = open_device(o, session, info);
-      std::string             error;
-      if (!device->open(error))
-        return fail("cannot open the device: " + error);
-      const modalrt_kernel_def def = kernel_def(o, device->spec(), r.basis, session.hip_count);
-      if (modalrt_kernel_create(r.basis, &def, &r.kernel) != MODALRT_OK)
-        return fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
-      if (!prepare_output_dir(o.output_dir, error))
+      const double         duration = o.duration > 0.0 ? o.duration : session.end_time;
+      const HapticSettings haptic   = haptic_settings(o, duration);
+      if (haptic.tick_limit == 0)
+        return fail("the session is " + std::to_string(std::llround(duration * o.rate)) + " ticks long (" +
+                    std::to_string(duration) + " s at " + std::to_string(o.rate) + " Hz): it must be 1 .. " +
+                    std::to_string(max_ticks));
+      Live        live;
+      std::string error;
+      if (!open_live(o, session, live))
+        return 1;
+      if (!o.app && !prepare_output_dir(o.output_dir, error))
         return fail(error);
-      std::unique_ptr<DisplayObserver> view;
-      if (o.view_port >= 0 && !(view = open_view(o, r.basis, r.kernel, device, error)))
+      if (!start_view(o, live, error))
         return fail(error);
 
-      HapticSettings haptic;
-      haptic.rate             = o.rate;
-      haptic.tick_limit       = ticks;
-      haptic.impedance        = o.impedance;
-      haptic.trace_decimation = std::uint32_t(std::max(1.0, std::round(o.rate / o.trace_rate)));
-      haptic.spin_us          = o.spin_us;
-      DisplaySettings display{o.output_dir, display_rate, o.frame_rate, view.get()};
+      DisplaySettings display{o.output_dir, o.app ? o.app->display_rate : display_rate, o.frame_rate, !o.app};
       HapticResult    haptic_result;
       DisplayResult   display_result;
       install_stop_handler();
-      run_threads(r.kernel, r.basis, *device, session, haptic, display, haptic_result, display_result);
-      device->close();
-
-      RunReport report =
-        make_report(o, session, duration, def, r.kernel, *device, haptic_result, display_result, press_distance);
-      report.presses = find_presses(haptic_result, session.hip_count, r.basis, o.impedance);
-      if (!write_outputs(o, report, haptic_result, display_result, session.hip_count, error))
-        return fail(error);
-      report.plot_written = draw_plot(o);
-      if (!o.quiet)
-        print_summary(report);
-      if (!display_result.error.empty())
-        return fail("frames: " + display_result.error);
+      run_threads(live.kernel, live.basis, *live.device, session, haptic, display, live.view.get(), haptic_result,
+                  display_result);
+      live.device->close();
+      if (!o.app)
+        return write_results(o, session, duration, live, haptic_result, display_result);
+      print_loop_line(o.command, o.rate, haptic_result);
       return 0;
-  }
+    }
   } // namespace
 
   std::string run_usage() { return usage_text(false); }
   std::string serve_usage() { return usage_text(true); }
 
-  int run_command(int argc, char **argv, bool serve)
+  int run_command(int argc, char **argv, bool serve, WatchStarter watch)
   {
     RunOptions o;
     try
@@ -473,6 +528,22 @@ namespace modalrt_tool
         std::printf("usage:\n%s", usage_text(serve).c_str());
         return 0;
       }
+    o.watch   = watch;
+    o.command = serve ? "serve" : "run";
+    return execute(o);
+  }
+
+  int play_device_session(const DeviceSession &session, const std::string &command)
+  {
+    RunOptions o;
+    o.app        = &session;
+    o.command    = command;
+    o.basis      = session.basis;
+    o.rate       = session.rate;
+    o.duration   = session.duration;
+    o.impedance  = session.impedance;
+    o.frame_rate = 0.0;
+    o.quiet      = true;
     return execute(o);
   }
 } // namespace modalrt_tool

@@ -55,10 +55,12 @@ namespace modalrt_tool
     {
     public:
       HapticLoop(modalrt_kernel *kernel, Device &device, const Session &session, const HapticSettings &settings,
-                 HapticResult &result)
-        : kernel_(kernel), device_(device), session_(session), settings_(settings), result_(result),
-          hips_(device.hip_count()), inputs_(hips_), outputs_(hips_)
+                 RunObserver *observer, HapticResult &result)
+        : kernel_(kernel), device_(device), session_(session), settings_(settings), observer_(observer),
+          result_(result), hips_(device.hip_count()), inputs_(hips_), outputs_(hips_)
       {
+        if (!settings.record)
+          return;
         result_.latency_us.assign(settings.tick_limit, 0.0f);
         result_.period_us.assign(settings.tick_limit, 0.0f);
         const std::uint64_t rows = settings.tick_limit / settings.trace_decimation + 1;
@@ -87,9 +89,14 @@ namespace modalrt_tool
             const Clock::time_point begin = Clock::now();
             tick(n, n * T);
             const Clock::time_point end = Clock::now();
-            result_.latency_us[n] = float(std::chrono::duration<double, std::micro>(end - begin).count());
-            result_.period_us[n]  = n == 0 ? float(1e6 * T)
-                                           : float(std::chrono::duration<double, std::micro>(begin - previous).count());
+            if (settings_.record)
+              {
+                result_.latency_us[n] = float(std::chrono::duration<double, std::micro>(end - begin).count());
+                result_.period_us[n]  = n == 0 ? float(1e6 * T)
+                                               : float(std::chrono::duration<double, std::micro>(begin - previous).count());
+              }
+            if (observer_)
+              observer_->ticked(TickTiming{deadline, begin, end}, outputs_.data(), hips_);
             previous = begin;
             deadline += period;
             if (end > deadline)
@@ -103,30 +110,43 @@ namespace modalrt_tool
               }
           }
         count_allocations_in_this_thread(false);
-        result_.allocations  = counted_allocations();
-        result_.ticks        = n;
-        result_.interrupted  = n < settings_.tick_limit;
-        result_.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-        result_.latency_us.resize(n);
-        result_.period_us.resize(n);
-        const std::uint64_t rows = (n + settings_.trace_decimation - 1) / settings_.trace_decimation;
-        result_.trace.resize(rows * hips_); // rows past a stopped session's last tick were never written
-        result_.last_inputs  = inputs_;
-        result_.last_outputs = outputs_;
+        finish(n, start);
         done.store(true);
       }
 
     private:
+      // After the last tick: the counters, and the arrays cut to the ticks that ran.
+      void finish(std::uint64_t n, Clock::time_point start)
+      {
+        result_.allocations  = counted_allocations();
+        result_.ticks        = n;
+        result_.interrupted  = n < settings_.tick_limit;
+        result_.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        if (settings_.record)
+          {
+            result_.latency_us.resize(n);
+            result_.period_us.resize(n);
+            const std::uint64_t rows = (n + settings_.trace_decimation - 1) / settings_.trace_decimation;
+            result_.trace.resize(rows * hips_); // rows past a stopped session's last tick were never written
+          }
+        result_.last_inputs  = inputs_;
+        result_.last_outputs = outputs_;
+      }
+
       void tick(std::uint64_t n, double t)
       {
         apply_events(t);
         apply_frame(t);
-        if (!device_.read_state(t, inputs_.data()))
-          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
-        else if (settings_.impedance)
-          modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
+        if (device_.read_state(t, inputs_.data()))
+          {
+            apply_contact_requests();
+            if (settings_.impedance)
+              modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
+            else
+              modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());
+          }
         else
-          modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());
+          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
         for (std::uint32_t h = 0; h < hips_; ++h)
           {
             const modalrt_hip_output &o = outputs_[h];
@@ -139,8 +159,25 @@ namespace modalrt_tool
               ++result_.non_finite_outputs;
           }
         device_.end_tick();
-        if (n % settings_.trace_decimation == 0)
+        if (settings_.record && n % settings_.trace_decimation == 0)
           record_trace(n / settings_.trace_decimation, t);
+      }
+
+      // A device that picks its contacts itself (the view's mouse clicks a vertex).
+      void apply_contact_requests()
+      {
+        for (std::uint32_t h = 0; h < hips_; ++h)
+          {
+            const ContactRequest request = device_.contact_request(h);
+            if (request.kind == ContactRequest::none)
+              continue;
+            const int status = request.kind == ContactRequest::press
+                                 ? modalrt_kernel_contact_begin(kernel_, h, request.vertex)
+                                 : modalrt_kernel_release_hip(kernel_, h);
+            ++result_.events_applied;
+            if (status != MODALRT_OK)
+              ++result_.failed_events;
+          }
       }
 
       // Session events due at or before t (each applied once, in file order).
@@ -197,6 +234,7 @@ namespace modalrt_tool
       Device                         &device_;
       const Session                  &session_;
       const HapticSettings           &settings_;
+      RunObserver                    *observer_;
       HapticResult                   &result_;
       const std::uint32_t             hips_;
       std::vector<modalrt_hip_input>  inputs_;
@@ -211,8 +249,8 @@ namespace modalrt_tool
     {
     public:
       DisplayLoop(modalrt_kernel *kernel, const modalrt_basis *basis, const DisplaySettings &settings,
-                  DisplayResult &result)
-        : kernel_(kernel), settings_(settings), result_(result), writer_(basis)
+                  RunObserver *observer, DisplayResult &result)
+        : kernel_(kernel), settings_(settings), observer_(observer), result_(result), writer_(basis)
       {
         modalrt_basis_info info;
         modalrt_basis_get_info(basis, &info);
@@ -244,9 +282,9 @@ namespace modalrt_tool
       void redraw(bool last)
       {
         const bool fresh = modalrt_kernel_snapshot_read(kernel_, snapshot_) == 1;
-        if (fresh && settings_.observer)
-          settings_.observer->displayed(snapshot_);
-        if (!fresh && !last)
+        if (fresh && observer_)
+          observer_->displayed(snapshot_);
+        if ((!fresh && !last) || !settings_.reconstruct)
           return;
         const Clock::time_point begin = Clock::now();
         modalrt_display_reconstruct(snapshot_, 0, vertex_count_, MODALRT_DISPLAY_DISPLACEMENTS, displacements_.data());
@@ -272,6 +310,7 @@ namespace modalrt_tool
 
       modalrt_kernel        *kernel_;
       const DisplaySettings &settings_;
+      RunObserver           *observer_;
       DisplayResult         &result_;
       VtuFrameWriter         writer_;
       modalrt_snapshot      *snapshot_ = nullptr;
@@ -295,11 +334,11 @@ namespace modalrt_tool
   bool stop_requested() { return stop_flag.load(); }
 
   void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
-                   const HapticSettings &haptic, const DisplaySettings &display, HapticResult &haptic_result,
-                   DisplayResult &display_result)
+                   const HapticSettings &haptic, const DisplaySettings &display, RunObserver *observer,
+                   HapticResult &haptic_result, DisplayResult &display_result)
   {
-    HapticLoop        haptic_loop(kernel, device, session, haptic, haptic_result);
-    DisplayLoop       display_loop(kernel, basis, display, display_result);
+    HapticLoop        haptic_loop(kernel, device, session, haptic, observer, haptic_result);
+    DisplayLoop       display_loop(kernel, basis, display, observer, display_result);
     std::atomic<bool> haptic_done{false};
     std::thread       display_thread([&] { display_loop.run(haptic_done); });
     std::thread       haptic_thread([&] { haptic_loop.run(haptic_done); });

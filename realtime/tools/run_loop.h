@@ -1,4 +1,4 @@
-// The two threads of `modal-rt run`.
+// The two threads of `modal-rt run` (and `serve`, and the view's `modal-rt view`).
 //
 // Haptic thread: one kernel tick per period on an absolute schedule (sleep until shortly before the
 // deadline, then spin), with SCHED_FIFO when the system grants it. Each tick applies the session's
@@ -8,8 +8,11 @@
 // restarts from now (missed periods are counted; no burst of catch-up ticks). Simulated time is
 // tick count x period, so a session always runs rate x duration ticks.
 //
-// Display thread: at 60 Hz, reads the kernel's snapshot (lock-free) and reconstructs the display
+// Display thread: at 60 Hz (its rate), reads the kernel's snapshot (lock-free) and reconstructs the display
 // surface; every 1/frame_rate s of simulated time it writes that surface as a VTU frame.
+//
+// This is the tool's one haptic loop: `run`, `serve` and the view's mouse (`modal-rt view`) all tick
+// here, with their own Device; a RunObserver (the browser view) watches both threads.
 #pragma once
 
 #include "devices.h"
@@ -18,6 +21,7 @@
 #include <modalrt/modalrt.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -45,6 +49,9 @@ namespace modalrt_tool
     bool          impedance  = true;
     std::uint32_t trace_decimation = 10; // a trace row every this many ticks
     double        spin_us          = 100.0; // [us] sleep until this long before a deadline, then spin
+    // Keep each tick's latency and period and the trace rows (arrays sized from tick_limit before
+    // the first tick). false for a session without outputs that may run until Ctrl-C (the view).
+    bool          record           = true;
   };
 
   struct HapticResult
@@ -72,22 +79,34 @@ namespace modalrt_tool
     std::string file; // relative to the output directory
   };
 
-  // A second consumer of the display thread (the live browser view of --view, view/run_view.h): the
-  // display thread hands it each new snapshot it reads, so the kernel keeps one snapshot reader.
-  class DisplayObserver
+  // When the haptic thread woke up for a tick and when the tick was done.
+  struct TickTiming
+  {
+    std::chrono::steady_clock::time_point deadline; // the tick's scheduled start
+    std::chrono::steady_clock::time_point begin;    // wake-up
+    std::chrono::steady_clock::time_point end;      // device written
+  };
+
+  // Watches a run from beside it (the live browser view of --view and `modal-rt view`, view/run_view.h):
+  // the haptic thread hands it each tick's outputs, the display thread each new snapshot it reads,
+  // so the kernel keeps one snapshot reader.
+  class RunObserver
   {
   public:
-    virtual ~DisplayObserver() = default;
+    virtual ~RunObserver() = default;
+    // Haptic thread, after each tick: wait-free, no allocation, no I/O.
+    virtual void ticked(const TickTiming &timing, const modalrt_hip_output *outputs, std::uint32_t hips) = 0;
     // Display thread, after each snapshot read that brought a new state.
     virtual void displayed(const modalrt_snapshot *snapshot) = 0;
   };
 
   struct DisplaySettings
   {
-    std::string      output_dir;
-    double           rate       = 60.0;    // [Hz] reconstructions
-    double           frame_rate = 10.0;    // [Hz] of simulated time: frames written (0: none)
-    DisplayObserver *observer   = nullptr; // --view: the browser view
+    std::string output_dir;
+    double      rate        = 60.0; // [Hz] snapshots read
+    double      frame_rate  = 10.0; // [Hz] of simulated time: frames written (0: none)
+    bool        reconstruct = true; // the whole surface on the CPU at each read (false: the view alone
+                                    // draws it, on the GPU)
   };
 
   struct DisplayResult
@@ -103,7 +122,8 @@ namespace modalrt_tool
   bool stop_requested();
 
   // Runs both threads to the end of the session or a stop request; returns when both are done.
+  // `observer` (may be null) watches them.
   void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
-                   const HapticSettings &haptic, const DisplaySettings &display, HapticResult &haptic_result,
-                   DisplayResult &display_result);
+                   const HapticSettings &haptic, const DisplaySettings &display, RunObserver *observer,
+                   HapticResult &haptic_result, DisplayResult &display_result);
 } // namespace modalrt_tool

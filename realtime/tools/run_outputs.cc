@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -25,27 +27,6 @@ namespace modalrt_tool
       char text[64];
       std::snprintf(text, sizeof text, pattern, value);
       return text;
-    }
-
-    // Round-trip precision: stats.json feeds checks at 1e-6 relative.
-    std::string number(double x) { return std::isfinite(x) ? format("%.17g", x) : std::string("null"); }
-
-    std::string vector3(const double *x)
-    {
-      return "[" + number(x[0]) + ", " + number(x[1]) + ", " + number(x[2]) + "]";
-    }
-
-    std::string quoted(const std::string &text)
-    {
-      std::string out = "\"";
-      for (char c : text)
-        {
-          if (c == '"' || c == '\\')
-            out += '\\';
-          if (static_cast<unsigned char>(c) >= 0x20)
-            out += c;
-        }
-      return out + "\"";
     }
 
     void rotate(const double q[4], const double v[3], double out[3])
@@ -515,54 +496,94 @@ namespace modalrt_tool
     return r;
   }
 
+  namespace
+  {
+    // Keys in the order realtime/README.md lists them. Doubles are written to round trip, NaN and
+    // infinities as null (JSON has neither).
+    using Json = nlohmann::ordered_json;
+
+    Json vector3(const double *x) { return Json::array({x[0], x[1], x[2]}); }
+
+    Json percentiles(double p50, double p99, double p999, double max)
+    {
+      return Json{{"p50", p50}, {"p99", p99}, {"p99_9", p999}, {"max", max}};
+    }
+
+    // Per HIP, the last inputs and outputs of the run.
+    Json final_states(const HapticResult &h)
+    {
+      Json hips = Json::array();
+      for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
+        {
+          const modalrt_hip_output &out = h.last_outputs[k];
+          const modalrt_hip_input  &in  = h.last_inputs[k];
+          hips.push_back(Json{{"hip", k},
+                              {"in_contact", out.in_contact},
+                              {"active_vertex", out.active_vertex == MODALRT_NONE ? -1ll : (long long)out.active_vertex},
+                              {"space", out.space},
+                              {"device_position", vector3(in.position)},
+                              {"input_force", vector3(in.force)},
+                              {"position", vector3(out.position)},
+                              {"force", vector3(out.force)}});
+        }
+      return hips;
+    }
+
+    // The kernel's counters and the loop's checks.
+    void add_counters(const RunReport &r, Json &o)
+    {
+      const HapticResult &h        = *r.haptic;
+      o["overruns"]                = h.overruns;
+      o["missed_periods"]          = h.missed_periods;
+      o["switches"]                = r.kernel.switch_count;
+      o["max_switch_jump_m"]       = r.kernel.max_switch_jump;
+      o["rejected_inputs"]         = r.kernel.rejected_ticks;
+      o["rejected_frames"]         = r.kernel.rejected_frames;
+      o["missing_inputs"]          = r.kernel.missing_ticks;
+      o["fail_safe_ticks"]         = r.kernel.fail_safe_ticks;
+      o["dropout_ticks"]           = r.kernel.dropout_ticks;
+      o["clamped_forces"]          = r.kernel.clamped_forces;
+      o["non_finite_outputs"]      = h.non_finite_outputs;
+      o["max_press_distance_m"]    = r.max_press_distance;
+      o["events_applied"]          = h.events_applied;
+      o["failed_events"]           = h.failed_events;
+      o["allocations_after_start"] = h.allocations;
+      o["allocation_counting"]     = allocation_counting_method();
+    }
+  } // namespace
+
   std::string stats_json(const RunReport &r)
   {
     const HapticResult  &h = *r.haptic;
     const DisplayResult &d = *r.display;
-    std::ostringstream   o;
-    o << "{\n  \"command\": " << quoted(r.command) << ",\n  \"basis\": " << quoted(r.basis) << ",\n  \"session\": " << quoted(r.session)
-      << ",\n  \"mode\": " << quoted(r.mode) << ",\n  \"device\": " << quoted(r.device)
-      << ",\n  \"hips\": " << r.hips << ",\n  \"rate_hz\": " << number(r.rate)
-      << ",\n  \"duration_s\": " << number(r.duration) << ",\n  \"ticks\": " << h.ticks
-      << ",\n  \"simulated_s\": " << number(h.ticks / r.rate) << ",\n  \"wall_s\": " << number(h.wall_seconds)
-      << ",\n  \"stopped_by\": " << quoted(r.stopped_by)
-      << ",\n  \"realtime_priority\": " << (h.realtime_priority ? "true" : "false")
-      << ",\n  \"tick_latency_us\": {\"p50\": " << number(r.latency_p50) << ", \"p99\": " << number(r.latency_p99)
-      << ", \"p99_9\": " << number(r.latency_p999) << ", \"max\": " << number(r.latency_max) << "}"
-      << ",\n  \"period_jitter_us\": {\"p50\": " << number(r.jitter_p50) << ", \"p99\": " << number(r.jitter_p99)
-      << ", \"p99_9\": " << number(r.jitter_p999) << ", \"max\": " << number(r.jitter_max) << "}"
-      << ",\n  \"overruns\": " << h.overruns << ",\n  \"missed_periods\": " << h.missed_periods
-      << ",\n  \"switches\": " << r.kernel.switch_count << ",\n  \"max_switch_jump_m\": " << number(r.kernel.max_switch_jump)
-      << ",\n  \"rejected_inputs\": " << r.kernel.rejected_ticks << ",\n  \"rejected_frames\": " << r.kernel.rejected_frames
-      << ",\n  \"missing_inputs\": " << r.kernel.missing_ticks << ",\n  \"fail_safe_ticks\": " << r.kernel.fail_safe_ticks
-      << ",\n  \"dropout_ticks\": " << r.kernel.dropout_ticks
-      << ",\n  \"clamped_forces\": " << r.kernel.clamped_forces << ",\n  \"non_finite_outputs\": " << h.non_finite_outputs
-      << ",\n  \"max_press_distance_m\": " << number(r.max_press_distance)
-      << ",\n  \"events_applied\": " << h.events_applied << ",\n  \"failed_events\": " << h.failed_events
-      << ",\n  \"allocations_after_start\": " << h.allocations
-      << ",\n  \"allocation_counting\": " << quoted(allocation_counting_method())
-      << ",\n  \"coupling\": {\"stiffness_n_per_m\": " << number(r.coupling_stiffness)
-      << ", \"damping_n_s_per_m\": " << number(r.coupling_damping) << ", \"snap_distance_m\": " << number(r.snap_distance)
-      << "}"
-      << ",\n  \"display\": {\"reconstructions\": " << d.reconstructions << ", \"max_reconstruct_ms\": "
-      << number(d.max_reconstruct_ms) << ", \"frames_written\": " << d.frames.size() << "}"
-      << ",\n  \"device_counters\": {";
-    for (std::size_t k = 0; k < r.device_counters.size(); ++k)
-      o << (k ? ", " : "") << quoted(r.device_counters[k].first) << ": " << r.device_counters[k].second;
-    o << "}"
-      << ",\n  \"final\": [";
-    for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
-      {
-        const modalrt_hip_output &out = h.last_outputs[k];
-        const modalrt_hip_input  &in  = h.last_inputs[k];
-        o << (k ? "," : "") << "\n    {\"hip\": " << k << ", \"in_contact\": " << out.in_contact
-          << ", \"active_vertex\": " << (out.active_vertex == MODALRT_NONE ? -1ll : (long long)out.active_vertex)
-          << ", \"space\": " << out.space << ", \"device_position\": " << vector3(in.position)
-          << ", \"input_force\": " << vector3(in.force) << ", \"position\": " << vector3(out.position)
-          << ", \"force\": " << vector3(out.force) << "}";
-      }
-    o << "\n  ]\n}\n";
-    return o.str();
+    Json o{{"command", r.command},
+           {"basis", r.basis},
+           {"session", r.session},
+           {"mode", r.mode},
+           {"device", r.device},
+           {"hips", r.hips},
+           {"rate_hz", r.rate},
+           {"duration_s", r.duration},
+           {"ticks", h.ticks},
+           {"simulated_s", h.ticks / r.rate},
+           {"wall_s", h.wall_seconds},
+           {"stopped_by", r.stopped_by},
+           {"realtime_priority", h.realtime_priority}};
+    o["tick_latency_us"]  = percentiles(r.latency_p50, r.latency_p99, r.latency_p999, r.latency_max);
+    o["period_jitter_us"] = percentiles(r.jitter_p50, r.jitter_p99, r.jitter_p999, r.jitter_max);
+    add_counters(r, o);
+    o["coupling"] = Json{{"stiffness_n_per_m", r.coupling_stiffness},
+                         {"damping_n_s_per_m", r.coupling_damping},
+                         {"snap_distance_m", r.snap_distance}};
+    o["display"]  = Json{{"reconstructions", d.reconstructions},
+                         {"max_reconstruct_ms", d.max_reconstruct_ms},
+                         {"frames_written", d.frames.size()}};
+    o["device_counters"] = Json::object();
+    for (const auto &[name, count] : r.device_counters)
+      o["device_counters"][name] = count;
+    o["final"] = final_states(h);
+    // Paths are bytes: invalid UTF-8 in one is replaced (U+FFFD), not an exception.
+    return o.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
   }
 
   namespace

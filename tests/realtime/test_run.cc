@@ -450,6 +450,15 @@ time,hip,event,x,y,z
         ENSURE(tool(command, out) == 0 && contains(out, "usage"));
       }
     std::string out;
+    ENSURE(tool("--help", out) == 0 && contains(out, "modal-rt COMMAND --help"));
+    // view too (issue 39: it answered "unknown option '--help'", exit 2). A modal-rt built without
+    // the view says so, exit 1, with --help as without.
+#if MODAL_RT_HAS_VIEW
+    ENSURE(tool("view --help", out) == 0 && contains(out, "usage") && contains(out, "--frame-rate HZ (60)"));
+    ENSURE(tool("view --basis x.mrt --frobnicate", out) == 2 && contains(out, "unknown option '--frobnicate'"));
+#else
+    ENSURE(tool("view --help", out) == 1 && contains(out, "built without the view"));
+#endif
     ENSURE(tool("run --help", out) == 0 && contains(out, "--session") && contains(out, "--hold S (0.5)"));
     ENSURE(tool("serve --help", out) == 0 && contains(out, "--peer-timeout S (1)") && !contains(out, "--session") &&
            contains(out, "--frame-rate HZ (run 10, serve 0)"));

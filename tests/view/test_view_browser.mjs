@@ -18,6 +18,7 @@
 //   - Live -> Modes (space, mode, amplification changed) -> Validation -> Live leaves the live
 //     amplification, colour scale, active space and status word as they were; each tab has its own
 //     legend; the validation table follows the modal-only/corrected switch.
+//   - on Ctrl-C it exits 0 and its haptic thread (the run loop with the mouse device) allocated nothing.
 // Usage: node test_view_browser.mjs --modal-rt BIN --basis FILE [--screenshot PNG]
 import { spawn } from 'node:child_process';
 import { writeFileSync } from 'node:fs';
@@ -57,6 +58,9 @@ function measureCanvas() {
 }
 
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+let serverOut = '';
+server.stdout.on('data', (d) => { serverOut += d; });
+const serverExit = new Promise((resolve) => server.on('exit', (code) => resolve(code)));
 const url = await new Promise((resolve, reject) => {
   let out = '';
   server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
@@ -138,6 +142,14 @@ try {
   await checkPlotKept(page);
   await checkTabsOwnTheirState(page);
   await checkValidationTable(page);
+
+  // Ctrl-C: the run loop stops cleanly and says how it ran; the mouse device, like every device of
+  // the loop, allocated nothing in the haptic thread.
+  server.kill('SIGINT');
+  const code = await serverExit;
+  const loop = serverOut.match(/modal-rt view: (\d+) ticks .* (\d+) allocations in the haptic thread/);
+  check(code === 0 && loop !== null && Number(loop[1]) > 1000 && Number(loop[2]) === 0,
+    `modal-rt view exits 0 on SIGINT, no allocation in the haptic thread: ${loop ? loop[0] : serverOut}`);
 } finally {
   await browser.close();
   server.kill('SIGINT');

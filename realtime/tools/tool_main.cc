@@ -1,4 +1,4 @@
-// modal-rt: looks into a .mrt basis file and checks the kernel against it.
+// modal-rt: looks into a .mrt basis file, checks the kernel against it, and plays sessions.
 //
 //   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, section sizes
 //   modal-rt verify --basis FILE   replays the stored full-FE validation cases through the kernel and
@@ -9,12 +9,10 @@
 //                                  (run_command.cc; realtime/README.md)
 //   modal-rt serve --basis FILE --output-dir DIR ...
 //                                  the same loop for a device that talks UDP (udp_device.cc)
+//   and the commands of the app's extensions (the view: modal-rt view, view/README.md).
 //
 // Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
-#include "run_command.h"
-#ifdef MODAL_RT_WITH_VIEW
-#  include "view_command.h" // view/: the browser view, built when Boost.Beast is found
-#endif
+#include "tool_main.h"
 
 #include <modalrt/modalrt.h>
 
@@ -26,18 +24,23 @@
 
 namespace
 {
+  using modalrt_tool::ToolExtensions;
+
   const double two_pi = 6.283185307179586476925;
 
   // The usage of every command: on stderr with exit status 2 after a bad command line, on stdout
   // with 0 for --help.
-  int usage(bool help = false)
+  int usage(const ToolExtensions &extensions, bool help = false)
   {
-    std::fprintf(help ? stdout : stderr,
-                 "usage: modal-rt info --basis FILE\n"
-                 "       modal-rt verify --basis FILE [--quiet]\n%s%s"
-                 "       modal-rt view --basis FILE [--port P] (view/README.md)\n"
-                 "       modal-rt COMMAND --help\n",
-                 modalrt_tool::run_usage().c_str(), modalrt_tool::serve_usage().c_str());
+    std::string text = "usage: modal-rt info --basis FILE\n"
+                       "       modal-rt verify --basis FILE [--quiet]\n" +
+                       modalrt_tool::run_usage() + modalrt_tool::serve_usage();
+    for (const modalrt_tool::Command &command : extensions.commands)
+      text += command.usage;
+    if (extensions.commands.empty())
+      text += "       modal-rt view: not in this build (view/README.md)\n";
+    text += "       modal-rt COMMAND --help\n";
+    std::fputs(text.c_str(), help ? stdout : stderr);
     return help ? 0 : 2;
   }
 
@@ -166,48 +169,53 @@ namespace
                 pass ? "PASS" : "FAIL");
     return pass ? 0 : 1;
   }
+
+  // info or verify: --basis FILE [--quiet].
+  int basis_command(const std::string &command, int argc, char **argv, const ToolExtensions &extensions)
+  {
+    const char *path  = nullptr;
+    bool        quiet = false;
+    for (int k = 0; k < argc; ++k)
+      {
+        if (std::strcmp(argv[k], "--basis") == 0 && k + 1 < argc)
+          path = argv[++k];
+        else if (std::strcmp(argv[k], "--quiet") == 0)
+          quiet = true;
+        else if (std::strcmp(argv[k], "--help") == 0)
+          return usage(extensions, true);
+        else
+          return usage(extensions);
+      }
+    if (!path)
+      return usage(extensions);
+    Basis basis;
+    if (modalrt_basis_load(path, &basis.handle) != MODALRT_OK)
+      {
+        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", path, modalrt_last_error_message());
+        return 1;
+      }
+    return command == "info" ? info(basis.handle) : verify(basis.handle, path, quiet);
+  }
 } // namespace
 
-int main(int argc, char **argv)
+int modalrt_tool::tool_main(int argc, char **argv, const ToolExtensions &extensions)
 {
   if (argc < 2)
-    return usage();
+    return usage(extensions);
   const std::string command = argv[1];
   if (command == "--help" || command == "-h" || command == "help")
-    return usage(true);
+    return usage(extensions, true);
+  if (command == "info" || command == "verify")
+    return basis_command(command, argc - 2, argv + 2, extensions);
   if (command == "run" || command == "serve")
-    return modalrt_tool::run_command(argc - 2, argv + 2, command == "serve");
+    return run_command(argc - 2, argv + 2, command == "serve", extensions.watch);
+  for (const Command &extension : extensions.commands)
+    if (command == extension.name)
+      return extension.run(argc - 2, argv + 2);
   if (command == "view")
-#ifdef MODAL_RT_WITH_VIEW
-    return modalrt_view::view_command(argc - 2, argv + 2);
-#else
     {
-      std::fprintf(stderr, "modal-rt view: this modal-rt was built without the view (it needs Boost.Beast from "
-                           "libboost-dev at configure time; see view/README.md)\n");
+      std::fprintf(stderr, "modal-rt view: %s\n", built_without_view);
       return 1;
     }
-#endif
-  const char       *path    = nullptr;
-  bool              quiet   = false;
-  for (int k = 2; k < argc; ++k)
-    {
-      if (std::strcmp(argv[k], "--basis") == 0 && k + 1 < argc)
-        path = argv[++k];
-      else if (std::strcmp(argv[k], "--quiet") == 0)
-        quiet = true;
-      else if (std::strcmp(argv[k], "--help") == 0)
-        return usage(true);
-      else
-        return usage();
-    }
-  if (!path || (command != "info" && command != "verify"))
-    return usage();
-
-  Basis basis;
-  if (modalrt_basis_load(path, &basis.handle) != MODALRT_OK)
-    {
-      std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", path, modalrt_last_error_message());
-      return 1;
-    }
-  return command == "info" ? info(basis.handle) : verify(basis.handle, path, quiet);
+  return usage(extensions);
 }

@@ -1,0 +1,61 @@
+// The browser's mouse as a haptic device of the run loop (`modal-rt view`): two HIPs (the second
+// with a modifier key), each pressing a display vertex with a force along its inward normal, or let
+// go. The page sends commands ("press HIP VERTEX FORCE_N", "release HIP") on the server thread; the
+// haptic thread reads the newest through a wait-free triple buffer. The loop runs in admittance: the
+// force is the input; a pressed HIP asks for contact at its vertex (a contact request, as a
+// session's `press` event) and sits there; a released HIP waits above the part.
+#pragma once
+
+#include "devices.h" // realtime/tools
+#include "triple_buffer.h"
+
+#include <modalrt/modalrt.h>
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+
+namespace modalrt_view
+{
+  class MouseDevice final : public modalrt_tool::Device
+  {
+  public:
+    static constexpr std::uint32_t hips = 2;
+
+    explicit MouseDevice(const modalrt_basis *basis);
+
+    // Server thread: a command from a browser; the reply for it ("ok" or "error: ...").
+    std::string command(const std::string &text);
+
+    // Haptic thread (no allocation, no lock).
+    bool                              open(std::string &) override { return true; }
+    void                              close() override {}
+    const modalrt_tool::DeviceSpec   &spec() const override { return spec_; }
+    std::uint32_t                     hip_count() const override { return hips; }
+    bool                              read_state(double t, modalrt_hip_input *inputs) override;
+    modalrt_tool::ContactRequest      contact_request(std::uint32_t hip) override;
+    void                              write_force(std::uint32_t, const double[3]) override {} // admittance only
+    void track_position(std::uint32_t, const double[3], const double[3], bool) override {} // a mouse follows nothing
+    void report_output(std::uint32_t hip, const modalrt_hip_output &output) override { last_[hip] = output; }
+
+  private:
+    // What the browser asks of the HIPs (server thread -> haptic thread).
+    struct Input
+    {
+      std::uint32_t pressed[hips]  = {0, 0};
+      std::uint32_t vertex[hips]   = {0, 0};
+      double        force[hips][3] = {}; // [N] world
+    };
+
+    std::string press(unsigned long hip, std::istringstream &in, const std::string &text);
+
+    std::uint32_t            vertex_count_;
+    const double            *vertices_, *normals_;
+    double                   park_[3] = {};
+    modalrt_tool::DeviceSpec spec_;
+    TripleBuffer<Input>      exchange_;
+    Input                    requested_;          // server thread's
+    Input                    mouse_;              // haptic thread's: this tick's
+    modalrt_hip_output       last_[hips] = {};    // haptic thread's: the last tick's outputs
+  };
+} // namespace modalrt_view
