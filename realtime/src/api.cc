@@ -297,6 +297,9 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
   d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
   d.fail_safe_ramp         = 0.05; // s
+  d.force_rate_limit       = 0.2;  // N per tick: the default device's 10 N in 50 ticks (the fail-safe ramp's slope)
+  d.grasp                  = 0;    // a contact pushes, it does not pull
+  d.reserved2              = 0;
   return d;
 }
 
@@ -358,6 +361,14 @@ int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hip, uint32_t 
 int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip)
 {
   return kernel ? kernel->release(hip) : null_kernel("modalrt_kernel_release_hip: null kernel");
+}
+
+int modalrt_kernel_begin_session(modalrt_kernel *kernel)
+{
+  if (!kernel)
+    return null_kernel("modalrt_kernel_begin_session: null kernel");
+  kernel->begin_session();
+  return MODALRT_OK;
 }
 
 int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space)

@@ -121,7 +121,10 @@ namespace modalrt_tool
       {
         apply_events(t);
         apply_frame(t);
-        if (!device_.read_state(t, inputs_.data()))
+        const bool fresh = device_.read_state(t, inputs_.data());
+        if (device_.take_session_change())
+          modalrt_kernel_begin_session(kernel_); // no contact carries over to a new device session
+        if (!fresh)
           modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
         else if (settings_.impedance)
           modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
