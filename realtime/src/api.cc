@@ -416,6 +416,7 @@ int modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_snapshot **sna
   return guarded([&] {
     auto s   = new modalrt_snapshot;
     s->basis = &kernel->basis;
+    s->owner = kernel;
     s->state.allocate(kernel->basis.max_modes, kernel->def.hip_capacity);
     s->q_f32.assign(kernel->basis.max_modes, 0.0f);
     *snapshot = s;
@@ -427,10 +428,14 @@ void modalrt_snapshot_destroy(modalrt_snapshot *snapshot) { delete snapshot; }
 
 int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot)
 {
-  if (!kernel || !snapshot || snapshot->basis != &kernel->basis ||
-      snapshot->state.contact_vertices.size() != kernel->def.hip_capacity)
+  if (!kernel || !snapshot)
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_snapshot_read: null argument");
+  // Refused by owner, not by capacities: two kernels of the same basis and capacities have
+  // snapshots of the same sizes, and a snapshot read from the wrong one shows the wrong part.
+  if (snapshot->owner != kernel)
     return failed(MODALRT_ERROR_INVALID_ARGUMENT,
-                  "modalrt_kernel_snapshot_read: null argument, or a snapshot created for another kernel");
+                  "modalrt_kernel_snapshot_read: the snapshot was created for another kernel (modalrt_snapshot_create "
+                  "binds a snapshot to its kernel)");
   return read_snapshot(*kernel, *snapshot);
 }
 
@@ -458,8 +463,11 @@ const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapsho
 int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
                                   double *corrections, uint32_t *count)
 {
-  if (!snapshot || !count || (capacity > 0 && (!vertices || !corrections)))
-    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_contacts");
+  if (!snapshot || !count)
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_contacts: null snapshot or count");
+  if (capacity > 0 && (!vertices || !corrections))
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT,
+                  "modalrt_snapshot_get_contacts: null vertices or corrections with capacity > 0");
   const modalrt::SnapshotState &s = snapshot->state;
   const std::uint32_t           n = std::min(capacity, s.contact_count);
   std::copy_n(s.contact_vertices.data(), n, vertices);

@@ -535,8 +535,9 @@ MODALRT_API int  modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_s
 MODALRT_API void modalrt_snapshot_destroy(modalrt_snapshot *snapshot);
 
 /* Copies the latest published state into `snapshot` (triple buffer: wait-free for both sides, one
- * reader thread at a time). Returns 1 if the state is newer than the previous read, 0 if not, or
- * ERROR_INVALID_ARGUMENT (null argument, a snapshot of another kernel). */
+ * reader thread at a time). A snapshot reads only the kernel it was created for. Returns 1 if the
+ * state is newer than the previous read, 0 if not, or ERROR_INVALID_ARGUMENT (null argument, a
+ * snapshot created for another kernel, even one of the same basis and capacities). */
 MODALRT_API int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot);
 
 typedef struct modalrt_snapshot_info
@@ -558,7 +559,9 @@ MODALRT_API const double *modalrt_snapshot_modal_coordinates(const modalrt_snaps
 /* The snapshot's contacts at candidates, for a display that reconstructs elsewhere (a GPU): the
  * active vertex of each of the first contact_count contacts and its static correction C F [m] (body
  * frame), which modalrt_display_reconstruct spreads over the patch with (1 - (d/rho)^2)^2. Copies at
- * most `capacity` contacts; *count is the number copied. Read only, no allocation. */
+ * most `capacity` contacts; *count is the number copied. Read only, no allocation.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null snapshot or count, null vertices or corrections with
+ * capacity > 0). */
 MODALRT_API int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
                                               double *corrections, uint32_t *count);
 
