@@ -297,6 +297,9 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
   d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
   d.fail_safe_ramp         = 0.05; // s
+  d.force_rate_limit       = 0.2;  // N per tick: the default device's 10 N in 50 ticks (the fail-safe ramp's slope)
+  d.grasp                  = 0;    // a contact pushes, it does not pull
+  d.reserved2              = 0;
   return d;
 }
 
@@ -360,6 +363,14 @@ int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip)
   return kernel ? kernel->release(hip) : null_kernel("modalrt_kernel_release_hip: null kernel");
 }
 
+int modalrt_kernel_begin_session(modalrt_kernel *kernel)
+{
+  if (!kernel)
+    return null_kernel("modalrt_kernel_begin_session: null kernel");
+  kernel->begin_session();
+  return MODALRT_OK;
+}
+
 int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space)
 {
   return kernel ? kernel->switch_space(space) : null_kernel("modalrt_kernel_switch_space: null kernel");
@@ -405,6 +416,7 @@ int modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_snapshot **sna
   return guarded([&] {
     auto s   = new modalrt_snapshot;
     s->basis = &kernel->basis;
+    s->owner = kernel;
     s->state.allocate(kernel->basis.max_modes, kernel->def.hip_capacity);
     s->q_f32.assign(kernel->basis.max_modes, 0.0f);
     *snapshot = s;
@@ -416,10 +428,14 @@ void modalrt_snapshot_destroy(modalrt_snapshot *snapshot) { delete snapshot; }
 
 int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot)
 {
-  if (!kernel || !snapshot || snapshot->basis != &kernel->basis ||
-      snapshot->state.contact_vertices.size() != kernel->def.hip_capacity)
+  if (!kernel || !snapshot)
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_snapshot_read: null argument");
+  // Refused by owner, not by capacities: two kernels of the same basis and capacities have
+  // snapshots of the same sizes, and a snapshot read from the wrong one shows the wrong part.
+  if (snapshot->owner != kernel)
     return failed(MODALRT_ERROR_INVALID_ARGUMENT,
-                  "modalrt_kernel_snapshot_read: null argument, or a snapshot created for another kernel");
+                  "modalrt_kernel_snapshot_read: the snapshot was created for another kernel (modalrt_snapshot_create "
+                  "binds a snapshot to its kernel)");
   return read_snapshot(*kernel, *snapshot);
 }
 
@@ -447,8 +463,11 @@ const double *modalrt_snapshot_modal_coordinates(const modalrt_snapshot *snapsho
 int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
                                   double *corrections, uint32_t *count)
 {
-  if (!snapshot || !count || (capacity > 0 && (!vertices || !corrections)))
-    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_contacts");
+  if (!snapshot || !count)
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_contacts: null snapshot or count");
+  if (capacity > 0 && (!vertices || !corrections))
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT,
+                  "modalrt_snapshot_get_contacts: null vertices or corrections with capacity > 0");
   const modalrt::SnapshotState &s = snapshot->state;
   const std::uint32_t           n = std::min(capacity, s.contact_count);
   std::copy_n(s.contact_vertices.data(), n, vertices);

@@ -124,6 +124,7 @@ void modalrt_kernel::end_contact(std::uint32_t hip) noexcept
   std::fill_n(c.correction, 3, 0.0);
   std::fill_n(c.anchor, 3, 0.0);
   contacts_changed_ = true;
+  ramping_[hip]     = 1; // the device's force ramps to zero (no step of the kernel's own)
 }
 
 // B of the active vertex in the active space: the stored candidate block (with its static
@@ -314,3 +315,14 @@ int modalrt_kernel::release(std::uint32_t hip) noexcept
   return MODALRT_OK;
 }
 
+// Every HIP released and disarmed: a HIP of the new session must approach from outside the surface.
+void modalrt_kernel::begin_session() noexcept
+{
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    {
+      if (contacts_[h].in_contact)
+        end_contact(h);
+      contacts_[h].armed = false;
+    }
+  refresh_contact_set();
+}

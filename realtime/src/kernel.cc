@@ -16,6 +16,24 @@ using namespace modalrt;
 
 namespace
 {
+  // Moves `to` within `limit` of `from` (along the difference, so |to| stays within the larger of the
+  // two magnitudes); true if it had to.
+  bool limit_change(const double from[3], double to[3], double limit)
+  {
+    double change[3];
+    for (int d = 0; d < 3; ++d)
+      change[d] = to[d] - from[d];
+    const double size = norm3(change);
+    if (size <= limit)
+      return false;
+    for (int d = 0; d < 3; ++d)
+      to[d] = from[d] + change[d] * (limit / size);
+    return true;
+  }
+
+  // A flags_ bit of the kernel's own (never output): the contact's force would pull, release it.
+  constexpr std::uint32_t would_pull = 1u << 31;
+
   std::uint64_t now_ns()
   {
     return std::uint64_t(
@@ -84,6 +102,12 @@ namespace
             MODALRT_ERROR_INVALID_ARGUMENT,
             cat("fail_safe_ramp = ", d.fail_safe_ramp, " s, expected > 0 and <= 10: the force must ramp to zero, "
                 "never step"));
+    require(std::isfinite(d.force_rate_limit) && d.force_rate_limit > 0.0 && d.force_rate_limit <= d.device.max_force,
+            MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("force_rate_limit = ", d.force_rate_limit, " N per tick, expected > 0 and <= device.max_force (",
+                d.device.max_force, " N)"));
+    require(d.grasp <= 1, MODALRT_ERROR_INVALID_ARGUMENT, cat("grasp = ", d.grasp, ", expected 0 or 1"));
+    require(d.reserved2 == 0, MODALRT_ERROR_INVALID_ARGUMENT, cat("reserved2 = ", d.reserved2, " must be 0"));
   }
 } // namespace
 
@@ -113,6 +137,8 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   last_outputs_.assign(H, modalrt_hip_output{});
   for (modalrt_hip_output &o : last_outputs_)
     o.active_vertex = MODALRT_NONE;
+  commanded_.assign(3 * std::size_t(H), 0.0);
+  ramping_.assign(H, 0);
   active_.assign(H, 0);
   for (modalrt::Vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
     m->assign(9 * std::size_t(H) * H, 0.0);
@@ -144,6 +170,8 @@ int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, m
       stats.last_reject_reasons = reasons;
       return fail_safe(std::min(count, def.hip_capacity), outputs);
     }
+  if (stats.fail_safe_run > 0) // the recovery after a fault: the force returns at the rate limit
+    std::fill(ramping_.begin(), ramping_.end(), 1u);
   stats.fail_safe_run = 0;
 
   std::fill(flags_.begin(), flags_.end(), 0u);
@@ -194,6 +222,7 @@ int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) 
       for (int d = 0; d < 3; ++d)
         outputs[h].force[d] *= scale;
       outputs[h].flags = MODALRT_HIP_FAIL_SAFE;
+      std::copy_n(outputs[h].force, 3, &commanded_[3 * std::size_t(h)]);
     }
   if (scale < 1.0 && held_force)
     ++stats.dropout_ticks;
@@ -280,6 +309,13 @@ void modalrt_kernel::impedance_step() noexcept
           ++stats.clamped_forces;
         }
       std::copy_n(F, 3, contacts_[active_[a]].force);
+      if (!def.grasp && dot3(F, contacts_[active_[a]].normal) > 0.0)
+        {
+          flags_[active_[a]] |= would_pull; // released after this step, without a force on the part
+          std::fill_n(contacts_[active_[a]].force, 3, 0.0);
+        }
+      else if (ramping_[active_[a]])
+        limit_contact_force(active_[a]);
     }
 
   std::fill_n(f_.data(), r, 0.0);
@@ -291,6 +327,50 @@ void modalrt_kernel::impedance_step() noexcept
       v_[i] = flush(v_free_[i] + g2[i] * f_[i]);
     }
   update_corrections();
+  release_pulling_contacts();
+}
+
+// The force on the part of ramping contact `hip` moves by at most force_rate_limit from the force last
+// commanded on its device (world, the opposite of the force on the part).
+void modalrt_kernel::limit_contact_force(std::uint32_t hip) noexcept
+{
+  double *F = contacts_[hip].force, target[3], pushed[3];
+  rotate(frame_.rotation, F, pushed);
+  for (int d = 0; d < 3; ++d)
+    target[d] = -pushed[d];
+  if (!limit_change(&commanded_[3 * std::size_t(hip)], target, def.force_rate_limit))
+    {
+      ramping_[hip] = 0; // caught up: the coupling's force from here on
+      return;
+    }
+  flags_[hip] |= MODALRT_HIP_FORCE_RAMPING;
+  for (int d = 0; d < 3; ++d)
+    target[d] = -target[d];
+  rotate_back(frame_.rotation, target, F);
+}
+
+// Released HIPs (and HIPs absent from the tick): the commanded force ramps to zero.
+void modalrt_kernel::ramp_released_force(std::uint32_t hip, double force_world[3]) noexcept
+{
+  std::fill_n(force_world, 3, 0.0);
+  if (!ramping_[hip])
+    return;
+  if (limit_change(&commanded_[3 * std::size_t(hip)], force_world, def.force_rate_limit))
+    flags_[hip] |= MODALRT_HIP_FORCE_RAMPING;
+  else
+    ramping_[hip] = 0;
+}
+
+// Contacts whose coupling force would have pulled (marked by impedance_step, their force on the part
+// already zero) end after the step: a surface pushes, it does not stick (unless def.grasp).
+void modalrt_kernel::release_pulling_contacts() noexcept
+{
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    if (flags_[h] & would_pull)
+      {
+        flags_[h] = (flags_[h] & ~would_pull) | MODALRT_HIP_RELEASED;
+        end_contact(h);
+      }
 }
 
 // The static correction of each contact: sum_b C_ab F_b.
@@ -362,9 +442,21 @@ void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outp
               out.velocity[d] = fr.linear_velocity[d] + spin[d] + v[d];
             }
           out.active_vertex = MODALRT_NONE;
+          if (impedance)
+            ramp_released_force(h, out.force);
+          out.flags = flags_[h];
         }
       outputs[h]       = out;
       last_outputs_[h] = out;
+      std::copy_n(out.force, 3, &commanded_[3 * std::size_t(h)]);
+    }
+  // HIPs absent from this tick: nobody renders their force, but a ramp in progress runs on, so that a
+  // HIP that comes back starts from where the ramp would be.
+  for (std::uint32_t h = count; h < def.hip_capacity; ++h)
+    {
+      double zero[3];
+      ramp_released_force(h, zero);
+      std::copy_n(zero, 3, &commanded_[3 * std::size_t(h)]);
     }
 }
 

@@ -72,6 +72,7 @@ struct modalrt_kernel : modalrt::HookAllocated
   int  set_frame(const modalrt_frame_state &state) noexcept;
   int  contact_begin(std::uint32_t hip, std::uint32_t vertex) noexcept;
   int  release(std::uint32_t hip) noexcept;
+  void begin_session() noexcept;
   int  switch_space(std::uint32_t space) noexcept;
   int  settle(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
   void reset() noexcept;
@@ -102,6 +103,11 @@ private:
   void          publish_snapshot() noexcept;
   // The fail-safe rule (modalrt.h): the last safe outputs, force held then ramped, flagged.
   int           fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
+  // No step of the kernel's own (modalrt.h): the commanded force of a ramping HIP moves by at most
+  // force_rate_limit per tick, towards the coupling's force in contact, towards zero after a release.
+  void          limit_contact_force(std::uint32_t hip) noexcept;
+  void          ramp_released_force(std::uint32_t hip, double force_world[3]) noexcept;
+  void          release_pulling_contacts() noexcept;
 
   // Contacts.
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
@@ -129,6 +135,10 @@ private:
   modalrt::Vector<modalrt::BodyInput> body_inputs_;  // hip_capacity
   modalrt::Vector<std::uint32_t>     flags_;         // hip_capacity, MODALRT_HIP_* of this tick
   modalrt::Vector<modalrt_hip_output> last_outputs_; // hip_capacity: the last safe outputs
+  modalrt::Vector<double>            commanded_;     // 3 hip_capacity: the force last commanded on each
+                                                     // device [N] world (impedance), where a ramp starts
+  modalrt::Vector<std::uint32_t>     ramping_;       // hip_capacity: 1 while a change of the kernel's own
+                                                     // is rate-limited (after a fault, after a release)
   modalrt::Vector<std::uint32_t>     active_;        // HIPs in contact, in HIP order
   std::uint32_t                  active_count_ = 0;
   modalrt::Vector<double>            compliance_;    // (3 hip_capacity)^2: C between active contacts

@@ -126,8 +126,8 @@ namespace modalrt
     while (space < basis.space_count() && local >= basis.spaces[space].validation_count)
       local -= basis.spaces[space++].validation_count;
     if (space == basis.space_count())
-      fail(MODALRT_ERROR_INVALID_ARGUMENT, cat("validation case ", index, " does not exist (the basis has ",
-                                               index - local, ")"));
+      fail(MODALRT_ERROR_INVALID_ARGUMENT, cat("modalrt_basis_verify_case: ", basis.source, ": validation case ",
+                                               index, " does not exist (the basis has ", index - local, ")"));
     const ModalSpace   &s         = basis.spaces[space];
     const std::uint32_t vertex    = s.validation_cases[2 * local];
     const std::uint32_t direction = s.validation_cases[2 * local + 1];

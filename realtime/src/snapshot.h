@@ -62,6 +62,7 @@ namespace modalrt
 struct modalrt_snapshot : modalrt::HookAllocated
 {
   const modalrt_basis   *basis = nullptr;
+  const modalrt_kernel  *owner = nullptr; // the kernel it was created for: the only one it reads
   modalrt::SnapshotState state;
   modalrt::Vector<float>     q_f32; // q in float, for the float32 display modes
 };

@@ -75,6 +75,10 @@ namespace modalrt_tool
     // The kernel's whole output for HIP `hip` (contact, active vertex, space), every tick, for devices
     // that pass it on; the default ignores it.
     virtual void report_output(std::uint32_t, const modalrt_hip_output &) {}
+    // Network devices: true once after the device session changed (a device took the bridge, said
+    // HELLO, restarted, left or timed out); the loop then calls modalrt_kernel_begin_session before
+    // the tick, so no contact carries over from one session to the next.
+    virtual bool take_session_change() { return false; }
     // After the last write of a tick: sends the tick's commands (a network device sends one packet).
     virtual void end_tick() {}
     // The device's own counters (packets, ...), for stats.json; read after the run.

@@ -137,7 +137,12 @@ namespace modalrt_tool
       {
         apply_events(t);
         apply_frame(t);
-        if (device_.read_state(t, inputs_.data()))
+        const bool fresh = device_.read_state(t, inputs_.data());
+        if (device_.take_session_change())
+          modalrt_kernel_begin_session(kernel_); // no contact carries over to a new device session
+        if (!fresh)
+          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
+        else
           {
             apply_contact_requests();
             if (settings_.impedance)
@@ -145,8 +150,6 @@ namespace modalrt_tool
             else
               modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());
           }
-        else
-          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
         for (std::uint32_t h = 0; h < hips_; ++h)
           {
             const modalrt_hip_output &o = outputs_[h];

@@ -615,6 +615,21 @@ namespace modalrt_tool
       if (presses.size() > shown)
         std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);
     }
+    // The verdict on the schedule: late ticks (overruns) and lost ones (missed periods) against the
+    // threshold of realtime/README.md. A late tick repeats the last force for part of a period; up
+    // to one tick in a thousand (one a second at 1 kHz, isolated) is below what a hand feels.
+    constexpr double late_tick_threshold = 1e-3;
+
+    void print_timing_verdict(const HapticResult &h)
+    {
+      const std::uint64_t late     = h.overruns + h.missed_periods;
+      const double        fraction = h.ticks > 0 ? double(late) / double(h.ticks) : 0.0;
+      const bool          fine     = fraction <= late_tick_threshold;
+      std::printf("  timing        %s: %llu of %llu ticks late or lost (%.3g %%), %s the %.1f %% a hand cannot feel%s\n",
+                  fine ? "fine" : "warning", (unsigned long long)late, (unsigned long long)h.ticks, 100.0 * fraction,
+                  fine ? "under" : "above", 100.0 * late_tick_threshold,
+                  fine ? "" : " (real-time priority for the haptic thread, a larger --spin-us or a quieter machine)");
+    }
   } // namespace
 
   void print_summary(const RunReport &r)
@@ -631,6 +646,7 @@ namespace modalrt_tool
     std::printf("  period jitter p99 %.2f us, max %.2f us; overruns %llu, missed periods %llu; %s\n", r.jitter_p99,
                 r.jitter_max, (unsigned long long)h.overruns, (unsigned long long)h.missed_periods,
                 h.realtime_priority ? "SCHED_FIFO" : "default scheduling (SCHED_FIFO not granted)");
+    print_timing_verdict(h);
     std::printf("  kernel        switches %llu (max jump %.3g m), rejected inputs %llu, rejected frames %llu, "
                 "clamped forces %llu\n",
                 (unsigned long long)r.kernel.switch_count, r.kernel.max_switch_jump,

@@ -20,13 +20,14 @@ namespace modalrt_tool
     {
     public:
       explicit UdpDevice(const UdpSettings &settings)
-        : settings_(settings), state_(settings.hips), command_(settings.hips, modalrt_hip_output{})
+        : settings_(settings), state_(settings.hips), parked_(settings.hips), command_(settings.hips, modalrt_hip_output{})
       {
         const modalrt_device_def d = modalrt_device_default_def();
         spec_ = DeviceSpec{"udp bridge (" + settings.bind_address + ":" + std::to_string(settings.port) + ")",
                            d.max_force, d.max_stiffness, d.max_damping, d.physical_damping};
         timeout_ticks_ = std::max<std::uint64_t>(1, std::uint64_t(std::llround(settings.peer_timeout * settings.rate)));
-        for (HipState &s : state_)
+        takeover_ticks_ = std::max<std::uint64_t>(1, std::uint64_t(std::llround(settings.takeover_silence * settings.rate)));
+        for (HipState &s : parked_)
           for (int k = 0; k < 3; ++k)
             s.position[k] = settings.park[k], s.velocity[k] = 0.0, s.force[k] = 0.0;
       }
@@ -80,23 +81,27 @@ namespace modalrt_tool
           }
         ticks_since_fresh_ = fresh ? 0 : ticks_since_fresh_ + 1;
         if (has_peer_ && ticks_since_fresh_ >= timeout_ticks_)
+          end_session(peer_timeouts_); // the peer is gone: the next device may take the slot
+        if (!has_peer_)
           {
-            has_peer_ = false; // the peer is gone: the next device may take the slot
-            ++peer_timeouts_;
+            // Nobody holds the slot: not a missing tick (no device to fail), the HIPs wait parked.
+            copy_inputs(parked_, inputs);
+            return true;
           }
         if (!fresh)
           {
             ++missing_;
             return false;
           }
-        for (std::uint32_t h = 0; h < settings_.hips; ++h)
-          for (int k = 0; k < 3; ++k)
-            {
-              inputs[h].position[k] = state_[h].position[k];
-              inputs[h].velocity[k] = state_[h].velocity[k];
-              inputs[h].force[k]    = state_[h].force[k];
-            }
+        copy_inputs(state_, inputs);
         return true;
+      }
+
+      bool take_session_change() override
+      {
+        const bool changed = session_changed_;
+        session_changed_   = false;
+        return changed;
       }
 
       // The command packet carries the kernel's whole output; the mode only decides what the device
@@ -118,8 +123,9 @@ namespace modalrt_tool
         return {{"packets_received", received_}, {"states_accepted", accepted_}, {"stale_packets", stale_},
                 {"foreign_packets", foreign_},   {"bad_packets", bad_},          {"bad_version_packets", bad_version_},
                 {"refusals_sent", refusals_},    {"sessions", sessions_},        {"hellos", hellos_},
-                {"byes", byes_},                 {"peer_timeouts", peer_timeouts_}, {"missing_ticks", missing_},
-                {"commands_sent", sent_},        {"send_errors", send_errors_}};
+                {"byes", byes_},                 {"peer_timeouts", peer_timeouts_}, {"takeovers", takeovers_},
+                {"restarts", restarts_},         {"missing_ticks", missing_},   {"commands_sent", sent_},
+                {"send_errors", send_errors_}};
       }
 
     private:
@@ -132,24 +138,30 @@ namespace modalrt_tool
           ++send_errors_;
       }
 
-      void refuse(const sockaddr_in &to, std::uint32_t flags)
+      // A refusal echoes the refused packet's sequence number (0 if it has none) and carries the
+      // bridge's tick count (realtime/README.md).
+      void refuse(const sockaddr_in &to, std::uint32_t sequence, std::uint32_t flags)
       {
         ++refusals_;
-        send(to, udp::encode_refusal(buffer_, 0, flags, tick_));
+        send(to, udp::encode_refusal(buffer_, sequence, flags, tick_));
+      }
+
+      static bool same_sender(const sockaddr_in &a, const sockaddr_in &b)
+      {
+        return a.sin_addr.s_addr == b.sin_addr.s_addr && a.sin_port == b.sin_port;
       }
 
       // One datagram in buffer_: true if it is a fresh state from the peer (then copied in).
       bool accept(const sockaddr_in &from, std::size_t size)
       {
-        const bool    from_peer = has_peer_ && from.sin_addr.s_addr == peer_.sin_addr.s_addr &&
-                                  from.sin_port == peer_.sin_port;
+        const bool    from_peer = has_peer_ && same_sender(from, peer_);
         std::uint32_t sequence = 0, flags = 0;
         HipState      decoded[udp::max_hips];
         switch (udp::decode_state(buffer_, size, settings_.hips, sequence, flags, decoded))
           {
             case udp::Verdict::bad_version:
               ++bad_version_;
-              refuse(from, udp::command_bad_version);
+              refuse(from, udp::sequence_of(buffer_, size), udp::command_bad_version);
               return false;
             case udp::Verdict::bad:
               ++bad_;
@@ -157,30 +169,28 @@ namespace modalrt_tool
             case udp::Verdict::good:
               break;
           }
-        if (has_peer_ && !from_peer)
+        const bool hello = (flags & udp::state_hello) != 0;
+        hellos_ += hello ? 1 : 0;
+        if (has_peer_ && !from_peer && !takes_over(hello))
           {
             ++foreign_;
-            refuse(from, udp::command_refused);
+            refuse(from, sequence, udp::command_refused);
             return false;
           }
         if (flags & udp::state_bye)
           {
             if (from_peer)
-              {
-                has_peer_ = false;
-                ++byes_;
-              }
+              end_session(byes_);
             return false;
           }
-        const bool hello = (flags & udp::state_hello) != 0;
-        hellos_ += hello ? 1 : 0;
-        if (from_peer && !hello && !udp::in_window(sequence, sequence_))
+        if (from_peer && !hello && !udp::in_window(sequence, sequence_) && !counter_restarted(sequence))
           {
             ++stale_;
             return false;
           }
-        if (!from_peer)
-          ++sessions_;
+        if (!from_peer || hello)
+          start_session();
+        restart_run_ = 0;
         std::copy_n(decoded, settings_.hips, state_.begin());
         sequence_ = sequence;
         peer_     = from;
@@ -189,9 +199,58 @@ namespace modalrt_tool
         return true;
       }
 
+      // A HELLO from another sender takes the slot over when the peer has been silent for
+      // takeover_silence: a driver that restarted (new socket, new port) is served at once, while a
+      // second device's HELLO during the peer's ordinary traffic is refused.
+      bool takes_over(bool hello)
+      {
+        if (!hello || ticks_since_fresh_ < takeover_ticks_)
+          return false;
+        ++takeovers_;
+        return true;
+      }
+
+      // The peer restarted its counter without HELLO: `restart_length` consecutive numbers (each one
+      // ahead of the one before) outside the window of the reference. One stale packet, or a repeated
+      // pair (a reordered burst), is not enough.
+      bool counter_restarted(std::uint32_t sequence)
+      {
+        restart_run_  = restart_run_ > 0 && sequence == restart_last_ + 1 ? restart_run_ + 1 : 1;
+        restart_last_ = sequence;
+        if (restart_run_ < udp::restart_length)
+          return false;
+        ++restarts_;
+        session_changed_ = true;
+        return true;
+      }
+
+      void start_session()
+      {
+        ++sessions_;
+        session_changed_ = true;
+      }
+
+      void end_session(std::uint64_t &reason)
+      {
+        ++reason;
+        has_peer_        = false;
+        session_changed_ = true;
+      }
+
+      void copy_inputs(const std::vector<HipState> &from, modalrt_hip_input *inputs) const
+      {
+        for (std::uint32_t h = 0; h < settings_.hips; ++h)
+          for (int k = 0; k < 3; ++k)
+            {
+              inputs[h].position[k] = from[h].position[k];
+              inputs[h].velocity[k] = from[h].velocity[k];
+              inputs[h].force[k]    = from[h].force[k];
+            }
+      }
+
       UdpSettings           settings_;
       DeviceSpec            spec_;
-      std::vector<HipState> state_;
+      std::vector<HipState> state_, parked_;
       std::vector<modalrt_hip_output> command_;
       unsigned char         buffer_[udp::max_packet + 64]; // a bigger datagram is truncated, then refused
       int                   socket_   = -1;
@@ -200,10 +259,12 @@ namespace modalrt_tool
       std::uint32_t         sequence_ = 0;
       std::uint64_t         tick_     = 0;
       std::uint64_t         ticks_since_fresh_ = 0;
-      std::uint64_t         timeout_ticks_     = 1;
+      std::uint64_t         timeout_ticks_     = 1, takeover_ticks_ = 1;
+      bool                  session_changed_   = false;
+      std::uint32_t         restart_run_ = 0, restart_last_ = 0; // consecutive numbers outside the window
       std::uint64_t received_ = 0, accepted_ = 0, stale_ = 0, foreign_ = 0, bad_ = 0, bad_version_ = 0, refusals_ = 0,
                     sessions_ = 0, hellos_ = 0, byes_ = 0, peer_timeouts_ = 0, missing_ = 0, sent_ = 0,
-                    send_errors_ = 0;
+                    send_errors_ = 0, takeovers_ = 0, restarts_ = 0;
     };
   } // namespace
 

@@ -83,6 +83,11 @@ namespace modalrt_tool
       return command_header + hips * command_per_hip;
     }
 
+    std::uint32_t sequence_of(const unsigned char *packet, std::size_t size)
+    {
+      return size >= 12 ? load<std::uint32_t>(packet + 8) : 0;
+    }
+
     std::size_t encode_refusal(unsigned char *packet, std::uint32_t sequence, std::uint32_t flags, std::uint64_t tick)
     {
       header(packet, 0, sequence, flags, tick);

@@ -36,6 +36,10 @@ namespace modalrt_tool
     // 1 .. window ahead is fresh; anything else (the same, older, or farther ahead) is stale.
     constexpr std::uint32_t sequence_window = 1u << 16;
 
+    // Consecutive sequence numbers outside the window (each one ahead of the one before) that make
+    // the bridge take them for a counter restarted without HELLO.
+    constexpr std::uint32_t restart_length = 3;
+
     struct HipState
     {
       double position[3], velocity[3], force[3];
@@ -54,6 +58,9 @@ namespace modalrt_tool
     Verdict decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
                          std::uint32_t &flags, HipState *states);
 
+    // The sequence number field of a datagram (0 if it is shorter than 12 bytes), for a refusal.
+    std::uint32_t sequence_of(const unsigned char *packet, std::size_t size);
+
     // True if `sequence` is 1 .. sequence_window ahead of `last` (the 32-bit counter may wrap).
     inline bool in_window(std::uint32_t sequence, std::uint32_t last)
     {
@@ -67,7 +74,8 @@ namespace modalrt_tool
     std::size_t encode_command(unsigned char *packet, std::uint32_t hips, std::uint32_t sequence, std::uint64_t tick,
                                const modalrt_hip_output *outputs);
 
-    // A refusal: a command header with no HIPs and `flags` (command_refused or command_bad_version).
+    // A refusal: a command header with no HIPs, `flags` (command_refused or command_bad_version), the
+    // refused packet's own sequence number and the bridge's tick count.
     std::size_t encode_refusal(unsigned char *packet, std::uint32_t sequence, std::uint32_t flags, std::uint64_t tick);
   } // namespace udp
 } // namespace modalrt_tool

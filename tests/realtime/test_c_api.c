@@ -120,6 +120,8 @@ int main(int argc, char **argv)
                  "modalrt_basis_get_section");
   EXPECT_FAILURE(modalrt_basis_verify_case(basis, 99999, &verify_case), MODALRT_ERROR_INVALID_ARGUMENT,
                  "validation case 99999");
+  CHECK(strstr(modalrt_last_error_message(), "modalrt_basis_verify_case: ") != NULL); /* the function */
+  CHECK(strstr(modalrt_last_error_message(), argv[1]) != NULL);                        /* and the file */
   EXPECT_FAILURE(modalrt_basis_verify(NULL, NULL), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_basis_verify");
 
   /* Kernel definition. */
@@ -176,6 +178,27 @@ int main(int argc, char **argv)
   EXPECT_FAILURE(modalrt_snapshot_create(NULL, &snapshot), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_create");
   CHECK(modalrt_snapshot_create(kernel, &snapshot) == MODALRT_OK);
   EXPECT_FAILURE(modalrt_kernel_snapshot_read(kernel, NULL), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_snapshot_read");
+  {
+    /* A snapshot of another kernel with the same basis and capacities is refused (it was accepted). */
+    modalrt_kernel   *other          = NULL;
+    modalrt_snapshot *other_snapshot = NULL;
+    modalrt_kernel_def same          = def; /* the same capacities */
+    CHECK(modalrt_kernel_create(basis, &same, &other) == MODALRT_OK);
+    CHECK(modalrt_snapshot_create(other, &other_snapshot) == MODALRT_OK);
+    EXPECT_FAILURE(modalrt_kernel_snapshot_read(kernel, other_snapshot), MODALRT_ERROR_INVALID_ARGUMENT,
+                   "created for another kernel");
+    CHECK(modalrt_kernel_snapshot_read(other, other_snapshot) >= 0);
+    modalrt_snapshot_destroy(other_snapshot);
+    modalrt_kernel_destroy(other);
+  }
+  {
+    /* modalrt_snapshot_get_contacts says what was wrong. */
+    uint32_t count = 0;
+    EXPECT_FAILURE(modalrt_snapshot_get_contacts(snapshot, 1, NULL, NULL, &count), MODALRT_ERROR_INVALID_ARGUMENT,
+                   "null vertices or corrections with capacity > 0");
+    EXPECT_FAILURE(modalrt_snapshot_get_contacts(NULL, 0, NULL, NULL, &count), MODALRT_ERROR_INVALID_ARGUMENT,
+                   "null snapshot or count");
+  }
   EXPECT_FAILURE(modalrt_snapshot_get_info(NULL, &snapshot_info), MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_snapshot_get_info");
   modalrt_basis_get_info(basis, &info);
   EXPECT_FAILURE(modalrt_display_reconstruct(snapshot, 0, info.display_vertex_count + 1, 0, surface),

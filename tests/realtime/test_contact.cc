@@ -111,23 +111,36 @@ namespace
     modalrt_basis_destroy(b);
   }
 
-  void release_impedance()
+  // Impedance release. By default a contact whose force would pull is released at once (a HIP 0.5 mm
+  // above the surface); with grasp = 1 it holds on, pulling, until the HIP is beyond release_distance.
+  // The force of a released HIP ramps to zero at force_rate_limit (no step of the kernel's own).
+  void release_impedance(std::uint32_t grasp)
   {
     modalrt_basis *b = test::load(modalrt::make_lattice_cantilever(lattice));
     modalrt_kernel_def def = modalrt_kernel_default_def();
+    def.grasp              = grasp;
     modalrt_kernel    *k   = test::create(b, def);
     const std::uint32_t v  = vertex(4, 1);
     modalrt_hip_input   in = above(b, v, -0.002);
     modalrt_hip_output  out;
     modalrt_kernel_tick_impedance(k, &in, 1, &out);
     ENSURE(out.in_contact == 1 && out.active_vertex == v && out.force[2] > 0.0); // pushed back out
-    in.position[2] = rest(b, v)[2] + 0.0005; // above the surface, within release_distance: kept
-    for (int n = 0; n < 50; ++n)
-      modalrt_kernel_tick_impedance(k, &in, 1, &out);
-    ENSURE(out.in_contact == 1);
-    in.position[2] = rest(b, v)[2] + 0.002; // beyond: released
+    const double pushed = out.force[2];
+    in.position[2] = rest(b, v)[2] + 0.0005; // above the surface, within release_distance
     modalrt_kernel_tick_impedance(k, &in, 1, &out);
-    ENSURE(out.in_contact == 0 && (out.flags & MODALRT_HIP_RELEASED) && out.force[2] == 0.0);
+    if (grasp)
+      {
+        for (int n = 0; n < 50; ++n)
+          modalrt_kernel_tick_impedance(k, &in, 1, &out);
+        ENSURE(out.in_contact == 1 && out.force[2] < 0.0); // kept, pulled into the part
+        in.position[2] = rest(b, v)[2] + 0.002; // beyond: released
+        modalrt_kernel_tick_impedance(k, &in, 1, &out);
+      }
+    ENSURE(out.in_contact == 0 && (out.flags & MODALRT_HIP_RELEASED));
+    ENSURE(std::fabs(out.force[2]) <= std::fabs(pushed) + def.force_rate_limit);
+    for (int n = 0; n < 60; ++n)
+      modalrt_kernel_tick_impedance(k, &in, 1, &out);
+    ENSURE(out.in_contact == 0 && out.force[2] == 0.0);
     modalrt_kernel_destroy(k);
     modalrt_basis_destroy(b);
   }
@@ -157,7 +170,9 @@ namespace
     ENSURE(out.in_contact == 1 && out.force[0] < 0.0); // the device is pulled back towards the contact
     in.position[0] = rest(b, v)[0] + drag;
     modalrt_kernel_tick_impedance(k, &in, 1, &out);
-    ENSURE(out.in_contact == 0 && (out.flags & MODALRT_HIP_RELEASED));
+    ENSURE(out.in_contact == 0 && (out.flags & MODALRT_HIP_RELEASED) && (out.flags & MODALRT_HIP_FORCE_RAMPING));
+    for (int n = 0; n < 60; ++n) // the force ramps to zero at force_rate_limit: 10 N in 50 ticks
+      modalrt_kernel_tick_impedance(k, &in, 1, &out);
     ENSURE(out.force[0] == 0.0 && out.force[1] == 0.0 && out.force[2] == 0.0);
     std::printf("  dragged %g m sideways at 2 mm depth: released (release_drag_distance %g m)\n", drag,
                 def.release_drag_distance);
@@ -267,7 +282,8 @@ int main()
 {
   snap_and_release_admittance();
   snap_to_the_deformed_surface();
-  release_impedance();
+  release_impedance(0);
+  release_impedance(1);
   release_by_drag(0.02); // the contact point follows the pull by a few mm on this soft lattice
   release_by_drag(1.0);
   switch_with_and_without_transfer();

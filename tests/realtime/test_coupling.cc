@@ -105,6 +105,7 @@ namespace
     modalrt_kernel_def def = modalrt_kernel_default_def();
     def.hip_capacity       = hips;
     def.switch_rule        = MODALRT_SWITCH_NEVER; // stay in the global space (fewest modes, largest correction)
+    def.grasp              = 1; // the coupling's steady state: the soft part's first swing must not release it
     modalrt_kernel *k      = test::create(b, def);
 
     const std::uint32_t vertices[2] = {modalrt::lattice_display_vertex(o, 7, 1), modalrt::lattice_display_vertex(o, 5, 2)};

@@ -183,6 +183,22 @@ time,hip,event,x,y,z
 1.5,-,end
 )";
 
+  // No scripted press pulls (issue 39: each ended in -0.87 to -1.0 N before its release): on the
+  // lattice's top face the outward normal is +z, so the force rendered on the device along it,
+  // hiph_fz of trace.csv, is never attractive beyond 1e-9 N, in contact or ramping after a release.
+  double most_pull(const std::string &dir, std::uint32_t hips)
+  {
+    const auto trace = read_csv(dir + "/trace.csv");
+    double     pull  = 0.0;
+    for (std::uint32_t h = 0; h < hips; ++h)
+      {
+        const std::size_t fz = column(trace[0], "hip" + std::to_string(h) + "_fz");
+        for (std::size_t r = 1; r < trace.size(); ++r)
+          pull = std::max(pull, -std::stod(trace[r][fz]));
+      }
+    return pull;
+  }
+
   void impedance_session()
   {
     write_text("run_two_hips.csv", two_hip_session);
@@ -210,6 +226,12 @@ time,hip,event,x,y,z
         ENSURE(contains(read_text(dir + "/frames/frame_000000.vtu"), "Name=\"displacement\""));
         // At least HIP 0 on the tip, HIP 1 near the root, HIP 0 again after the release event.
         ENSURE(check_presses(dir, 2).size() >= 1 + 3);
+        const double pull = most_pull(dir, 2);
+        ENSURE(pull <= 1e-9);
+        std::printf("  most attractive force on the device over the session: %.3g N\n", pull);
+        // The schedule's verdict, against the documented threshold of 0.1 % late ticks.
+        ENSURE(contains(out, "  timing        fine: ") || contains(out, "  timing        warning: "));
+        ENSURE(contains(out, "the 0.1 % a hand cannot feel"));
         if (plot.empty())
           check_plot(dir, out);
         else

@@ -5,13 +5,19 @@
 //      with an infinite position or with an unknown flag bit (ignored and counted).
 //   2. Lock-outs that must not happen: a packet 2^31 - 1 ahead is stale, not adopted (the next
 //      ordinary packet is accepted); a counter restarted at 0 with HELLO is accepted at once.
-//   3. A second device gets a refusal packet (REFUSED); an old client (version 1) gets BAD_VERSION.
+//      Restarts (issue 39): the counter restarted mid-press on the same port without HELLO is
+//      recognized after 3 packets; a driver restarted on a new port says HELLO and takes over at
+//      once (the peer silent for 50 ms). Each is a new session: the contact is released, its force
+//      ramps to zero at the kernel's rate limit (no step), no command has zero force in contact.
+//   3. A second device gets a refusal packet (REFUSED) echoing its sequence number; an old client
+//      (version 1) gets BAD_VERSION.
 //   4. The client falls silent mid-press: every command from the next tick on carries the FAIL_SAFE
 //      flag; the force is held, then ramps down to zero without a step; commands keep coming at the
 //      loop's rate until the peer timeout (1 s) frees the slot.
-//   5. The second device (a restart on another port) then takes the slot, leaves with BYE, and the
-//      first client comes back with a counter restarted at 0 without HELLO: accepted (slot free).
-// The only timing asserted is the command rate, within a factor of 2.
+//   5. The second device (a restart on another port) then takes the slot (no contact carried over
+//      from the client's press), leaves with BYE, and the first client comes back with a counter
+//      restarted at 0 without HELLO: accepted (slot free), its first command not in contact.
+// The only timing asserted is the command rate, within a factor of 2, and the takeover's promptness.
 #include "test_support.h"
 
 #include <algorithm>
@@ -36,6 +42,7 @@ namespace
 
   constexpr std::uint32_t fail_safe_flag = 1u, refused_flag = 2u, bad_version_flag = 4u;
   constexpr std::uint32_t hello = 1u, bye = 2u;
+  constexpr std::uint32_t ramping_flag = 64u, released_flag = 2u, contact_started_flag = 1u;
 
   struct Reply
   {
@@ -45,6 +52,7 @@ namespace
     std::uint64_t tick;
     double        force[3];
     std::uint32_t in_contact, hip_flags;
+    std::uint32_t client; // which socket received it (0 the client, 1 its restart on a new port)
   };
 
   int udp_socket()
@@ -91,7 +99,7 @@ namespace
   // Every packet waiting on the socket: "MRTC", u16 version, u16 n, u32 sequence, u32 flags, u64
   // tick, then per HIP force[3], position[3], velocity[3] f64, in_contact, vertex, space, flags u32.
   // A refusal has n = 0 (24 bytes).
-  void drain(int s, std::vector<Reply> &replies)
+  void drain(int s, std::vector<Reply> &replies, std::uint32_t client = 0)
   {
     unsigned char buffer[512];
     for (;;)
@@ -100,7 +108,8 @@ namespace
         if (size < 0)
           return;
         Reply r{};
-        r.size = std::size_t(size);
+        r.size   = std::size_t(size);
+        r.client = client;
         if (size < 24 || std::memcmp(buffer, "MRTC", 4) != 0)
           {
             test::report(false, __FILE__, __LINE__, "malformed command packet");
@@ -142,10 +151,316 @@ namespace
     return child;
   }
 
-  void pause_and_drain(int s, std::vector<Reply> &replies, int microseconds)
+  void pause_and_drain(int s, std::vector<Reply> &replies, int microseconds, std::uint32_t client = 0)
   {
     std::this_thread::sleep_for(std::chrono::microseconds(microseconds));
-    drain(s, replies);
+    drain(s, replies, client);
+  }
+
+  // The largest change of force between consecutive commands of replies[from, to) (both in the
+  // same session's ticks), and how many were in contact with zero force.
+  struct Steps
+  {
+    double      largest = 0.0;
+    std::size_t zero_in_contact = 0;
+  };
+  Steps force_steps(const std::vector<Reply> &replies, std::size_t from, std::size_t to)
+  {
+    Steps s;
+    for (std::size_t k = from; k < to; ++k)
+      {
+        const Reply &r = replies[k];
+        if (r.hips != 1)
+          continue;
+        if (r.in_contact && r.force[0] == 0.0 && r.force[1] == 0.0 && r.force[2] == 0.0)
+          ++s.zero_in_contact;
+        if (k > from && replies[k - 1].hips == 1 && r.tick == replies[k - 1].tick + 1)
+          {
+            const double d[3] = {r.force[0] - replies[k - 1].force[0], r.force[1] - replies[k - 1].force[1],
+                                 r.force[2] - replies[k - 1].force[2]};
+            s.largest = std::max(s.largest, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+          }
+      }
+    return s;
+  }
+  // The client side of the test: the client's socket (and the socket of its restart on a new port),
+  // a second device, every command received, the client's sequence counter and HIP position.
+  struct Clients
+  {
+    sockaddr_in        server{};
+    int                client = udp_socket(), restarted = udp_socket(), stranger = udp_socket();
+    std::vector<Reply> replies, stranger_replies;
+    std::uint32_t      sequence = 1000;
+    double             x[3]     = {0.125, 0.025, 0.015};
+
+    // `packets` states at `at`, one every 0.5 ms, reading the commands in between.
+    void hold(const double *at, int packets)
+    {
+      for (int k = 0; k < packets; ++k)
+        {
+          send_to(client, server, state_packet(++sequence, at));
+          pause_and_drain(client, replies, 500);
+        }
+    }
+    // Out of the surface and in again (a released HIP snaps only once it has left the surface).
+    void press_again()
+    {
+      for (int k = 0; k <= 500; ++k)
+        {
+          const double depth = k < 100 ? 0.0 : 0.007 * std::min(1.0, (k - 100) / 300.0);
+          const double at[3] = {x[0], x[1], 0.015 - depth};
+          send_to(client, server, state_packet(++sequence, at));
+          pause_and_drain(client, replies, 500);
+        }
+      ENSURE(!replies.empty() && replies.back().in_contact == 1);
+    }
+  };
+
+  struct Teleport
+  {
+    std::uint32_t first, last; // sequence numbers of the states 1 m deep
+  };
+
+  // 1. HELLO, hover above the tip until the bridge answers, press 7 mm down onto the top face, then
+  // faults while pressing. The HIP teleports 1 m into the part: the force felt must stay within the
+  // device's limit from the first tick that sees it. Then, back on the surface, packets arrive out
+  // of order and twice (both stale), one with an infinite position and one with an unknown flag bit
+  // (both bad).
+  Teleport press_with_faults(Clients &c)
+  {
+    for (int k = 0; k < 20000 && c.replies.empty(); ++k) // HELLO until the bridge, starting, answers
+      {
+        send_to(c.client, c.server, state_packet(++c.sequence, c.x, hello));
+        pause_and_drain(c.client, c.replies, 500);
+      }
+    ENSURE(!c.replies.empty());
+    for (int k = 0; k <= 800; ++k)
+      {
+        c.x[2] = 0.015 - 0.007 * std::min(1.0, k / 400.0);
+        send_to(c.client, c.server, state_packet(++c.sequence, c.x));
+        pause_and_drain(c.client, c.replies, 500);
+      }
+    const double deep[3] = {c.x[0], c.x[1], c.x[2] - 1.0};
+    Teleport     t{c.sequence + 1, 0};
+    c.hold(deep, 120); // long enough for the limit to be reached even after a late packet (the force
+                       // then comes back at the kernel's rate limit, 0.2 N per tick)
+    t.last = c.sequence;
+    c.hold(c.x, 100);
+    send_to(c.client, c.server, state_packet(c.sequence + 2, c.x));
+    send_to(c.client, c.server, state_packet(c.sequence + 1, deep)); // older than the packet before it
+    send_to(c.client, c.server, state_packet(c.sequence + 2, deep)); // the same number again
+    c.sequence += 2;
+    send_to(c.client, c.server,
+            with_number(state_packet(++c.sequence, c.x), 0, std::numeric_limits<double>::infinity()));
+    send_to(c.client, c.server, state_packet(++c.sequence, c.x, 1u << 7)); // a reserved flag bit
+    c.hold(c.x, 50);
+    // 2. No lock-out: a packet 2^31 - 1 ahead is stale (a "newer than the last" rule would have
+    // adopted it and ignored the device for 24.8 days); the next ordinary packet is accepted.
+    send_to(c.client, c.server, state_packet(c.sequence + 0x7FFFFFFFu, deep));
+    c.hold(c.x, 50);
+    return t;
+  }
+
+  // A device that restarts its counter at 0 says HELLO: accepted at once, a new session (released).
+  // Then it restarts its counter mid-press on the same port, without HELLO: 3 consecutive numbers
+  // outside the window are a restart (a new session), not 450 zero-force commands in contact.
+  void restart_counter(Clients &c)
+  {
+    const std::size_t before_hello = c.replies.size();
+    c.sequence                     = 0;
+    send_to(c.client, c.server, state_packet(c.sequence, c.x, hello));
+    c.hold(c.x, 100);
+    bool hello_released = false;
+    for (std::size_t k = before_hello; k < c.replies.size(); ++k)
+      hello_released = hello_released || (c.replies[k].sequence <= 100 && c.replies[k].in_contact == 0 && c.replies[k].hips == 1);
+    ENSURE(hello_released);
+    c.press_again();
+
+    const std::size_t before_restart = c.replies.size();
+    c.sequence                       = 5;
+    c.hold(c.x, 100);
+    const Steps same_port    = force_steps(c.replies, before_restart, c.replies.size());
+    bool        restart_seen = false, restart_released = false;
+    for (std::size_t k = before_restart; k < c.replies.size(); ++k)
+      if (c.replies[k].hips == 1 && c.replies[k].sequence <= 106 && c.replies[k].sequence >= 6)
+        restart_seen = true, restart_released = restart_released || (c.replies[k].in_contact == 0);
+    ENSURE(restart_seen && restart_released);
+    ENSURE(same_port.zero_in_contact == 0);
+    std::printf("counter restart on the same port: largest force step %.4f N, %zu zero-force commands in contact\n",
+                same_port.largest, same_port.zero_in_contact);
+    c.press_again();
+  }
+
+  // The driver restarts on a new port (a new socket) with HELLO after 60 ms of silence: served at
+  // once (it used to be refused for 0.98 s), released, the force ramping down without a step. The
+  // restarted driver is the client from here on.
+  void restart_on_new_port(Clients &c)
+  {
+    drain(c.client, c.replies);
+    const std::size_t before = c.replies.size();
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+    drain(c.client, c.replies);
+    const auto start = std::chrono::steady_clock::now();
+    c.sequence       = 1;
+    send_to(c.restarted, c.server, state_packet(c.sequence, c.x, hello));
+    double served_after = -1.0;
+    for (int k = 0; k < 200; ++k)
+      {
+        send_to(c.restarted, c.server, state_packet(++c.sequence, c.x));
+        pause_and_drain(c.restarted, c.replies, 500, 1);
+        for (std::size_t j = before; j < c.replies.size() && served_after < 0.0; ++j)
+          if (c.replies[j].client == 1 && c.replies[j].hips == 1)
+            served_after = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      }
+    std::size_t refusals = 0, first_new = c.replies.size();
+    for (std::size_t j = before; j < c.replies.size(); ++j)
+      {
+        refusals += c.replies[j].client == 1 && c.replies[j].hips == 0 ? 1 : 0;
+        if (c.replies[j].client == 1 && c.replies[j].hips == 1 && first_new == c.replies.size())
+          first_new = j;
+      }
+    ENSURE(served_after >= 0.0 && served_after < 0.1);
+    ENSURE(refusals == 0);
+    ENSURE(first_new < c.replies.size() && c.replies[first_new].in_contact == 0 &&
+           !(c.replies[first_new].hip_flags & contact_started_flag));
+    const Steps steps = force_steps(c.replies, first_new, c.replies.size());
+    std::printf("restart on a new port with HELLO: served after %.1f ms, %zu refusals, largest force step %.4f N\n",
+                1e3 * served_after, refusals, steps.largest);
+    std::swap(c.client, c.restarted);
+    c.press_again();
+  }
+
+  // 3. A second device is refused with a packet saying so; an old client (version 1) too. A refusal
+  // echoes the refused packet's sequence number and carries the bridge's tick count.
+  void refusals(Clients &c)
+  {
+    send_to(c.stranger, c.server, state_packet(7, c.x));
+    send_to(c.stranger, c.server, state_packet(8, c.x, 0, 1));
+    for (int k = 0; k < 20; ++k)
+      pause_and_drain(c.stranger, c.stranger_replies, 500);
+    const std::vector<Reply> &r = c.stranger_replies;
+    ENSURE(r.size() == 2);
+    if (r.size() != 2)
+      return;
+    ENSURE(r[0].hips == 0 && r[0].flags == refused_flag);
+    ENSURE(r[1].hips == 0 && r[1].flags == bad_version_flag);
+    ENSURE(r[0].sequence == 7 && r[1].sequence == 8);
+    ENSURE(r[0].tick > 1000 && r[1].tick >= r[0].tick);
+  }
+
+  // 5. The second device takes the free slot (a device restarted on another port), not in contact at
+  // the client's pressed position, then leaves with BYE; the first comes back with its counter
+  // restarted at 0 and no HELLO: accepted, the slot being free, its first command without contact
+  // (issue 39: it was already in contact at the first device's vertex).
+  void second_device_then_return(Clients &c)
+  {
+    c.stranger_replies.clear();
+    for (int k = 0; k < 100; ++k)
+      {
+        send_to(c.stranger, c.server, state_packet(100 + k, c.x));
+        pause_and_drain(c.stranger, c.stranger_replies, 500);
+      }
+    send_to(c.stranger, c.server, state_packet(200, c.x, bye));
+    for (int k = 0; k < 20; ++k)
+      pause_and_drain(c.stranger, c.stranger_replies, 500);
+    ENSURE(!c.stranger_replies.empty() && c.stranger_replies.back().hips == 1);
+    for (const Reply &r : c.stranger_replies)
+      ENSURE(r.in_contact == 0);
+    const std::size_t before_return = c.replies.size();
+    for (std::uint32_t k = 0; k < 100; ++k)
+      {
+        send_to(c.client, c.server, state_packet(k, c.x));
+        pause_and_drain(c.client, c.replies, 500);
+      }
+    // Served again: commands whose tick had one of these states (not fail-safe), whatever the timing.
+    std::size_t served_again = 0;
+    for (std::size_t k = before_return; k < c.replies.size(); ++k)
+      served_again += c.replies[k].hips == 1 && !(c.replies[k].flags & fail_safe_flag) && c.replies[k].sequence < 100 ? 1 : 0;
+    ENSURE(served_again >= 20);
+    for (std::size_t k = before_return; k < c.replies.size(); ++k)
+      if (c.replies[k].hips == 1)
+        {
+          ENSURE(c.replies[k].in_contact == 0);
+          break;
+        }
+  }
+
+  // The tick that took the last state pressed; every later tick of the silence carries FAIL_SAFE,
+  // from the very next tick on; the force is held, then ramps down without a step, and reaches 0.
+  // Commands kept coming at the loop's rate until the peer timeout (1 kHz for 1 s; half of it
+  // allows for a loaded machine).
+  void check_silence(const std::vector<Reply> &replies, std::size_t end, std::uint32_t last, double seconds)
+  {
+    const Reply        *fresh = nullptr;
+    std::vector<double> silent_forces;
+    bool                all_flagged = true;
+    for (std::size_t k = 0; k < end; ++k)
+      {
+        const Reply &r = replies[k];
+        if (r.sequence == last && !(r.flags & fail_safe_flag) && !fresh)
+          fresh = &r;
+        else if (fresh && r.tick > fresh->tick)
+          {
+            all_flagged = all_flagged && (r.flags & fail_safe_flag) && (r.hip_flags & 32u);
+            silent_forces.push_back(norm(r.force));
+          }
+      }
+    ENSURE(fresh && fresh->in_contact == 1 && fresh->force[2] > 0.0);
+    ENSURE(all_flagged && !silent_forces.empty());
+    if (fresh && !silent_forces.empty())
+      {
+        const double held = norm(fresh->force);
+        ENSURE_NEAR(silent_forces.front(), held, 1e-12 * held); // held, not dropped
+        double largest_step = 0.0, previous = held;
+        for (double f : silent_forces)
+          largest_step = std::max(largest_step, previous - f), previous = f;
+        ENSURE(silent_forces.back() == 0.0);
+        // A ramp of 50 ms: at most held / 50 per tick, twice that if the loop missed a period.
+        ENSURE(largest_step <= 2.0 * held / 50.0);
+        std::printf("silence: %.3f N held, then ramped to 0 (largest step %.4f N, %zu fail-safe commands)\n", held,
+                    largest_step, silent_forces.size());
+      }
+    ENSURE(double(silent_forces.size()) >= 0.5 * 1000.0 * std::min(1.0, seconds));
+  }
+
+  // Teleported 1 m deep: every force finite and within the device's limit, the limit reached.
+  void check_teleport(const std::vector<Reply> &replies, const Teleport &t)
+  {
+    const double max_force      = modalrt_device_default_def().max_force;
+    double       teleport_force = 0.0;
+    bool         teleport_seen = false, within_limit = true;
+    for (const Reply &r : replies)
+      {
+        within_limit = within_limit && std::isfinite(norm(r.force)) && norm(r.force) <= max_force * (1.0 + 1e-12);
+        if (r.sequence >= t.first && r.sequence <= t.last && r.sequence > 1000)
+          teleport_seen = true, teleport_force = std::max(teleport_force, norm(r.force));
+      }
+    ENSURE(teleport_seen && within_limit);
+    ENSURE_RELATIVE(teleport_force, max_force, 1e-12);
+  }
+
+  void check_stats()
+  {
+    const std::string stats = read_text("serve_out/stats.json");
+    ENSURE(json_number(stats, "foreign_packets") == 1);
+    ENSURE(json_number(stats, "bad_version_packets") == 1);
+    ENSURE(json_number(stats, "refusals_sent") == 2);
+    ENSURE(json_number(stats, "stale_packets") == 5); // 3, and the first 2 numbers of the restarted counter
+    ENSURE(json_number(stats, "bad_packets") == 2);
+    ENSURE(json_number(stats, "hellos") >= 2); // until the bridge answered, and the counter restart
+    ENSURE(json_number(stats, "byes") == 1);
+    ENSURE(json_number(stats, "peer_timeouts") == 1);
+    // The client (HELLO until answered: each a session start), its HELLO at 0, its restart on a new
+    // port, the second device, the client again; the counter restart without HELLO and the takeover.
+    ENSURE(json_number(stats, "sessions") >= 5);
+    ENSURE(json_number(stats, "restarts") == 1);
+    ENSURE(json_number(stats, "takeovers") == 1);
+    ENSURE(json_number(stats, "clamped_forces") > 0);
+    ENSURE(json_number(stats, "states_accepted") >= 800);
+    ENSURE(json_number(stats, "missing_ticks") > 0);
+    ENSURE(json_number(stats, "allocations_after_start") == 0);
+    ENSURE(json_number(stats, "non_finite_outputs") == 0);
+    ENSURE(stats.find("\"stopped_by\": \"signal\"") != std::string::npos);
   }
 } // namespace
 
@@ -158,180 +473,39 @@ int main()
   const int   port   = 20000 + int(getpid() % 20000);
   const pid_t bridge = start_bridge(port);
 
-  sockaddr_in server{};
-  server.sin_family      = AF_INET;
-  server.sin_port        = htons(std::uint16_t(port));
-  server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  const int          client = udp_socket(), stranger = udp_socket();
-  std::vector<Reply> replies, stranger_replies;
-
-  // 1. HELLO, hover above the tip until the bridge answers, then press 7 mm down onto the top face.
-  std::uint32_t sequence = 1000;
-  double        x[3]     = {0.125, 0.025, 0.015};
-  for (int k = 0; k < 20000 && replies.empty(); ++k) // HELLO until the bridge, starting, answers
-    {
-      send_to(client, server, state_packet(++sequence, x, hello));
-      pause_and_drain(client, replies, 500);
-    }
-  ENSURE(!replies.empty());
-  for (int k = 0; k <= 800; ++k)
-    {
-      x[2] = 0.015 - 0.007 * std::min(1.0, k / 400.0);
-      send_to(client, server, state_packet(++sequence, x));
-      pause_and_drain(client, replies, 500);
-    }
-  auto hold = [&](const double *at, int packets) {
-    for (int k = 0; k < packets; ++k)
-      {
-        send_to(client, server, state_packet(++sequence, at));
-        pause_and_drain(client, replies, 500);
-      }
-  };
-
-  // Faults while pressing. The HIP teleports 1 m into the part: the force felt must stay within the
-  // device's limit from the first tick that sees it. Then, back on the surface, packets arrive out
-  // of order and twice (both stale), one with an infinite position and one with an unknown flag bit
-  // (both bad).
-  const double        deep[3] = {x[0], x[1], x[2] - 1.0};
-  const std::uint32_t teleport_first = sequence + 1;
-  hold(deep, 40);
-  const std::uint32_t teleport_last = sequence;
-  hold(x, 100);
-  send_to(client, server, state_packet(sequence + 2, x));
-  send_to(client, server, state_packet(sequence + 1, deep)); // older than the packet before it
-  send_to(client, server, state_packet(sequence + 2, deep)); // the same number again
-  sequence += 2;
-  send_to(client, server, with_number(state_packet(++sequence, x), 0, std::numeric_limits<double>::infinity()));
-  send_to(client, server, state_packet(++sequence, x, 1u << 7)); // a reserved flag bit
-  hold(x, 50);
-
-  // 2. No lock-out: a packet 2^31 - 1 ahead is stale (a "newer than the last" rule would have adopted
-  // it and ignored the device for 24.8 days); the next ordinary packet is accepted.
-  send_to(client, server, state_packet(sequence + 0x7FFFFFFFu, deep));
-  hold(x, 50);
-  // A device that restarts its counter at 0 says HELLO: accepted at once.
-  sequence = 0;
-  send_to(client, server, state_packet(sequence, x, hello));
-  hold(x, 100);
-  const std::uint32_t last = sequence;
-
-  // 3. A second device is refused with a packet saying so; an old client (version 1) too.
-  send_to(stranger, server, state_packet(7, x));
-  send_to(stranger, server, state_packet(8, x, 0, 1));
-  for (int k = 0; k < 20; ++k)
-    pause_and_drain(stranger, stranger_replies, 500);
-  ENSURE(stranger_replies.size() == 2);
-  ENSURE(stranger_replies.size() == 2 && stranger_replies[0].hips == 0 && stranger_replies[0].flags == refused_flag);
-  ENSURE(stranger_replies.size() == 2 && stranger_replies[1].hips == 0 && stranger_replies[1].flags == bad_version_flag);
+  Clients c;
+  c.server.sin_family      = AF_INET;
+  c.server.sin_port        = htons(std::uint16_t(port));
+  c.server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const Teleport teleport = press_with_faults(c);
+  restart_counter(c);
+  restart_on_new_port(c);
+  const std::uint32_t last = c.sequence;
+  refusals(c);
 
   // 4. The client falls silent (a device unplugged mid-press): the loop keeps its rate; after the
   // peer timeout (1 s) no command is sent any more.
   const auto silence_start = std::chrono::steady_clock::now();
   for (int k = 0; k < 2600; ++k) // 1.3 s
-    pause_and_drain(client, replies, 500);
-  const double silence_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
-  const std::size_t commands_at_silence_end = replies.size();
+    pause_and_drain(c.client, c.replies, 500);
+  const double silence_seconds =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
+  const std::size_t commands_at_silence_end = c.replies.size();
   for (int k = 0; k < 200; ++k)
-    pause_and_drain(client, replies, 500);
-  ENSURE(replies.size() == commands_at_silence_end); // the slot is free: nobody to command
-
-  // 5. The second device takes the free slot (a device restarted on another port), then leaves with
-  // BYE; the first comes back with its counter restarted at 0 and no HELLO: accepted, the slot being
-  // free.
-  stranger_replies.clear();
-  for (int k = 0; k < 100; ++k)
-    {
-      send_to(stranger, server, state_packet(100 + k, x));
-      pause_and_drain(stranger, stranger_replies, 500);
-    }
-  send_to(stranger, server, state_packet(200, x, bye));
-  for (int k = 0; k < 20; ++k)
-    pause_and_drain(stranger, stranger_replies, 500);
-  const bool stranger_served = !stranger_replies.empty() && stranger_replies.back().hips == 1;
-  ENSURE(stranger_served);
-  const std::size_t before_return = replies.size();
-  for (std::uint32_t k = 0; k < 100; ++k)
-    {
-      send_to(client, server, state_packet(k, x));
-      pause_and_drain(client, replies, 500);
-    }
-  // Served again: commands whose tick had one of these states (not fail-safe), whatever the timing.
-  std::size_t served_again = 0;
-  for (std::size_t k = before_return; k < replies.size(); ++k)
-    served_again += replies[k].hips == 1 && !(replies[k].flags & fail_safe_flag) && replies[k].sequence < 100 ? 1 : 0;
-  ENSURE(served_again >= 20);
+    pause_and_drain(c.client, c.replies, 500);
+  ENSURE(c.replies.size() == commands_at_silence_end); // the slot is free: nobody to command
+  second_device_then_return(c);
 
   kill(bridge, SIGINT);
   int status = 0;
   waitpid(bridge, &status, 0);
   std::printf("%s", read_text("serve_output.txt").c_str());
   ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-
-  // The tick that took the last state pressed; every later tick of the silence carries FAIL_SAFE,
-  // from the very next tick on; the force is held, then ramps down without a step, and reaches 0.
-  const Reply *fresh = nullptr;
-  std::vector<double> silent_forces;
-  bool                all_flagged = true;
-  for (std::size_t k = 0; k < commands_at_silence_end; ++k)
-    {
-      const Reply &r = replies[k];
-      if (r.sequence == last && !(r.flags & fail_safe_flag) && !fresh)
-        fresh = &r;
-      else if (fresh && r.tick > fresh->tick)
-        {
-          all_flagged = all_flagged && (r.flags & fail_safe_flag) && (r.hip_flags & 32u);
-          silent_forces.push_back(norm(r.force));
-        }
-    }
-  ENSURE(fresh && fresh->in_contact == 1 && fresh->force[2] > 0.0);
-  ENSURE(all_flagged && !silent_forces.empty());
-  if (fresh && !silent_forces.empty())
-    {
-      const double held = norm(fresh->force);
-      ENSURE_NEAR(silent_forces.front(), held, 1e-12 * held); // held, not dropped
-      double largest_step = 0.0, previous = held;
-      for (double f : silent_forces)
-        largest_step = std::max(largest_step, previous - f), previous = f;
-      ENSURE(silent_forces.back() == 0.0);
-      // A ramp of 50 ms: at most held / 50 per tick, twice that if the loop missed a period.
-      ENSURE(largest_step <= 2.0 * held / 50.0);
-      std::printf("silence: %.3f N held, then ramped to 0 (largest step %.4f N, %zu fail-safe commands)\n", held,
-                  largest_step, silent_forces.size());
-    }
-  // Commands kept coming at the loop's rate until the peer timeout (1 kHz for 1 s; half of it
-  // allows for a loaded machine).
-  ENSURE(double(silent_forces.size()) >= 0.5 * 1000.0 * std::min(1.0, silence_seconds));
-
-  // Teleported 1 m deep: every force finite and within the device's limit, the limit reached.
-  const double max_force = modalrt_device_default_def().max_force;
-  double       teleport_force = 0.0;
-  bool         teleport_seen = false, within_limit = true;
-  for (const Reply &r : replies)
-    {
-      within_limit = within_limit && std::isfinite(norm(r.force)) && norm(r.force) <= max_force * (1.0 + 1e-12);
-      if (r.sequence >= teleport_first && r.sequence <= teleport_last && r.sequence > 1000)
-        teleport_seen = true, teleport_force = std::max(teleport_force, norm(r.force));
-    }
-  ENSURE(teleport_seen && within_limit);
-  ENSURE_RELATIVE(teleport_force, max_force, 1e-12);
-
-  const std::string stats = read_text("serve_out/stats.json");
-  ENSURE(json_number(stats, "foreign_packets") == 1);
-  ENSURE(json_number(stats, "bad_version_packets") == 1);
-  ENSURE(json_number(stats, "refusals_sent") == 2);
-  ENSURE(json_number(stats, "stale_packets") == 3);
-  ENSURE(json_number(stats, "bad_packets") == 2);
-  ENSURE(json_number(stats, "hellos") >= 2); // until the bridge answered, and the counter restart
-  ENSURE(json_number(stats, "byes") == 1);
-  ENSURE(json_number(stats, "peer_timeouts") == 1);
-  ENSURE(json_number(stats, "sessions") == 3); // the client, the second device, the client again
-  ENSURE(json_number(stats, "clamped_forces") > 0);
-  ENSURE(json_number(stats, "states_accepted") >= 800);
-  ENSURE(json_number(stats, "missing_ticks") > 0);
-  ENSURE(json_number(stats, "allocations_after_start") == 0);
-  ENSURE(json_number(stats, "non_finite_outputs") == 0);
-  ENSURE(stats.find("\"stopped_by\": \"signal\"") != std::string::npos);
-  close(client);
-  close(stranger);
+  check_silence(c.replies, commands_at_silence_end, last, silence_seconds);
+  check_teleport(c.replies, teleport);
+  check_stats();
+  close(c.client);
+  close(c.restarted);
+  close(c.stranger);
   return test::finish("test_serve");
 }

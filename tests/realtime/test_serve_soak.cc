@@ -1,7 +1,8 @@
 // The real-time soak of `modal-rt serve`: the bridge at its defaults (1 kHz, fail-safe hold 0.5 s,
 // ramp 0.05 s, peer timeout 1 s) with a client at 1 kHz in an ordinary process (this one: no
-// real-time priority, no spinning, one packet per wake-up of sleep_until), pressing the lattice's tip
-// up and down for the whole run so that the force is never zero. Asserted:
+// real-time priority, no spinning, one packet per wake-up of sleep_until), coming down onto the
+// lattice's tip in the first 0.5 s and pressing it up and down for the rest of the run so that the
+// force is never zero. Asserted:
 //   - zero dropouts: no tick past the hold window with a held force (the kernel's dropout_ticks),
 //     and no command to the client with zero force while in contact;
 //   - no drift of tick time: the bridge's ticks counted by the client over its session match its own
@@ -97,8 +98,11 @@ namespace
         std::this_thread::sleep_until(next);
         const auto   now = Clock::now();
         const double t   = std::chrono::duration<double>(now - start).count();
-        const double x[3] = {0.125, 0.025, top - 0.002 - 0.0005 * std::sin(two_pi * t / 2.0)};
-        const double v[3] = {0.0, 0.0, -0.0005 * two_pi / 2.0 * std::cos(two_pi * t / 2.0)};
+        // A new session starts without contact (modalrt_kernel_begin_session): the HIP comes down
+        // from 3 mm above the surface over the first 0.5 s, then presses for the rest of the run.
+        const double press = top - 0.002 - 0.0005 * std::sin(two_pi * t / 2.0);
+        const double x[3]  = {0.125, 0.025, t < 0.5 ? top + 0.003 - (0.005 * t / 0.5) : press};
+        const double v[3]  = {0.0, 0.0, t < 0.5 ? -0.01 : -0.0005 * two_pi / 2.0 * std::cos(two_pi * t / 2.0)};
         state_packet(packet, sequence, sequence == 0 ? 1u : 0u, x, v); // HELLO first
         ++sequence;
         sendto(socket_fd, packet, sizeof packet, 0, reinterpret_cast<const sockaddr *>(&server), sizeof server);

@@ -33,6 +33,20 @@
  * The call returns MODALRT_INPUT_REJECTED; modalrt_kernel_stats counts rejected and missing ticks
  * and the current run of fail-safe ticks. The next accepted tick ends the run.
  *
+ * No step of the kernel's own (impedance). A change of force that the kernel makes on its own is
+ * rate-limited: the force commanded on the device changes by at most force_rate_limit [N per tick]
+ * (default 0.2 N per tick: the device's 10 N in 50 ticks, the slope of the fail-safe ramp at that
+ * force) in
+ *   - the recovery after a fault: from the first accepted tick after a fail-safe run, the force goes
+ *     from the last one commanded (held, ramping or zero) to the coupling's, and the part gets the
+ *     limited force (action equals reaction);
+ *   - a release (by any rule, modalrt_kernel_release_hip, a HIP absent from the tick, a reset): the
+ *     part is free at once, the device's force ramps from the last one commanded to zero.
+ * Each such tick's output has MODALRT_HIP_FORCE_RAMPING; the ramp ends at the first tick whose
+ * change is within the limit. A new device session is a release (the application releases every HIP
+ * when a device restarts or another takes over, as modal-rt serve does). Changes the user makes
+ * (pressing deeper, hitting the surface) are rendered as they come, clamped to device.max_force.
+ *
  * Frames: the part's body frame is the frame of the basis file. It may move in the world
  * (modalrt_kernel_set_frame); all tick inputs and outputs are in world coordinates.
  *
@@ -45,12 +59,15 @@
  *   - The contact is anchored at the active vertex plus the HIP's tangential offset from it at
  *     contact start (zero for modalrt_kernel_contact_begin): a HIP landing between vertices feels
  *     no lateral jerk, and an admittance device is not pulled sideways onto the vertex.
- *   - Release, impedance tick: when the HIP is pulled out of the surface, i.e. its signed distance
- *     from the felt contact point along the outward normal exceeds release_distance, or dragged
- *     away from it sideways, i.e. its distance from the contact point across the normal exceeds
- *     release_drag_distance (default 0.01 m, where the default coupling of 1000 N/m reaches the
- *     default device's 10 N): a HIP far from its contact in any direction but into the part is
- *     released. Pressing deeper into the part never releases.
+ *   - Release, impedance tick: when the coupling force would pull, i.e. the force on the part along
+ *     the outward normal would be attractive (> 0 outward; a surface pushes, it does not stick), or
+ *     when the HIP is pulled out of the surface, i.e. its signed distance from the felt contact point
+ *     along the outward normal exceeds release_distance, or dragged away from it sideways, i.e. its
+ *     distance from the contact point across the normal exceeds release_drag_distance (default
+ *     0.01 m, where the default coupling of 1000 N/m reaches the default device's 10 N): a HIP far
+ *     from its contact in any direction but into the part is released. Pressing deeper into the part
+ *     never releases. With grasp = 1 the first rule is off: the contact holds on and pulls (up to
+ *     K x release_distance, about 1 N by default) until one of the others releases it.
  *   - Release, admittance tick: when the force the user applies pulls outward, i.e. its component
  *     along the outward normal exceeds release_force (a contact can push, not pull).
  *   - modalrt_kernel_release_hip releases at once; with auto_release = 0 it is the only release.
@@ -84,7 +101,17 @@
 extern "C" {
 #endif
 
-#define MODALRT_VERSION_MAJOR 2
+/* Versioning. MODALRT_VERSION_MAJOR changes when a struct's layout, a default or the meaning of a
+ * call changes, so that an application must be rebuilt against the new header (and should read what
+ * changed); MODALRT_VERSION_MINOR changes when something is only added (a function, a flag bit, a
+ * status) and an application built against an older minor of the same major works unchanged. Within
+ * a major version no field is added to a struct: a `reserved` field (which must be 0) may be given a
+ * meaning whose value 0 keeps the old behaviour. An application checks at start-up that
+ * modalrt_version() / 1000 == MODALRT_VERSION_MAJOR.
+ * 3.0: modalrt_kernel_def gained force_rate_limit and grasp (rate-limited force changes of the
+ * kernel's own, release of an impedance contact that would pull), MODALRT_HIP_FORCE_RAMPING,
+ * modalrt_kernel_begin_session. */
+#define MODALRT_VERSION_MAJOR 3
 #define MODALRT_VERSION_MINOR 0
 
 /* Highest major and minor version of the .mrt format this library reads. */
@@ -343,6 +370,12 @@ typedef struct modalrt_kernel_def
   double   release_drag_distance; /* [m] impedance release: HIP this far from its contact across the normal, > 0 [0.01] */
   double   fail_safe_hold;        /* [s] fail-safe: the last safe force is held this long, 0 .. 10 [0.5] */
   double   fail_safe_ramp;        /* [s] fail-safe: then ramped to zero over this time (at least 2 ticks), > 0 .. 10 [0.05] */
+  double   force_rate_limit;      /* [N per tick] impedance: largest change of the commanded force per tick in a
+                                     change the kernel makes on its own (recovery after a fault, release), > 0 ..
+                                     device.max_force [0.2] */
+  uint32_t grasp;                 /* impedance: 0 releases a contact whose force would pull; 1 lets it pull (a
+                                     grasp) until release_distance or release_drag_distance releases it [0] */
+  uint32_t reserved2;             /* must be 0 [0] */
 } modalrt_kernel_def;
 
 /* Returns the defaults above; never fails. */
@@ -380,8 +413,10 @@ enum
   MODALRT_HIP_FORCE_CLAMPED   = 1u << 2, /* impedance force limited to device.max_force */
   MODALRT_HIP_CORRECTED       = 1u << 3, /* the active vertex is a candidate: static correction applied */
   MODALRT_HIP_SPACE_SWITCHED  = 1u << 4, /* the active space changed during this tick */
-  MODALRT_HIP_FAIL_SAFE       = 1u << 5  /* input rejected or missing: the last safe output, force held
+  MODALRT_HIP_FAIL_SAFE       = 1u << 5, /* input rejected or missing: the last safe output, force held
                                             or ramping down (the fail-safe rule above) */
+  MODALRT_HIP_FORCE_RAMPING   = 1u << 6  /* impedance: the force is rate-limited to force_rate_limit this
+                                            tick (recovery after a fault, or a release ramping to zero) */
 };
 
 typedef struct modalrt_hip_output
@@ -446,6 +481,12 @@ MODALRT_API int modalrt_kernel_contact_begin(modalrt_kernel *kernel, uint32_t hi
 /* Releases HIP `hip` now (no effect if not in contact). Returns: OK, ERROR_INVALID_ARGUMENT (null
  * kernel, hip out of range). */
 MODALRT_API int modalrt_kernel_release_hip(modalrt_kernel *kernel, uint32_t hip);
+/* A new device session (a device driver restarted, or another device took over, or the device left):
+ * every HIP is released as by modalrt_kernel_release_hip (its force ramping to zero at
+ * force_rate_limit) and snaps again only once it has been seen outside the surface (beyond
+ * release_distance, or beyond snap_distance from it), so no contact carries over from one session to
+ * the next. Returns: OK, ERROR_INVALID_ARGUMENT (null kernel). */
+MODALRT_API int modalrt_kernel_begin_session(modalrt_kernel *kernel);
 /* Makes `space` the active space now, carrying the state as a switch does. Returns: OK,
  * ERROR_INVALID_ARGUMENT (null kernel, space out of range). */
 MODALRT_API int modalrt_kernel_switch_space(modalrt_kernel *kernel, uint32_t space);
@@ -494,8 +535,9 @@ MODALRT_API int  modalrt_snapshot_create(const modalrt_kernel *kernel, modalrt_s
 MODALRT_API void modalrt_snapshot_destroy(modalrt_snapshot *snapshot);
 
 /* Copies the latest published state into `snapshot` (triple buffer: wait-free for both sides, one
- * reader thread at a time). Returns 1 if the state is newer than the previous read, 0 if not, or
- * ERROR_INVALID_ARGUMENT (null argument, a snapshot of another kernel). */
+ * reader thread at a time). A snapshot reads only the kernel it was created for. Returns 1 if the
+ * state is newer than the previous read, 0 if not, or ERROR_INVALID_ARGUMENT (null argument, a
+ * snapshot created for another kernel, even one of the same basis and capacities). */
 MODALRT_API int modalrt_kernel_snapshot_read(modalrt_kernel *kernel, modalrt_snapshot *snapshot);
 
 typedef struct modalrt_snapshot_info
@@ -517,7 +559,9 @@ MODALRT_API const double *modalrt_snapshot_modal_coordinates(const modalrt_snaps
 /* The snapshot's contacts at candidates, for a display that reconstructs elsewhere (a GPU): the
  * active vertex of each of the first contact_count contacts and its static correction C F [m] (body
  * frame), which modalrt_display_reconstruct spreads over the patch with (1 - (d/rho)^2)^2. Copies at
- * most `capacity` contacts; *count is the number copied. Read only, no allocation. */
+ * most `capacity` contacts; *count is the number copied. Read only, no allocation.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null snapshot or count, null vertices or corrections with
+ * capacity > 0). */
 MODALRT_API int modalrt_snapshot_get_contacts(const modalrt_snapshot *snapshot, uint32_t capacity, uint32_t *vertices,
                                               double *corrections, uint32_t *count);
 
