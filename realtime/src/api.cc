@@ -297,6 +297,10 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
   d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
   d.fail_safe_ramp         = 0.05; // s
+  d.contact_mode           = MODALRT_CONTACT_SNAP;
+  d.reserved_proxy         = 0;
+  d.static_friction        = 0.3; // a dry finger on a moulded plastic part, roughly
+  d.dynamic_friction       = 0.2;
   return d;
 }
 
