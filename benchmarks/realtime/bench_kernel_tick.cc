@@ -4,9 +4,11 @@
 // {20, 50, 200, 1000}, 1 to 4 HIPs held in contact at candidate vertices, with and without the
 // static correction, for the admittance and the impedance step; a "hover" row where the HIPs hover
 // just above the surface, so that every tick runs the snap search; and a "landing" row timing only
-// the ticks where a contact starts and the modal space switches (row build, transfer, coupling).
+// the ticks where a contact starts and the modal space switches (row build, transfer, coupling);
+// "slide" and "fixed" rows: one HIP 1 mm deep moving to and fro over the plate at 0.1 m/s, with a
+// sliding proxy contact (mu_s 0.3, mu_d 0.2) or with the fixed (snap) contact it starts with.
 //
-// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
+// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE] [--slide-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
 // the given .mrt file (its space 0 and, for the landing row, space 1).
 #include "bench_support.h"
@@ -32,6 +34,7 @@ namespace
     std::uint32_t              vertices_per_side  = 64;
     std::vector<std::uint32_t> modes              = {20, 50, 200, 1000};
     std::string                basis_file;
+    bool                       slide_only = false; // only the "slide" and "fixed" rows
   };
 
   struct Percentiles
@@ -155,6 +158,44 @@ namespace
     return percentiles(ns);
   }
 
+  // One HIP 1 mm deep, moving along x over 0.2 m and back at 0.1 m/s (y fixed between vertex rows);
+  // the proxy slides over the triangles, the snap contact (auto_release off) stays at its vertex.
+  Percentiles run_slide(const modalrt_basis *basis, const Options &o, bool proxy, std::vector<std::uint32_t> &ns)
+  {
+    modalrt_kernel_def def = modalrt_kernel_default_def();
+    def.hip_capacity       = 1;
+    def.contact_mode       = proxy ? MODALRT_CONTACT_PROXY : MODALRT_CONTACT_SNAP;
+    def.switch_rule        = MODALRT_SWITCH_NEVER;
+    def.auto_release       = 0;
+    modalrt_kernel *k      = nullptr;
+    modalrt_kernel_create(basis, &def, &k);
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    const double       x0 = info.bounds_min[0] + 0.15 * (info.bounds_max[0] - info.bounds_min[0]);
+    const double       span = 0.7 * (info.bounds_max[0] - info.bounds_min[0]), speed = 0.1;
+    modalrt_hip_input  in{};
+    modalrt_hip_output out;
+    in.position[1] = info.bounds_min[1] + 0.4123 * (info.bounds_max[1] - info.bounds_min[1]);
+    in.position[2] = info.bounds_max[2] - 0.001;
+    const long warmup = 10000;
+    ns.resize(std::size_t(o.ticks));
+    for (long n = -warmup; n < o.ticks; ++n)
+      {
+        const double travel = std::fmod(speed * 1e-3 * double(n + warmup), 2.0 * span);
+        in.position[0]      = x0 + (travel < span ? travel : 2.0 * span - travel);
+        in.velocity[0]      = travel < span ? speed : -speed;
+        const auto start    = Clock::now();
+        modalrt_kernel_tick_impedance(k, &in, 1, &out);
+        const auto stop = Clock::now();
+        if (n >= 0)
+          ns[std::size_t(n)] = std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+      }
+    if (!out.in_contact)
+      std::fprintf(stderr, "bench-kernel-tick: the sliding HIP lost its contact\n");
+    modalrt_kernel_destroy(k);
+    return percentiles(ns);
+  }
+
   // HIPs at candidate vertices of the global space, pressing with slowly varying inputs.
   Percentiles run(const modalrt_basis *basis, const Options &o, Scenario scenario, std::uint32_t hips, bool corrected,
                   std::vector<std::uint32_t> &ns)
@@ -228,6 +269,8 @@ namespace
           o.ticks = std::atol(argv[++k]);
         else if (arg == "--vertices-per-side" && k + 1 < argc)
           o.vertices_per_side = std::uint32_t(std::atol(argv[++k]));
+        else if (arg == "--slide-only")
+          o.slide_only = true;
         else if (arg == "--basis" && k + 1 < argc)
           o.basis_file = argv[++k];
         else if (arg == "--modes" && k + 1 < argc)
@@ -243,7 +286,7 @@ namespace
         else
           {
             std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] "
-                                 "[--basis FILE]\n");
+                                 "[--basis FILE] [--slide-only]\n");
             std::exit(2);
           }
       }
@@ -271,7 +314,9 @@ int main(int argc, char **argv)
   for (std::uint32_t r : o.modes)
     {
       modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
-      for (Scenario scenario : {Scenario::admittance, Scenario::impedance, Scenario::hover})
+      const std::vector<Scenario> scenarios =
+        o.slide_only ? std::vector<Scenario>{} : std::vector<Scenario>{Scenario::admittance, Scenario::impedance, Scenario::hover};
+      for (Scenario scenario : scenarios)
         for (std::uint32_t hips = 1; hips <= 4; ++hips)
           for (bool corrected : {false, true})
             {
@@ -282,10 +327,20 @@ int main(int argc, char **argv)
                           p.p50, p.p99, p.p999, p.max, p.mean);
               std::fflush(stdout);
             }
-      const Percentiles p = run_landings(basis, o, true, ns);
-      std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(Scenario::landing), r, 1u, 1, p.p50, p.p99, p.p999,
-                  p.max, p.mean);
-      std::fflush(stdout);
+      for (bool proxy : {false, true})
+        {
+          const Percentiles p = run_slide(basis, o, proxy, ns);
+          std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", proxy ? "slide" : "fixed", r, 1u, 1, p.p50, p.p99,
+                      p.p999, p.max, p.mean);
+          std::fflush(stdout);
+        }
+      if (!o.slide_only)
+        {
+          const Percentiles p = run_landings(basis, o, true, ns);
+          std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(Scenario::landing), r, 1u, 1, p.p50, p.p99,
+                      p.p999, p.max, p.mean);
+          std::fflush(stdout);
+        }
       modalrt_basis_destroy(basis);
     }
   return 0;

@@ -300,6 +300,10 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.force_rate_limit       = 0.2;  // N per tick: the default device's 10 N in 50 ticks (the fail-safe ramp's slope)
   d.grasp                  = 0;    // a contact pushes, it does not pull
   d.reserved2              = 0;
+  d.contact_mode           = MODALRT_CONTACT_SNAP;
+  d.reserved_proxy         = 0;
+  d.static_friction        = 0.3; // a dry finger on a moulded plastic part, roughly
+  d.dynamic_friction       = 0.2;
   return d;
 }
 

@@ -105,6 +105,7 @@ namespace modalrt
           basis.bounds_max[d] = std::max(basis.bounds_max[d], basis.vertices[3 * v + d]);
         }
     compute_normals(basis);
+    build_surface_adjacency(basis.triangles.data(), basis.triangle_count, basis.vertex_count, basis.adjacency);
     basis.grid.build(basis.vertices.data(), basis.vertex_count, 1.5 * typical_spacing(basis));
     for (ModalSpace &space : basis.spaces)
       space.max_vertex_mode_norm =

@@ -4,6 +4,7 @@
 
 #include "allocator.h"
 #include "spatial_grid.h"
+#include "surface_adjacency.h"
 
 #include <modalrt/modalrt.h>
 #include <mrt/format.h>
@@ -90,6 +91,7 @@ struct modalrt_basis : modalrt::HookAllocated
   modalrt::Vector<double>  normals; // 3 nv unit outward (area-weighted), 0 for isolated vertices
   double               bounds_min[3] = {0, 0, 0}, bounds_max[3] = {0, 0, 0};
   modalrt::SpatialGrid grid;
+  modalrt::SurfaceAdjacency adjacency; // of the display triangles: the sliding proxy's walk
 
   std::uint32_t space_count() const { return std::uint32_t(spaces.size()); }
   double        patch_radius() const { return scene_scalars[modalrt::format::scene_scalar::patch_radius]; }   // [m]

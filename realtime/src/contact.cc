@@ -109,6 +109,8 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
         c.anchor[d] = offset[d] - normal_part * c.normal[d];
     }
   build_row(c);
+  if (def.contact_mode == MODALRT_CONTACT_PROXY)
+    begin_proxy(hip, offset != nullptr);
   contacts_changed_ = true;
   contact_started_  = true;
 }
@@ -123,23 +125,33 @@ void modalrt_kernel::end_contact(std::uint32_t hip) noexcept
   std::fill_n(c.force, 3, 0.0);
   std::fill_n(c.correction, 3, 0.0);
   std::fill_n(c.anchor, 3, 0.0);
+  c.proxy.clear();
   contacts_changed_ = true;
   ramping_[hip]     = 1; // the device's force ramps to zero (no step of the kernel's own)
 }
 
-// B of the active vertex in the active space: the stored candidate block (with its static
-// correction), else the patch average of the display modes sum_j w_j Phi_j.
+// B of the active vertex in the active space (a proxy: the blend of its triangle's rows).
 void modalrt_kernel::build_row(Contact &c) noexcept
 {
-  const ModalSpace   &space = basis.spaces[space_];
-  const std::uint32_t r     = space.mode_count;
-  c.candidate               = space.candidate_index(c.vertex);
-  if (c.candidate >= 0)
-    {
-      std::copy_n(&space.candidate_modes[3 * std::size_t(r) * std::size_t(c.candidate)], 3 * std::size_t(r), c.B);
-      return;
-    }
-  patch_row(basis, space, c.vertex, 0, r, c.B);
+  if (c.proxy.active)
+    compose_proxy(c, true);
+  else
+    c.candidate = load_vertex_row(c.vertex, c.B);
+}
+
+// The contact row of a vertex in the active space: the stored candidate block (with its static
+// correction), else the patch average of the display modes sum_j w_j Phi_j. Returns the candidate
+// index, -1 if none.
+int modalrt_kernel::load_vertex_row(std::uint32_t vertex, double *B) const noexcept
+{
+  const ModalSpace   &space     = basis.spaces[space_];
+  const std::uint32_t r         = space.mode_count;
+  const int           candidate = space.candidate_index(vertex);
+  if (candidate >= 0)
+    std::copy_n(&space.candidate_modes[3 * std::size_t(r) * std::size_t(candidate)], 3 * std::size_t(r), B);
+  else
+    patch_row(basis, space, vertex, 0, r, B);
+  return candidate;
 }
 
 // The closest vertex of the deformed surface. The grid gives the vertices whose rest position is
@@ -246,6 +258,8 @@ void modalrt_kernel::refresh_contact_set() noexcept
 // active space, 0 when either vertex has no correction (or corrections are off).
 void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
 {
+  if (a.proxy.active || b.proxy.active)
+    return proxy_pair_compliance(a, b, C);
   std::fill_n(C, 9, 0.0);
   if (!def.use_static_correction || a.candidate < 0 || b.candidate < 0)
     return;

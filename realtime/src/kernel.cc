@@ -108,6 +108,14 @@ namespace
                 d.device.max_force, " N)"));
     require(d.grasp <= 1, MODALRT_ERROR_INVALID_ARGUMENT, cat("grasp = ", d.grasp, ", expected 0 or 1"));
     require(d.reserved2 == 0, MODALRT_ERROR_INVALID_ARGUMENT, cat("reserved2 = ", d.reserved2, " must be 0"));
+    require(d.contact_mode <= MODALRT_CONTACT_PROXY && d.reserved_proxy == 0, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("contact_mode = ", d.contact_mode, " (expected MODALRT_CONTACT_SNAP or _PROXY), reserved_proxy = ",
+                d.reserved_proxy, " (must be 0)"));
+    require(std::isfinite(d.static_friction) && d.dynamic_friction >= 0.0 && d.dynamic_friction <= d.static_friction &&
+              d.static_friction <= 10.0,
+            MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("static_friction = ", d.static_friction, ", dynamic_friction = ", d.dynamic_friction,
+                ": expected 0 <= dynamic_friction <= static_friction <= 10"));
   }
 } // namespace
 
@@ -136,7 +144,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   flags_.assign(H, 0);
   last_outputs_.assign(H, modalrt_hip_output{});
   for (modalrt_hip_output &o : last_outputs_)
-    o.active_vertex = MODALRT_NONE;
+    o.active_vertex = o.proxy_triangle = MODALRT_NONE;
   commanded_.assign(3 * std::size_t(H), 0.0);
   ramping_.assign(H, 0);
   active_.assign(H, 0);
@@ -144,6 +152,11 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
   snap_candidates_.resize(def.snap_candidate_budget);
+  proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * 9 * R : 0, 0.0);
+  for (std::uint32_t h = 0; h < H && !proxy_rows_.empty(); ++h)
+    for (int k = 0; k < 3; ++k)
+      contacts_[h].proxy.rows[k].B = proxy_rows_.data() + (std::size_t(h) * 3 + k) * 3 * R;
+  observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;
   stats.active_space  = space_;
@@ -178,11 +191,14 @@ int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, m
   to_body(inputs, count);
   apply_release_rules(count, impedance);
   detect_contacts(count);
+  if (impedance)
+    slide_proxies(count);
   apply_switch_rule();
   if (impedance)
     impedance_step();
   else
     admittance_step();
+  observe_passivity(impedance ? inputs : nullptr, count);
   write_outputs(count, outputs, impedance);
   stats.time += def.time_step;
   publish_snapshot();
@@ -212,6 +228,7 @@ int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) 
 {
   ++stats.fail_safe_ticks;
   ++stats.fail_safe_run;
+  observed_count_ = 0; // the passivity observer skips the period after a fail-safe tick
   const std::uint64_t n     = stats.fail_safe_run;
   const double        scale = n <= hold_ticks_ ? 1.0 : std::max(0.0, 1.0 - double(n - hold_ticks_) / double(ramp_ticks_));
   bool held_force = false;
@@ -404,7 +421,8 @@ void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outp
     {
       const Contact     &c   = contacts_[h];
       modalrt_hip_output out{};
-      out.space = space_;
+      out.space          = space_;
+      out.proxy_triangle = MODALRT_NONE;
       out.flags = flags_[h];
       if (c.in_contact)
         {
@@ -425,6 +443,7 @@ void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outp
             }
           out.in_contact    = 1;
           out.active_vertex = c.vertex;
+          write_proxy_output(c, out);
           if (c.candidate >= 0 && def.use_static_correction)
             out.flags |= MODALRT_HIP_CORRECTED;
         }
@@ -543,7 +562,7 @@ void modalrt_kernel::reset() noexcept
         end_contact(h);
       contacts_[h].armed = true;
       last_outputs_[h]   = modalrt_hip_output{};
-      last_outputs_[h].active_vertex = MODALRT_NONE;
+      last_outputs_[h].active_vertex = last_outputs_[h].proxy_triangle = MODALRT_NONE;
     }
   std::fill(q_.begin(), q_.end(), 0.0);
   std::fill(v_.begin(), v_.end(), 0.0);
@@ -552,5 +571,6 @@ void modalrt_kernel::reset() noexcept
   stats.time          = 0.0;
   stats.fail_safe_run = 0;
   contact_started_   = false;
+  observed_count_    = 0;
   refresh_contact_set();
 }

@@ -5,6 +5,7 @@
 #include "allocator.h"
 #include "basis.h"
 #include "modal_integrator.h"
+#include "proxy_contact.h"
 #include "snapshot.h"
 
 #include <modalrt/modalrt.h>
@@ -53,6 +54,7 @@ namespace modalrt
                                                  // admittance output are anchored there, so a
                                                  // contact starts without a lateral jerk
     double       *B          = nullptr;
+    ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
   };
 
   struct SnapCandidate
@@ -120,6 +122,19 @@ private:
   void refresh_coupling_matrices() noexcept;
   void pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
 
+  // Proxy contacts (proxy_contact.cc).
+  void  begin_proxy(std::uint32_t hip, bool at_hip) noexcept;
+  void  slide_proxies(std::uint32_t count) noexcept;
+  void  slide_proxy(Contact &contact, const modalrt::BodyInput &in) noexcept;
+  bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
+  void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
+  modalrt::ProxyRow &proxy_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;
+  void  compose_proxy(Contact &contact, bool reload) noexcept;
+  void  proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
+  void  write_proxy_output(const Contact &contact, modalrt_hip_output &out) const noexcept;
+  void  observe_passivity(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
+  int   load_vertex_row(std::uint32_t vertex, double *B) const noexcept;
+
   // Modal state.
   void frame_modal_force(double *f) const noexcept;
   void add_contact_forces(double *f) const noexcept;
@@ -146,6 +161,10 @@ private:
   modalrt::Vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
   modalrt::Vector<double>            system_, rhs_;  // the coupling solve
   modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
+  modalrt::Vector<double>            proxy_rows_;    // hip_capacity x 3 corners x 3 x max_modes
+  modalrt::Vector<double>            observed_positions_; // 3 hip_capacity: the HIPs at the last observed tick [m] world
+  std::uint32_t                  observed_count_ = 0; // HIPs observed at the last tick (0: not primed)
+  bool                           proxy_region_changed_ = false; // a proxy's nearest vertex changed region
   bool                           contacts_changed_ = true;
   bool                           coupling_dirty_   = true;
   bool                           contact_started_  = false;

@@ -10,13 +10,14 @@
 
 using namespace modalrt;
 
-// At a contact start the active space becomes the one whose VOI holds every active vertex, else
-// the global space.
+// At a contact start (or when a sliding proxy's nearest vertex enters another region) the active
+// space becomes the one whose VOI holds every active vertex, else the global space.
 void modalrt_kernel::apply_switch_rule() noexcept
 {
-  if (!contact_started_)
+  if (!contact_started_ && !proxy_region_changed_)
     return;
-  contact_started_ = false;
+  contact_started_      = false;
+  proxy_region_changed_ = false;
   if (def.switch_rule != MODALRT_SWITCH_AT_CONTACT_START)
     return;
   std::uint32_t desired = MODALRT_NONE;

@@ -77,6 +77,27 @@
  *     vertex (DISPLAY_REGION), else the global space 0. The state is carried across with the
  *     TRANSFER matrix (q_new = T q_old, same for the velocities); without one it restarts at rest.
  *
+ * Sliding contact (contact_mode = MODALRT_CONTACT_PROXY; the snap contact above is the default)
+ *   - The contact starts as above, but at the HIP's projection on a triangle around the snapped
+ *     vertex: its proxy. The proxy is a point of the deformed display surface (each vertex where the
+ *     modes and the contact's static correction put it: rest + B_v q + C F, B_v the vertex's contact
+ *     row), held by its triangle and barycentric weights w. Its load point is that blend: row
+ *     B = sum_k w_k B_k, residual compliance sum_a sum_b w_a w_b C_ab (CROSS_COMPLIANCE where stored,
+ *     else sum_k w_k C_k), rest position and outward normal blended the same way: force and felt
+ *     compliance are continuous as the proxy crosses from one vertex's neighbourhood to the next.
+ *   - Impedance ticks: before the step the proxy moves over the surface (across triangles by the
+ *     surface's adjacency, at most 4 edges per tick) under Coulomb friction applied to the coupling
+ *     force a stuck proxy would give, F = K g + D (v_hip - v_surface), g = x_hip - proxy, split
+ *     along the proxy's outward normal (F_n = -F.n, > 0 when pressing) and across it (F_t): a
+ *     sticking proxy stays while |F_t| <= static_friction F_n; then it slides, moved along F_t so
+ *     that |F_t| = dynamic_friction F_n, until |F_t| falls within that cone, when it sticks again.
+ *     0 and 0 is frictionless (the tangential force vanishes). At a boundary edge of the surface
+ *     the proxy stops. Admittance ticks do not move the proxy.
+ *   - Release as the snap contact (outward beyond release_distance, or release_drag_distance across).
+ *   - Switch: with MODALRT_SWITCH_AT_CONTACT_START, also when the proxy's nearest vertex enters
+ *     another region during the slide (the state carried by TRANSFER as at a contact start).
+ *   - modalrt_kernel_contact_begin puts the proxy exactly at the vertex.
+ *
  * Units are SI everywhere: m, N, kg, s, rad. Every struct field names its unit.
  */
 #ifndef MODALRT_MODALRT_H
@@ -110,7 +131,9 @@ extern "C" {
  * modalrt_version() / 1000 == MODALRT_VERSION_MAJOR.
  * 3.0: modalrt_kernel_def gained force_rate_limit and grasp (rate-limited force changes of the
  * kernel's own, release of an impedance contact that would pull), MODALRT_HIP_FORCE_RAMPING,
- * modalrt_kernel_begin_session. */
+ * modalrt_kernel_begin_session; and contact_mode, static_friction and dynamic_friction (the sliding
+ * proxy contact, MODALRT_CONTACT_PROXY), modalrt_hip_output's proxy_triangle and proxy_weights,
+ * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING. */
 #define MODALRT_VERSION_MAJOR 3
 #define MODALRT_VERSION_MINOR 0
 
@@ -337,6 +360,12 @@ MODALRT_API modalrt_device_def modalrt_device_default_def(void);
 
 enum
 {
+  MODALRT_CONTACT_SNAP  = 0, /* the HIP's contact stays at its active vertex (default) */
+  MODALRT_CONTACT_PROXY = 1  /* a proxy slides over the deformed surface with friction (see the top) */
+};
+
+enum
+{
   MODALRT_SWITCH_AT_CONTACT_START = 0, /* change space when a contact starts (default) */
   MODALRT_SWITCH_NEVER            = 1  /* stay in the space set by the application */
 };
@@ -376,6 +405,10 @@ typedef struct modalrt_kernel_def
   uint32_t grasp;                 /* impedance: 0 releases a contact whose force would pull; 1 lets it pull (a
                                      grasp) until release_distance or release_drag_distance releases it [0] */
   uint32_t reserved2;             /* must be 0 [0] */
+  uint32_t contact_mode;          /* MODALRT_CONTACT_SNAP or MODALRT_CONTACT_PROXY [SNAP] */
+  uint32_t reserved_proxy;        /* must be 0 [0] */
+  double   static_friction;       /* [-] proxy: Coulomb static coefficient mu_s, 0 .. 10, >= dynamic_friction [0.3] */
+  double   dynamic_friction;      /* [-] proxy: Coulomb dynamic coefficient mu_d, 0 .. static_friction [0.2] */
 } modalrt_kernel_def;
 
 /* Returns the defaults above; never fails. */
@@ -415,15 +448,16 @@ enum
   MODALRT_HIP_SPACE_SWITCHED  = 1u << 4, /* the active space changed during this tick */
   MODALRT_HIP_FAIL_SAFE       = 1u << 5, /* input rejected or missing: the last safe output, force held
                                             or ramping down (the fail-safe rule above) */
-  MODALRT_HIP_FORCE_RAMPING   = 1u << 6  /* impedance: the force is rate-limited to force_rate_limit this
+  MODALRT_HIP_FORCE_RAMPING   = 1u << 6, /* impedance: the force is rate-limited to force_rate_limit this
                                             tick (recovery after a fault, or a release ramping to zero) */
+  MODALRT_HIP_SLIDING         = 1u << 7  /* proxy contact: the proxy is sliding (dynamic friction) */
 };
 
 typedef struct modalrt_hip_output
 {
   double   position[3];   /* [m] world position of the active vertex plus the contact's anchor offset
-                            (what an admittance device tracks); the HIP's input position when not in
-                            contact */
+                            (what an admittance device tracks); a proxy contact: the proxy's position on
+                            the deformed surface; the HIP's input position when not in contact */
   double   velocity[3];   /* [m/s] world velocity of the active vertex (modal part; the static correction
                             is quasi-static and adds no velocity); the input velocity when not in contact */
   double   force[3];      /* [N] impedance: world force to command on the device; admittance: the force
@@ -432,6 +466,10 @@ typedef struct modalrt_hip_output
   uint32_t active_vertex; /* display vertex, MODALRT_NONE when not in contact */
   uint32_t space;         /* active modal space of the kernel */
   uint32_t flags;         /* MODALRT_HIP_* bits */
+  uint32_t proxy_triangle;   /* proxy contact: display triangle of the proxy, else MODALRT_NONE */
+  uint32_t reserved;         /* 0 */
+  double   proxy_weights[3]; /* [-] proxy contact: barycentric weights of the triangle's three vertices (in
+                                its order in the basis), >= 0, sum 1; active_vertex is the heaviest; else 0 */
 } modalrt_hip_output;
 
 /* Admittance step (the original method, for admittance devices): forces at the HIPs in, positions
@@ -519,6 +557,12 @@ typedef struct modalrt_kernel_stats
   double   last_tick_seconds;   /* [s] duration of the last tick (enable_profile) */
   double   max_tick_seconds;    /* [s] worst tick duration (enable_profile) */
   double   max_switch_jump;     /* [m] largest displacement jump of an active vertex at a switch */
+  double   passivity_energy;    /* [J] passivity observer (Hannaford & Ryu 2002) of the impedance ticks: the
+                                   work the hand has done on the kernel, sum over HIPs and accepted ticks of
+                                   -F_(n-1) . (x_n - x_(n-1)) (F the force commanded on the device and held
+                                   over the period, x the HIP's world position). The kernel gave the hand
+                                   energy overall when it is negative; passive: it never falls below a small
+                                   negative number. A fail-safe tick leaves the next period unobserved. */
 } modalrt_kernel_stats;
 
 /* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
