@@ -1,6 +1,7 @@
 #include "run_outputs.h"
 
 #include "allocation_counter.h"
+#include "vertex_info.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -213,17 +214,8 @@ namespace modalrt_tool
       p.space_name = csv_safe(info.name);
       std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(p.vertex), 3, p.normal);
       std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(p.vertex), 3, p.rest);
-      double        G[9], Gn[3];
-      std::uint32_t full_fe = 0;
-      if (modalrt_basis_contact_compliance(basis, p.space, p.vertex, G, &full_fe) != MODALRT_OK)
-        {
-          p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
-          return;
-        }
-      for (int c = 0; c < 3; ++c)
-        Gn[c] = dot3(G + 3 * c, p.normal);
-      p.compliance = dot3(p.normal, Gn);
-      p.full_fe    = full_fe != 0;
+      if (normal_compliance(basis, p.space, p.vertex, p.compliance, p.full_fe) != MODALRT_OK)
+        p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
     }
 
     // Normal force pushing into the part [N] and normal displacement into it [m] of one trace row.
