@@ -139,6 +139,8 @@ namespace
     ENSURE(run("info --basis tool_vertex.mrt --near 0.1,0.2", out) == 2 && contains(out, "--near '0.1,0.2'"));
     std::printf("  %s", out.c_str());
     ENSURE(run("info --basis tool_vertex.mrt --near 0.1,nan,0", out) == 2 && contains(out, "--near '0.1,nan,0'"));
+    ENSURE(run("info --basis tool_vertex.mrt --vertex 1 --near 0,0,0", out) == 2 && contains(out, "give one"));
+    ENSURE(run("verify --basis tool_vertex.mrt --vertex 1", out) == 2);
     modalrt_basis_destroy(basis);
     std::remove("tool_vertex.mrt");
   }
