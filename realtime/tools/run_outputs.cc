@@ -141,9 +141,10 @@ namespace modalrt_tool
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
                        "(the felt point in contact, else the device), force [N], in contact, active vertex (-1: "
-                       "none), active space; then the origin of the part's frame [m]\ntime";
+                       "none), active space, the output's MODALRT_HIP_* flags (32 FAIL_SAFE, 64 FORCE_RAMPING, ...); then "
+                       "the origin of the part's frame [m]\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
-      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space"})
+      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags"})
         text += ",hip" + std::to_string(h) + "_" + column;
     text += ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
@@ -157,8 +158,8 @@ namespace modalrt_tool
             for (const double *v : {s.hip, s.contact, s.force})
               for (int d = 0; d < 3; ++d)
                 text += "," + format("%.9g", v[d]);
-            std::snprintf(field, sizeof field, ",%u,%lld,%u", s.in_contact,
-                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space);
+            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u", s.in_contact,
+                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space, s.flags);
             text += field;
           }
         const double *frame = result.trace[r * hip_count].frame;
