@@ -230,6 +230,7 @@ namespace modalrt_tool
             s.in_contact    = o.in_contact;
             s.active_vertex = o.active_vertex;
             s.space         = o.space;
+            s.flags         = o.flags;
           }
       }
 

@@ -40,6 +40,7 @@ namespace modalrt_tool
     std::uint32_t in_contact;
     std::uint32_t active_vertex; // MODALRT_NONE when not in contact
     std::uint32_t space;
+    std::uint32_t flags;         // MODALRT_HIP_* of that tick (presses.csv skips FAIL_SAFE and FORCE_RAMPING)
   };
 
   struct HapticSettings

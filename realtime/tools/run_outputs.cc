@@ -1,6 +1,7 @@
 #include "run_outputs.h"
 
 #include "allocation_counter.h"
+#include "vertex_info.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -140,9 +141,10 @@ namespace modalrt_tool
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
                        "(the felt point in contact, else the device), force [N], in contact, active vertex (-1: "
-                       "none), active space; then the origin of the part's frame [m]\ntime";
+                       "none), active space, the output's MODALRT_HIP_* flags (32 FAIL_SAFE, 64 FORCE_RAMPING, ...); then "
+                       "the origin of the part's frame [m]\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
-      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space"})
+      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags"})
         text += ",hip" + std::to_string(h) + "_" + column;
     text += ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
@@ -156,8 +158,8 @@ namespace modalrt_tool
             for (const double *v : {s.hip, s.contact, s.force})
               for (int d = 0; d < 3; ++d)
                 text += "," + format("%.9g", v[d]);
-            std::snprintf(field, sizeof field, ",%u,%lld,%u", s.in_contact,
-                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space);
+            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u", s.in_contact,
+                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space, s.flags);
             text += field;
           }
         const double *frame = result.trace[r * hip_count].frame;
@@ -213,17 +215,8 @@ namespace modalrt_tool
       p.space_name = csv_safe(info.name);
       std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(p.vertex), 3, p.normal);
       std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(p.vertex), 3, p.rest);
-      double        G[9], Gn[3];
-      std::uint32_t full_fe = 0;
-      if (modalrt_basis_contact_compliance(basis, p.space, p.vertex, G, &full_fe) != MODALRT_OK)
-        {
-          p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
-          return;
-        }
-      for (int c = 0; c < 3; ++c)
-        Gn[c] = dot3(G + 3 * c, p.normal);
-      p.compliance = dot3(p.normal, Gn);
-      p.full_fe    = full_fe != 0;
+      if (normal_compliance(basis, p.space, p.vertex, p.compliance, p.full_fe) != MODALRT_OK)
+        p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
     }
 
     // Normal force pushing into the part [N] and normal displacement into it [m] of one trace row.
@@ -236,29 +229,40 @@ namespace modalrt_tool
       displacement = -dot3(moved, p.normal);
     }
 
+    // A row whose force the kernel held or ramped on its own (a fault's fail-safe plateau, the
+    // rate-limited recovery or release): not a force the hand pushed with, so never the felt one.
+    bool kernel_held(const TraceSample &s) { return (s.flags & (MODALRT_HIP_FAIL_SAFE | MODALRT_HIP_FORCE_RAMPING)) != 0; }
+
     // The felt stiffness at the end of the push: at the last local maximum of the normal force that
     // reaches half the press's largest force, i.e. the end of a hold before unloading. (The largest
     // force itself is often the transient of the hand landing on the surface, not a settled state.)
+    // Rows the kernel held (kernel_held) are left out of both: under a jittery client a held
+    // plateau above the real maximum was picked (issue 39). A press held throughout keeps its last row.
     void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign)
     {
-      const std::size_t   n = p.last_row - p.first_row + 1;
-      std::vector<double> force(n), displacement(n);
-      double              largest = -HUGE_VAL;
-      for (std::size_t k = 0; k < n; ++k)
+      std::vector<double>      force, displacement;
+      std::vector<std::size_t> rows; // the press's rows the hand pushed in
+      for (std::size_t r = p.first_row; r <= p.last_row; ++r)
         {
-          const std::size_t row      = (p.first_row + k) * hips;
-          std::uint32_t     contacts = 0;
+          std::uint32_t contacts = 0;
           for (std::uint32_t h = 0; h < hips; ++h)
-            contacts += result.trace[row + h].in_contact;
+            contacts += result.trace[r * hips + h].in_contact;
           p.max_contacts = std::max(p.max_contacts, contacts);
-          normal_response(p, result.trace[row + p.hip], force_sign, force[k], displacement[k]);
-          largest = std::max(largest, force[k]);
+          const TraceSample &s = result.trace[r * hips + p.hip];
+          if (kernel_held(s) && !(r == p.last_row && rows.empty()))
+            continue;
+          rows.push_back(r);
+          force.push_back(0.0);
+          displacement.push_back(0.0);
+          normal_response(p, s, force_sign, force.back(), displacement.back());
         }
-      std::size_t end = n - 1;
+      const std::size_t n       = rows.size();
+      const double      largest = *std::max_element(force.begin(), force.end());
+      std::size_t       end     = n - 1;
       while (end > 0 && !(force[end] >= 0.5 * largest && (end + 1 == n || force[end + 1] <= force[end]) &&
                           force[end - 1] <= force[end]))
         --end;
-      p.felt_time         = result.trace[(p.first_row + end) * hips].time;
+      p.felt_time         = result.trace[rows[end] * hips].time;
       p.felt_force        = force[end];
       p.felt_displacement = displacement[end];
       const bool pushed   = p.felt_force > 0.0 && p.felt_displacement > 0.0;
@@ -418,7 +422,8 @@ namespace modalrt_tool
       "normal n: the force pushing into the part = force_sign * n . F(trace) [N], the displacement into the part "
       "= -n . (contact - frame - rest) [m]. compliance = n^T G n [m/N] of the static compliance G of the contact "
       "(full_fe 1: full FE; 0: modal part only, no full-FE reference). felt_*: at the end of the push (the last "
-      "local maximum of the force reaching half its largest value); felt_stiffness = felt_force / "
+      "local maximum of the force reaching half its largest value, rows under the fail-safe rule or a force ramp "
+      "of the kernel's own left out); felt_stiffness = felt_force / "
       "felt_displacement [N/m]; ratio = felt / static stiffness. With several HIPs in contact at the felt time "
       "(felt_contacts > 1, other_vertices): multi_static_stiffness = felt_force / the static normal displacement "
       "under all their loads at once, multi_full_fe 1 when it is the full-FE answer (every contact a candidate, "

@@ -1,6 +1,9 @@
 // modal-rt: looks into a .mrt basis file, checks the kernel against it, and plays sessions.
 //
 //   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, section sizes
+//   modal-rt info   --basis FILE --vertex N | --near X,Y,Z
+//                                  one display vertex (by index, or the closest to a point [m]): its
+//                                  position, normal, region, candidacy and felt stiffness (vertex_info.cc)
 //   modal-rt verify --basis FILE   replays the stored full-FE validation cases through the kernel and
 //                                  prints the max relative error; exit 1 above the tolerance
 //                                  (1e-8 with float64 display modes, 1e-5 with float32)
@@ -13,11 +16,13 @@
 //
 // Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
 #include "tool_main.h"
+#include "vertex_info.h"
 
 #include <modalrt/modalrt.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -32,7 +37,7 @@ namespace
   // with 0 for --help.
   int usage(const ToolExtensions &extensions, bool help = false)
   {
-    std::string text = "usage: modal-rt info --basis FILE\n"
+    std::string text = "usage: modal-rt info --basis FILE [--vertex N | --near X,Y,Z]\n"
                        "       modal-rt verify --basis FILE [--quiet]\n" +
                        modalrt_tool::run_usage() + modalrt_tool::serve_usage();
     for (const modalrt_tool::Command &command : extensions.commands)
@@ -170,31 +175,118 @@ namespace
     return pass ? 0 : 1;
   }
 
-  // info or verify: --basis FILE [--quiet].
-  int basis_command(const std::string &command, int argc, char **argv, const ToolExtensions &extensions)
+  // What info and verify were asked: --basis FILE [--quiet] [--vertex N | --near X,Y,Z].
+  struct BasisOptions
   {
     const char *path  = nullptr;
     bool        quiet = false;
+    const char *vertex = nullptr; // --vertex's value as given
+    bool        near   = false;
+    double      point[3] = {0, 0, 0}; // [m] --near
+  };
+
+  // --vertex: a display vertex index, checked against the basis. Exit status 2 with a message
+  // naming the option and the value when it is not one.
+  bool parse_vertex(const char *text, const modalrt_basis *basis, uint32_t &vertex)
+  {
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    char                    *end   = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (*text < '0' || *text > '9' || *end != '\0' || value >= info.display_vertex_count)
+      {
+        std::fprintf(stderr, "modal-rt info: --vertex '%s': not a display vertex (the basis has %u, 0 .. %u)\n", text,
+                     info.display_vertex_count, info.display_vertex_count - 1);
+        return false;
+      }
+    vertex = uint32_t(value);
+    return true;
+  }
+
+  // --near X,Y,Z: three finite numbers [m] separated by commas.
+  bool parse_point(const char *text, double point[3])
+  {
+    const char *p = text;
+    for (int c = 0; c < 3; ++c)
+      {
+        char *end = nullptr;
+        point[c]  = std::strtod(p, &end);
+        if (end == p || !std::isfinite(point[c]) || *end != (c < 2 ? ',' : '\0'))
+          {
+            std::fprintf(stderr, "modal-rt info: --near '%s': expected X,Y,Z in metres (three finite numbers)\n",
+                         text);
+            return false;
+          }
+        p = end + 1;
+      }
+    return true;
+  }
+
+  // Returns -1 when the options are good, else the exit status (usage or --help).
+  int parse_basis_options(int argc, char **argv, const ToolExtensions &extensions, BasisOptions &o)
+  {
     for (int k = 0; k < argc; ++k)
       {
         if (std::strcmp(argv[k], "--basis") == 0 && k + 1 < argc)
-          path = argv[++k];
+          o.path = argv[++k];
         else if (std::strcmp(argv[k], "--quiet") == 0)
-          quiet = true;
+          o.quiet = true;
+        else if (std::strcmp(argv[k], "--vertex") == 0 && k + 1 < argc)
+          o.vertex = argv[++k];
+        else if (std::strcmp(argv[k], "--near") == 0 && k + 1 < argc)
+          {
+            if (!parse_point(argv[++k], o.point))
+              return 2;
+            o.near = true;
+          }
         else if (std::strcmp(argv[k], "--help") == 0)
           return usage(extensions, true);
         else
           return usage(extensions);
       }
-    if (!path)
+    if (o.vertex && o.near)
+      {
+        std::fprintf(stderr, "modal-rt info: --vertex and --near pick the same thing: give one\n");
+        return 2;
+      }
+    return o.path ? -1 : usage(extensions);
+  }
+
+  // info --vertex N / --near X,Y,Z: one display vertex.
+  int vertex_info(const modalrt_basis *basis, const BasisOptions &o)
+  {
+    uint32_t vertex = 0;
+    if (o.near)
+      {
+        double distance = 0.0;
+        vertex          = modalrt_tool::nearest_vertex(basis, o.point, distance);
+        std::printf("nearest display vertex to [%.9g %.9g %.9g] m: %u, at %.6g m (%.6g mm)\n", o.point[0],
+                    o.point[1], o.point[2], vertex, distance, 1e3 * distance);
+      }
+    else if (!parse_vertex(o.vertex, basis, vertex))
+      return 2;
+    modalrt_tool::print_vertex(basis, vertex);
+    return 0;
+  }
+
+  // info or verify.
+  int basis_command(const std::string &command, int argc, char **argv, const ToolExtensions &extensions)
+  {
+    BasisOptions o;
+    const int    status = parse_basis_options(argc, argv, extensions, o);
+    if (status >= 0)
+      return status;
+    if (command != "info" && (o.vertex || o.near))
       return usage(extensions);
     Basis basis;
-    if (modalrt_basis_load(path, &basis.handle) != MODALRT_OK)
+    if (modalrt_basis_load(o.path, &basis.handle) != MODALRT_OK)
       {
-        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", path, modalrt_last_error_message());
+        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", o.path, modalrt_last_error_message());
         return 1;
       }
-    return command == "info" ? info(basis.handle) : verify(basis.handle, path, quiet);
+    if (o.vertex || o.near)
+      return vertex_info(basis.handle, o);
+    return command == "info" ? info(basis.handle) : verify(basis.handle, o.path, o.quiet);
   }
 } // namespace
 

@@ -1,0 +1,95 @@
+// presses.csv's analysis (find_presses in realtime/tools/run_outputs.cc) on hand-made traces: the
+// felt force is the push's real maximum, not a fail-safe plateau the kernel held above it under a
+// jittery client (issue 39), nor a force ramp of the kernel's own.
+#include "test_support.h"
+
+#include "run_outputs.h"
+
+namespace
+{
+  const double coupling = 1000.0; // [N/m] the made-up contact's stiffness: displacement = force / it
+
+  // One HIP pressing display vertex `vertex` of the lattice: a row every 10 ms, in contact at every
+  // row, the force along the outward normal pushing the hand out (impedance) and the vertex moved in
+  // by force / coupling. flags[k] are the MODALRT_HIP_* bits of row k.
+  modalrt_tool::HapticResult press_trace(const modalrt_basis *basis, std::uint32_t vertex,
+                                         const std::vector<double> &force, const std::vector<std::uint32_t> &flags)
+  {
+    const double *rest   = modalrt_basis_display_vertices(basis) + 3 * vertex;
+    const double *normal = modalrt_basis_display_normals(basis) + 3 * vertex;
+    modalrt_tool::HapticResult result;
+    for (std::size_t k = 0; k < force.size(); ++k)
+      {
+        modalrt_tool::TraceSample s{};
+        s.time = 0.01 * double(k);
+        for (int c = 0; c < 3; ++c)
+          {
+            s.force[c]   = force[k] * normal[c];
+            s.contact[c] = rest[c] - force[k] / coupling * normal[c];
+            s.hip[c]     = s.contact[c];
+          }
+        s.in_contact    = 1;
+        s.active_vertex = vertex;
+        s.space         = 1;
+        s.flags         = flags[k];
+        result.trace.push_back(s);
+      }
+    return result;
+  }
+
+  // A push to 5 N, unloading to 4 N, then a fail-safe plateau held at 7 N (above the real maximum;
+  // the last row of the hold is ramping back), then the rest of the unloading.
+  void fail_safe_plateau(const modalrt_basis *basis)
+  {
+    const std::uint32_t        vertex = modalrt::lattice_display_vertex(modalrt::LatticeOptions(), 8, 1);
+    const std::vector<double>  force  = {1, 2, 3, 4, 5, 4, 7, 7, 7, 6.5, 3, 2, 1};
+    const std::uint32_t        held   = MODALRT_HIP_FAIL_SAFE, ramp = MODALRT_HIP_FORCE_RAMPING;
+    const std::vector<std::uint32_t> flags = {0, 0, 0, 0, 0, 0, held, held, held, ramp, 0, 0, 0};
+    const auto presses = modalrt_tool::find_presses(press_trace(basis, vertex, force, flags), 1, basis, true);
+    ENSURE(presses.size() == 1);
+    if (presses.size() != 1)
+      return;
+    std::printf("felt %.3g N at %.3g s (the plateau held 7 N from 0.06 s)\n", presses[0].felt_force,
+                presses[0].felt_time);
+    ENSURE_NEAR(presses[0].felt_force, 5.0, 1e-12);
+    ENSURE_NEAR(presses[0].felt_time, 0.04, 1e-12);
+    ENSURE_NEAR(presses[0].felt_stiffness, coupling, 1e-6);
+    // The same trace without the flags picks the plateau: what the flags are there for.
+    const auto unflagged = modalrt_tool::find_presses(
+      press_trace(basis, vertex, force, std::vector<std::uint32_t>(force.size(), 0)), 1, basis, true);
+    ENSURE(unflagged.size() == 1 && unflagged[0].felt_force == 7.0);
+    // trace.csv shows which rows were left out: hip0_flags is 32 on the plateau, 64 on the ramp.
+    std::string error;
+    ENSURE(modalrt_tool::write_trace("presses_trace.csv", press_trace(basis, vertex, force, flags), 1, error));
+    std::ifstream     file("presses_trace.csv");
+    std::stringstream text;
+    text << file.rdbuf();
+    ENSURE(text.str().find("hip0_space,hip0_flags,frame_x") != std::string::npos);
+    const std::string row = ",1," + std::to_string(vertex) + ",1,";
+    ENSURE(text.str().find(row + "32,") != std::string::npos && text.str().find(row + "64,") != std::string::npos);
+    std::remove("presses_trace.csv");
+  }
+
+  // A press the kernel held throughout (fail-safe from its first row) still gets a row: its last.
+  void held_throughout(const modalrt_basis *basis)
+  {
+    const std::vector<double>        force = {3, 3, 3};
+    const std::vector<std::uint32_t> flags(3, MODALRT_HIP_FAIL_SAFE);
+    const auto presses = modalrt_tool::find_presses(press_trace(basis, 8, force, flags), 1, basis, true);
+    ENSURE(presses.size() == 1 && presses[0].felt_force == 3.0 && presses[0].felt_time == 0.02);
+  }
+} // namespace
+
+int main()
+{
+  const std::vector<unsigned char> bytes = modalrt::write_basis(modalrt::make_lattice_cantilever());
+  modalrt_basis                   *basis = nullptr;
+  ENSURE(modalrt_basis_load_memory(bytes.data(), bytes.size(), &basis) == MODALRT_OK);
+  if (basis)
+    {
+      fail_safe_plateau(basis);
+      held_throughout(basis);
+    }
+  modalrt_basis_destroy(basis);
+  return test::finish("test_presses");
+}
