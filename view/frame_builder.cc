@@ -9,10 +9,24 @@
 
 namespace modalrt_view
 {
+  namespace
+  {
+    int histogram_bin(double us)
+    {
+      if (us < 500.0)
+        return std::max(0, int(us * 10.0));
+      return std::min(TickHistogram::bins - 1, TickHistogram::fine_bins + int((us - 500.0) / 10.0));
+    }
+
+    double histogram_bin_centre(int b)
+    {
+      return b < TickHistogram::fine_bins ? (b + 0.5) / 10.0 : 500.0 + (b - TickHistogram::fine_bins + 0.5) * 10.0;
+    }
+  } // namespace
+
   void TickHistogram::add(double us)
   {
-    const int b = std::min(bins - 1, std::max(0, int(us * 10.0)));
-    ++count[b];
+    ++count[histogram_bin(us)];
     ++n;
     max_us = std::max(max_us, us);
   }
@@ -23,8 +37,15 @@ namespace modalrt_view
     std::uint64_t       seen   = 0;
     for (int b = 0; b < bins; ++b)
       if ((seen += count[b]) >= target && target > 0)
-        return (b + 0.5) / 10.0;
+        return b == bins - 1 ? max_us : std::min(histogram_bin_centre(b), max_us);
     return 0.0;
+  }
+
+  void TickHistogram::clear()
+  {
+    std::fill(count, count + bins, 0u);
+    n      = 0;
+    max_us = 0.0;
   }
 
   void close_window(TickStats &stats, TickHistogram &durations, TickHistogram *lateness, std::uint64_t ticks,

@@ -64,10 +64,35 @@ const lo = new THREE.Vector3(...info.bounds_min), hi = new THREE.Vector3(...info
 const centre = lo.clone().add(hi).multiplyScalar(0.5), size = hi.clone().sub(lo).length();
 const camera = new THREE.PerspectiveCamera(35, 1, size * 0.01, size * 20);
 camera.up.set(0, 0, 1);
-camera.position.copy(centre).add(new THREE.Vector3(0.35, -1.0, 0.8).multiplyScalar(size));
+// Far enough that the part's bounding sphere (radius size / 2) fits the narrower field of view.
+const fitDistance = (aspect) => (0.55 * size) / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2) * Math.min(1, aspect));
+const viewDirection = new THREE.Vector3(0.35, -1.0, 0.8).normalize();
+camera.position.copy(centre).addScaledVector(viewDirection, fitDistance(1));
 const controls = new OrbitControls(camera, renderer.domElement);
 controls.target.copy(centre);
 controls.update();
+
+// Colour maps, defined once for the shader and the legends. Turbo (Google's polynomial fit) is used
+// between TURBO_LOW and TURBO_HIGH only: its ends are near-black (luminance 0.10 at 0), and the part at
+// rest (|u| = 0) must stand out from the dark background (a blue of luminance 0.41).
+const TURBO = {
+  r: [0.13572138, 4.61539260, -42.66032258, 132.13108234, -152.94239396, 59.28637943],
+  g: [0.09140261, 2.19418839, 4.84296658, -14.18503333, 4.27729857, 2.82956604],
+  b: [0.10667330, 12.64194608, -60.58204836, 110.36276771, -89.90310912, 27.34824973],
+};
+const TURBO_LOW = 0.12, TURBO_HIGH = 0.88;
+const polynomial = (c, x) => c.reduce((sum, k, i) => sum + k * x ** i, 0);
+const glslPolynomial = (c) => `dot(v4, vec4(${c.slice(0, 4).join(', ')})) + dot(v2, vec2(${c.slice(4).join(', ')}))`;
+function turbo(x) { // x in [0, 1] -> THREE.Color, as the shader's turbo()
+  const t = TURBO_LOW + (TURBO_HIGH - TURBO_LOW) * Math.min(1, Math.max(0, x));
+  const channel = (c) => Math.min(1, Math.max(0, polynomial(c, t)));
+  return new THREE.Color().setRGB(channel(TURBO.r), channel(TURBO.g), channel(TURBO.b), THREE.SRGBColorSpace);
+}
+// Validation errors: log scale 1e-12 ... 1, blue to red.
+function errorColor(e) {
+  const x = Math.min(1, Math.max(0, (Math.log10(Math.max(e, 1e-12)) + 12) / 12));
+  return new THREE.Color().setHSL(0.66 * (1 - x), 0.9, 0.55, THREE.SRGBColorSpace);
+}
 
 // Phi as an RGBA32F texture: texel (v r + i) holds mode i at vertex v.
 const texWidth = 2048;
@@ -87,7 +112,7 @@ const maxModes = 256;
 const uniforms = {
   phi: { value: textures[0] }, r: { value: basis.spaces[0].r }, texWidth: { value: texWidth },
   q: { value: Array.from({ length: maxModes / 4 }, () => new THREE.Vector4()) },
-  exaggeration: { value: 1 }, scaleMax: { value: 1e-3 }, rho: { value: rho },
+  exaggeration: { value: 1 }, scaleMax: { value: 1e-3 }, rho: { value: rho }, plain: { value: 0 },
   contactOn: { value: [0, 0] }, contactVertex: { value: [0, 0] },
   contactPos: { value: [new THREE.Vector3(), new THREE.Vector3()] }, contactC: { value: [new THREE.Vector3(), new THREE.Vector3()] },
 };
@@ -119,18 +144,18 @@ const material = new THREE.ShaderMaterial({
     }`,
   fragmentShader: `
     precision highp float;
+    uniform float plain; // 1: a neutral grey (the Validation tab's part at rest: its colours are the points')
     in float vMagnitude; in vec3 vPosition; out vec4 color;
     vec3 turbo(float x) {
-      x = clamp(x, 0.0, 1.0);
+      x = mix(${TURBO_LOW}, ${TURBO_HIGH}, clamp(x, 0.0, 1.0));
       vec4 v4 = vec4(1.0, x, x * x, x * x * x); vec2 v2 = v4.zw * v4.z;
-      return vec3(dot(v4, vec4(0.13572138, 4.61539260, -42.66032258, 132.13108234)) + dot(v2, vec2(-152.94239396, 59.28637943)),
-                  dot(v4, vec4(0.09140261, 2.19418839, 4.84296658, -14.18503333)) + dot(v2, vec2(4.27729857, 2.82956604)),
-                  dot(v4, vec4(0.10667330, 12.64194608, -60.58204836, 110.36276771)) + dot(v2, vec2(-89.90310912, 27.34824973)));
+      return clamp(vec3(${glslPolynomial(TURBO.r)}, ${glslPolynomial(TURBO.g)}, ${glslPolynomial(TURBO.b)}), 0.0, 1.0);
     }
     void main() {
+      // A headlight: the faces the viewer looks at are lit, whatever the orbit.
       vec3 n = normalize(cross(dFdx(vPosition), dFdy(vPosition)));
-      float light = 0.45 + 0.55 * abs(dot(n, normalize(vec3(0.3, -0.5, 0.8))));
-      color = vec4(turbo(vMagnitude) * light, 1.0);
+      float light = 0.6 + 0.4 * abs(dot(n, normalize(cameraPosition - vPosition)));
+      color = vec4(mix(turbo(vMagnitude), vec3(0.62, 0.66, 0.72), plain) * light, 1.0);
     }`,
 });
 const geometry = new THREE.BufferGeometry();
@@ -164,9 +189,7 @@ const hips = hipColors.map((_, h) => {
   const label = document.createElement('div');
   label.className = 'label'; label.style.display = 'none'; label.style.color = '#' + hipColors[h].toString(16);
   $('labels').appendChild(label);
-  const panel = document.createElement('div');
-  $('hips').appendChild(panel);
-  return { sphere, arrow, label, panel, history: [] };
+  return { sphere, arrow, label, history: [], vertex: null }; // vertex: of the press the history is of
 });
 
 // Validation points (offline side).
@@ -177,6 +200,8 @@ scene.add(validationPoints);
 function resize() {
   const w = container.clientWidth, h = container.clientHeight;
   renderer.setSize(w, h); camera.aspect = w / h; camera.updateProjectionMatrix();
+  if (!resize.done) camera.position.copy(centre).addScaledVector(viewDirection, fitDistance(camera.aspect));
+  resize.done = true; // later resizes keep the user's view
 }
 window.addEventListener('resize', resize);
 resize();
@@ -223,17 +248,74 @@ function vertexDisplacement(frame, v) {
   return u;
 }
 
+// ------------------------------------------------------------------------------------- the tabs
+// Each tab owns its display state: what the colours mean (its legend), its amplification, its status
+// word and the space it shows. A tab draws from its own state only, so a visit to Modes or Validation
+// leaves Live as it was.
+const SCALE_FLOOR = 1e-6; // [m] the top of the live colour scale at rest
+const live = state.live = { status: 'connecting…', scaleMax: SCALE_FLOOR, autoExaggeration: true };
+const orbitHint = 'drag the background: rotate · right-drag: pan · wheel: zoom';
+const hints = {
+  live: state.watchOnly ? `${orbitHint} · watch-only: the session drives the HIPs`
+    : `click the part: HIP 0 presses there (shift-click: HIP 1), drag away to press harder · ${orbitHint}`,
+  modes: `${orbitHint} · presses only on the Live tab`,
+  validation: `${orbitHint} · presses only on the Live tab`,
+};
+const statusOf = {
+  live: () => live.status,
+  modes: () => `modes (offline): ${$('mode-text').textContent} of space ${spaceName(Number($('mode-space').value))}, not the live part`,
+  validation: () => `validation (offline): ${$('validation-kind').selectedOptions[0].text} contact errors of space ${spaceName(Number($('validation-space').value))}`,
+};
+function showStatus() { $('status').textContent = statusOf[state.mode](); }
+function setLiveStatus(text) { live.status = text; showStatus(); }
+const spaceName = (s) => `${s} '${info.spaces[s].name}'`;
+
+// A legend: what the colours mean, `colour` mapping [0, 1] to a THREE.Color; the end labels get
+// the ids ID-low and ID-high.
+function showLegend(id, title, colour, low, high) {
+  const stops = Array.from({ length: 9 }, (_, i) => `#${colour(i / 8).getHexString()}`).join(', ');
+  $(id).innerHTML = `<div class="row"><span>${title}</span></div>
+    <div class="legend-bar" style="background: linear-gradient(to right, ${stops})"></div>
+    <div class="row num"><span id="${id}-low">${low}</span><span id="${id}-high">${high}</span></div>`;
+}
+showLegend('modes-legend', '|φ| (mode shape magnitude, relative to its largest)', turbo, '0', '1');
+showLegend('validation-legend', 'contact error (relative, log scale)', (x) => errorColor(10 ** (12 * x - 12)), '1e-12', '1');
+
+// ------------------------------------------------------------------------------------- the socket
 const protocol = location.protocol === 'https:' ? 'wss' : 'ws';
 const socket = new WebSocket(`${protocol}://${location.host}/ws`);
 socket.binaryType = 'arraybuffer';
-socket.onopen = () => { $('status').textContent = state.watchOnly ? `watching modal-rt ${session.driver} (watch-only)` : 'live'; };
-socket.onclose = () => { $('status').textContent = 'disconnected (no session): offline tabs only'; };
+socket.onopen = () => setLiveStatus(state.watchOnly ? `watching modal-rt ${session.driver} (watch-only)` : 'live');
+socket.onclose = () => setLiveStatus('disconnected (no session): offline tabs only');
 socket.onmessage = (event) => {
-  if (typeof event.data === 'string') { if (event.data.startsWith('error')) $('status').textContent = event.data; return; }
+  if (typeof event.data === 'string') { if (event.data.startsWith('error')) setLiveStatus(event.data); return; }
   const f = parseFrame(event.data);
   if (!f) return;
+  trackPresses(f);
   latest = f; freshFrame = true; ++received; ++state.frames; state.bytesPerFrame = f.bytes;
 };
+
+// The displacement along the inward surface normal (the direction the mouse presses).
+function alongNormal(u, v) {
+  return -(u[0] * basis.normals[3 * v] + u[1] * basis.normals[3 * v + 1] + u[2] * basis.normals[3 * v + 2]);
+}
+
+// A new press (a HIP comes into contact, or moves to another vertex) starts a new force-displacement
+// curve and a new colour scale; a release keeps both, so the last press can be inspected until the
+// next one starts.
+function trackPresses(f) {
+  let newPress = false;
+  f.hips.forEach((hip, h) => {
+    const view = hips[h];
+    if (hip.inContact !== 1) { view.vertex = null; return; }
+    if (view.vertex !== hip.vertex) { view.history = []; view.vertex = hip.vertex; newPress = true; }
+    hip.js = vertexDisplacement(f, hip.vertex);
+    view.history.push([Math.max(0, alongNormal(hip.felt, hip.vertex)), Math.hypot(...hip.force)]);
+    if (view.history.length > 2000) view.history.shift();
+  });
+  if (newPress) live.scaleMax = SCALE_FLOOR;
+  for (const hip of f.hips) if (hip.inContact === 1) live.scaleMax = Math.max(live.scaleMax, Math.hypot(...hip.js));
+}
 
 // ------------------------------------------------------------------------------------- the mouse
 const raycaster = new THREE.Raycaster();
@@ -247,11 +329,11 @@ renderer.domElement.addEventListener('pointerdown', (event) => {
   if (event.button !== 0 || state.mode !== 'live' || state.watchOnly) return;
   raycaster.setFromCamera(pointerNdc(event), camera);
   const hit = raycaster.intersectObject(mesh)[0];
-  if (!hit) return;
+  if (!hit) return; // the background: OrbitControls turns the view
   // Snap to the hit triangle's vertex nearest to the hit point.
   let best = hit.face.a, bestD = Infinity;
   for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
-    const d = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]).distanceToSquared(hit.point);
+    const d = restPosition(v).distanceToSquared(hit.point);
     if (d < bestD) { bestD = d; best = v; }
   }
   const hip = event.shiftKey ? 1 : 0;
@@ -278,27 +360,47 @@ $('release-all').onclick = () => { send('release 0'); send('release 1'); };
 
 // ------------------------------------------------------------------------------------- panels
 const fmt = (x, digits = 4) => (Number.isFinite(x) ? x.toPrecision(digits) : '–');
-function hipPanel(h, hip, jsDisplacement) {
-  const F = Math.hypot(...hip.force);
-  const n = F > 0 ? hip.force.map((x) => x / F) : [0, 0, 0];
-  const along = hip.felt[0] * n[0] + hip.felt[1] * n[1] + hip.felt[2] * n[2];
+// A length in mm, 4 significant digits. Below ZERO_FRACTION of the colour scale's top a value is
+// rounding noise (a decayed mode leaves 1e-93 m) and is printed as 0.
+const ZERO_FRACTION = 1e-6;
+function formatMm(metres, scale) {
+  if (!Number.isFinite(metres)) return '–';
+  return Math.abs(metres) < ZERO_FRACTION * scale ? '0 mm' : `${(metres * 1000).toPrecision(4)} mm`;
+}
+const restPosition = (v) => new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]);
+const restMm = (v) => restPosition(v).multiplyScalar(1000).toArray().map((x) => x.toFixed(1));
+// Where a vertex is: its rest position and its region (the VOI it lies in, or none).
+function whereText(v) {
+  const region = basis.regions[v];
+  const voi = region > 0 && region < info.spaces.length ? `VOI '${info.spaces[region].name}'` : 'outside every VOI (global)';
+  return { at: `(${restMm(v).join(', ')}) mm`, voi };
+}
+
+function hipPanel(h, hip, space) {
+  const F = Math.hypot(...hip.force), v = hip.vertex;
+  const along = alongNormal(hip.felt, v);
   const felt = along > 0 ? F / along / 1000 : NaN;
-  return `<div style="color:#${hipColors[h].toString(16)}"><b>HIP ${h}</b> vertex ${hip.vertex}</div>
-    <div class="row"><span>force</span><span class="num" id="hip${h}-force" data-value="${F}">${F.toFixed(6)} N</span></div>
-    <div class="row"><span>|u| at the vertex</span><span class="num" id="hip${h}-u" data-value="${jsDisplacement.join(',')}">${(Math.hypot(...jsDisplacement) * 1000).toPrecision(7)} mm</span></div>
-    <div class="row"><span>felt stiffness (live)</span><span class="num">${fmt(felt)} N/mm</span></div>
+  const where = whereText(v);
+  return `<div style="color:#${hipColors[h].toString(16)}"><b>HIP ${h}</b> vertex ${v}</div>
+    <div class="row"><span>at rest</span><span class="num" id="hip${h}-at">${where.at}</span></div>
+    <div class="row"><span>region</span><span id="hip${h}-region">${where.voi}; kernel's space ${spaceName(space)}</span></div>
+    <div class="row"><span>force</span><span class="num" id="hip${h}-force" data-value="${F}">${F.toFixed(4)} N</span></div>
+    <div class="row"><span>|u| (magnitude)</span><span class="num" id="hip${h}-u" data-value="${hip.js.join(',')}">${formatMm(Math.hypot(...hip.js), live.scaleMax)}</span></div>
+    <div class="row"><span>u·n (along the surface normal)</span><span class="num" id="hip${h}-un">${formatMm(along, live.scaleMax)}</span></div>
+    <div class="row"><span>felt stiffness (live) F/(u·n)</span><span class="num">${fmt(felt)} N/mm</span></div>
     <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>`;
 }
 
-function drawPlot() {
+function drawPlot(pressing) {
   const canvas = $('plot'), g = canvas.getContext('2d');
   g.clearRect(0, 0, canvas.width, canvas.height);
   let maxU = 1e-6, maxF = 1e-3;
   for (const hip of hips) for (const [u, f] of hip.history) { maxU = Math.max(maxU, u); maxF = Math.max(maxF, f); }
   g.strokeStyle = '#555'; g.strokeRect(40, 10, canvas.width - 50, canvas.height - 40);
   g.fillStyle = '#aaa'; g.font = '20px sans-serif';
-  g.fillText(`u [mm] (max ${(maxU * 1000).toPrecision(3)})`, 50, canvas.height - 5);
+  g.fillText(`u·n [mm], along the surface normal (max ${(maxU * 1000).toPrecision(3)})`, 50, canvas.height - 5);
   g.save(); g.translate(25, canvas.height - 40); g.rotate(-Math.PI / 2); g.fillText(`F [N] (max ${maxF.toPrecision(3)})`, 0, 0); g.restore();
+  if (!pressing && hips.some((hip) => hip.history.length)) g.fillText('last press (released)', 50, 34);
   hips.forEach((hip, h) => {
     g.strokeStyle = '#' + hipColors[h].toString(16); g.beginPath();
     hip.history.forEach(([u, f], i) => {
@@ -307,32 +409,21 @@ function drawPlot() {
     });
     g.stroke();
   });
+  state.plotPoints = hips.map((hip) => hip.history.length);
 }
 
-// Color scale: fixed per mode/tab, adapted to the largest |u| seen in the live view.
-let scaleMax = 1e-6;
-function setScale(max) {
-  scaleMax = max; uniforms.scaleMax.value = max;
-  $('scale-max').textContent = `${(max * 1000).toPrecision(3)} mm`;
-  $('scale-text').textContent = `0 … ${(max * 1000).toPrecision(3)} mm`;
-}
-setScale(1e-6);
-
-// Exaggeration: automatic (the largest |u| drawn as 6 % of the part's size, at least x1) until the
-// slider is moved; the slider is in decades, 10^x.
-let autoExaggeration = true;
-$('exaggeration').addEventListener('input', () => { autoExaggeration = false; });
-function exaggerationFactor() {
-  if (autoExaggeration && state.mode === 'live') {
-    const e = Math.max(1, (0.06 * size) / scaleMax);
-    $('exaggeration').value = Math.log10(e);
-    return e;
-  }
-  if (state.mode !== 'live') return 1;
-  return Math.pow(10, Number($('exaggeration').value));
+// Live amplification: automatic (the largest |u| drawn as 6 % of the part's size, at least ×1) until
+// the slider is moved; the slider is in decades, 10^x.
+$('exaggeration').addEventListener('input', () => { live.autoExaggeration = false; });
+function liveExaggeration() {
+  if (!live.autoExaggeration) return 10 ** Number($('exaggeration').value);
+  const e = Math.max(1, (0.06 * size) / live.scaleMax);
+  $('exaggeration').value = Math.log10(e);
+  return e;
 }
 
-function applyModal(spaceIndex, q, contacts) {
+// What every tab sets before drawing: the space, q, the contacts, the amplification and the colour.
+function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain }) {
   uniforms.phi.value = textures[spaceIndex];
   uniforms.r.value = basis.spaces[spaceIndex].r;
   for (let i = 0; i < maxModes; ++i) uniforms.q.value[i >> 2].setComponent(i & 3, i < q.length ? q[i] : 0);
@@ -341,61 +432,68 @@ function applyModal(spaceIndex, q, contacts) {
     uniforms.contactOn.value[k] = c ? 1 : 0;
     if (!c) continue;
     uniforms.contactVertex.value[k] = c.vertex;
-    uniforms.contactPos.value[k].set(basis.vertices[3 * c.vertex], basis.vertices[3 * c.vertex + 1], basis.vertices[3 * c.vertex + 2]);
+    uniforms.contactPos.value[k].copy(restPosition(c.vertex));
     uniforms.contactC.value[k].set(...c.c);
   }
+  uniforms.exaggeration.value = exaggeration; uniforms.scaleMax.value = scaleMax; uniforms.plain.value = plain;
   voiBoxes.forEach((box, i) => { if (box) box.material.color.set(i === spaceIndex ? 0xffd34f : 0x667788); });
-  $('space').textContent = `${spaceIndex} '${info.spaces[spaceIndex].name}' (r = ${basis.spaces[spaceIndex].r})`;
 }
 
-function liveFrame(now) {
-  const f = latest;
+// The Live tab, from the latest frame (or the part at rest before the first one). `fresh`: a new
+// frame, counted in the frame-age figures.
+function drawLive(f, fresh) {
+  const e = liveExaggeration();
+  $('exaggeration-value').textContent = `×${e.toPrecision(3)}`;
+  const top = formatMm(live.scaleMax, 0);
+  if ($('live-legend-high')?.textContent !== top) showLegend('live-legend', '|u| (displacement magnitude)', turbo, '0 mm', top);
+  applyModal(f?.space ?? 0, f?.q ?? [], f?.contacts ?? [], { exaggeration: e, scaleMax: live.scaleMax, plain: 0 });
   if (!f) return;
-  applyModal(f.space, f.q, f.contacts);
+  $('space').textContent = `${spaceName(f.space)} (r = ${basis.spaces[f.space].r})`;
   state.space = f.space; state.tick = f.tick; state.hapticTick = f.stats[0];
-  const age = Date.now() - f.tickWallMs;
-  state.ageMs.push(age);
-  if (state.ageMs.length > 600) state.ageMs.shift();
-  const e = exaggerationFactor();
+  if (fresh) { state.ageMs.push(Date.now() - f.tickWallMs); if (state.ageMs.length > 600) state.ageMs.shift(); }
   let html = '';
   state.hips = f.hips.map((hip, h) => {
-    const view = hips[h];
-    const show = hip.inContact === 1;
-    view.sphere.visible = view.arrow.visible = show;
-    view.label.style.display = show ? 'block' : 'none';
-    if (!show) { view.history.length = 0; return { inContact: 0 }; }
-    const v = hip.vertex;
-    const js = vertexDisplacement(f, v);
-    const F = Math.hypot(...hip.force);
-    const rest = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]);
-    const at = rest.clone().add(new THREE.Vector3(...js).multiplyScalar(e));
-    view.sphere.position.copy(at);
-    if (F > 0) {
-      const dir = new THREE.Vector3(...hip.force).normalize();
-      view.arrow.position.copy(at.clone().sub(dir.clone().multiplyScalar(size * 0.12)));
-      view.arrow.setDirection(dir); view.arrow.setLength(size * 0.12, size * 0.03, size * 0.015);
-    }
-    const p = at.clone().project(camera);
-    view.label.style.left = `${(p.x * 0.5 + 0.5) * container.clientWidth + 8}px`;
-    view.label.style.top = `${(-p.y * 0.5 + 0.5) * container.clientHeight - 24}px`;
-    view.label.textContent = `${F.toFixed(3)} N`;
-    const n = F > 0 ? hip.force.map((x) => x / F) : [0, 0, 0];
-    const along = hip.felt[0] * n[0] + hip.felt[1] * n[1] + hip.felt[2] * n[2];
-    view.history.push([Math.max(0, along), F]);
-    if (view.history.length > 2000) view.history.shift();
-    html += hipPanel(h, hip, js);
-    return { inContact: 1, vertex: v, tick: f.stats[0], force: hip.force, forceN: F, displacement: js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
+    const shown = showHip(hip, h, e, f.stats[0]);
+    if (shown.inContact) html += hipPanel(h, hip, f.space);
+    return shown;
   });
-  for (const h of state.hips) if (h.inContact) setScale(Math.max(scaleMax, Math.hypot(...h.displacement)));
-  hips.forEach((view, h) => { view.panel.innerHTML = ''; });
   $('hips').innerHTML = html || `<small>no contact${state.watchOnly ? '' : ': click the part'}</small>`;
-  const s = f.stats, us = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
-  $('ticks').innerHTML = `ticks ${s[0]} (rejected ${s[1]}), ${s[7].toFixed(0)} Hz<br>tick p50 ${us(s[2])} µs, p99 ${us(s[3])} µs, max ${us(s[4])} µs<br>wake-up lateness p99 ${us(s[5])} µs, max ${us(s[6])} µs`;
-  drawPlot();
+  showTicks(f.stats);
+  drawPlot(state.hips.some((h) => h.inContact));
 }
 
-// Offline: one mode animated, or the validation points.
-function modesFrame(now) {
+// One HIP in the scene: a sphere where it is felt (amplified as the part), the force arrow, a label.
+function showHip(hip, h, e, tick) {
+  const view = hips[h];
+  const show = hip.inContact === 1;
+  view.sphere.visible = view.arrow.visible = show;
+  view.label.style.display = show ? 'block' : 'none';
+  if (!show) return { inContact: 0 };
+  const F = Math.hypot(...hip.force);
+  const at = restPosition(hip.vertex).add(new THREE.Vector3(...hip.js).multiplyScalar(e));
+  view.sphere.position.copy(at);
+  if (F > 0) {
+    const dir = new THREE.Vector3(...hip.force).normalize();
+    view.arrow.position.copy(at.clone().sub(dir.clone().multiplyScalar(size * 0.12)));
+    view.arrow.setDirection(dir); view.arrow.setLength(size * 0.12, size * 0.03, size * 0.015);
+  }
+  const p = at.clone().project(camera);
+  view.label.style.left = `${(p.x * 0.5 + 0.5) * container.clientWidth + 8}px`;
+  view.label.style.top = `${(-p.y * 0.5 + 0.5) * container.clientHeight - 24}px`;
+  view.label.textContent = `${F.toFixed(3)} N`;
+  return { inContact: 1, vertex: hip.vertex, tick, force: hip.force, forceN: F, displacement: hip.js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
+}
+
+// The haptic loop's figures: each over the server's last closed one-second window.
+function showTicks(s) {
+  const us = (x) => (Number.isFinite(x) ? x.toFixed(1) : '–');
+  $('ticks').innerHTML = `ticks ${s[0]} (rejected ${s[1]}), ${s[7].toFixed(0)} Hz<br>over the last second:<br>`
+    + `tick p50 ${us(s[2])} µs, p99 ${us(s[3])} µs, max ${us(s[4])} µs<br>wake-up lateness p99 ${us(s[5])} µs, max ${us(s[6])} µs`;
+}
+
+// The Modes tab: one mode animated at 1 Hz. The colour is |φ| relative to the mode's largest (it
+// does not pulse); the amplification (×1: the crest at 5 % of the part's size) moves the vertices.
+function drawModes(now) {
   const s = Number($('mode-space').value), i = Number($('mode-index').value);
   const space = basis.spaces[s];
   let maxPhi = 0;
@@ -403,44 +501,51 @@ function modesFrame(now) {
     const t = (v * space.r + i) * 3;
     maxPhi = Math.max(maxPhi, Math.hypot(space.phi32[t], space.phi32[t + 1], space.phi32[t + 2]));
   }
-  const amplitude = maxPhi > 0 ? (0.05 * size) / maxPhi : 0; // 5 % of the part's size at the crest
   const q = new Array(space.r).fill(0);
-  q[i] = amplitude * Math.sin(2 * Math.PI * now / 1000);
-  applyModal(s, q, []);
-  setScale(0.05 * size);
-  $('mode-text').textContent = `${i + 1}: ${info.spaces[s].frequencies_hz[i].toFixed(2)} Hz`;
+  q[i] = maxPhi > 0 ? 1 / maxPhi : 0; // the largest |u| is 1 (m): the colour scale's top
+  const amplification = 10 ** Number($('mode-amplification').value);
+  $('mode-amplification-value').textContent = `×${amplification.toPrecision(3)}`;
+  $('mode-text').textContent = `mode ${i + 1}: ${info.spaces[s].frequencies_hz[i].toFixed(2)} Hz`;
+  const exaggeration = 0.05 * size * amplification * Math.sin(2 * Math.PI * now / 1000);
+  applyModal(s, q, [], { exaggeration, scaleMax: 1, plain: 0 });
+  showStatus();
 }
 
-function errorColor(e) {
-  const x = Math.min(1, Math.max(0, (Math.log10(Math.max(e, 1e-12)) + 12) / 12));
-  const c = new THREE.Color(); c.setHSL(0.66 * (1 - x), 0.9, 0.55); return c;
+// The Validation tab: the part at rest in grey, the candidates as points coloured by the largest
+// error of the chosen kind over their cases, and the cases in a table of that same error.
+function validationErrors(s, kind) {
+  const rows = report?.spaces?.[s]?.validation ?? [];
+  const errorOf = (row) => (kind === 'modal' ? row.contact_rel_error_modal : row.contact_rel_error_corrected);
+  // report.json's rows by vertex and direction ("x"), the kernel's self-check by vertex and index (0)
+  const fromReport = new Map(rows.map((row) => [`${row.vertex} ${row.direction}`, errorOf(row)]));
+  const cases = info.spaces[s].validation.map((c) => {
+    const error = rows.length ? fromReport.get(`${c.vertex} ${'xyz'[c.direction]}`) : (kind === 'corrected' ? c.kernel_rel_error : undefined);
+    return { vertex: c.vertex, direction: 'xyz'[c.direction], error, kernel: c.kernel_rel_error };
+  });
+  return { cases, fromReport: rows.length > 0 };
 }
 function showValidation() {
   const s = Number($('validation-space').value), kind = $('validation-kind').value;
-  const positions = [], colors = [];
-  const spaceInfo = info.spaces[s];
-  const rows = (report?.spaces?.[s]?.validation) ?? [];
+  const { cases, fromReport } = validationErrors(s, kind);
   const byVertex = new Map();
-  for (const row of rows) {
-    const e = kind === 'modal' ? row.contact_rel_error_modal : row.contact_rel_error_corrected;
-    byVertex.set(row.vertex, Math.max(byVertex.get(row.vertex) ?? 0, e));
-  }
-  if (!rows.length) for (const c of spaceInfo.validation) if (kind === 'corrected') byVertex.set(c.vertex, Math.max(byVertex.get(c.vertex) ?? 0, c.kernel_rel_error));
-  for (const v of spaceInfo.candidates) {
-    positions.push(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]);
+  for (const c of cases) if (c.error !== undefined) byVertex.set(c.vertex, Math.max(byVertex.get(c.vertex) ?? 0, c.error));
+  const positions = [], colors = [];
+  for (const v of info.spaces[s].candidates) {
+    positions.push(...restPosition(v).toArray());
     const e = byVertex.get(v);
     const c = e === undefined ? new THREE.Color(0x999999) : errorColor(e);
     colors.push(c.r, c.g, c.b);
   }
   validationPoints.geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
   validationPoints.geometry.setAttribute('color', new THREE.Float32BufferAttribute(colors, 3));
-  let table = '<table><tr><th>vertex</th><th>dir</th><th>modal-only</th><th>corrected</th><th>kernel</th></tr>';
-  spaceInfo.validation.forEach((c, k) => {
-    const row = rows[k];
-    table += `<tr><td>${c.vertex}</td><td>${'xyz'[c.direction]}</td><td>${row ? fmt(row.contact_rel_error_modal, 3) : '–'}</td><td>${row ? fmt(row.contact_rel_error_corrected, 3) : '–'}</td><td>${fmt(c.kernel_rel_error, 3)}</td></tr>`;
-  });
-  $('validation-table').innerHTML = table + '</table>' + (rows.length ? '' : '<small>no report.json beside the basis: kernel self-check only</small>');
-  applyModal(s, [], []);
+  const kindName = $('validation-kind').selectedOptions[0].text;
+  const swatch = (e) => (e === undefined ? '' : `<span style="color:#${errorColor(e).getHexString()}">●</span> `);
+  let table = `<table id="validation-cases"><tr><th>vertex</th><th>dir</th><th>${kindName} error</th><th>kernel self-check</th></tr>`;
+  for (const c of cases) table += `<tr><td>${c.vertex}</td><td>${c.direction}</td><td data-value="${c.error ?? ''}">${swatch(c.error)}${fmt(c.error, 3)}</td><td>${fmt(c.kernel, 3)}</td></tr>`;
+  const note = fromReport ? '' : `<small>no report.json beside the basis: ${kind === 'modal' ? 'no modal-only errors; ' : ''}the corrected error is the kernel's self-check</small>`;
+  $('validation-table').innerHTML = `${table}</table>${note}`;
+  applyModal(s, [], [], { exaggeration: 1, scaleMax: 1, plain: 1 });
+  showStatus();
 }
 
 function reportTables() {
@@ -458,39 +563,39 @@ function reportTables() {
     }
     html += '</table>';
     if (report.timings_s) html += '<table>' + Object.entries(report.timings_s).map(([k, t]) => `<tr><td>${k}</td><td>${Number(t).toFixed(2)} s</td></tr>`).join('') + '</table>';
-  } else html += '<small>no report.json beside the basis</small>';
+  } else html += '<small>no report.json beside the basis</small><br>';
   html += `<small>basis: ${info.vertices} vertices, ${info.triangles} triangles, ${(state.basisBytes / 1e6).toFixed(2)} MB sent once</small>`;
   $('report').innerHTML = html;
 }
 
-// Tabs.
-for (const [name, panel] of [['live', 'live-panel'], ['modes', 'modes-panel'], ['validation', 'validation-panel']]) {
-  $(`tab-${name}`).onclick = () => {
-    state.mode = name;
-    for (const other of ['live', 'modes', 'validation']) {
-      $(`tab-${other}`).classList.toggle('on', other === name);
-      $(`${other}-panel`).style.display = other === name ? '' : 'none';
-    }
-    validationPoints.visible = name === 'validation';
-    hips.forEach((h) => { h.sphere.visible = h.arrow.visible = false; h.label.style.display = 'none'; });
-    if (name === 'validation') showValidation();
-  };
+// Tabs: a switch shows the tab's panel, hint and status; Live redraws from its own state at once.
+function selectTab(name) {
+  state.mode = name;
+  for (const other of ['live', 'modes', 'validation']) {
+    $(`tab-${other}`).classList.toggle('on', other === name);
+    $(`${other}-panel`).style.display = other === name ? '' : 'none';
+  }
+  validationPoints.visible = name === 'validation';
+  hips.forEach((h) => { h.sphere.visible = h.arrow.visible = false; h.label.style.display = 'none'; });
+  $('hint').textContent = hints[name];
+  if (name === 'validation') showValidation();
+  if (name === 'live') drawLive(latest, false);
+  showStatus();
 }
+for (const name of ['live', 'modes', 'validation']) $(`tab-${name}`).onclick = () => selectTab(name);
 for (const id of ['mode-space', 'validation-space'])
   info.spaces.forEach((s, i) => $(id).add(new Option(`${i} ${s.name}`, i)));
 $('mode-space').onchange = () => { $('mode-index').max = info.spaces[Number($('mode-space').value)].modes - 1; };
 $('mode-space').onchange();
 $('validation-space').onchange = $('validation-kind').onchange = showValidation;
 reportTables();
+selectTab('live');
 
 // ------------------------------------------------------------------------------------- the loop
 function render(now) {
   requestAnimationFrame(render);
-  const e = exaggerationFactor();
-  uniforms.exaggeration.value = e;
-  $('exaggeration-value').textContent = `×${e.toPrecision(3)}`;
-  if (state.mode === 'live' && freshFrame) { liveFrame(now); freshFrame = false; ++rendered; ++state.renderedFrames; }
-  else if (state.mode === 'modes') modesFrame(now);
+  if (state.mode === 'live' && freshFrame) { drawLive(latest, true); freshFrame = false; ++rendered; ++state.renderedFrames; }
+  else if (state.mode === 'modes') drawModes(now);
   controls.update();
   renderer.render(scene, camera);
   if (now - lastSecond >= 1000) {
@@ -501,14 +606,17 @@ function render(now) {
     $('frames').innerHTML = `${state.fps.toFixed(1)} frames/s drawn (${state.receivedFps.toFixed(1)} received), ${state.bytesPerFrame} bytes/frame<br>frame age tick → screen p50 ${fmt(state.ageP50, 3)} ms, p95 ${fmt(state.ageP95, 3)} ms`;
   }
 }
-// For tests and benchmarks: the screen position of a display vertex at rest.
+// For tests and benchmarks: the screen position of a display vertex at rest, the canvas, and the
+// formatters of lengths and of a vertex's rest position.
 window.viewDebug = {
   project(v) {
-    const p = new THREE.Vector3(basis.vertices[3 * v], basis.vertices[3 * v + 1], basis.vertices[3 * v + 2]).project(camera);
+    const p = restPosition(v).project(camera);
     const rect = renderer.domElement.getBoundingClientRect();
     return { x: rect.left + (p.x * 0.5 + 0.5) * rect.width, y: rect.top + (-p.y * 0.5 + 0.5) * rect.height };
   },
   canvas: renderer.domElement,
+  formatMm,
+  restMm,
 };
 state.ready = true;
 requestAnimationFrame(render);
