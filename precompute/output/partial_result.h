@@ -9,6 +9,8 @@
 
 #include "space/space_result.h"
 
+#include "scene_mesher.h" // meshing::DisplaySurface
+
 #include <cstdint>
 #include <string>
 
