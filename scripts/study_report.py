@@ -227,7 +227,8 @@ def main():
                  "contact, relative to the reference's, the largest over the contacts. Display error: the "
                  "area-weighted l2 error of the modal display field under the contact's unit loads against the "
                  "point's own full FE field. f1 error: the lowest frequency against the reference's. Ticks: "
-                 "one HIP pressing on the first contact, admittance, measured by calling the kernel library.", ""],
+                 "one HIP pressing on the first contact, admittance, measured by bench-basis-cost (the kernel "
+                 "library, run by modal-study on each basis).", ""],
                 reference_lines(folder), ["", "## Every point", ""], table(points), ["", "## Modes needed", ""],
                 modes_answer(points), ["", "## The static correction", ""], correction_answer(points),
                 ["", "## Graded VOI mesh against uniform mesh", ""], graded_answer(points),

@@ -8,13 +8,12 @@
 
 #include <mrt/writer.h>
 
+#include <nlohmann/json.hpp>
+
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <filesystem>
-#include <iomanip>
-#include <sstream>
 
 namespace modal_haptics
 {
@@ -293,108 +292,13 @@ namespace modal_haptics
   }
 
   // ---------------------------------------------------------------------------------------------
-  // report.json
+  // report.json, written by nlohmann/json: keys in the order given here (ordered_json), doubles in
+  // the shortest form that reads back to the same double, non-finite numbers as null (the library's
+  // dump writes NaN and infinities as null).
   // ---------------------------------------------------------------------------------------------
   namespace
   {
-    // A minimal JSON writer: objects and arrays are opened and closed explicitly, commas are ours.
-    class Json
-    {
-    public:
-      explicit Json(std::ostream &out) : out(out) { out << std::setprecision(17); }
-
-      Json &begin_object(const std::string &key = "") { return open(key, '{'); }
-      Json &end_object() { return close('}'); }
-      Json &begin_array(const std::string &key = "") { return open(key, '['); }
-      Json &end_array() { return close(']'); }
-
-      Json &value(const std::string &key, const std::string &text)
-      {
-        prefix(key);
-        out << quoted(text);
-        return *this;
-      }
-      Json &value(const std::string &key, const char *text) { return value(key, std::string(text)); }
-      Json &value(const std::string &key, const bool flag)
-      {
-        prefix(key);
-        out << (flag ? "true" : "false");
-        return *this;
-      }
-      template <typename Number, typename = std::enable_if_t<std::is_arithmetic_v<Number>>>
-      Json &value(const std::string &key, const Number number)
-      {
-        prefix(key);
-        if constexpr (std::is_floating_point_v<Number>)
-          {
-            if (std::isfinite(number))
-              out << number;
-            else
-              out << "null";
-          }
-        else
-          out << number;
-        return *this;
-      }
-      template <typename Number>
-      Json &array(const std::string &key, const std::vector<Number> &numbers)
-      {
-        begin_array(key);
-        for (const auto x : numbers)
-          value("", x);
-        return end_array();
-      }
-
-    private:
-      static std::string quoted(const std::string &text)
-      {
-        std::string q = "\"";
-        for (const char c : text)
-          {
-            if (c == '"' || c == '\\')
-              q += '\\', q += c;
-            else if (static_cast<unsigned char>(c) < 0x20)
-              {
-                char buffer[8];
-                std::snprintf(buffer, sizeof buffer, "\\u%04x", c);
-                q += buffer;
-              }
-            else
-              q += c;
-          }
-        return q + "\"";
-      }
-      void prefix(const std::string &key)
-      {
-        if (!first.empty())
-          {
-            if (!first.back())
-              out << ",";
-            first.back() = false;
-          }
-        out << "\n" << std::string(2 * first.size(), ' ');
-        if (!key.empty())
-          out << quoted(key) << ": ";
-      }
-      Json &open(const std::string &key, const char bracket)
-      {
-        prefix(key);
-        out << bracket;
-        first.push_back(true);
-        return *this;
-      }
-      Json &close(const char bracket)
-      {
-        first.pop_back();
-        out << "\n" << std::string(2 * first.size(), ' ') << bracket;
-        if (first.empty())
-          out << "\n";
-        return *this;
-      }
-
-      std::ostream     &out;
-      std::vector<bool> first;
-    };
+    using Json = nlohmann::ordered_json;
 
     std::uintmax_t file_size(const std::string &name)
     {
@@ -403,180 +307,169 @@ namespace modal_haptics
       return error ? 0 : size;
     }
 
-    void write_validation(Json &json, const std::vector<ValidationCase> &cases)
+    Json validation_json(const std::vector<ValidationCase> &cases)
     {
-      json.begin_array("validation");
+      Json validation = Json::array();
       for (const auto &vc : cases)
-        {
-          json.begin_object()
-            .value("vertex", vc.vertex)
-            .value("direction", std::string(1, "xyz"[vc.direction]))
-            .array("full_contact_response_m_per_n", std::vector<double>(vc.full_response.begin(), vc.full_response.end()))
-            .value("contact_rel_error_modal", vc.contact_rel_error_modal)
-            .value("contact_rel_error_corrected", vc.contact_rel_error_corrected)
-            .value("field_rel_error_modal", vc.field_rel_error_modal)
-            .value("field_max_error_modal", vc.field_max_error_modal)
-            .value("field_rel_error_corrected", vc.field_rel_error_corrected)
-            .value("correction_field_vertices", vc.correction_field_vertices)
-            .value("energy_rel_error_modal", vc.energy_rel_error_modal)
-            .value("solve_relative_residual", vc.solve_relative_residual)
-            .end_object();
-        }
-      json.end_array();
+        validation.push_back({{"vertex", vc.vertex},
+                              {"direction", std::string(1, "xyz"[vc.direction])},
+                              {"full_contact_response_m_per_n", vc.full_response},
+                              {"contact_rel_error_modal", vc.contact_rel_error_modal},
+                              {"contact_rel_error_corrected", vc.contact_rel_error_corrected},
+                              {"field_rel_error_modal", vc.field_rel_error_modal},
+                              {"field_max_error_modal", vc.field_max_error_modal},
+                              {"field_rel_error_corrected", vc.field_rel_error_corrected},
+                              {"correction_field_vertices", vc.correction_field_vertices},
+                              {"energy_rel_error_modal", vc.energy_rel_error_modal},
+                              {"solve_relative_residual", vc.solve_relative_residual}});
+      return validation;
     }
 
-    void write_space(Json &json, const ModalSpaceResult &s, const meshing::ScenarioMesh &mesh)
+    Json mesh_json(const meshing::ScenarioMesh &mesh)
     {
-      const auto r = s.eigenvalues.size(), nc = s.candidates.size();
-      json.begin_object()
-        .value("name", s.name)
-        .value("index", s.index)
-        .value("n_vertices", s.n_vertices)
-        .value("n_cells", s.n_cells)
-        .value("n_dofs", s.n_dofs)
-        .value("degree", s.degree)
-        .value("n_clamped_dofs", s.n_clamped_dofs);
-      json.begin_object("mesh")
-        .value("file", std::filesystem::path(mesh.msh_file).filename().string())
-        .value("n_nodes", mesh.statistics.n_nodes)
-        .value("n_tets", mesh.statistics.n_tets)
-        .value("min_quality", mesh.statistics.min_quality)
-        .value("mean_quality", mesh.statistics.mean_quality)
-        .value("max_quality", mesh.statistics.max_quality)
-        .value("reused", mesh.statistics.reused)
-        .value("seconds", mesh.statistics.seconds)
-        .end_object();
-      json.value("n_modes", r)
-        .array("frequencies_hz", s.frequencies_hz)
-        .array("computed_frequencies_hz", s.computed_frequencies_hz)
-        .array("damping_ratios", s.damping_ratios)
-        .value("cut_off_hz", s.cut_off_hz);
-      json.begin_array("dropped_modes");
-      for (const auto &dm : s.dropped_modes)
-        json.begin_object().value("index", dm.index).value("frequency_hz", dm.frequency).value("reason", dm.reason).end_object();
-      json.end_array();
-      json.value("supports", s.supports_summary);
-      json.begin_object("rigid_body_modes")
-        .value("count", s.n_rigid_body_modes)
-        .value("free_motions", s.free_motions)
-        .array("computed_frequencies_hz", s.rigid_computed_frequencies_hz)
-        .value("subspace_distance", s.rigid_subspace_sine)
-        .end_object();
-      json.value("orthonormality_error", s.self_check.orthonormality_error)
-        .value("max_relative_residual", s.self_check.max_relative_residual)
-        .value("spurious_eigenvalues",
-               "none: the " + std::to_string(s.n_spurious_rows) +
-                 " constrained rows have M_ii = 0, which puts their eigenvalues at infinity");
-      json.begin_object("eigensolver")
-        .value("method", s.eigensolver_method + " + " + s.factorization.method)
-        .value("factor_nonzeros", s.factorization.factor_nonzeros)
-        .value("factor_flops", s.factorization.factor_flops)
-        .value("analyze_s", s.factorization.analyze_seconds)
-        .value("factorize_s", s.factorization.factorize_seconds)
-        .value("arpack_s", s.eigensolve_iteration_seconds)
-        .value("operator_applications", s.n_operator_applications)
-        .value("solved_vectors", s.factorization.n_solved_vectors)
-        .value("solve_s", s.factorization.solve_seconds)
-        .value("solve_threads", s.factorization.solve_threads)
-        .value("mass_products_s", s.mass_product_seconds)
-        .value("orthogonalization_s", s.orthogonalization_seconds)
-        .end_object();
+      return {{"file", std::filesystem::path(mesh.msh_file).filename().string()},
+              {"n_nodes", mesh.statistics.n_nodes},
+              {"n_tets", mesh.statistics.n_tets},
+              {"min_quality", mesh.statistics.min_quality},
+              {"mean_quality", mesh.statistics.mean_quality},
+              {"max_quality", mesh.statistics.max_quality},
+              {"reused", mesh.statistics.reused},
+              {"seconds", mesh.statistics.seconds}};
+    }
+
+    Json eigensolver_json(const ModalSpaceResult &s)
+    {
+      return {{"method", s.eigensolver_method + " + " + s.factorization.method},
+              {"factor_nonzeros", s.factorization.factor_nonzeros},
+              {"factor_flops", s.factorization.factor_flops},
+              {"analyze_s", s.factorization.analyze_seconds},
+              {"factorize_s", s.factorization.factorize_seconds},
+              {"arpack_s", s.eigensolve_iteration_seconds},
+              {"operator_applications", s.n_operator_applications},
+              {"solved_vectors", s.factorization.n_solved_vectors},
+              {"solve_s", s.factorization.solve_seconds},
+              {"solve_threads", s.factorization.solve_threads},
+              {"mass_products_s", s.mass_product_seconds},
+              {"orthogonalization_s", s.orthogonalization_seconds}};
+    }
+
+    Json static_correction_json(const ModalSpaceResult &s)
+    {
+      const std::size_t r = s.eigenvalues.size(), nc = s.candidates.size();
       const std::size_t bytes_per_candidate = 8 * (3 * r + 9) + 4 + (s.cross_compliance.empty() ? 0 : 8 * 9 * nc);
-      json.begin_object("static_correction")
-        .value("n_candidates", nc)
-        .value("cross_compliance", !s.cross_compliance.empty())
-        .value("seconds_per_candidate", s.correction_seconds_per_candidate)
-        .value("refinement_steps", s.static_solve_iterations)
-        .value("bytes_per_candidate", bytes_per_candidate)
-        .end_object();
-      json.value("mass_kg", s.mass)
-        .array("centre_of_mass_m", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()));
-      write_validation(json, s.validation);
+      return {{"n_candidates", nc},
+              {"cross_compliance", !s.cross_compliance.empty()},
+              {"seconds_per_candidate", s.correction_seconds_per_candidate},
+              {"refinement_steps", s.static_solve_iterations},
+              {"bytes_per_candidate", bytes_per_candidate}};
+    }
+
+    // The modes and how they were chosen: from "n_modes" to "rigid_body_modes" in the schema.
+    void add_modes(Json &space, const ModalSpaceResult &s)
+    {
+      space["n_modes"]                 = s.eigenvalues.size();
+      space["frequencies_hz"]          = s.frequencies_hz;
+      space["computed_frequencies_hz"] = s.computed_frequencies_hz;
+      space["damping_ratios"]          = s.damping_ratios;
+      space["cut_off_hz"]              = s.cut_off_hz;
+      Json &dropped                    = space["dropped_modes"] = Json::array();
+      for (const auto &dm : s.dropped_modes)
+        dropped.push_back({{"index", dm.index}, {"frequency_hz", dm.frequency}, {"reason", dm.reason}});
+      space["supports"]         = s.supports_summary;
+      space["rigid_body_modes"] = {{"count", s.n_rigid_body_modes},
+                                   {"free_motions", s.free_motions},
+                                   {"computed_frequencies_hz", s.rigid_computed_frequencies_hz},
+                                   {"subspace_distance", s.rigid_subspace_sine}};
+    }
+
+    Json space_json(const ModalSpaceResult &s, const meshing::ScenarioMesh &mesh)
+    {
+      Json space = {{"name", s.name},         {"index", s.index},   {"n_vertices", s.n_vertices},
+                    {"n_cells", s.n_cells},   {"n_dofs", s.n_dofs}, {"degree", s.degree},
+                    {"n_clamped_dofs", s.n_clamped_dofs}};
+      space["mesh"] = mesh_json(mesh);
+      add_modes(space, s);
+      space["orthonormality_error"]  = s.self_check.orthonormality_error;
+      space["max_relative_residual"] = s.self_check.max_relative_residual;
+      space["spurious_eigenvalues"]  = "none: the " + std::to_string(s.n_spurious_rows) +
+                                      " constrained rows have M_ii = 0, which puts their eigenvalues at infinity";
+      space["eigensolver"]       = eigensolver_json(s);
+      space["static_correction"] = static_correction_json(s);
+      space["mass_kg"]           = s.mass;
+      space["centre_of_mass_m"]  = s.centre_of_mass;
+      space["validation"]        = validation_json(s.validation);
       if (s.two_contact_rel_error_corrected >= 0.)
-        json.value("two_contact_rel_error_corrected", s.two_contact_rel_error_corrected);
-      json.begin_object("timings_s");
-      for (const auto &[phase, seconds] : s.timings_s)
-        json.value(phase, seconds);
-      json.end_object().end_object();
+        space["two_contact_rel_error_corrected"] = s.two_contact_rel_error_corrected;
+      space["timings_s"] = Json(s.timings_s);
+      return space;
     }
 
     // The same display vertex felt from each space: the accuracy a VOI buys over the global space.
-    void write_cross_space(Json &json, const PrecomputeResults &results)
+    Json cross_space_json(const PrecomputeResults &results)
     {
-      json.begin_array("cross_space");
-      const auto &global = results.spaces.front();
+      Json        cross_space = Json::array();
+      const auto &global      = results.spaces.front();
       for (const auto &[vertex, G_global] : global.full_compliance)
         for (const auto &s : results.spaces)
           {
             if (s.index == 0 || s.full_compliance.count(vertex) == 0)
               continue;
-            const auto &G = s.full_compliance.at(vertex);
+            const auto &G    = s.full_compliance.at(vertex);
             double      diff = 0., norm = 0.;
             for (unsigned int k = 0; k < 9; ++k)
               diff += std::pow(G_global[k] - G[k], 2), norm += G[k] * G[k];
-            json.begin_object()
-              .value("vertex", vertex)
-              .value("region", results.spaces[results.display.region[vertex]].name)
-              .value("space", s.name)
-              .array("compliance_m_per_n", std::vector<double>(G.begin(), G.end()))
-              .array("global_compliance_m_per_n", std::vector<double>(G_global.begin(), G_global.end()))
-              .value("global_rel_difference", std::sqrt(diff / norm))
-              .end_object();
+            cross_space.push_back({{"vertex", vertex},
+                                   {"region", results.spaces[results.display.region[vertex]].name},
+                                   {"space", s.name},
+                                   {"compliance_m_per_n", G},
+                                   {"global_compliance_m_per_n", G_global},
+                                   {"global_rel_difference", std::sqrt(diff / norm)}});
           }
-      json.end_array();
+      return cross_space;
+    }
+
+    // What every space stands on: from "schema_version" to "display_surface" in the schema.
+    Json scene_json(const SceneParameters &scene, const PrecomputeResults &results)
+    {
+      const auto &d = results.display;
+      return {{"schema_version", "1.0"},
+              {"scene", scene.scene_name},
+              {"parameter_file", scene.parameter_file},
+              {"geometry", scene.meshing.geometry},
+              {"element_degree", scene.element_degree},
+              {"processes", {{"count", results.n_processes}, {"max_peak_memory_mb", results.max_peak_memory_mb}}},
+              {"material",
+               {{"youngs_modulus_pa", scene.material.youngs_modulus},
+                {"poissons_ratio", scene.material.poissons_ratio},
+                {"density_kg_m3", scene.material.density}}},
+              {"display_surface",
+               {{"n_vertices", d.n_vertices()},
+                {"n_triangles", d.triangles.size()},
+                {"patch_radius_m", d.patch_radius},
+                {"max_patch_size", d.max_patch_size}}}};
     }
   } // namespace
 
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                     StagedFiles &staged)
   {
+    Json report = scene_json(scene, results);
+    Json &spaces = report["spaces"] = Json::array();
+    for (std::size_t k = 0; k < results.spaces.size(); ++k)
+      spaces.push_back(space_json(results.spaces[k], results.meshes.scenarios[k]));
+    report["cross_space"] = cross_space_json(results);
+    Json &transfer        = report["transfer"] = Json::array();
+    for (const auto &t : results.transfers)
+      transfer.push_back({{"to", results.spaces[t.to].name},
+                          {"from", results.spaces[t.from].name},
+                          {"relative_residual", t.relative_residual}});
     const std::string base = scene.output_directory + "/" + scene.scene_name;
-    staged.write(filename, [&](std::ostream &out) {
-      Json json(out);
-      json.begin_object()
-        .value("schema_version", "1.0")
-        .value("scene", scene.scene_name)
-        .value("parameter_file", scene.parameter_file)
-        .value("geometry", scene.meshing.geometry)
-        .value("element_degree", scene.element_degree);
-      json.begin_object("processes")
-        .value("count", results.n_processes)
-        .value("max_peak_memory_mb", results.max_peak_memory_mb)
-        .end_object();
-      json.begin_object("material")
-        .value("youngs_modulus_pa", scene.material.youngs_modulus)
-        .value("poissons_ratio", scene.material.poissons_ratio)
-        .value("density_kg_m3", scene.material.density)
-        .end_object();
-      const auto &d = results.display;
-      json.begin_object("display_surface")
-        .value("n_vertices", d.n_vertices())
-        .value("n_triangles", d.triangles.size())
-        .value("patch_radius_m", d.patch_radius)
-        .value("max_patch_size", d.max_patch_size)
-        .end_object();
-      json.begin_array("spaces");
-      for (std::size_t k = 0; k < results.spaces.size(); ++k)
-        write_space(json, results.spaces[k], results.meshes.scenarios[k]);
-      json.end_array();
-      write_cross_space(json, results);
-      json.begin_array("transfer");
-      for (const auto &t : results.transfers)
-        json.begin_object()
-          .value("to", results.spaces[t.to].name)
-          .value("from", results.spaces[t.from].name)
-          .value("relative_residual", t.relative_residual)
-          .end_object();
-      json.end_array();
-      json.begin_object("files")
-        .value("h5_bytes", file_size(staged.current_path(base + ".h5")))
-        .value("mrt_bytes", file_size(staged.current_path(base + ".mrt")))
-        .end_object();
-      json.begin_object("timings_s");
-      for (const auto &[phase, seconds] : results.timings_s)
-        json.value(phase, seconds);
-      json.end_object();
-      json.end_object();
-    });
+    report["files"]        = {{"h5_bytes", file_size(staged.current_path(base + ".h5"))},
+                              {"mrt_bytes", file_size(staged.current_path(base + ".mrt"))}};
+    report["timings_s"]    = Json(results.timings_s);
+    // A string that is not UTF-8 (a path in another encoding) is written with U+FFFD where its bytes
+    // are not, instead of failing the whole report.
+    const std::string text = report.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
+    staged.write(filename, [&](std::ostream &out) { out << text; });
   }
 } // namespace modal_haptics

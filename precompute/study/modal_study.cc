@@ -11,14 +11,16 @@
 // a reference the study builds itself: the same part on a uniform mesh of 'Reference size' with
 // P2 elements, its full static FE compliance at the study's contact points and its lowest frequencies.
 // Cost comes from the points' own timers, the .mrt written for each r, and the real-time kernel
-// (modalrt) loading that file and ticking on it.
+// loading that file and ticking on it: bench-basis-cost (benchmarks/realtime), run as a child process,
+// since the precompute never includes the kernel.
 //
 // Output: study.csv (a row per point and r), reference.csv, points/<point>/ (each run's results), and
 // study.md with the plots, written by scripts/study_report.py (unless --no-report).
 //
 // This file is the study's sweep (its parameters, the points, the pipeline run at each, the
 // errors against the reference); modal_study.h holds the records it fills, study_kernel_cost.cc
-// times the kernel and study_output.cc writes the tables and runs the report script.
+// has the kernel timed by bench-basis-cost, study_output.cc writes the tables and has the report
+// written, child_process.cc finds and runs those two companions.
 #include "output/atomic_file.h"
 #include "solvers/factorization.h"
 #include "pipeline/modal_precompute.h"

@@ -1,13 +1,15 @@
 // modal-study's records and its parts that need no deal.II. What a study point is and what it
 // measures (the rows of study.csv, the references of reference.csv); the real-time kernel's cost
-// on a basis file (study_kernel_cost.cc); the study's outputs (study_output.cc: the two tables, then
-// study.md and the plots by scripts/study_report.py). The sweep itself, which needs the precompute,
-// is modal_study.cc.
+// on a basis file (study_kernel_cost.cc, by running bench-basis-cost: the precompute never includes
+// the kernel); the study's outputs (study_output.cc: the two tables, then study.md and the plots by
+// scripts/study_report.py); how the study finds and runs those companions (child_process.cc). The
+// sweep itself, which needs the precompute, is modal_study.cc.
 #pragma once
 
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <sstream>
 #include <string>
@@ -102,7 +104,7 @@ namespace modal_haptics
   };
 
   // study_kernel_cost.cc: the kernel loading `basis_file` and pressing on `contact` for `ticks`
-  // admittance ticks, without and with the static correction.
+  // admittance ticks, without and with the static correction: bench-basis-cost, run as a child.
   KernelCost measure_kernel(const std::string &basis_file, const Contact &contact, unsigned int ticks);
 
   // study_output.cc: <output_directory>/reference.csv and study.csv, each written atomically.
@@ -111,4 +113,14 @@ namespace modal_haptics
 
   // study_output.cc: scripts/study_report.py on the tables (study.md and the plots); its exit status.
   int write_report(const std::string &output_directory);
+
+  // child_process.cc: the file `name` in the first folder that holds it: each of `from_bin` relative
+  // to this program's folder, then `build_folder`; else an exception naming them (and `hint`).
+  std::filesystem::path find_companion(const std::string &name, const std::vector<std::string> &from_bin,
+                                       const std::string &build_folder, const std::string &hint);
+
+  // child_process.cc: runs arguments[0] (a path) with the rest as its arguments and waits for it; its
+  // standard output goes to `output` if not null, else to ours. Returns its exit status; throws
+  // (naming `hint`) if it cannot be started.
+  int run_child(std::vector<std::string> arguments, std::string *output, const std::string &hint);
 } // namespace modal_haptics

@@ -6,15 +6,9 @@
 #include <filesystem>
 #include <iomanip>
 
-#include <spawn.h>
-#include <sys/wait.h>
-
-extern char **environ;
-
 namespace modal_haptics
 {
   namespace fs = std::filesystem;
-  using dealii::ExcMessage;
 
   void write_reference_table(const std::string &output_directory, const std::vector<ReferenceSolution> &references)
   {
@@ -66,41 +60,13 @@ namespace modal_haptics
     });
   }
 
-  // study_report.py installed beside this program (<prefix>/bin/modal-study finds
-  // <prefix>/share/modal-haptics/scripts), else in the scripts/ folder of the source tree this program
+  // scripts/study_report.py: study.md and the plots. Installed in <prefix>/share/modal-haptics/scripts
+  // (found from <prefix>/bin/modal-study), else in the scripts/ folder of the source tree this program
   // was built from (the build passes both places).
-  fs::path find_report_script()
-  {
-    std::error_code code;
-    const fs::path  exe = fs::read_symlink("/proc/self/exe", code);
-    std::string     tried;
-    for (const fs::path &folder : {code ? fs::path() : exe.parent_path() / MODAL_HAPTICS_SCRIPTS_FROM_BIN,
-                                   fs::path(MODAL_HAPTICS_SCRIPTS_DIR)})
-      {
-        const fs::path script = (folder / "study_report.py").lexically_normal();
-        if (!folder.empty() && fs::is_regular_file(script, code))
-          return script;
-        tried += (tried.empty() ? "" : " nor ") + script.string();
-      }
-    AssertThrow(false, ExcMessage("Cannot find study_report.py: neither " + tried + " exists (use --no-report)."));
-    return {};
-  }
-
-  // scripts/study_report.py: study.md and the plots.
   int write_report(const std::string &output_directory)
   {
-    const fs::path script = find_report_script();
-    const std::string        python = "/usr/bin/python3";
-    std::vector<std::string> arguments{python, script.string(), output_directory};
-    std::vector<char *>      argv;
-    for (auto &argument : arguments)
-      argv.push_back(argument.data());
-    argv.push_back(nullptr);
-    pid_t pid = 0;
-    AssertThrow(posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ) == 0,
-                ExcMessage("Cannot start " + python + " for " + script.string() + " (use --no-report)."));
-    int status = 0;
-    waitpid(pid, &status, 0);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+    const fs::path script = find_companion("study_report.py", {MODAL_HAPTICS_SCRIPTS_FROM_BIN},
+                                           MODAL_HAPTICS_SCRIPTS_DIR, " (use --no-report)");
+    return run_child({"/usr/bin/python3", script.string(), output_directory}, nullptr, " (use --no-report)");
   }
 } // namespace modal_haptics

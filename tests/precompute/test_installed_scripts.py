@@ -4,9 +4,10 @@
 Installs the build into a temporary prefix (cmake --install), moves the prefix elsewhere (the lookup
 is relative to the program, so a moved prefix must still work), marks the installed copy of
 plot_force_displacement.py so that a run by it leaves a file, then plays a short press on the small
-scene's basis with the installed modal-rt. Asserted: the installed scripts exist, the run wrote
-force_displacement.png (a PNG) and the installed script drew it. Without matplotlib the run must say
-that it skipped the plot, naming matplotlib (not a missing script)."""
+scene's basis with the installed modal-rt. Asserted: the installed scripts and modal-study's
+bench-basis-cost exist, the run wrote force_displacement.png (a PNG) and the installed script drew
+it. Without matplotlib the run must say that it skipped the plot, naming matplotlib (not a missing
+script)."""
 import argparse
 import os
 import shutil
@@ -37,6 +38,9 @@ def main():
     scripts = os.path.join(prefix, "share", "modal-haptics", "scripts")
     failures = [f"{name} not installed in {scripts}" for name in ("plot_force_displacement.py", "study_report.py")
                 if not os.path.isfile(os.path.join(scripts, name))]
+    helpers = os.path.join(prefix, "libexec", "modal-haptics")
+    if not os.access(os.path.join(helpers, "bench-basis-cost"), os.X_OK):
+        failures.append(f"bench-basis-cost (modal-study's kernel timing) not installed in {helpers}")
     if failures:
         print("\n".join("FAILED: " + f for f in failures))
         return 1
