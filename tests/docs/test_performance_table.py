@@ -21,6 +21,12 @@ def main():
     if subprocess.run(["git", "-C", args.source, "rev-parse", "--git-dir"], capture_output=True).returncode != 0:
         print(f"SKIPPED: {args.source} is not a git checkout")
         return 77
+    # A shallow clone lacks the commits that dated the CSVs: the table cannot be regenerated there.
+    shallow = subprocess.run(["git", "-C", args.source, "rev-parse", "--is-shallow-repository"],
+                             capture_output=True, text=True).stdout.strip()
+    if shallow == "true":
+        print(f"SKIPPED: {args.source} is a shallow clone (the CSVs' commits are not in it)")
+        return 77
     doc = os.path.join(args.source, "docs", "performance.md")
     with tempfile.TemporaryDirectory() as folder:
         copy = os.path.join(folder, "performance.md")
