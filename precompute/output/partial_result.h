@@ -7,6 +7,7 @@
 // line names the format, so that anything else is refused with a message.
 #pragma once
 
+#include "scene_mesher.h"
 #include "space/space_result.h"
 
 #include <cstdint>

@@ -709,32 +709,27 @@ namespace modal_haptics
 
   std::unique_ptr<DistributedInverse>
   make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A, const DistributedFactorizationKind kind,
-                     const bool positive_definite, const FactorPlacement &placement, FactorizationStatistics &stats,
-                     const std::function<void(const FactorPrediction &, bool will_factorize)> &decided)
+                     const bool positive_definite, const std::string &directory, FactorizationStatistics &stats,
+                     const std::function<solver_choice::Placement(const solver_choice::MumpsPrediction &)> &place)
   {
-    FactorPrediction prediction;
+    using solver_choice::Placement;
+    solver_choice::MumpsPrediction prediction;
     if (kind == DistributedFactorizationKind::mumps_lu)
       {
-        AssertThrow(placement.storage != FactorStorage::disk,
-                    ExcMessage("'Modes/Factor storage = disk' needs 'Modes/Distributed factorization = "
-                               "mumps-cholesky': MUMPS's LU through Trilinos Amesos keeps its factor in memory."));
-        decided(prediction, true);
+        const Placement placement = place(prediction);
+        Assert(placement == Placement::memory, ExcMessage("MUMPS's LU through Amesos keeps its factor in memory."));
+        (void)placement;
         return std::make_unique<AmesosMumpsLU>(A, stats);
       }
     auto inverse                 = std::make_unique<MumpsCholesky>(A, positive_definite, stats);
     prediction.in_core_bytes     = inverse->predicted_in_core_bytes_per_process();
     prediction.out_of_core_bytes = inverse->predicted_out_of_core_bytes_per_process();
     prediction.factor_bytes      = inverse->predicted_factor_bytes();
-    prediction.on_disk           = placement.storage == FactorStorage::disk ||
-                         (placement.storage == FactorStorage::automatic &&
-                          prediction.in_core_bytes > placement.limit_bytes_per_process);
-    const double need      = prediction.on_disk ? prediction.out_of_core_bytes : prediction.in_core_bytes;
-    const bool   factorize = !placement.refuse_over_limit || need <= placement.limit_bytes_per_process;
-    decided(prediction, factorize);
-    if (!factorize)
+    const Placement placement    = place(prediction);
+    if (placement == Placement::none)
       return nullptr;
-    if (prediction.on_disk)
-      inverse->store_factor_on_disk(placement.directory);
+    if (placement == Placement::disk)
+      inverse->store_factor_on_disk(directory);
     inverse->factorize();
     return inverse;
   }

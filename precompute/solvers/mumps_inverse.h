@@ -11,12 +11,12 @@
 
 #include "solvers/factorization.h"
 #include "parameters/scene_parameters.h"
+#include "solvers/solver_choice.h"
 
 #include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <functional>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,32 +41,14 @@ namespace modal_haptics
     virtual long negative_eigenvalues() const { return -1; }
   };
 
-  // Where MUMPS keeps its factor, and the in-core data it may take per process.
-  struct FactorPlacement
-  {
-    FactorStorage storage = FactorStorage::memory; // automatic: in core within the limit, else on disk
-    std::string   directory;                       // the out-of-core files' directory
-    double        limit_bytes_per_process = std::numeric_limits<double>::infinity();
-    bool          refuse_over_limit       = false; // nothing factorized when even the storage taken exceeds the limit
-  };
-
-  // What MUMPS's analysis predicted, on the process that needs most (INFOG(16) and INFOG(26)), and
-  // where the factor went; -1 where the LU (Amesos) cannot tell before it factorizes.
-  struct FactorPrediction
-  {
-    double in_core_bytes     = -1.;
-    double out_of_core_bytes = -1.;
-    double factor_bytes      = -1.; // the factor's values, all processes (INFOG(3))
-    bool   on_disk           = false;
-  };
-
-  // Factorizes A (collective) as placement says; stats gets the method, the time and, for the
-  // symmetric path, the factor's entries (MUMPS INFOG(29)). positive_definite: A is (K with a shift
-  // <= 0). nullptr (nothing factorized) only with placement.refuse_over_limit ('Eigensolver = auto').
-  // The LU path (Amesos) keeps its factor in memory and always factorizes. decided(prediction, will_factorize)
-  // is called once the choice is made, before the factorization (minutes at 10^6 DoFs).
+  // Factorizes A (collective) where place(prediction) puts the factor once MUMPS's analysis has
+  // predicted what it needs (solver_choice.h chooses): in memory, on disk in 'directory' (empty:
+  // $MUMPS_OOC_TMPDIR, $TMPDIR or /tmp), or nowhere (nullptr: nothing factorized). place is called
+  // once, before the factorization (minutes at 10^6 DoFs). The LU path (Amesos) predicts nothing (-1)
+  // and keeps its factor in memory. stats gets the method, the time and, for the symmetric path, the
+  // factor's entries (MUMPS INFOG(29)). positive_definite: A is (K with a shift <= 0).
   std::unique_ptr<DistributedInverse>
   make_mumps_inverse(const dealii::TrilinosWrappers::SparseMatrix &A, DistributedFactorizationKind kind,
-                     bool positive_definite, const FactorPlacement &placement, FactorizationStatistics &stats,
-                     const std::function<void(const FactorPrediction &, bool will_factorize)> &decided);
+                     bool positive_definite, const std::string &directory, FactorizationStatistics &stats,
+                     const std::function<solver_choice::Placement(const solver_choice::MumpsPrediction &)> &place);
 } // namespace modal_haptics

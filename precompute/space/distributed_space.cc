@@ -160,7 +160,7 @@ namespace modal_haptics
           result.factorization = amg->statistics();
       }
       std::map<types::global_dof_index, unsigned int> dof_components() const;
-      bool factorize_unless_amg();
+      bool factorize_as_chosen();
       void refuse_shift_above_first_mode() const;
       void block_krylov_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       void parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
@@ -292,12 +292,13 @@ namespace modal_haptics
       // identification of the rigid-body modes against the exact free motions, and static solves
       // that keep their answers M-orthogonal to them.
       const FreeMotions free = supports.free_motions(Point<3>(), comm);
-      AssertThrow(free.motions.empty(),
-                  ExcMessage("Space '" + task.name + "': the supports leave " + std::to_string(free.motions.size()) +
-                             " rigid-body motions free (" + free.describe() + "); such a part runs on the serial "
-                             "path's CHOLMOD only: MUMPS's path neither identifies the rigid-body modes nor keeps its "
-                             "static answers free of them. Run modal-precompute without mpirun or --distributed, "
-                             "and without 'Modes/Factor storage = disk'."));
+      choice = solver_choice::choose({space_parts::solver_settings(scene), /*distributed*/ true,
+                                      !free.motions.empty(), {}, {}});
+      AssertThrow(choice.refusal.empty(),
+                  ExcMessage(free.motions.empty() ?
+                               choice.refusal :
+                               "Space '" + task.name + "': the supports leave " + std::to_string(free.motions.size()) +
+                                 " rigid-body motions free (" + free.describe() + "); " + choice.refusal));
       std::vector<unsigned int> clamped;
       for (const auto i : owned_dofs)
         if (constraints.is_constrained(i))
@@ -337,56 +338,38 @@ namespace modal_haptics
       assembler.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
-    // MUMPS factorizes K - shift M for the eigensolver and the static solves, its factor in memory
-    // or on disk ('Modes/Factor storage'; auto: on disk when MUMPS's analysis predicts in-core data
-    // over 'Modes/Factor memory limit', shared by the processes of a node, half the node's available
-    // memory by default). 'Eigensolver = auto' takes the path without a factorization when even the
-    // storage taken would exceed the limit. Returns whether it factorized (collective: every process
-    // decides alike).
-    bool DistributedSpace::factorize_unless_amg()
+    // The solver choice (solver_choice.h) carried out: MUMPS factorizes K - shift M for the eigensolver
+    // and the static solves, its factor in memory or on disk as the choice says once MUMPS's analysis
+    // has predicted what it needs against 'Modes/Factor memory limit' (shared by the processes of a
+    // node, half the node's available memory by default); or nothing is factorized (LOBPCG + AMG).
+    // Returns whether it factorized (collective: every process decides alike).
+    bool DistributedSpace::factorize_as_chosen()
     {
-      const EigensolverKind wanted = scene.modes.eigensolver;
-      if (wanted == EigensolverKind::lobpcg_amg)
+      solver_choice::Known known{space_parts::solver_settings(scene), /*distributed*/ true,
+                                 /*free_motions (refused in setup_system)*/ false, {}, {}};
+      choice = solver_choice::choose(known);
+      if (choice.needs != solver_choice::Needs::mumps_analysis)
         return false;
-      if (scene.modes.factorization_kind != FactorizationKind::cholmod)
-        log("Modes/Operator (umfpack) chooses the serial factorization; under MPI MUMPS factorizes K");
-      const auto kind = scene.modes.distributed_factorization;
+      if (!choice.log_line.empty())
+        log(choice.log_line);
       log(std::string("factorizing K with MUMPS (") +
-          (kind == DistributedFactorizationKind::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric") + ")");
+          (choice.factor == solver_choice::Factor::mumps_lu ? "LU, Trilinos Amesos_Mumps" : "symmetric") + ")");
       if (shift != 0.)
         {
           shifted_matrix.copy_from(stiffness_matrix);
           shifted_matrix.add(-shift, mass_matrix);
         }
-      const auto        &A       = shift != 0. ? shifted_matrix : stiffness_matrix;
+      const auto        &A           = shift != 0. ? shifted_matrix : stiffness_matrix;
       const unsigned int on_node     = processes_on_this_node(comm);
       const double       per_process = memory_budget_per_process_bytes(scene.modes.factor_memory_limit, comm);
-      const double       limit       = per_process * on_node; // the node's
-      const bool      automatic = wanted == EigensolverKind::automatic;
-      FactorPlacement placement;
-      placement.storage                 = scene.modes.factor_storage;
-      placement.directory               = scene.modes.factor_directory;
-      placement.limit_bytes_per_process = per_process;
-      placement.refuse_over_limit       = automatic;
-      const auto decided = [&](const FactorPrediction &predicted, const bool will_factorize) {
-        std::ostringstream line;
-        if (predicted.in_core_bytes < 0.)
-          line << "MUMPS's LU (Amesos) does not predict its memory: factorizing in memory";
-        else
-          line << "MUMPS's analysis predicts " << predicted.in_core_bytes / 1e9 << " GB in core, "
-               << predicted.out_of_core_bytes / 1e9 << " GB with the factor (" << predicted.factor_bytes / 1e9
-               << " GB) on disk, on the process that needs most; the limit is " << per_process / 1e9
-               << " GB per process (" << limit / 1e9 << " GB for the " << on_node << " on its node): "
-               << (!will_factorize     ? "lobpcg-amg (no factorization)" :
-                   predicted.on_disk ? "factorizing, the factor on disk" :
-                                       "factorizing, the factor in memory");
-        log(line.str());
-        if (automatic)
-          note_automatic_choice(will_factorize,
-                                (predicted.on_disk ? predicted.out_of_core_bytes : predicted.in_core_bytes) * on_node,
-                                limit, predicted.on_disk);
+      const auto place = [&](const solver_choice::MumpsPrediction &predicted) {
+        known.mumps = solver_choice::MumpsAnalysis{predicted, per_process, on_node};
+        choice      = solver_choice::choose(known);
+        log(choice.log_line);
+        return choice.placement;
       };
-      inverse = make_mumps_inverse(A, kind, shift <= 0., placement, result.factorization, decided);
+      inverse = make_mumps_inverse(A, scene.modes.distributed_factorization, shift <= 0., scene.modes.factor_directory,
+                                   result.factorization, place);
       return inverse != nullptr;
     }
 
@@ -522,12 +505,12 @@ namespace modal_haptics
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       std::vector<double>            eigenvalues;
       std::vector<DistributedVector> eigenvectors;
-      if (!factorize_unless_amg())
+      if (!factorize_as_chosen())
         lobpcg_amg_modes(eigenvalues, eigenvectors);
       else
         {
           refuse_shift_above_first_mode();
-          if (scene.modes.eigensolver == EigensolverKind::arpack)
+          if (choice.method == solver_choice::Method::arpack)
             parpack_modes(eigenvalues, eigenvectors);
           else
             block_krylov_modes(eigenvalues, eigenvectors);
@@ -808,6 +791,6 @@ namespace modal_haptics
                                                    const MPI_Comm         comm)
   {
     DistributedSpace space(scene, display, task, vtu_file, timer, verbose, comm);
-    return space.run();
+    return std::get<ModalSpaceResult>(space.run()); // the distributed backend hands no space over
   }
 } // namespace modal_haptics

@@ -51,14 +51,6 @@ namespace modal_haptics
   {
     constexpr double two_pi = 2. * M_PI;
 
-    // Thrown by the serial space when CHOLMOD's factor would not fit and MUMPS, whose factor may
-    // go to disk, is to compute the space instead (compute_modal_space catches it, once the serial
-    // space and its matrices are gone). why: what CHOLMOD's analysis predicted, against what limit.
-    struct HandOverToMumps
-    {
-      std::string why;
-    };
-
     // The serial backend of the space phases (space_phases.h): deal.II sparse matrices, a CHOLMOD or
     // UMFPACK factorization of K - shift M, every DoF on this process.
     class SerialSpace : public space_phases::PhasedSpace<SerialSpace>
@@ -135,8 +127,7 @@ namespace modal_haptics
       void read_mesh();
       void setup_system();
       void assemble_system();
-      EigensolverKind factorize_unless_amg();
-      bool            factorize_within_limit(bool automatic, bool mumps_may_take_over);
+      void            factorize_as_chosen();
       EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
       void identify_rigid_body_modes();
@@ -218,68 +209,44 @@ namespace modal_haptics
       assembler.set_mass_properties(result);
     }
 
-    // The direct path factorizes K - shift M (CHOLMOD or UMFPACK). Returns the eigensolver that runs:
-    // lobpcg-amg when asked for, or when 'Eigensolver = auto' finds no factor that fits
-    // (factorize_within_limit).
-    EigensolverKind SerialSpace::factorize_unless_amg()
+    // The solver choice (solver_choice.h) carried out: once the supports are known, CHOLMOD's analysis
+    // against 'Modes/Factor memory limit' when the choice waits for it, then the factorization of
+    // K - shift M it names (CHOLMOD or UMFPACK), none for LOBPCG + AMG or when it hands the space to MUMPS.
+    void SerialSpace::factorize_as_chosen()
     {
-      const EigensolverKind wanted = scene.modes.eigensolver;
-      if (wanted == EigensolverKind::lobpcg_amg)
-        return wanted;
-      const bool automatic = wanted == EigensolverKind::automatic;
-      const bool cholmod   = scene.modes.factorization_kind == FactorizationKind::cholmod;
-      // 'Factor storage = auto' lets MUMPS, whose factor may go to disk, take the space over when
-      // CHOLMOD's factor would not fit; its path does not take parts with free rigid-body motions.
-      const bool mumps_may_take_over = scene.modes.factor_storage == FactorStorage::automatic &&
-                                       supports.free_motions(Point<3>()).motions.empty();
-      log("factorizing K (" + std::string(cholmod ? "CHOLMOD" : "UMFPACK") + ")");
-      if (!cholmod)
-        factorization = make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift);
-      else if (!automatic && !mumps_may_take_over)
-        factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
-      else if (!factorize_within_limit(automatic, mumps_may_take_over))
-        return EigensolverKind::lobpcg_amg;
+      using solver_choice::Factor;
+      solver_choice::Known known{space_parts::solver_settings(scene), /*distributed*/ false, {}, {}, {}};
+      choice = solver_choice::choose(known);
+      if (choice.needs == solver_choice::Needs::supports)
+        {
+          known.free_motions = !supports.free_motions(Point<3>()).motions.empty();
+          choice             = solver_choice::choose(known);
+        }
+      if (choice.factor == Factor::none && choice.needs == solver_choice::Needs::nothing)
+        return;
+      log("factorizing K (" + std::string(choice.factor == Factor::umfpack ? "UMFPACK" : "CHOLMOD") + ")");
+      if (choice.needs == solver_choice::Needs::cholmod_analysis)
+        {
+          const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
+          double       predicted = 0.;
+          factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
+          known.cholmod = solver_choice::CholmodAnalysis{predicted, limit};
+          choice        = solver_choice::choose(known);
+          Assert((factorization != nullptr) == (predicted <= limit), ExcInternalError());
+          if (choice.backend == solver_choice::Backend::serial && !choice.log_line.empty())
+            log(choice.log_line);
+        }
+      if (choice.factor == Factor::none || choice.backend != solver_choice::Backend::serial)
+        return;
+      if (!factorization)
+        factorization = choice.factor == Factor::umfpack ?
+                          make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift) :
+                          make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
       const auto &f = factorization->statistics();
       std::ostringstream line;
       line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
            << f.factorize_seconds << " s";
       log(line.str());
-      return automatic ? EigensolverKind::block_krylov : wanted;
-    }
-
-    // CHOLMOD's factorization when its analysis predicts a factor within 'Modes/Factor memory limit'
-    // (half the available memory by default). Past it MUMPS takes the space over on this process
-    // when it may (HandOverToMumps: its factor in memory or on disk as its own analysis says, or
-    // lobpcg-amg with 'Eigensolver = auto' if even that would not fit); else 'Eigensolver = auto'
-    // returns false (lobpcg-amg) and an eigensolver asked for by name factorizes anyway.
-    bool SerialSpace::factorize_within_limit(const bool automatic, const bool mumps_may_take_over)
-    {
-      const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
-      double       predicted = 0.;
-      factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
-      std::ostringstream over;
-      over << "CHOLMOD's analysis predicts a factor of " << predicted / 1e9 << " GB, 'Modes/Factor memory limit' is "
-           << limit / 1e9 << " GB";
-      if (!factorization && mumps_may_take_over)
-        throw HandOverToMumps{"'Modes/Factor storage = auto': " + over.str()};
-      const std::string why_not_mumps =
-        scene.modes.factor_storage == FactorStorage::automatic ?
-          "MUMPS's path, whose factor may go to disk, does not take parts with free rigid-body motions" :
-          "'Factor storage = memory' keeps MUMPS's factor off disk";
-      if (automatic)
-        {
-          log("Modes/Eigensolver = auto: " + over.str() + ": " +
-              (factorization ? "block-krylov" : "lobpcg-amg (no factorization; " + why_not_mumps + ")"));
-          note_automatic_choice(factorization != nullptr, predicted, limit);
-          return factorization != nullptr;
-        }
-      if (!factorization)
-        {
-          log(over.str() + ": factorizing all the same, as 'Modes/Eigensolver' names the method (" + why_not_mumps +
-              ")");
-          factorization = make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
-        }
-      return true;
     }
 
     // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
@@ -310,12 +277,16 @@ namespace modal_haptics
     void SerialSpace::solve_eigenproblem()
     {
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
-      const EigensolverKind method = factorize_unless_amg();
+      factorize_as_chosen();
+      if (choice.backend != solver_choice::Backend::serial)
+        return; // handed over: SpaceBase::run ends here
+      using Method = solver_choice::Method;
+      const Method method = choice.method;
       try
         {
-          if (method == EigensolverKind::lobpcg_amg)
+          if (method == Method::lobpcg_amg)
             eigen = solve_with_lobpcg_amg();
-          else if (method == EigensolverKind::block_krylov)
+          else if (method == Method::block_krylov)
             eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
                                              scene.modes.block_size, scene.modes.tolerance,
                                              memory_budget_bytes(scene.modes.factor_memory_limit), verbose);
@@ -325,7 +296,7 @@ namespace modal_haptics
         }
       catch (const ExceptionBase &e)
         {
-          if (method == EigensolverKind::lobpcg_amg)
+          if (method == Method::lobpcg_amg)
             throw;
           // Rigid-body modes (or nearly rigid ones, on soft elastic supports) are the shifted inverse's
           // largest eigenvalues, about 1 / |shift|: with a tiny shift they dwarf the elastic ones and
@@ -339,9 +310,9 @@ namespace modal_haptics
                                         "'Modes/Eigensolver = arpack' converges where a shift close to 0 does not."));
         }
       result.eigensolver_method =
-        method == EigensolverKind::lobpcg_amg ?
+        method == Method::lobpcg_amg ?
           amg_inverse()->eigensolver_method() :
-        method == EigensolverKind::block_krylov ?
+        method == Method::block_krylov ?
           block_krylov_method(scene.modes.block_size, eigen) :
           "ARPACK dsaupd mode 3 (shift-invert)";
       space_parts::record_iteration(result, eigen);
@@ -690,18 +661,20 @@ namespace modal_haptics
       log("exported K and M to " + scene.output_directory + "/" + task.name + "_{K,M}.csr");
     }
 
-    // The space computed by MUMPS on this one process: the distributed backend on MPI_COMM_SELF
-    // (as --distributed runs it), its rows then put in the serial result's mesh order.
+    // The space computed by MUMPS on this one process, as the solver choice handed it over: the
+    // distributed backend on MPI_COMM_SELF (as --distributed runs it), its rows then put in the
+    // serial result's mesh order.
     ModalSpaceResult compute_with_mumps_on_this_process(const SceneParameters &scene, const ContactSurface &display,
                                                         const SpaceTask &task, const std::string &vtu_file,
-                                                        TimerOutput &timer, const bool verbose, const std::string &why)
+                                                        TimerOutput &timer, const bool verbose,
+                                                        const solver_choice::Choice &hand_over)
     {
       if (verbose)
-        std::cout << "[" << task.name << "] " << why << ": MUMPS computes the space on this process" << std::endl;
+        std::cout << "[" << task.name << "] " << hand_over.log_line << std::endl;
       ModalSpaceResult result =
         compute_modal_space_distributed(scene, display, task, vtu_file, timer, verbose, MPI_COMM_SELF);
       gather_rows_on_root(result, MPI_COMM_SELF);
-      result.eigensolver_method += " [MUMPS on one process, for the serial run: " + why + "]";
+      result.eigensolver_method += hand_over.report_note;
       return result;
     }
   } // namespace
@@ -713,25 +686,25 @@ namespace modal_haptics
                                        TimerOutput           &timer,
                                        const bool             verbose)
   {
-    const bool factorizes = scene.modes.eigensolver != EigensolverKind::lobpcg_amg;
-    if (factorizes && scene.modes.factor_storage == FactorStorage::disk)
-      return compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
-                                                "'Modes/Factor storage = disk'");
-    Timer serial_attempt;
-    try
-      {
-        SerialSpace space(scene, display, task, vtu_file, timer, verbose);
-        return space.run();
-      }
-    catch (const HandOverToMumps &hand_over)
-      {
-        // The serial assembly and CHOLMOD's analysis were spent before the choice (seconds against
-        // the minutes of a factor that does not fit in memory); the report keeps them apart.
-        const double     spent  = serial_attempt.wall_time();
-        ModalSpaceResult result = compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose,
-                                                                     hand_over.why);
-        result.timings_s["serial_attempt"] = spent;
-        return result;
-      }
+    // What the parameters alone decide, before assembly ('Factor storage = disk': MUMPS's).
+    const solver_choice::Choice before_assembly =
+      solver_choice::choose({space_parts::solver_settings(scene), /*distributed*/ false, {}, {}, {}});
+    if (before_assembly.backend == solver_choice::Backend::mumps_on_this_process)
+      return compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose, before_assembly);
+    Timer                 serial_attempt;
+    solver_choice::Choice hand_over;
+    {
+      SerialSpace space(scene, display, task, vtu_file, timer, verbose);
+      auto        outcome = space.run();
+      if (auto *result = std::get_if<ModalSpaceResult>(&outcome))
+        return std::move(*result);
+      hand_over = std::get<solver_choice::Choice>(outcome);
+    }
+    // The serial assembly and CHOLMOD's analysis were spent before the choice (seconds against the
+    // minutes of a factor that does not fit in memory); the report keeps them apart.
+    const double     spent  = serial_attempt.wall_time();
+    ModalSpaceResult result = compute_with_mumps_on_this_process(scene, display, task, vtu_file, timer, verbose, hand_over);
+    result.timings_s["serial_attempt"] = spent;
+    return result;
   }
 } // namespace modal_haptics

@@ -8,6 +8,7 @@
 #include "scene/rigid_body_motion.h"
 #include "scene/supports.h"
 #include "solvers/eigensolver.h"
+#include "solvers/solver_choice.h"
 #include "space/space_result.h"
 
 #include <deal.II/base/mpi.h>
@@ -28,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <variant>
 
 #include <array>
 #include <map>
@@ -54,6 +56,9 @@ namespace modal_haptics
 
     // W_v: the consistent nodal load of a unit patch traction, one sparse DoF list per direction.
     using PatchLoad = std::array<DofWeights, 3>;
+
+    // The scene's 'Modes' settings that the solver choice reads (solver_choice.h).
+    solver_choice::Settings solver_settings(const SceneParameters &scene);
 
     // Reads the space's mesh (geometry units -> m), refuses inverted or degenerate tets and fills
     // the result's mesh fields.
@@ -111,24 +116,20 @@ namespace modal_haptics
       SpaceBase(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
                 const std::string &vtu_file, dealii::TimerOutput &timer, bool verbose);
       virtual ~SpaceBase() = default;
-      ModalSpaceResult run();
+      // The space's result, or the choice that hands it to another backend after the eigensolve
+      // phase chose (a serial run's space to MUMPS on this process: compute_modal_space).
+      std::variant<ModalSpaceResult, solver_choice::Choice> run();
 
     protected:
       virtual void assemble() = 0; // mesh, DoFs, clamps, K and M
       virtual void after_assembly() {}
-      virtual void solve_eigenproblem() = 0; // and mode selection
+      virtual void solve_eigenproblem() = 0; // as 'choice' says, and mode selection
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
       virtual void validate() = 0;
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;
-      // Eigensolver = auto: why this path, appended to the report's method after the eigensolve
-      // (SpaceBase::run). Only what does not move with
-      // the machine's free memory when the factor fits (scenario jobs compare their reports with a
-      // one-run report's).
-      // on_disk: the factor was put on disk (MUMPS) to fit, predicted_bytes then its out-of-core data.
-      void note_automatic_choice(bool factorized, double predicted_bytes, double limit_bytes, bool on_disk = false);
       PhaseInputs inputs() const
       {
         return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};
@@ -145,7 +146,7 @@ namespace modal_haptics
       const dealii::QGaussSimplex<3> quadrature;
       ModalSpaceResult              result;
       ResolvedSupports              supports; // set with the constraints (apply_supports)
-      std::string                   automatic_choice; // note_automatic_choice's words, or empty
+      solver_choice::Choice         choice; // backend, method, factor placement (solve_eigenproblem)
     };
 
     // The stiffness of an elastic support on one face: the integral over the face of

@@ -67,18 +67,10 @@ namespace modal_haptics
       result.degree = scene.element_degree;
     }
 
-    void SpaceBase::note_automatic_choice(const bool factorized, const double predicted_bytes, const double limit_bytes,
-                                          const bool on_disk)
+    solver_choice::Settings solver_settings(const SceneParameters &scene)
     {
-      std::ostringstream why;
-      if (factorized && on_disk)
-        why << " (auto: the factor on disk, its in-core data fits the limit)";
-      else if (factorized)
-        why << " (auto: the predicted factor fits the limit)";
-      else
-        why << " (auto: predicted " << (on_disk ? "in-core data with the factor on disk " : "factor ")
-            << predicted_bytes / 1e9 << " GB over the limit " << limit_bytes / 1e9 << " GB)";
-      automatic_choice = why.str();
+      const ModeParameters &m = scene.modes;
+      return {m.eigensolver, m.factor_storage, m.factorization_kind, m.distributed_factorization};
     }
 
     void SpaceBase::log(const std::string &message) const
@@ -87,7 +79,7 @@ namespace modal_haptics
         std::cout << "[" << task.name << "] " << message << std::endl;
     }
 
-    ModalSpaceResult SpaceBase::run()
+    std::variant<ModalSpaceResult, solver_choice::Choice> SpaceBase::run()
     {
       const auto phase = [&](const std::string &name, const std::function<void()> &work) {
         TimerOutput::Scope scope(timer, name);
@@ -97,10 +89,10 @@ namespace modal_haptics
       };
       phase("assembly", [&] { assemble(); });
       after_assembly();
-      phase("eigensolve", [&] {
-        solve_eigenproblem();
-        result.eigensolver_method += automatic_choice;
-      });
+      phase("eigensolve", [&] { solve_eigenproblem(); });
+      if (choice.backend == solver_choice::Backend::mumps_on_this_process)
+        return choice;
+      result.eigensolver_method += choice.report_note;
       phase("interpolation", [&] { interpolate(); });
       phase("static_correction", [&] { compute_static_correction(); });
       phase("validation", [&] { validate(); });

@@ -4,6 +4,7 @@
 #include <deal.II/base/exceptions.h>
 
 #include <algorithm>
+#include <numeric>
 
 namespace modal_haptics
 {
