@@ -129,6 +129,41 @@ namespace modal_haptics::meshing::detail
     return caught;
   }
 
+  // Points on a CAD entity that 'keep' accepts, with the surface's normal at each (zero on a curve or a
+  // point): a grid over a surface's parametrization within its trims, points along a curve, a
+  // point itself. What --validate predicts a support holds.
+  std::vector<std::array<Point3, 2>> samples_on(const int dim, const int tag, const std::function<bool(const Point3 &)> &keep)
+  {
+    constexpr int              per_side = 9;
+    std::vector<double>        parametric, coordinates, normals, low, high;
+    if (dim > 0)
+      {
+        gmsh::model::getParametrizationBounds(dim, tag, low, high);
+        for (int i = 0; i < per_side; ++i)
+          for (int j = 0; j < (dim == 2 ? per_side : 1); ++j)
+            {
+              const std::array<double, 2> uv{{low[0] + (high[0] - low[0]) * (i + 0.5) / per_side,
+                                              dim == 2 ? low[1] + (high[1] - low[1]) * (j + 0.5) / per_side : 0.}};
+              if (dim == 1 || gmsh::model::isInside(2, tag, {uv[0], uv[1]}) > 0)
+                parametric.insert(parametric.end(), uv.begin(), uv.begin() + dim);
+            }
+        if (parametric.empty())
+          return {};
+      }
+    gmsh::model::getValue(dim, tag, parametric, coordinates);
+    if (dim == 2)
+      gmsh::model::getNormal(tag, parametric, normals);
+    std::vector<std::array<Point3, 2>> samples;
+    for (std::size_t p = 0; 3 * p + 2 < coordinates.size(); ++p)
+      {
+        const Point3 x{{coordinates[3 * p], coordinates[3 * p + 1], coordinates[3 * p + 2]}};
+        const Point3 n = dim == 2 ? Point3{{normals[3 * p], normals[3 * p + 1], normals[3 * p + 2]}} : Point3{};
+        if (keep(x))
+          samples.push_back({{x, n}});
+      }
+    return samples;
+  }
+
   // A named physical group of the model (or of the .msh file): its entities, a surface's area.
   SelectionReport inspect_group(const InputKind kind, const std::string &geometry, const int group_dim,
                                 const std::string &name)
@@ -148,7 +183,8 @@ namespace modal_haptics::meshing::detail
         {
           std::string group_name;
           gmsh::model::getPhysicalName(dim, tag, group_name);
-          known.push_back(group_name);
+          if (!added_by_program(dim, group_name))
+            known.push_back(group_name);
           if (group_name != name)
             continue;
           std::vector<int> entities;
@@ -157,6 +193,10 @@ namespace modal_haptics::meshing::detail
           if (dim == 2)
             for (const int face : entities)
               caught.area += occ ? face_area(face) : kind == InputKind::msh ? mesh_area(face) : 0.;
+          for (const int entity : entities)
+            if (kind != InputKind::msh)
+              for (const auto &sample : samples_on(dim, entity, [](const Point3 &) { return true; }))
+                caught.samples.push_back(sample);
         }
     });
     if (caught.n_faces == 0)
@@ -167,6 +207,8 @@ namespace modal_haptics::meshing::detail
         throw MeshingError("Group '" + name + "' ('Geometry/Supports' or 'Clamp groups') is not a physical " +
                            kind_name + " of geometry '" + geometry + "' (its physical " + kind_name +
                            "s: " + (list.empty() ? "none" : list) +
+                           (added_by_program(group_dim, "free") ?
+                              "; the program adds 'free', the boundary faces in no group" : "") +
                            (kind == InputKind::cad && group_dim == 2 ?
                               "; STEP/IGES/BREP files get 'clamp' from 'Clamp boxes' and 'free' for the rest; "
                               "select their faces with box, plane or normal supports" :
@@ -176,10 +218,40 @@ namespace modal_haptics::meshing::detail
     return caught;
   }
 
-  // A support's box or plane (supports are resolved on each mesh; here only whether it can catch
-  // anything): the boundary faces whose bounding box meets it, refused when there is none.
+  // The CAD surfaces whose outward normal lies within the selection's angle of its direction, and
+  // samples of them. None found is not refused here: the run decides on the mesh's faces.
+  SelectionReport inspect_normal_selection(const RegionSelection &selection)
+  {
+    SelectionReport caught;
+    caught.name         = selection.label;
+    const double length = std::sqrt(std::pow(selection.normal[0], 2) + std::pow(selection.normal[1], 2) +
+                                    std::pow(selection.normal[2], 2));
+    const double lowest = std::cos(std::max(selection.angle_degrees, 1e-4) * M_PI / 180.);
+    const bool   occ    = part_volume() > 0.; // areas from OpenCASCADE, none for gmsh's built-in kernel
+    for (const int face : boundary_faces())
+      {
+        std::size_t before = caught.samples.size();
+        for (const auto &sample : samples_on(2, face, [](const Point3 &) { return true; }))
+          {
+            const auto  &n      = sample[1];
+            const double cosine = (n[0] * selection.normal[0] + n[1] * selection.normal[1] + n[2] * selection.normal[2]) /
+                                  (length * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) + 1e-300);
+            if (cosine >= lowest)
+              caught.samples.push_back(sample);
+          }
+        caught.n_faces += caught.samples.size() > before;
+        caught.area += caught.samples.size() > before && occ ? face_area(face) : 0.;
+      }
+    return caught;
+  }
+
+  // A support's box, plane or normal direction (supports are resolved on each mesh; here whether it
+  // can catch anything, and samples of what it meets): the CAD surfaces whose bounding box meets a
+  // box or a plane, refused when there is none.
   SelectionReport inspect_region(const RegionSelection &selection, const std::string &geometry)
   {
+    if (selection.kind == RegionSelection::Kind::normal)
+      return inspect_normal_selection(selection);
     const auto   part      = bounding_box();
     double       diagonal2 = 0.;
     for (int i = 0; i < 3; ++i)
@@ -205,8 +277,12 @@ namespace modal_haptics::meshing::detail
     std::string why;
     auto        caught = faces_meeting(selection.label, gap, why);
     if (caught.n_faces == 0)
-      throw MeshingError(selection.label + " of geometry '" + geometry + "' catches no boundary face: " +
+      throw MeshingError(selection.label + " of geometry '" + geometry + "' catches no CAD surface: " +
                          why + " (units of the geometry)");
+    const auto inside = [&](const Point3 &x) { return gap({{x, x}}) <= 0.; };
+    for (const int face : boundary_faces())
+      for (const auto &sample : samples_on(2, face, inside))
+        caught.samples.push_back(sample);
     return caught;
   }
 } // namespace modal_haptics::meshing::detail

@@ -86,6 +86,30 @@ namespace modal_haptics::meshing::detail
     }
 
 
+    std::set<std::pair<int, std::string>> groups_added; // by complete_physical_groups
+
+    // The physical groups of dimension 'dim' that hold no entity: gmsh loads 'Physical
+    // Surface("wall") = {};' as a name without a group, which getPhysicalGroups omits.
+    std::vector<std::string> empty_named_groups(const int dim)
+    {
+      int           largest = 0;
+      std::set<int> held;
+      for (const auto &[tag, name] : physical_groups(dim))
+        {
+          largest = std::max(largest, tag);
+          held.insert(tag);
+        }
+      std::vector<std::string> empty;
+      for (int tag = 1; tag <= largest + 64; ++tag)
+        {
+          std::string name;
+          gmsh::model::getPhysicalName(dim, tag, name);
+          if (!name.empty() && held.count(tag) == 0)
+            empty.push_back(name);
+        }
+      return empty;
+    }
+
     // Adds 'faces' to the surface group "free", creating it when it does not exist.
     void add_to_free_group(const std::vector<int> &faces)
     {
@@ -104,7 +128,10 @@ namespace modal_haptics::meshing::detail
           gmsh::model::removePhysicalGroups({{2, free_tag}});
         }
       else
-        free_tag = largest_tag + 1;
+        {
+          free_tag = largest_tag + 1;
+          groups_added.insert({2, "free"});
+        }
       add_named_group(2, members, "free", free_tag);
     }
   } // namespace
@@ -123,6 +150,8 @@ namespace modal_haptics::meshing::detail
     return named;
   }
 
+  bool gmsh_log_shown = false; // show_gmsh_log
+
   GmshSession::GmshSession(const bool verbose)
   {
     if (open_sessions++ == 0)
@@ -130,6 +159,8 @@ namespace modal_haptics::meshing::detail
         // No user configuration files: the mesh must depend on the settings only.
         gmsh::initialize(0, nullptr, false);
         gmsh::option::setNumber("General.Terminal", verbose ? 1 : 0);
+        // 2: errors and warnings; 5 (gmsh's default): also its progress and information lines.
+        gmsh::option::setNumber("General.Verbosity", gmsh_log_shown ? 5 : 2);
       }
   }
 
@@ -199,16 +230,29 @@ namespace modal_haptics::meshing::detail
 
   void require_named_groups(const std::string &context)
   {
+    static const char *const kinds[4] = {"point", "curve", "surface", "volume"};
     for (int dim = 0; dim <= 3; ++dim)
-      for (const auto &[tag, name] : physical_groups(dim))
-        if (name.empty())
-          throw MeshingError(context + ": physical group of dimension " + std::to_string(dim) + " with tag " +
-                             std::to_string(tag) + " has no name; name every group, e.g. Physical Surface(\"clamp\", " +
-                             std::to_string(tag) + ") = {...};");
+      {
+        for (const auto &[tag, name] : physical_groups(dim))
+          if (name.empty())
+            throw MeshingError(context + ": physical group of dimension " + std::to_string(dim) + " with tag " +
+                               std::to_string(tag) + " has no name; name every group, e.g. Physical Surface(\"clamp\", " +
+                               std::to_string(tag) + ") = {...};");
+        for (const auto &name : empty_named_groups(dim))
+          throw MeshingError(context + ": the physical " + kinds[dim] + " '" + name + "' holds no " + kinds[dim] +
+                             " (gmsh loads an empty group such as 'Physical Surface(\"" + name +
+                             "\") = {};' without a word): give it its " + kinds[dim] + "s or remove it");
+      }
+  }
+
+  bool added_by_program(const int dim, const std::string &name)
+  {
+    return groups_added.count({dim, name}) > 0;
   }
 
   void complete_physical_groups()
   {
+    groups_added.clear();
     if (physical_groups(3).empty())
       {
         DimTags          volumes;
@@ -217,6 +261,7 @@ namespace modal_haptics::meshing::detail
         for (const auto &dim_tag : volumes)
           tags.push_back(dim_tag.second);
         add_named_group(3, tags, "part", 1);
+        groups_added.insert({3, "part"});
       }
 
     std::set<int> covered;
@@ -334,3 +379,11 @@ namespace modal_haptics::meshing::detail
     return edges > 0. ? 4. * std::sqrt(3.) * area / edges : 0.;
   }
 } // namespace modal_haptics::meshing::detail
+
+namespace modal_haptics::meshing
+{
+  void show_gmsh_log(const bool shown)
+  {
+    detail::gmsh_log_shown = shown;
+  }
+} // namespace modal_haptics::meshing

@@ -48,8 +48,12 @@ namespace modal_haptics::meshing::detail
   // written as a group without elements, which readers then silently accept).
   void add_named_group(int dim, const std::vector<int> &entities, const std::string &name, int tag);
 
-  // Every physical group of the model must be named (deal.II reads the names); throws otherwise.
+  // Every physical group of the model must be named (deal.II reads the names) and hold an entity;
+  // throws otherwise.
   void require_named_groups(const std::string &context);
+
+  // Whether complete_physical_groups added this group (not the user's): "free", "part".
+  bool added_by_program(int dim, const std::string &name);
 
   // Makes the model writable for the precompute: a volume group "part" if there is no volume
   // group, and every boundary face not yet in a physical surface goes to the surface group "free".

@@ -43,7 +43,7 @@ namespace modal_haptics::meshing
     double boss_inner_radius = 2.;  // screw hole radius [mm]
     double boss_height      = 12.;  // above the plate top [mm]
     // A clip tower: a hollow square tower between ribs, for a snap-fit clip.
-    Point3 clip_centre = {60., 25., 0.}; // x, y of the tower axis [mm] (z ignored)
+    Point3 clip_centre = {{60., 25., 0.}}; // x, y of the tower axis [mm] (z ignored)
     double clip_size   = 10.;   // outer edge [mm]
     double clip_wall   = 1.5;   // wall thickness [mm]
     double clip_height = 15.;   // above the plate top [mm]
@@ -60,9 +60,9 @@ namespace modal_haptics::meshing
     enum class Shape { box, ball };
     std::string name;              // scenario name, e.g. "rib_a"
     Shape  shape = Shape::box;
-    Point3 box_lower = {0., 0., 0.};  // box corner [unit]
-    Point3 box_upper = {0., 0., 0.};  // box corner [unit]
-    Point3 ball_centre = {0., 0., 0.}; // [unit]
+    Point3 box_lower = {{0., 0., 0.}};  // box corner [unit]
+    Point3 box_upper = {{0., 0., 0.}};  // box corner [unit]
+    Point3 ball_centre = {{0., 0., 0.}}; // [unit]
     double ball_radius = 0.;          // [unit]
     double fine_size   = 1.5;         // element size inside [unit]
     double transition  = 15.;         // distance over which the size grows to the coarse size [unit]
@@ -140,6 +140,11 @@ namespace modal_haptics::meshing
                          bool verbose = true,
                          bool reuse_only = false);
 
+  // gmsh's own lines (its progress and information: about 200 for a small STEP part) are off unless
+  // shown (modal-precompute --gmsh-verbose); its warnings and errors are printed whenever the
+  // mesher's lines are.
+  void show_gmsh_log(bool shown);
+
   // The length unit a STEP (LENGTH_UNIT entity) or IGES (global section's units flag) file declares.
   // Empty (metres = 0) for a file that declares none, and for BREP, .geo and .msh, which carry no unit.
   // Throws MeshingError for a unit OpenCASCADE cannot convert. The mesher reads a STEP/IGES file in
@@ -159,17 +164,22 @@ namespace modal_haptics::meshing
     std::size_t n_faces = 0;      // entities caught: faces, or the curves or points of a named group
     std::string entity  = "face"; // what n_faces counts: "face", "curve", "point"
     double      area    = 0.; // [unit^2]; 0 for a .msh input (no geometry)
+    // Points on what was caught (within a box or a plane) and the outward normal there [unit]: from
+    // them --validate predicts the rigid-body motions the supports leave free. None for a .msh.
+    std::vector<std::array<Point3, 2>> samples;
   };
 
-  // A support's box or plane, checked against the geometry before meshing (supports select mesh
-  // faces and nodes at run time; here: whether any boundary face's bounding box meets it).
+  // A support's box, plane or normal direction, checked against the geometry before meshing
+  // (supports select mesh faces and nodes at run time; here: whether any CAD surface's bounding box
+  // meets the box or the plane, which CAD surfaces face the direction).
   struct RegionSelection
   {
-    enum class Kind { box, plane };
+    enum class Kind { box, plane, normal };
     std::string label;             // "support 2 ('box 0 0 0 1 1 1 : clamp')"
     Kind        kind = Kind::box;
     Point3      lower{}, upper{};  // box [unit]
-    Point3      point{}, normal{}; // plane [unit]
+    Point3      point{}, normal{}; // plane [unit]; normal: the direction
+    double      angle_degrees = 0.; // normal: the largest angle of a surface's outward normal to it
   };
 
   // The geometry as loaded (not meshed), for --validate and the start of every run.

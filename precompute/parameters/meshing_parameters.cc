@@ -36,7 +36,7 @@ namespace modal_haptics
         dealii::Utilities::split_string_list(text, ','));
       AssertThrow(values.size() == 3,
                   ExcMessage("Parameter '" + entry + "' needs three numbers x, y, z, got '" + text + "'."));
-      return {values[0], values[1], values[2]};
+      return {{values[0], values[1], values[2]}};
     }
 
     std::vector<double> parse_doubles(const std::string &text)
@@ -203,7 +203,7 @@ namespace modal_haptics
           const auto v = parse_doubles(box_text);
           AssertThrow(v.size() == 6, ExcMessage("'Geometry/Clamp boxes': each box needs 6 numbers, got '" +
                                                 box_text + "'."));
-          scene.meshing.clamp_boxes.push_back({{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}}});
+          scene.meshing.clamp_boxes.push_back({{{{v[0], v[1], v[2]}}, {{v[3], v[4], v[5]}}}});
         }
       parse_ribbed_panel(prm, scene.meshing.ribbed_panel);
       prm.leave_subsection();

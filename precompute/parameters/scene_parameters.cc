@@ -1,5 +1,6 @@
 #include "parameters/scene_parameters.h"
 
+#include "parameters/parameter_messages.h"
 #include "parameters/parameter_sections.h"
 #include "parameters/parameter_text.h"
 
@@ -16,6 +17,7 @@ namespace modal_haptics
 {
   using dealii::ExcMessage;
   using dealii::ParameterHandler;
+  using parameter_messages::OpenInterval;
   using parameter_text::Notation;
   using parameter_text::text;
   namespace Patterns = dealii::Patterns;
@@ -89,11 +91,11 @@ namespace modal_haptics
   {
     const MaterialParameters m;
     prm.enter_subsection("Material");
-    prm.declare_entry("Young's modulus", text(m.youngs_modulus), Patterns::Double(0.),
+    prm.declare_entry("Young's modulus", text(m.youngs_modulus), OpenInterval(0.),
                       "Young's modulus E (> 0). ABS: 2.3e9. Units: Pa.");
-    prm.declare_entry("Poisson's ratio", text(m.poissons_ratio), Patterns::Double(-1., 0.5),
+    prm.declare_entry("Poisson's ratio", text(m.poissons_ratio), OpenInterval(-1., 0.5),
                       "Poisson's ratio nu, in (-1, 0.5). Units: none.");
-    prm.declare_entry("Density", text(m.density), Patterns::Double(0.), "Mass density rho (> 0). Units: kg/m^3.");
+    prm.declare_entry("Density", text(m.density), OpenInterval(0.), "Mass density rho (> 0). Units: kg/m^3.");
     prm.leave_subsection();
   }
 
@@ -103,15 +105,7 @@ namespace modal_haptics
     youngs_modulus = prm.get_double("Young's modulus");
     poissons_ratio = prm.get_double("Poisson's ratio");
     density        = prm.get_double("Density");
-    prm.leave_subsection();
-    // The Patterns hold the closed ranges; the open ends are checked here.
-    AssertThrow(youngs_modulus > 0. && std::isfinite(youngs_modulus),
-                ExcMessage("'Material/Young's modulus' = " + text(youngs_modulus) + " Pa: must be > 0."));
-    AssertThrow(poissons_ratio > -1. && poissons_ratio < 0.5,
-                ExcMessage("'Material/Poisson's ratio' = " + text(poissons_ratio) +
-                           ": must lie in (-1, 0.5)."));
-    AssertThrow(density > 0. && std::isfinite(density),
-                ExcMessage("'Material/Density' = " + text(density) + " kg/m^3: must be > 0."));
+    prm.leave_subsection(); // the Patterns hold the open ranges: the parser refuses what lies outside
   }
 
   namespace
@@ -256,7 +250,9 @@ namespace modal_haptics
     const DampingParameters d;
     prm.enter_subsection("Damping");
     prm.declare_entry("Model", d.rayleigh ? "rayleigh" : "modal", Patterns::Selection("rayleigh|modal"),
-                      "'rayleigh': C = alpha M + beta K; 'modal': one damping ratio for every mode. Units: none.");
+                      "'rayleigh': C = alpha M + beta K (damping ratio alpha / (2 omega) + beta omega / 2); "
+                      "'modal': one damping ratio for every mode. A kept mode damped above 0.5 is warned about: it "
+                      "barely oscillates, so it is not felt as a vibration. Units: none.");
     prm.declare_entry("Rayleigh alpha", text(d.alpha), Patterns::Double(0.), "Mass-proportional coefficient. Units: 1/s.");
     prm.declare_entry("Rayleigh beta", text(d.beta), Patterns::Double(0.), "Stiffness-proportional coefficient. Units: s.");
     prm.declare_entry("Modal damping ratio", text(d.modal_ratio), Patterns::Double(0.),
@@ -423,7 +419,7 @@ namespace modal_haptics
     AssertThrow(std::filesystem::exists(parameter_file),
                 ExcMessage("Parameter file '" + parameter_file + "' does not exist."));
     declare_scene_parameters(prm);
-    prm.parse_input(parameter_file);
+    parameter_messages::parse_input(prm, parameter_file);
     return parse_scene_parameters(prm, parameter_file, output_directory_override);
   }
 } // namespace modal_haptics

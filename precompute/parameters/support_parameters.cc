@@ -51,7 +51,7 @@ namespace modal_haptics
       }
       meshing::Point3 point(const std::string &what)
       {
-        return {number(what + " (x)"), number(what + " (y)"), number(what + " (z)")};
+        return {{number(what + " (x)"), number(what + " (y)"), number(what + " (z)")}};
       }
       void finish() const
       {

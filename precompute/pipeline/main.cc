@@ -1,13 +1,15 @@
 // modal-precompute: a scene's .prm becomes validated modal bases.
 //
-//   modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--distributed]
+//   modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--gmsh-verbose] [--distributed]
 //   mpirun -np N modal-precompute SCENE.prm ...     (N > 1 implies --distributed; docs/cluster.md)
 //   modal-precompute SCENE.prm --mesh-only | --list-scenarios | --scenario NAME | --merge   (scenarios
 //   as separate jobs, docs/cluster.md)
 #include "solvers/factorization.h"
+#include "pipeline/geometry_check.h"
 #include "pipeline/modal_precompute.h"
 #include "output/partial_result.h"
 #include "parameters/scene_parameters.h"
+#include "space/modal_space.h"
 
 #include <deal.II/base/hdf5.h>
 #include <deal.II/base/mpi.h>
@@ -18,9 +20,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
-#include <iomanip>
 #include <iostream>
-#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -29,12 +29,14 @@ namespace
 {
   void print_usage(std::ostream &out)
   {
-    out << "usage: modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--distributed]\n"
+    out << "usage: modal-precompute SCENE.prm [--output-dir DIR] [--validate] [--quiet] [--gmsh-verbose] [--distributed]\n"
            "       mpirun -np N modal-precompute SCENE.prm ...\n"
            "  --validate     parse and check every parameter, load the geometry (no meshing) and check its unit,\n"
-           "                 groups and selections, then exit\n"
+           "                 groups and selections and the rigid-body motions the supports leave free, then exit\n"
            "  --output-dir   where results go (default: results/<scene name>)\n"
-           "  --quiet        no progress lines\n"
+           "  --quiet        no progress lines (meshing, eigensolver, phases, timings) and nothing of gmsh's; the\n"
+           "                 summaries (geometry, what each support caught, the modes kept), warnings and errors remain\n"
+           "  --gmsh-verbose gmsh's own progress and information lines (off by default; its warnings are shown)\n"
            "  --distributed  the MPI path (Trilinos, MUMPS, the block Krylov method or PARPACK) even on one process; implied by N > 1\n"
            "\n"
            "Scenarios as separate jobs (docs/cluster.md): mesh once, one job per scenario (each serial or under\n"
@@ -150,6 +152,8 @@ namespace
           command.validate_only = true;
         else if (arg == "--quiet")
           command.verbose = false;
+        else if (arg == "--gmsh-verbose")
+          modal_haptics::meshing::show_gmsh_log(true);
         else if (arg == "--distributed")
           command.distributed = true;
         else if (arg == "--list-scenarios")
@@ -223,87 +227,6 @@ namespace
     });
   }
 
-  std::string metres(const modal_haptics::meshing::Point3 &p, const double unit)
-  {
-    std::ostringstream out;
-    out << std::setprecision(5) << "(" << p[0] * unit << ", " << p[1] * unit << ", " << p[2] * unit << ")";
-    return out.str();
-  }
-
-  // The geometry, loaded without meshing (seconds): the unit its file declares, its size, volume and
-  // mass, and what each clamp selection caught; a contradicting 'Length unit', a selection that
-  // catches nothing, a group that does not exist are refused (meshing::inspect_geometry). Printed on
-  // process 0 when `print`; the warnings always.
-  void inspect_geometry(const modal_haptics::SceneParameters &scene, const bool print)
-  {
-    using Kind   = modal_haptics::SupportSelection::Kind;
-    using Region = modal_haptics::meshing::RegionSelection;
-    std::vector<std::pair<int, std::string>> named_groups;
-    std::vector<Region>                      regions;
-    for (const auto &support : scene.supports)
-      {
-        const auto &s = support.selection;
-        if (s.kind == Kind::surface || s.kind == Kind::curve || s.kind == Kind::point)
-          named_groups.emplace_back(s.named_dimension(), s.name);
-        else if (s.kind == Kind::box || s.kind == Kind::nodes)
-          regions.push_back({"The selection of " + support.label(), Region::Kind::box, s.lower, s.upper, {}, {}});
-        else if (s.kind == Kind::plane)
-          regions.push_back({"The selection of " + support.label(), Region::Kind::plane, {}, {}, s.point, s.direction});
-      }
-    const auto report = modal_haptics::meshing::inspect_geometry(scene.meshing, scene.volumes_of_interest,
-                                                                 named_groups, regions, scene.length_unit);
-    const double unit   = scene.length_unit;
-    double       extent = std::numeric_limits<double>::max();
-    for (int i = 0; i < 3; ++i)
-      extent = std::min(extent, report.upper[i] - report.lower[i]);
-    std::ostringstream out;
-    out << std::setprecision(6) << "[geometry] '" << scene.meshing.geometry << "': ";
-    if (report.unit.metres > 0.)
-      out << "the file declares its lengths in " << report.unit.name << ", read as they are: " << unit
-          << " m per unit (= 'Geometry/Length unit')\n";
-    else
-      out << "no declared unit: 'Geometry/Length unit' = " << unit << " m per unit\n";
-    // OpenCASCADE pads bounding boxes by about 1e-7 units: 5 significant digits hide it.
-    out << std::setprecision(5) << "[geometry] bounding box " << metres(report.lower, unit) << " - "
-        << metres(report.upper, unit) << " m, extent " << (report.upper[0] - report.lower[0]) * unit << " x "
-        << (report.upper[1] - report.lower[1]) * unit << " x " << (report.upper[2] - report.lower[2]) * unit
-        << " m\n" << std::setprecision(6);
-    const double volume = report.volume * unit * unit * unit;
-    if (volume > 0.)
-      out << "[geometry] volume " << volume << " m^3, mass " << volume * scene.material.density << " kg (density "
-          << scene.material.density << " kg/m^3)\n";
-    else
-      out << "[geometry] volume unknown before meshing (gmsh's built-in geometry kernel)\n";
-    for (const auto &groups : {report.named_groups, report.clamp_boxes})
-      for (const auto &selection : groups)
-        {
-          out << "[geometry] " << selection.name << ": " << selection.n_faces << " " << selection.entity
-              << (selection.n_faces == 1 ? "" : "s");
-          if (selection.area > 0.)
-            out << ", area " << selection.area * unit * unit << " m^2";
-          out << "\n";
-        }
-    for (const auto &region : report.regions)
-      out << "[geometry] " << region.name << ": meets " << region.n_faces << " boundary face"
-          << (region.n_faces == 1 ? "" : "s") << " (it selects the mesh's faces or nodes inside)\n";
-    for (const auto &voi : report.volumes_of_interest)
-      {
-        out << "[geometry] " << voi.name << ": meets " << voi.n_faces << " boundary face"
-            << (voi.n_faces == 1 ? "" : "s");
-        if (voi.area > 0.)
-          out << " (their whole area: " << voi.area * unit * unit << " m^2)";
-        out << "\n";
-      }
-    if (print)
-      std::cout << out.str() << std::flush;
-    // A patch that covers a large share of the part is no longer a contact (issue 18).
-    if (print && scene.contact.patch_radius > 0.1 * extent)
-      std::cerr << "Warning: 'Contact/Patch radius' = " << scene.contact.patch_radius << " (geometry units, "
-                << scene.contact.patch_radius * unit << " m) exceeds a tenth of the part's smallest extent ("
-                << extent << " geometry units, " << extent * unit << " m): is 'Geometry/Length unit' right?"
-                << std::endl;
-  }
-
   // --list-scenarios and --validate answer from the parameters alone; returns their exit code.
   std::optional<int> answer_from_parameters(const CommandLine &command, const Processes &processes,
                                             const modal_haptics::SceneParameters &scene)
@@ -320,7 +243,7 @@ namespace
       }
     if (command.validate_only)
       {
-        if (!on_every_process(processes, [&] { inspect_geometry(scene, processes.rank == 0); }))
+        if (!on_every_process(processes, [&] { modal_haptics::check_geometry(scene, processes.rank == 0, true); }))
           return 1;
         if (processes.rank == 0)
           std::cout << command.parameter_file << ": valid (scene '" << scene.scene_name << "', "
@@ -400,13 +323,14 @@ int main(int argc, char **argv)
   if (command.distributed)
     use_one_blas_thread_unless_set();
 
+  modal_haptics::space_parts::print_space_summaries(true);
   dealii::ParameterHandler        prm;
   modal_haptics::SceneParameters scene;
   if (!read_parameters_on_every_process(command, processes, prm, scene))
     return 1;
   if (const auto done = answer_from_parameters(command, processes, scene))
     return *done;
-  if (!on_every_process(processes, [&] { inspect_geometry(scene, command.verbose && processes.rank == 0); }))
+  if (!on_every_process(processes, [&] { modal_haptics::check_geometry(scene, processes.rank == 0, false); }))
     return 1;
   if (command.partial_directory.empty())
     command.partial_directory = scene.output_directory + "/partial";

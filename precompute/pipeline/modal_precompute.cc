@@ -340,10 +340,15 @@ namespace modal_haptics
         task.candidates          = thin_evenly(in_region, scene.contact.maximum_candidates);
         task.validation_vertices = thin_evenly(task.candidates, scene.contact.validation_samples);
         shared.insert(shared.end(), task.validation_vertices.begin(), task.validation_vertices.end());
-        if (verbose)
-          std::cout << "[contacts] space '" << task.name << "': " << task.candidates.size() << " candidates, "
-                    << task.validation_vertices.size() << " validated" << std::endl;
         results.tasks.push_back(task);
+      }
+    if (verbose) // one line for every space
+      {
+        std::cout << "[contacts]";
+        for (const auto &task : results.tasks)
+          std::cout << (task.index ? ";" : "") << " space '" << task.name << "': " << task.candidates.size()
+                    << " candidates, " << task.validation_vertices.size() << " validated";
+        std::cout << std::endl;
       }
     for (const auto &point : scene.contact.validation_points)
       {

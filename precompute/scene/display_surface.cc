@@ -50,7 +50,7 @@ namespace modal_haptics
           for (long dy = -1; dy <= 1; ++dy)
             for (long dz = -1; dz <= 1; ++dz)
               {
-                const auto it = cells.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+                const auto it = cells.find(key({{c[0] + dx, c[1] + dy, c[2] + dz}}));
                 if (it == cells.end())
                   continue;
                 for (const unsigned int j : it->second)
@@ -65,7 +65,7 @@ namespace modal_haptics
     private:
       std::array<long, 3> cell_of(const meshing::Point3 &p) const
       {
-        return {long(std::floor(p[0] / h)), long(std::floor(p[1] / h)), long(std::floor(p[2] / h))};
+        return {{long(std::floor(p[0] / h)), long(std::floor(p[1] / h)), long(std::floor(p[2] / h))}};
       }
       static long long key(const std::array<long, 3> &c)
       {
@@ -152,7 +152,7 @@ namespace modal_haptics
     for (unsigned int v = 0; v < surface.vertices.size(); ++v)
       {
         const auto &p = surface.vertices[v];
-        s.vertices.push_back({p[0] * length_unit, p[1] * length_unit, p[2] * length_unit});
+        s.vertices.push_back({{p[0] * length_unit, p[1] * length_unit, p[2] * length_unit}});
         // A vertex on the VOI's boundary belongs to it: the VOI mesh is fine up to there.
         for (unsigned int k = 0; k < volumes_of_interest.size(); ++k)
           if (volumes_of_interest[k].contains(p, 1e-9))
@@ -208,8 +208,8 @@ namespace modal_haptics
               for (unsigned int k = 0; k < 3; ++k)
                 for (unsigned int d = 0; d < 2; ++d)
                   st[d] += weights[k] * corners[k][d];
-              const meshing::Point3 x = {a[0] + st[0] * u[0] + st[1] * v[0], a[1] + st[0] * u[1] + st[1] * v[1],
-                                         a[2] + st[0] * u[2] + st[1] * v[2]};
+              const meshing::Point3 x = {{a[0] + st[0] * u[0] + st[1] * v[0], a[1] + st[0] * u[1] + st[1] * v[1],
+                                          a[2] + st[0] * u[2] + st[1] * v[2]}};
               const double w = patch_density(centre, x, rho) * sub_area / 3.;
               if (w > 0.)
                 points.push_back({x, w}), sum += w;
@@ -219,9 +219,9 @@ namespace modal_haptics
           for (unsigned int j = 0; i + j < m; ++j)
             {
               const double s0 = double(i) / m, t0 = double(j) / m, h = 1. / m;
-              add_sub_triangle({{{s0, t0}, {s0 + h, t0}, {s0, t0 + h}}});
+              add_sub_triangle({{{{s0, t0}}, {{s0 + h, t0}}, {{s0, t0 + h}}}});
               if (i + j + 1 < m)
-                add_sub_triangle({{{s0 + h, t0}, {s0 + h, t0 + h}, {s0, t0 + h}}});
+                add_sub_triangle({{{{s0 + h, t0}}, {{s0 + h, t0 + h}}, {{s0, t0 + h}}}});
             }
       }
     for (auto &p : points)

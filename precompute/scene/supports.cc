@@ -178,7 +178,7 @@ namespace modal_haptics
           {
             case Kind::surface:
               {
-                const int tag = surface_tag(support);
+                const auto tag = types::boundary_id(surface_tag(support));
                 caught        = [tag](const BoundaryFace &f) { return f.boundary_id == tag; };
                 break;
               }
@@ -362,9 +362,9 @@ namespace modal_haptics
           case R::Kind::fix:
             break;
         }
-      std::array<Tensor<1, 3>, 3> axes = {ex, ey, ez};
+      std::array<Tensor<1, 3>, 3> axes = {{ex, ey, ez}};
       if (r.frame == R::Frame::cartesian)
-        axes = {r.e1, r.e2, cross_product_3d(r.e1, r.e2)};
+        axes = {{r.e1, r.e2, cross_product_3d(r.e1, r.e2)}};
       else if (r.frame == R::Frame::cylinder)
         {
           const Tensor<1, 3> d      = x - r.origin * length_unit;
@@ -381,7 +381,7 @@ namespace modal_haptics
               return held;
             }
           radial /= radial.norm();
-          axes = {radial, cross_product_3d(r.axis, radial), r.axis};
+          axes = {{radial, cross_product_3d(r.axis, radial), r.axis}};
         }
       std::vector<Tensor<1, 3>> held;
       for (unsigned int c = 0; c < 3; ++c)
@@ -491,6 +491,14 @@ namespace modal_haptics
     }
   } // namespace
 
+  std::vector<Tensor<1, 3>> held_directions(const SupportRestraint &r, const Point<3> &x, const Tensor<1, 3> &normal,
+                                            const double length_unit, const double tolerance)
+  {
+    if (r.kind == SupportRestraint::Kind::elastic)
+      return elastic_directions(r, normal);
+    return restrained_directions(r, x, normal, length_unit, tolerance);
+  }
+
   ResolvedSupports resolve_supports(const std::vector<Support> &supports, const std::string &group_file,
                                     const std::map<std::string, int> &surfaces, const double length_unit,
                                     const Mapping<3> &mapping, const DoFHandler<3> &dof_handler,
@@ -568,7 +576,7 @@ namespace modal_haptics
   {
     std::ostringstream out;
     for (unsigned int s = 0; s < supports.size(); ++s)
-      out << (s ? "; " : "") << supports[s].label() << ": " << reports[s].n_faces << " faces, "
+      out << (s ? "; " : "") << supports[s].label() << ": " << reports[s].n_faces << " mesh faces, "
           << std::setprecision(4) << reports[s].area << " m^2, " << reports[s].n_nodes << " nodes";
     return out.str();
   }

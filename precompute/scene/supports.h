@@ -103,6 +103,13 @@ namespace modal_haptics
     std::string          describe() const; // "translation along x, rotation about z"
   };
 
+  // The directions a restraint holds at a point x [m] of its selection whose outward normal there is
+  // 'normal': rigidly (clamp, fix, roller, symmetry) and, for an elastic foundation, its stiff ones.
+  // 'tolerance' [m]: a point this close to a cylinder's axis holds its cross-section.
+  std::vector<dealii::Tensor<1, 3>> held_directions(const SupportRestraint &r, const dealii::Point<3> &x,
+                                                    const dealii::Tensor<1, 3> &normal, double length_unit,
+                                                    double tolerance);
+
   // What the supports make of a space's FE space: the constraints (added to the caller's, which
   // the caller closes), the faces of elastic supports (assembled into K), what each support caught,
   // and the directions held at the nodes, from which follow the motions left free.

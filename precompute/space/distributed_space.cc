@@ -284,7 +284,7 @@ namespace modal_haptics
       constraints.clear();
       constraints.reinit(relevant_dofs);
       supports = space_parts::apply_supports(scene, task, mapping, dof_handler, constraints,
-                                             [this](const std::string &line) { log(line); }, comm);
+                                             [this](const std::string &line) { summarize(line); }, comm);
       constraints.close();
       result.supports_summary = supports.summary(scene.supports);
       coupled_constraints     = Utilities::MPI::max(int(has_coupling_constraints(constraints)), comm) > 0;
@@ -553,6 +553,7 @@ namespace modal_haptics
            << ", max ||K phi - lambda M phi|| / ||lambda M phi|| = " << result.self_check.max_relative_residual
            << "; kept " << modes.size();
       log(line.str());
+      summarize(space_parts::mode_selection_summary(scene, result));
     }
 
     std::vector<space_parts::EvaluationPoint>

@@ -172,7 +172,7 @@ namespace modal_haptics
 
       constraints.clear();
       supports = space_parts::apply_supports(scene, task, mapping, dof_handler, constraints,
-                                             [this](const std::string &line) { log(line); });
+                                             [this](const std::string &line) { summarize(line); });
       constraints.close();
       result.supports_summary = supports.summary(scene.supports);
       coupled_constraints     = has_coupling_constraints(constraints);
@@ -361,8 +361,7 @@ namespace modal_haptics
       for (const unsigned int i : space_parts::select_modes(scene, eigen.eigenvalues, result))
         kept.push_back(std::move(eigen.eigenvectors[i]));
       eigen.eigenvectors = std::move(kept);
-      log("kept " + std::to_string(result.eigenvalues.size()) + " modes, dropped " +
-          std::to_string(result.dropped_modes.size()));
+      summarize(space_parts::mode_selection_summary(scene, result));
       if (AmgShiftedInverse *amg = amg_inverse())
         amg->deflate_by_modes(eigen.eigenvectors);
     }

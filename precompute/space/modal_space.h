@@ -70,6 +70,16 @@ namespace modal_haptics
     // 'constraints' (closed by the caller), what each caught logged, and the motions they leave free
     // checked against the eigensolve's settings: a free motion needs a negative shift and a maximum
     // number of modes above the number of free motions.
+    // The summary lines of a space (what each support caught, the motions left free, why the modes
+    // kept were kept) are printed by process 0 with or without progress lines once a program turns
+    // them on (modal-precompute, also with --quiet); off, they are progress lines (modal-study).
+    void print_space_summaries(bool on);
+
+    // Supports that leave rigid-body motions free need a negative 'Modes/Shift' and more modes than
+    // free motions; else refused naming the motions, as "Space 'NAME': the supports ..." (an empty
+    // 'space': "The supports ...", --validate's prediction from the geometry).
+    void check_free_motions(const SceneParameters &scene, const FreeMotions &free, const std::string &space);
+
     ResolvedSupports apply_supports(const SceneParameters &scene, const SpaceTask &task, const dealii::Mapping<3> &mapping,
                                     const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
                                     const std::function<void(std::string)> &log, MPI_Comm comm = MPI_COMM_SELF);
@@ -130,7 +140,8 @@ namespace modal_haptics
       virtual void validate() = 0;
       virtual void output_results() const = 0;
       virtual void finish() {}
-      void log(const std::string &message) const;
+      void log(const std::string &message) const;       // a progress line: not printed with --quiet
+      void summarize(const std::string &message) const; // a summary line (print_space_summaries)
       PhaseInputs inputs() const
       {
         return {scene, display, task, vtu_file, verbose, [this](const std::string &message) { log(message); }};
@@ -191,6 +202,10 @@ namespace modal_haptics
     // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
                                            ModalSpaceResult &result);
+    // Why select_modes kept what it kept, in the parameters' names: "kept 10 modes: 4 below the 500 Hz
+    // cut-off ('Modes/Cut-off rule' = haptic: half 'Modes/Haptic rate'), raised to the floor of 10
+    // ('Modes/Minimum number of modes'); dropped 40 above it".
+    std::string mode_selection_summary(const SceneParameters &scene, const ModalSpaceResult &result);
 
     // A point of the display surface located in the cells of a mesh that this process owns (all of a
     // serial mesh): the tet with the largest smallest barycentric coordinate among those whose

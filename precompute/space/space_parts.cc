@@ -79,6 +79,24 @@ namespace modal_haptics
         std::cout << "[" << task.name << "] " << message << std::endl;
     }
 
+    namespace
+    {
+      bool space_summaries_printed = false;
+    }
+
+    void print_space_summaries(const bool on)
+    {
+      space_summaries_printed = on;
+    }
+
+    void SpaceBase::summarize(const std::string &message) const
+    {
+      if (space_summaries_printed && Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) == 0)
+        std::cout << "[" << task.name << "] " << message << std::endl;
+      else
+        log(message);
+    }
+
     std::variant<ModalSpaceResult, solver_choice::Choice> SpaceBase::run()
     {
       const auto phase = [&](const std::string &name, const std::function<void()> &work) {
@@ -155,19 +173,27 @@ namespace modal_haptics
       if (!scene.supports.empty())
         log(supports.summary(scene.supports));
       const FreeMotions free = supports.free_motions(Point<3>(), comm);
+      if (!free.motions.empty())
+        log("the supports leave " + std::to_string(free.motions.size()) + " rigid-body motion" +
+            (free.motions.size() > 1 ? "s" : "") + " free (" + free.describe() + ")");
+      check_free_motions(scene, free, task.name);
+      return supports;
+    }
+
+    void check_free_motions(const SceneParameters &scene, const FreeMotions &free, const std::string &space)
+    {
       if (free.motions.empty())
-        return supports;
+        return;
       const std::string which = std::to_string(free.motions.size()) + " rigid-body motion" +
                                 (free.motions.size() > 1 ? "s" : "") + " free (" + free.describe() + ")";
-      log("the supports leave " + which);
+      const std::string the_supports = space.empty() ? "The supports" : "Space '" + space + "': the supports";
       AssertThrow(scene.modes.shift < 0.,
-                  ExcMessage("Space '" + task.name + "': the supports ('Geometry/Supports') leave " + which +
+                  ExcMessage(the_supports + " ('Geometry/Supports') leave " + which +
                              ", so K is singular: set 'Modes/Shift' below zero (e.g. -0.1 times the first elastic "
                              "frequency), not " + std::to_string(scene.modes.shift) + " Hz, or hold the part."));
       AssertThrow(scene.modes.maximum_count > free.motions.size(),
-                  ExcMessage("Space '" + task.name + "': the supports leave " + which + ", so 'Modes/Maximum number "
+                  ExcMessage(the_supports + " leave " + which + ", so 'Modes/Maximum number "
                              "of modes' = " + std::to_string(scene.modes.maximum_count) + " leaves no elastic mode."));
-      return supports;
     }
 
     void elastic_face_matrix(const Mapping<3> &mapping, const FiniteElement<3> &fe, const ElasticFace &face,
@@ -277,6 +303,96 @@ namespace modal_haptics
           result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
     }
 
+    namespace
+    {
+      // A kept mode damped above this ratio barely oscillates (critical damping is 1): the hand feels
+      // a slow creep, not the part's vibration (README, 'Damping/Model').
+      constexpr double felt_damping_limit = 0.5;
+
+      // "the 500 Hz cut-off ('Modes/Cut-off rule' = haptic: half 'Modes/Haptic rate')"
+      std::string cut_off_text(const ModeParameters &modes, const double cut_off_hz)
+      {
+        const bool         haptic = modes.cut_off_rule == CutOffRule::haptic;
+        std::ostringstream out;
+        out << "the " << cut_off_hz << " Hz cut-off ('Modes/Cut-off rule' = " << (haptic ? "haptic" : "display")
+            << ": half 'Modes/" << (haptic ? "Haptic" : "Display") << " rate')";
+        return out.str();
+      }
+
+      // A warning on the first kept vibration mode whose damping ratio exceeds felt_damping_limit,
+      // naming the damping parameters that set it.
+      void warn_about_over_damping(const SceneParameters &scene, const ModalSpaceResult &result)
+      {
+        std::vector<unsigned int> over;
+        for (unsigned int i = 0; i < result.frequencies_hz.size(); ++i)
+          if (result.frequencies_hz[i] > 0. && result.damping_ratios[i] > felt_damping_limit)
+            over.push_back(i);
+        // Once per run: the damping parameters are the scene's, and every space keeps alike modes.
+        static bool warned = false;
+        if (over.empty() || warned || dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) != 0)
+          return;
+        warned = true;
+        const unsigned int  i     = over.front();
+        const auto         &d     = scene.damping;
+        const double        omega = two_pi * result.frequencies_hz[i];
+        std::ostringstream out;
+        out << std::setprecision(3) << "Warning: space '" << result.name << "': mode " << i + 1 << " ("
+            << result.frequencies_hz[i] << " Hz) has a damping ratio of " << result.damping_ratios[i]
+            << ", above " << felt_damping_limit << ": so damped a mode is not felt as a vibration";
+        if (over.size() > 1)
+          out << " (" << over.size() - 1 << " more kept mode" << (over.size() > 2 ? "s" : "") << " above it)";
+        if (d.rayleigh)
+          out << ". It comes from 'Damping/Rayleigh alpha' = " << d.alpha << " 1/s (alpha / (2 omega) = "
+              << d.alpha / (2. * omega) << ") and 'Damping/Rayleigh beta' = " << d.beta << " s (beta omega / 2 = "
+              << d.beta * omega / 2. << "): lower the larger, or set 'Damping/Model' = modal";
+        else
+          out << ". It is 'Damping/Modal damping ratio' = " << d.modal_ratio << ": lower it";
+        std::cerr << out.str() << "." << std::endl;
+      }
+
+      // A first vibration frequency far outside what a hand can feel or a loop can follow says more
+      // often that the lengths were read in the wrong unit (1000 times too small: 1000 times faster)
+      // than that the part is so.
+      void warn_about_first_frequency(const SceneParameters &scene, const ModalSpaceResult &result)
+      {
+        const auto &f     = result.computed_frequencies_hz;
+        const auto  first = std::find_if(f.begin(), f.end(), [](const double x) { return x > 0.; });
+        if (first == f.end() || (*first >= 0.1 && *first <= 1e5) ||
+            dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) != 0)
+          return;
+        std::cerr << std::setprecision(4) << "Warning: space '" << result.name << "': its first vibration frequency is "
+                  << *first << " Hz, " << (*first > 1e5 ? "above 100 kHz" : "below 0.1 Hz")
+                  << ": is 'Geometry/Length unit' = " << scene.length_unit
+                  << " m right? Lengths read 1000 times too " << (*first > 1e5 ? "small" : "large")
+                  << " make every frequency about 1000 times too " << (*first > 1e5 ? "high" : "low") << "."
+                  << std::endl;
+      }
+    } // namespace
+
+    std::string mode_selection_summary(const SceneParameters &scene, const ModalSpaceResult &result)
+    {
+      const auto        &modes    = scene.modes;
+      const std::size_t  kept     = result.frequencies_hz.size(), dropped = result.dropped_modes.size();
+      const std::size_t  computed = result.computed_frequencies_hz.size();
+      std::ostringstream out;
+      out << "kept " << kept << " mode" << (kept == 1 ? "" : "s") << ": ";
+      if (modes.cut_off_rule == CutOffRule::none)
+        return out.str() + "every computed one ('Modes/Cut-off rule' = none, 'Modes/Maximum number of modes' = " +
+               std::to_string(computed) + ")";
+      const std::size_t below = std::count_if(result.computed_frequencies_hz.begin(), result.computed_frequencies_hz.end(),
+                                              [&](const double f) { return f <= result.cut_off_hz; });
+      const std::string cut_off = cut_off_text(modes, result.cut_off_hz);
+      if (below == computed)
+        out << "all " << computed << " computed ('Modes/Maximum number of modes') lie below " << cut_off
+            << "; more may lie below it";
+      else if (kept == below)
+        out << "those below " << cut_off << "; dropped " << dropped << " above it";
+      else
+        out << below << " below " << cut_off << ", raised to the floor of " << modes.minimum_count
+            << " ('Modes/Minimum number of modes'); dropped " << dropped << " above it";
+      return out.str();
+    }
+
     // The cut-off rule drops modes above its frequency, but never below the floor count; the report
     // says which modes went and why.
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
@@ -311,6 +427,8 @@ namespace modal_haptics
                              std::to_string(result.computed_frequencies_hz.front()) +
                              " Hz, so no mode would be kept. Choose another rule or rate, or set "
                              "'Modes/Minimum number of modes' to at least 1."));
+      warn_about_over_damping(scene, result);
+      warn_about_first_frequency(scene, result);
       return kept;
     }
 
@@ -382,7 +500,7 @@ namespace modal_haptics
             for (unsigned int e = 0; e < 3; ++e)
               J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
           const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
-          const std::array<double, 4> bary = {1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]};
+          const std::array<double, 4> bary = {{1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]}};
           const double                m    = *std::min_element(bary.begin(), bary.end());
           if (m > best_min)
             best_min = m, best_cell = cell, best_bary = bary;

@@ -286,7 +286,7 @@ namespace modal_haptics
       const auto &task = in.task;
       if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
         return;
-      const std::array<unsigned int, 2> vertices = {task.validation_vertices.front(), task.validation_vertices.back()};
+      const std::array<unsigned int, 2> vertices = {{task.validation_vertices.front(), task.validation_vertices.back()}};
       auto                              f        = b.zero_field();
       for (unsigned int h = 0; h < 2; ++h)
         f += b.patch_load(vertices[h], space_parts::two_contact_forces[h]);

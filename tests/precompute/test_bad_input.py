@@ -62,7 +62,26 @@ CASES = [
     ("E <= 0", scene_with(section("Material", "set Young's modulus = 0")), ["Young's modulus"]),
     ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
     ("nu <= -1", scene_with(section("Material", "set Poisson's ratio = -1")), ["Poisson's ratio"]),
-    ("density <= 0", scene_with(section("Material", "set Density = 0")), ["Density"]),
+    # Every value out of its range is told in one form (issue 39): file, line, entry, value, range, unit.
+    ("density <= 0", scene_with(section("Material", "set Density = 0")),
+     [".prm, line ", "'Material/Density' = 0: must be a number > 0 (unit: kg/m^3)."]),
+    ("negative density", scene_with(section("Material", "set Density = -1")),
+     ["negative_density.prm, line ", "'Material/Density' = -1: must be a number > 0 (unit: kg/m^3)."]),
+    ("degree 3", scene_with(section("Meshing", "set Element degree = 3")),
+     ["'Meshing/Element degree' = 3: must be an integer in [1, 2]."]),
+    ("misspelt entry", scene_with(section("Material", "set Youngs modulus = 7e10")),
+     ["line ", "subsection 'Material' has no entry 'Youngs modulus'. Did you mean 'Young's modulus'?"]),
+    ("misspelt subsection", scene_with(section("Materials", "set Density = 1000")),
+     ["line ", "has no subsection 'Materials'. Did you mean 'Material'?"]),
+    ("unknown cut-off rule", scene_with(section("Modes", "set Cut-off rule = fast")),
+     ["'Modes/Cut-off rule' = fast: must be one of none, display, haptic."]),
+    # An empty physical group, which gmsh loads without a word (issue 39).
+    ("empty physical group", scene_with(section("Geometry", "set Source = empty_group.geo")),
+     ["'wall' holds no surface", "remove it"]),
+    # The groups listed are the user's; 'free' is said to be the program's.
+    ("group listing without the program's", scene_with(section("Geometry", "set Source = clamp_only.geo",
+                                                               "set Supports = surface bolts : clamp")),
+     ["surfaces: 'clamp'; the program adds 'free'"]),
     ("r = 0", scene_with(section("Modes", "set Maximum number of modes = 0", "set Minimum number of modes = 0")),
      ["Maximum number of modes"]),
     ("cut-off below the first frequency",
@@ -122,6 +141,11 @@ def main():
     shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
     with open(os.path.join(args.workdir, "inverted.msh"), "w") as f:
         f.write(INVERTED_MSH)
+    box = 'SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 200, 10, 10};\nPhysical Volume("part", 1) = {1};\n'
+    with open(os.path.join(args.workdir, "empty_group.geo"), "w") as f:
+        f.write(box + 'Physical Surface("wall") = {};\n')
+    with open(os.path.join(args.workdir, "clamp_only.geo"), "w") as f:
+        f.write(box + 'Physical Surface("clamp", 2) = {1};\n')
     with open(os.path.join(args.workdir, "broken.step"), "w") as f:
         f.write("ISO-10303-21;\nHEADER;\nthis is not a part\nEND-ISO-10303-21;\n")
     results = os.path.join(args.workdir, "results")

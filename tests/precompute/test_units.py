@@ -104,7 +104,7 @@ for step, unit, label in ((step_mm, 0.001, "mm"), (step_m, 1, "m")):
     check("extent 0.2 x 0.01 x 0.01 m" in out, f"{label} file: bounding box 0.2 x 0.01 x 0.01 m")
     mass = number_after(r"mass", out)
     check(abs(mass - DENSITY * VOLUME) < 1e-6 * DENSITY * VOLUME, f"{label} file: mass {mass} kg = 0.157 kg")
-    check("Clamp boxes' entry 1" in out and ": 1 face, area 0.0001 m^2" in out,
+    check("Clamp boxes' entry 1" in out and ": 1 CAD surface, area 0.0001 m^2" in out,
           f"{label} file: the clamp box at the face's exact coordinates caught the face x = 0 (1e-4 m^2)")
 
 # A Length unit that contradicts the file's header is refused, both named.
@@ -113,11 +113,11 @@ code, out, _ = run(work, "contradicting", scene(step_m, 0.001).replace("Clamp bo
 check(code != 0 and "declares its length unit as metre" in out and "'Geometry/Length unit' = 0.001" in out,
       "Length unit 0.001 on a metre STEP refused naming both: " + out.strip().splitlines()[-2])
 
-# The default patch radius (2) on a part in metres: a 2 m patch on a 1 cm bar is warned about.
+# The default patch radius (2) on a part in metres: a 2 m patch on a 0.2 m bar is warned about.
 code, out, _ = run(work, "big_patch", scene(step_m, 1).replace(f"Patch radius = {0.2 / 250}", "Patch radius = 2"),
                    "--validate")
-check(code == 0 and "Warning: 'Contact/Patch radius' = 2 (geometry units, 2 m) exceeds a tenth" in out,
-      "a patch radius over a tenth of the smallest extent is warned about")
+check(code == 0 and "Warning: 'Contact/Patch radius' = 2 geometry units (2 m) exceeds a tenth of the part's largest "
+      "extent" in out, "a patch radius over a tenth of the largest extent is warned about")
 # A run with it: its patches cover the whole bar, far over the documented 64 display vertices.
 code, out, _ = run(work, "big_patch_run", scene(step_m, 1, modes="set Maximum number of modes = 4").replace(
     f"Patch radius = {0.2 / 250}", "Patch radius = 2"), "--quiet")
@@ -145,7 +145,7 @@ end"""
 
 code, out, _ = run(work, "voi_end", scene(step_m, 1, extra=voi("tip", "0.19, -0.001, -0.001", "0.21, 0.011, 0.011")),
                    "--validate")
-check(code == 0 and "VOI 'tip'" in out and "meets 5 boundary faces" in out,
+check(code == 0 and "VOI 'tip'" in out and "meets 5 CAD surfaces" in out,
       "a VOI at the free end meets the end face and the 4 side faces (with the default fine size)")
 code, out, _ = run(work, "voi_buried",
                    scene(step_m, 1, extra=voi("buried", "0.05, 0.004, 0.004", "0.06, 0.006, 0.006")), "--validate")
@@ -180,7 +180,7 @@ if len(first) == 2:
 msh = os.path.join(work, "run_m", "mesh_global.msh")
 if os.path.exists(msh):
     code, out, _ = run(work, "msh", scene(msh, 1, clamp="set Clamp groups = clamp"), "--validate")
-    check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Group 'clamp' (a physical surface): 1 face, area 0.0001 m^2" in out
+    check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Group 'clamp' (a physical surface): 1 surface, area 0.0001 m^2" in out
           and abs(number_after("mass", out) - DENSITY * VOLUME) < 1e-6,
           "a .msh input: bounding box, mass and the clamp group's area from the mesh")
 
