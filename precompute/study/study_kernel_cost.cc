@@ -78,7 +78,7 @@ namespace modal_haptics
             check_kernel(status, "kernel_tick_admittance");
           }
         std::sort(nanoseconds.begin(), nanoseconds.end());
-        return {nanoseconds[ticks / 2], nanoseconds[std::size_t(ticks) * 99 / 100]};
+        return {{nanoseconds[ticks / 2], nanoseconds[std::size_t(ticks) * 99 / 100]}};
       }
     };
   } // namespace
