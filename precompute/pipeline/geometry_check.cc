@@ -76,12 +76,17 @@ namespace modal_haptics
       return out.str();
     }
 
+    // A .msh geometry is the mesh itself: nothing is meshed, the size parameters are not used.
+    bool given_as_mesh(const std::string &geometry)
+    {
+      return geometry.size() > 4 && geometry.substr(geometry.size() - 4) == ".msh";
+    }
+
     // "3 CAD surfaces": what the geometry's selections count (the run counts mesh faces); a .msh
     // input's groups hold the mesh's surfaces.
     std::string counted(const std::size_t n, const std::string &entity, const std::string &geometry)
     {
-      const bool        msh  = geometry.size() > 4 && geometry.substr(geometry.size() - 4) == ".msh";
-      const std::string what = entity != "face" ? entity : msh ? "surface" : "CAD surface";
+      const std::string what = entity != "face" ? entity : given_as_mesh(geometry) ? "surface" : "CAD surface";
       return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
     }
 
@@ -139,6 +144,7 @@ namespace modal_haptics
     // What the unit decides, before meshing: a coarse size larger than the part cannot give a mesh
     // (refused); a part under a millimetre or over 10 m, under a milligram or over 10 t, a coarse
     // size over a third of the part, a patch over a tenth of it are warned about (printed when 'warn').
+    // The sizes only where the program meshes (not for a .msh geometry).
     void check_sizes(const SceneParameters &scene, const meshing::GeometryReport &report, const bool warn)
     {
       const auto   e       = extents(report);
@@ -147,7 +153,8 @@ namespace modal_haptics
         return;
       const std::string extent = rounded(largest) + " geometry units (" + rounded(largest * unit) + " m)";
       const std::string is_the_unit_right = "is 'Geometry/Length unit' = " + text(unit) + " m right?";
-      AssertThrow(scene.meshing.coarse_size <= largest,
+      const bool meshed_here = !given_as_mesh(scene.meshing.geometry);
+      AssertThrow(!meshed_here || scene.meshing.coarse_size <= largest,
                   ExcMessage("'Meshing/Coarse size' = " + text(scene.meshing.coarse_size) + " geometry units (" +
                              text(scene.meshing.coarse_size * unit) + " m) is larger than the part's largest extent, " +
                              extent + ": the mesh would be a handful of tets. Give the sizes in the geometry's unit: " +
@@ -160,7 +167,7 @@ namespace modal_haptics
       if (report.volume > 0. && (mass < 1e-6 || mass > 1e4))
         std::cerr << "Warning: the part's mass is " << mass << " kg (density " << scene.material.density
                   << " kg/m^3): " << is_the_unit_right << " Or 'Material/Density'?" << std::endl;
-      if (scene.meshing.coarse_size > largest / 3.)
+      if (meshed_here && scene.meshing.coarse_size > largest / 3.)
         std::cerr << "Warning: 'Meshing/Coarse size' = " << scene.meshing.coarse_size
                   << " geometry units is over a third of the part's largest extent, " << extent
                   << ": a few elements across the part. Are the sizes in the geometry's unit?" << std::endl;

@@ -29,6 +29,16 @@ SCENE = "small_block"
 COMMITTED_TOGETHER = (f"{SCENE}.h5", f"{SCENE}.mrt", "report.json", "used_parameters.prm")
 
 
+def wait_until_stopped(pid):
+    """SIGSTOP is delivered asynchronously: wait (at most a second) until the process is stopped."""
+    deadline = time.monotonic() + 1.0
+    while time.monotonic() < deadline:
+        with open(f"/proc/{pid}/stat") as f:
+            if f.read().rsplit(")", 1)[1].split()[0] in ("T", "t"):
+                return
+        time.sleep(1e-5)
+
+
 def is_temporary(name):
     return ".tmp." in name
 
@@ -166,6 +176,7 @@ def main():
             time.sleep(1e-4)  # fine enough for the windows of a few ms, and leaves the CPU to the run
         if hit:
             child.send_signal(signal.SIGSTOP)
+            wait_until_stopped(child.pid)  # else the run may rename files after the check below
             committing = not os.path.exists(os.path.join(results, f"{SCENE}.h5.tmp.{child.pid}"))
         child.kill()
         child.wait()
