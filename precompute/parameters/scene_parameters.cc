@@ -121,10 +121,7 @@ namespace modal_haptics
     const ModeParameters m;
     prm.enter_subsection("Modes");
     prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
-                      "The most modes a space keeps (r, >= 1). The eigensolve computes the lowest modes only "
-                      "until the cut-off rule is decided (at least 'Minimum number of modes' and one mode "
-                      "above the cut-off: the modes it keeps, and one more), and at most this many; with "
-                      "'Cut-off rule = none' exactly this many. Units: none.");
+                      "The eigensolve computes this many lowest modes (r, >= 1). Units: none.");
     prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
                       "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
                         ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");

@@ -162,11 +162,10 @@ namespace modal_haptics
       std::map<types::global_dof_index, unsigned int> dof_components() const;
       bool factorize_as_chosen();
       void refuse_shift_above_first_mode() const;
-      void block_krylov_modes(unsigned int n_modes, std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
-      void parpack_modes(unsigned int n_modes, std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      void block_krylov_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      void parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       DistributedVector distributed(const dealii::Vector<double> &local) const;
-      void set_up_amg();
-      void lobpcg_amg_modes(unsigned int n_modes, std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
+      void lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors);
       // columns[c] = A^-1 columns[c], all at once: one MUMPS solve of the block, or one block CG.
       void apply_inverse(std::vector<DistributedVector> &columns)
       {
@@ -397,12 +396,12 @@ namespace modal_haptics
     }
 
     // The serial path's block Krylov iteration (block_eigensolver.cc) over MUMPS's block solves.
-    void DistributedSpace::block_krylov_modes(const unsigned int n_modes, std::vector<double> &eigenvalues,
+    void DistributedSpace::block_krylov_modes(std::vector<double>            &eigenvalues,
                                               std::vector<DistributedVector> &eigenvectors)
     {
       DistributedBlockOperators operators(mass_matrix, *inverse, owned_layout, comm);
       const double memory_limit = memory_budget_per_process_bytes(scene.modes.factor_memory_limit, comm);
-      const EigenSolution solution = solve_block_shift_invert(operators, shift, n_modes,
+      const EigenSolution solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
                                                               scene.modes.block_size, scene.modes.tolerance,
                                                               memory_limit, verbose);
       space_parts::record_iteration(result, solution);
@@ -415,11 +414,10 @@ namespace modal_haptics
     // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
     // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
     // runs on different process counts build nearly the same Krylov space.
-    void DistributedSpace::parpack_modes(const unsigned int n_modes, std::vector<double> &eigenvalues,
-                                         std::vector<DistributedVector> &eigenvectors)
+    void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
       const int n   = result.n_dofs;
-      const int nev = n_modes;
+      const int nev = scene.modes.maximum_count;
       AssertThrow(nev >= 1 && nev < n - 1,
                   ExcMessage("Cannot compute " + std::to_string(nev) + " modes of a system with " + std::to_string(n) +
                              " unknowns: lower 'Modes/Maximum number of modes' or refine the mesh."));
@@ -447,7 +445,7 @@ namespace modal_haptics
       std::vector<DistributedVector>    vectors(nev, owned_layout);
       Timer                             arpack_timer;
       solver.solve(stiffness_matrix, mass_matrix, *inverse, lambda, vectors, nev);
-      result.eigensolve_iteration_seconds += arpack_timer.wall_time();
+      result.eigensolve_iteration_seconds          = arpack_timer.wall_time();
       result.n_operator_applications = result.factorization.n_solved_vectors;
       result.eigensolver_method      = "PARPACK pdsaupd mode 3 (shift-invert), distributed";
 
@@ -464,9 +462,8 @@ namespace modal_haptics
         }
     }
 
-    // The AMG preconditioner on this backend's Trilinos matrices (amg_eigensolver.h), every process its
-    // rows; set up once, for every eigensolve the mode-count rule asks for.
-    void DistributedSpace::set_up_amg()
+    // LOBPCG + AMG on this backend's Trilinos matrices (amg_eigensolver.h), every process its rows.
+    void DistributedSpace::lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
       const auto motions       = rigid_body_motions(Point<3>());
       const auto dof_component = dof_components();
@@ -489,21 +486,15 @@ namespace modal_haptics
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
                                                 constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
-    }
-
-    // LOBPCG + AMG, the lowest n_modes.
-    void DistributedSpace::lobpcg_amg_modes(const unsigned int n_modes, std::vector<double> &eigenvalues,
-                                            std::vector<DistributedVector> &eigenvectors)
-    {
-      if (!amg)
-        set_up_amg();
-      log(amg->preconditioner_name() + " set up; LOBPCG for " + std::to_string(n_modes) + " modes, distributed");
+      log(amg->preconditioner_name() + " set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
+          " modes, distributed");
       Timer timer;
-      EigenSolution solution = amg->lowest_modes(n_modes, scene.modes.lobpcg_tolerance, scene.modes.lobpcg_modes_per_run,
+      EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                scene.modes.lobpcg_modes_per_run,
                                                 [this](const std::string &line) { log(line); });
-      result.eigensolve_iteration_seconds += timer.wall_time();
-      result.n_operator_applications += solution.n_operator_applications;
-      result.eigensolver_method = amg->eigensolver_method() + ", distributed";
+      result.eigensolve_iteration_seconds = timer.wall_time();
+      result.n_operator_applications      = solution.n_operator_applications;
+      result.eigensolver_method           = amg->eigensolver_method() + ", distributed";
       eigenvalues = solution.eigenvalues;
       for (const auto &local : solution.eigenvectors)
         eigenvectors.push_back(distributed(local));
@@ -514,22 +505,16 @@ namespace modal_haptics
       shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
       std::vector<double>            eigenvalues;
       std::vector<DistributedVector> eigenvectors;
-      const bool factorized = factorize_as_chosen();
-      if (factorized)
-        refuse_shift_above_first_mode();
-      // The lowest modes, as many as the cut-off rule needs (solvers/mode_count.h).
-      const auto solve_lowest = [&](const unsigned int n_modes) {
-        eigenvalues.clear();
-        eigenvectors.clear();
-        if (!factorized)
-          lobpcg_amg_modes(n_modes, eigenvalues, eigenvectors);
-        else if (choice.method == solver_choice::Method::arpack)
-          parpack_modes(n_modes, eigenvalues, eigenvectors);
-        else
-          block_krylov_modes(n_modes, eigenvalues, eigenvectors);
-        return eigenvalues;
-      };
-      space_parts::solve_lowest_for_cut_off(scene, solve_lowest, [this](const std::string &line) { log(line); });
+      if (!factorize_as_chosen())
+        lobpcg_amg_modes(eigenvalues, eigenvectors);
+      else
+        {
+          refuse_shift_above_first_mode();
+          if (choice.method == solver_choice::Method::arpack)
+            parpack_modes(eigenvalues, eigenvectors);
+          else
+            block_krylov_modes(eigenvalues, eigenvectors);
+        }
 
       // MUMPS's LU factorizes an indefinite K - shift M too, where the serial Cholesky refuses it: a
       // mode below the shift says that the shift lies above the first eigenfrequency (the

@@ -128,7 +128,7 @@ namespace modal_haptics
       void setup_system();
       void assemble_system();
       void            factorize_as_chosen();
-      EigenSolution   solve_with_lobpcg_amg(unsigned int n_modes);
+      EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
       void identify_rigid_body_modes();
       std::vector<Vector<double>> free_motion_fields(const FreeMotions &free) const;
@@ -250,31 +250,27 @@ namespace modal_haptics
     }
 
     // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
-    // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's. The AMG
-    // is set up at the first eigensolve and kept for the next (the mode-count rule may ask again).
-    EigenSolution SerialSpace::solve_with_lobpcg_amg(const unsigned int n_modes)
+    EigenSolution SerialSpace::solve_with_lobpcg_amg()
     {
-      if (amg_inverse() == nullptr)
-        {
-          const auto component    = dof_components();
-          bool       node_blocked = true;
-          for (std::size_t i = 0; i < component.size(); ++i)
-            node_blocked = node_blocked && component[i] == i % 3;
-          std::optional<VertexSpaceTransfer> vertex_space;
-          if (scene.element_degree > 1)
-            vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, MPI_COMM_SELF);
-          factorization = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
-                                                              rigid_body_motions(Point<3>()), result.clamped_dofs,
-                                                              node_blocked, vertex_space ? &*vertex_space : nullptr);
-        }
-      AmgShiftedInverse &amg = *amg_inverse();
+      const auto component    = dof_components();
+      bool       node_blocked = true;
+      for (std::size_t i = 0; i < component.size(); ++i)
+        node_blocked = node_blocked && component[i] == i % 3;
+      std::optional<VertexSpaceTransfer> vertex_space;
+      if (scene.element_degree > 1)
+        vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, MPI_COMM_SELF);
+      auto amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
+                                                     rigid_body_motions(Point<3>()), result.clamped_dofs,
+                                                     node_blocked, vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
-      line << amg.preconditioner_name() << " set up in " << amg.statistics().analyze_seconds << " s; LOBPCG for "
-           << n_modes << " modes";
+      line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
+           << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
       log(line.str());
-      EigenSolution solution = amg.lowest_modes(n_modes, scene.modes.lobpcg_tolerance, scene.modes.lobpcg_modes_per_run,
+      EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
+                                                scene.modes.lobpcg_modes_per_run,
                                                 [this](const std::string &line) { log(line); });
-      log("LOBPCG: " + std::to_string(amg.amg_statistics().eigensolver_iterations) + " iterations");
+      log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
+      factorization = std::move(amg);
       return solution;
     }
 
@@ -286,23 +282,17 @@ namespace modal_haptics
         return; // handed over: SpaceBase::run ends here
       using Method = solver_choice::Method;
       const Method method = choice.method;
-      // The lowest modes, as many as the cut-off rule needs (solvers/mode_count.h).
-      const auto solve_lowest = [&](const unsigned int n_modes) {
-        if (method == Method::lobpcg_amg)
-          eigen = solve_with_lobpcg_amg(n_modes);
-        else if (method == Method::block_krylov)
-          eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, n_modes, scene.modes.block_size,
-                                           scene.modes.tolerance, memory_budget_bytes(scene.modes.factor_memory_limit),
-                                           verbose);
-        else
-          eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift, n_modes,
-                                     scene.modes.tolerance, verbose);
-        space_parts::record_iteration(result, eigen);
-        return eigen.eigenvalues;
-      };
       try
         {
-          space_parts::solve_lowest_for_cut_off(scene, solve_lowest, [this](const std::string &line) { log(line); });
+          if (method == Method::lobpcg_amg)
+            eigen = solve_with_lobpcg_amg();
+          else if (method == Method::block_krylov)
+            eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
+                                             scene.modes.block_size, scene.modes.tolerance,
+                                             memory_budget_bytes(scene.modes.factor_memory_limit), verbose);
+          else
+            eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
+                                       scene.modes.maximum_count, scene.modes.tolerance, verbose);
         }
       catch (const ExceptionBase &e)
         {
@@ -325,6 +315,7 @@ namespace modal_haptics
         method == Method::block_krylov ?
           block_krylov_method(scene.modes.block_size, eigen) :
           "ARPACK dsaupd mode 3 (shift-invert)";
+      space_parts::record_iteration(result, eigen);
       identify_rigid_body_modes();
       // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first
       // elastic eigenvalue.

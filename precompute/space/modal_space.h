@@ -8,7 +8,6 @@
 #include "scene/rigid_body_motion.h"
 #include "scene/supports.h"
 #include "solvers/eigensolver.h"
-#include "solvers/mode_count.h"
 #include "solvers/solver_choice.h"
 #include "space/space_result.h"
 
@@ -262,20 +261,8 @@ namespace modal_haptics
                                                unsigned int direction);
 
     // What the iteration of a factorization's eigensolver (block Krylov, ARPACK) reports: its solves
-    // and their time, with its M products and orthogonalization apart; added to what earlier
-    // eigensolves of the space recorded (solve_lowest_for_cut_off may run more than one).
+    // and their time, with its M products and orthogonalization apart.
     void record_iteration(ModalSpaceResult &result, const EigenSolution &solution);
-
-    // The eigensolve's count of modes (solvers/mode_count.h) from the scene's 'Modes' settings:
-    // minimum, maximum and the cut-off frequency of the cut-off rule.
-    ModeCountRule mode_count_rule(const SceneParameters &scene);
-
-    // Runs solve_lowest(n) (the lowest n modes; it keeps its solution and returns the ascending
-    // eigenvalues) with the n the mode-count rule asks for until the cut-off is decided, and logs
-    // how many modes that took and why.
-    void solve_lowest_for_cut_off(const SceneParameters &scene,
-                                  const std::function<std::vector<double>(unsigned int)> &solve_lowest,
-                                  const std::function<void(std::string)> &log);
 
     // The loads of the static correction, candidates first, then the shared vertices that are not
     // candidates; sizes the result's candidate blocks and compliances (cross compliance if asked).

@@ -1,7 +1,6 @@
 // What the static correction and the validation of a space record, whatever its linear algebra
 // (space_parts in modal_space.h): the loads' plan, the compliances read off each solve, the
 // refinement of shifted static solves, the validation errors and their summaries.
-#include "solvers/mode_count.h"
 #include "space/modal_space.h"
 
 #include <deal.II/base/exceptions.h>
@@ -36,33 +35,10 @@ namespace modal_haptics
     // The shared vertices (compared across spaces) are solved with the candidates.
     void record_iteration(ModalSpaceResult &result, const EigenSolution &solution)
     {
-      result.n_operator_applications += solution.n_operator_applications;
-      result.eigensolve_iteration_seconds += solution.eigensolve_iteration_seconds;
-      result.mass_product_seconds += solution.mass_product_seconds;
-      result.orthogonalization_seconds += solution.orthogonalization_seconds;
-    }
-
-    ModeCountRule mode_count_rule(const SceneParameters &scene)
-    {
-      const double cut_off_hz = scene.modes.cut_off_frequency();
-      return {scene.modes.minimum_count, scene.modes.maximum_count,
-              std::isinf(cut_off_hz) ? cut_off_hz : std::pow(2. * M_PI * cut_off_hz, 2)};
-    }
-
-    void solve_lowest_for_cut_off(const SceneParameters &scene,
-                                  const std::function<std::vector<double>(unsigned int)> &solve_lowest,
-                                  const std::function<void(std::string)> &log)
-    {
-      const ModeCountRule rule = mode_count_rule(scene);
-      std::vector<double> last;
-      const unsigned int  attempts = solve_until_cut_off_decided(rule, [&](const unsigned int n) {
-        if (!last.empty())
-          log("the lowest " + std::to_string(last.size()) + " modes do not decide the cut-off: asking for " +
-              std::to_string(n));
-        return last = solve_lowest(n);
-      });
-      log("computed " + std::to_string(last.size()) + " modes in " + std::to_string(attempts) +
-          (attempts == 1 ? " eigensolve" : " eigensolves") + ": " + rule.why_decided(last));
+      result.n_operator_applications      = solution.n_operator_applications;
+      result.eigensolve_iteration_seconds = solution.eigensolve_iteration_seconds;
+      result.mass_product_seconds         = solution.mass_product_seconds;
+      result.orthogonalization_seconds    = solution.orthogonalization_seconds;
     }
 
     std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
