@@ -4,7 +4,7 @@
 // one"), 3 (one candidate per block) and more (several candidates per block; the precompute's
 // compute_static_correction used 16 candidates = 48 right-hand sides), and block 0: every load at
 // once as W^T K^-1 W by forward solves on the loads' elimination-tree paths (Factorization::
-// gram_of_inverse, what compute_static_correction does now wherever the factor is K's).
+// group_grams, what compute_static_correction does now wherever the factor is K's).
 //
 //   bench-static-correction K.csr [--blocks 1,3,12,48,0] [--candidates 16] [--repetitions 3]
 //
@@ -15,6 +15,8 @@
 // same either way. Each repetition solves the same candidates once per block size, in a rotating
 // order (interleaved against the machine's load); the CSV gives ms per candidate (median, min,
 // max over repetitions) and the one-by-one time over the blocked time of the same repetition.
+// Block 0 takes the candidates as one group (every pair's W_a^T K^-1 W_b); the precompute's groups
+// are 64 neighbouring display vertices and their neighbours (space/contact_blocks.h).
 #include "../command_line.h"
 #include "../eigensolver/csr_file.h"
 
@@ -118,11 +120,12 @@ namespace
     dealii::Timer       timer;
     if (block == 0)
       {
-        std::vector<modal_haptics::SparseColumn> W(loads);
+        std::vector<std::vector<modal_haptics::SparseColumn>> W(1, std::vector<modal_haptics::SparseColumn>(loads));
         for (unsigned int load = 0; load < loads; ++load)
-          W[load].emplace_back(loaded_dof(n, candidates, load), 1.);
-        if (!factorization.gram_of_inverse(W, X))
-          throw std::runtime_error("gram_of_inverse declined (over its memory limit)");
+          W[0][load].emplace_back(loaded_dof(n, candidates, load), 1.);
+        std::vector<std::vector<double>> grams;
+        if (!factorization.group_grams(W, {loads}, grams))
+          throw std::runtime_error("group_grams declined");
         return timer.wall_time();
       }
     for (unsigned int first = 0; first < loads; first += block)

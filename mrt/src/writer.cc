@@ -67,6 +67,12 @@ namespace mrt
           out.push_back(make(candidate_compliance, s, f64, sp.candidate_compliance));
           if (n_cross > 0)
             out.push_back(make(cross_compliance, s, f64, sp.cross_compliance));
+          if (!sp.cross_offsets.empty())
+            {
+              out.push_back(make(cross_offsets, s, u32, sp.cross_offsets));
+              out.push_back(make(cross_neighbours, s, u32, sp.cross_neighbours));
+              out.push_back(make(cross_blocks, s, f64, sp.cross_blocks));
+            }
         }
       if (!sp.participation.empty())
         out.push_back(make(participation, s, f64, sp.participation));
@@ -75,6 +81,8 @@ namespace mrt
           out.push_back(make(validation_cases, s, u32, sp.validation_cases));
           out.push_back(make(validation_response, s, f64, sp.validation_response));
         }
+      if (!sp.felt_stiffness.empty())
+        out.push_back(make(felt_stiffness, s, f64, sp.felt_stiffness));
     }
 
     std::vector<double> packed_scene_scalars(const SceneScalars &named)

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <iomanip>
 
 namespace modal_haptics
 {
@@ -126,8 +127,11 @@ namespace modal_haptics
       write_array(g, "candidate_vertices", s.candidates, {nc}, w);
       write_array(g, "candidate_modes", s.candidate_modes, {nc, 3, r}, w);
       write_array(g, "candidate_compliance", s.candidate_compliance, {nc, 3, 3}, w);
-      const hsize_t n_cross = s.cross_compliance.empty() ? 0 : 3 * nc;
-      write_array(g, "cross_compliance", s.cross_compliance, {n_cross, n_cross}, w);
+      write_array(g, "cross_offsets", s.cross_offsets, {s.cross_offsets.size()}, w);
+      write_array(g, "cross_neighbours", s.cross_neighbours, {s.cross_neighbours.size()}, w);
+      write_array(g, "cross_blocks", s.cross_blocks, {s.cross_neighbours.size(), 3, 3}, w);
+      write_array(g, "felt_stiffness", s.felt_stiffness, {s.felt_stiffness.size()}, w);
+      write_array(g, "modal_only_stiffness", s.modal_only_stiffness, {s.modal_only_stiffness.size()}, w);
       write_array(g, "participation", s.participation, {r, 6}, w);
       write_array(g, "centre_of_mass", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()), {3}, w);
       write_array(g, "inertia", std::vector<double>(s.inertia.begin(), s.inertia.end()), {3, 3}, w);
@@ -266,7 +270,10 @@ namespace modal_haptics
           space.candidates           = s.candidates;
           space.candidate_modes      = s.candidate_modes;
           space.candidate_compliance = s.candidate_compliance;
-          space.cross_compliance     = s.cross_compliance;
+          space.cross_offsets.assign(s.cross_offsets.begin(), s.cross_offsets.end());
+          space.cross_neighbours.assign(s.cross_neighbours.begin(), s.cross_neighbours.end());
+          space.cross_blocks         = s.cross_blocks;
+          space.felt_stiffness       = s.felt_stiffness;
           space.participation        = s.participation;
           for (const auto &vc : s.validation)
             {
@@ -353,15 +360,62 @@ namespace modal_haptics
               {"orthogonalization_s", s.orthogonalization_seconds}};
     }
 
-    Json static_correction_json(const ModalSpaceResult &s)
+    Json static_correction_json(const ModalSpaceResult &s, const SceneParameters &scene)
     {
-      const std::size_t r = s.eigenvalues.size(), nc = s.candidates.size();
-      const std::size_t bytes_per_candidate = 8 * (3 * r + 9) + 4 + (s.cross_compliance.empty() ? 0 : 8 * 9 * nc);
+      const std::size_t r = s.eigenvalues.size(), nc = s.candidates.size(), pairs = s.cross_neighbours.size();
+      const std::size_t bytes = 4 * nc + 8 * (3 * r + 9) * nc + (s.cross_offsets.empty() ? 0 : 4 * (nc + 1) + 76 * pairs);
       return {{"n_candidates", nc},
-              {"cross_compliance", !s.cross_compliance.empty()},
-              {"seconds_per_candidate", s.correction_seconds_per_candidate},
+              {"cross_compliance", !s.cross_offsets.empty()},
+              {"cross_compliance_radius_m", scene.contact.cross_compliance ? scene.contact.cross_compliance_radius * scene.length_unit : 0.},
+              {"cross_compliance_pairs", pairs},
+              {"seconds_per_load", s.correction_seconds_per_candidate},
               {"refinement_steps", s.static_solve_iterations},
-              {"bytes_per_candidate", bytes_per_candidate}};
+              {"bytes_per_candidate", nc ? bytes / nc : 0}};
+    }
+
+    // The felt-stiffness map of a space over its own region (its VOI; the global space: outside every
+    // VOI): the range, what the modes alone would give at the same vertices, the softest and the
+    // stiffest spots.
+    Json felt_stiffness_json(const ModalSpaceResult &s, const ContactSurface &display)
+    {
+      std::vector<unsigned int> region;
+      for (unsigned int v = 0; v < s.felt_stiffness.size(); ++v)
+        if (display.region[v] == s.index && s.felt_stiffness[v] > 0.)
+          region.push_back(v);
+      if (region.empty())
+        return nullptr;
+      std::sort(region.begin(), region.end(), [&](const unsigned int a, const unsigned int b) {
+        return s.felt_stiffness[a] < s.felt_stiffness[b];
+      });
+      std::vector<double> ratios; // modal-only over felt
+      for (const unsigned int v : region)
+        if (s.modal_only_stiffness[v] > 0.)
+          ratios.push_back(s.modal_only_stiffness[v] / s.felt_stiffness[v]);
+      std::sort(ratios.begin(), ratios.end());
+      const auto spot = [&](const unsigned int v) {
+        return Json{{"vertex", v},
+                    {"position_m", display.vertices[v]},
+                    {"stiffness_n_per_mm", s.felt_stiffness[v] * 1e-3},
+                    {"modal_only_n_per_mm", s.modal_only_stiffness[v] * 1e-3}};
+      };
+      Json softest = Json::array(), stiffest = Json::array();
+      for (std::size_t k = 0; k < std::min<std::size_t>(5, region.size()); ++k)
+        {
+          softest.push_back(spot(region[k]));
+          stiffest.push_back(spot(region[region.size() - 1 - k]));
+        }
+      const auto ratio_at = [&](const double q) { return ratios.empty() ? 0. : ratios[std::size_t(q * (ratios.size() - 1))]; };
+      const std::size_t off_by_8_percent =
+        std::count_if(ratios.begin(), ratios.end(), [](const double x) { return std::abs(x - 1.) > 0.08; });
+      return {{"n_vertices", region.size()},
+              {"min_n_per_mm", s.felt_stiffness[region.front()] * 1e-3},
+              {"median_n_per_mm", s.felt_stiffness[region[region.size() / 2]] * 1e-3},
+              {"max_n_per_mm", s.felt_stiffness[region.back()] * 1e-3},
+              {"modal_only_ratio_median", ratio_at(0.5)},
+              {"modal_only_ratio_max", ratio_at(1.)},
+              {"modal_only_off_by_more_than_8_percent", ratios.empty() ? 0. : double(off_by_8_percent) / ratios.size()},
+              {"softest", softest},
+              {"stiffest", stiffest}};
     }
 
     // The modes and how they were chosen: from "n_modes" to "rigid_body_modes" in the schema.
@@ -382,7 +436,8 @@ namespace modal_haptics
                                    {"subspace_distance", s.rigid_subspace_sine}};
     }
 
-    Json space_json(const ModalSpaceResult &s, const meshing::ScenarioMesh &mesh)
+    Json space_json(const ModalSpaceResult &s, const meshing::ScenarioMesh &mesh, const SceneParameters &scene,
+                    const ContactSurface &display)
     {
       Json space = {{"name", s.name},         {"index", s.index},   {"n_vertices", s.n_vertices},
                     {"n_cells", s.n_cells},   {"n_dofs", s.n_dofs}, {"degree", s.degree},
@@ -394,12 +449,18 @@ namespace modal_haptics
       space["spurious_eigenvalues"]  = "none: the " + std::to_string(s.n_spurious_rows) +
                                       " constrained rows have M_ii = 0, which puts their eigenvalues at infinity";
       space["eigensolver"]       = eigensolver_json(s);
-      space["static_correction"] = static_correction_json(s);
+      space["static_correction"] = static_correction_json(s, scene);
+      space["felt_stiffness"]    = felt_stiffness_json(s, display);
       space["mass_kg"]           = s.mass;
       space["centre_of_mass_m"]  = s.centre_of_mass;
       space["validation"]        = validation_json(s.validation);
       if (s.two_contact_rel_error_corrected >= 0.)
         space["two_contact_rel_error_corrected"] = s.two_contact_rel_error_corrected;
+      Json &pairs = space["two_contact_checks"] = Json::array();
+      for (const auto &check : s.two_contact_checks)
+        pairs.push_back({{"vertices", check.vertices},
+                         {"distance_m", check.distance},
+                         {"rel_error_corrected", check.rel_error_corrected}});
       space["timings_s"] = Json(s.timings_s);
       return space;
     }
@@ -450,13 +511,49 @@ namespace modal_haptics
     }
   } // namespace
 
+  void write_felt_stiffness_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged)
+  {
+    const auto &d = results.display;
+    staged.write(filename, [&](std::ostream &out) {
+      out << std::setprecision(9);
+      out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+          << "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" << d.n_vertices() << "\" NumberOfCells=\""
+          << d.triangles.size() << "\">\n<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+      for (const auto &x : d.vertices)
+        out << x[0] << ' ' << x[1] << ' ' << x[2] << '\n';
+      out << "</DataArray>\n</Points>\n<Cells>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+      for (const auto &t : d.triangles)
+        out << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+      out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+      for (std::size_t t = 1; t <= d.triangles.size(); ++t)
+        out << 3 * t << '\n';
+      out << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
+      for (std::size_t t = 0; t < d.triangles.size(); ++t)
+        out << "5\n"; // VTK_TRIANGLE
+      out << "</DataArray>\n</Cells>\n<PointData>\n<DataArray type=\"UInt32\" Name=\"region\" format=\"ascii\">\n";
+      for (const unsigned int region : d.region)
+        out << region << '\n';
+      out << "</DataArray>\n";
+      for (const auto &s : results.spaces)
+        for (const auto &[label, map] : {std::make_pair("felt stiffness ", &s.felt_stiffness),
+                                         std::make_pair("modal-only stiffness ", &s.modal_only_stiffness)})
+          {
+            out << "<DataArray type=\"Float64\" Name=\"" << label << s.name << " [N/mm]\" format=\"ascii\">\n";
+            for (const double k : *map)
+              out << k * 1e-3 << '\n';
+            out << "</DataArray>\n";
+          }
+      out << "</PointData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+    });
+  }
+
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                     StagedFiles &staged)
   {
     Json report = scene_json(scene, results);
     Json &spaces = report["spaces"] = Json::array();
     for (std::size_t k = 0; k < results.spaces.size(); ++k)
-      spaces.push_back(space_json(results.spaces[k], results.meshes.scenarios[k]));
+      spaces.push_back(space_json(results.spaces[k], results.meshes.scenarios[k], scene, results.display));
     report["cross_space"] = cross_space_json(results);
     Json &transfer        = report["transfer"] = Json::array();
     for (const auto &t : results.transfers)

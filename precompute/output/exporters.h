@@ -49,6 +49,9 @@ namespace modal_haptics
                                 const PrecomputeResults &results, StagedFiles *staged, MPI_Comm comm);
   void write_basis_file(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                         StagedFiles &staged);
+  // The felt-stiffness map on the display surface for ParaView: per space, the felt and the modal-only
+  // normal stiffness [N/mm] at every display vertex, and each vertex's region (the space whose VOI holds it).
+  void write_felt_stiffness_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged);
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                     StagedFiles &staged);
 } // namespace modal_haptics

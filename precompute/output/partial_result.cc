@@ -39,6 +39,12 @@ namespace boost::serialization
   }
 
   template <class Archive>
+  void serialize(Archive &ar, modal_haptics::TwoContactCheck &c, const unsigned int)
+  {
+    ar &c.vertices &c.distance &c.rel_error_corrected;
+  }
+
+  template <class Archive>
   void serialize(Archive &ar, modal_haptics::EigenSelfCheck &c, const unsigned int)
   {
     ar &c.orthonormality_error &c.max_relative_residual;

@@ -275,13 +275,25 @@ namespace modal_haptics
                       "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
                       "load)." + geometry_units);
     prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
-                      "Static-correction candidates of the global space: every n-th display vertex outside "
-                      "every VOI; 0 = none. Units: none.");
+                      "Static-correction candidates (corrected contacts) of the global space: every n-th display "
+                      "vertex outside every VOI (1: all of them, the default); 0 = none. A HIP at a vertex "
+                      "that is not a candidate feels the modes alone. Units: none.");
     prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
-                      "At most this many candidates per space (thinned evenly). Units: none.");
+                      "At most this many candidates per space (thinned evenly); the default takes every "
+                      "display vertex of the space's region. Units: none.");
     prm.declare_entry("Cross compliance", text(c.cross_compliance), Patterns::Bool(),
-                      "Store the residual compliance between every pair of candidates of a space (two "
-                      "hands on one rib). Units: none.");
+                      "Store the residual compliance between pairs of candidates of a space closer than "
+                      "'Cross compliance radius' (two hands on one rib). Units: none.");
+    prm.declare_entry("Cross compliance radius", text(c.cross_compliance_radius), Patterns::Double(0.),
+                      "Two candidates closer than this, or sharing a display triangle (radius 0, the default: "
+                      "what a sliding contact blends), get their residual cross compliance stored: two HIPs "
+                      "that close feel the full-FE answer; farther apart, the modes alone couple them "
+                      "(docs/accuracy.md measures what that leaves out; each millimetre costs static-correction "
+                      "time and .mrt size)." + geometry_units);
+    prm.declare_entry("Validation pairs", text(c.validation_pairs), Patterns::Integer(0),
+                      "Pairs of neighbouring candidates per space (closer than the cross compliance radius, "
+                      "picked at random with a fixed seed) pressed together and validated against one full "
+                      "static FE solve. Units: none.");
     prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
                       "Candidates per space validated against full static FE, in x, y and z. Units: none.");
     prm.declare_entry("Validation points", "", Patterns::Anything(),
@@ -301,6 +313,8 @@ namespace modal_haptics
     global_candidate_stride    = prm.get_integer("Global candidate stride");
     maximum_candidates         = prm.get_integer("Maximum candidates");
     cross_compliance           = prm.get_bool("Cross compliance");
+    cross_compliance_radius    = prm.get_double("Cross compliance radius");
+    validation_pairs           = prm.get_integer("Validation pairs");
     validation_samples         = prm.get_integer("Validation samples");
     correction_field_tolerance = prm.get_double("Correction field tolerance");
     for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))

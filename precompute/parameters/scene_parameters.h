@@ -112,9 +112,11 @@ namespace modal_haptics
   struct ContactParameters
   {
     double       patch_radius          = 2.;  // [geometry units]
-    unsigned int global_candidate_stride = 0; // every n-th display vertex of the global region; 0 = none
-    unsigned int maximum_candidates    = 400; // per space, thinned evenly above this
+    unsigned int global_candidate_stride = 1; // every n-th display vertex of the global region; 0 = none
+    unsigned int maximum_candidates    = 1000000; // per space, thinned evenly above this
     bool         cross_compliance      = true;
+    double       cross_compliance_radius = 0.; // pairs closer than this (0: sharing a display triangle) [geometry units]
+    unsigned int validation_pairs      = 2;   // pairs of neighbouring candidates pressed together and validated
     unsigned int validation_samples    = 4;   // sampled candidates per space
     double       correction_field_tolerance = 1e-3; // relative truncation of the display correction field
     // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of

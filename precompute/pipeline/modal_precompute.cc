@@ -476,6 +476,7 @@ namespace modal_haptics
     if (!writes_files)
       return;
     write_basis_file(base + ".mrt", scene, results, staged);
+    write_felt_stiffness_vtu(scene.output_directory + "/felt_stiffness.vtu", results, staged);
     staged.write(scene.output_directory + "/used_parameters.prm",
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
     for (const auto &task : results.tasks)

@@ -213,19 +213,16 @@ namespace modal_haptics
         stats.n_solved_vectors += n_rhs;
       }
 
-      // Y = L^-1 P B may take as much memory as the factor itself, or 1 GB where the factor is
-      // smaller (the default scene's 400 candidates: Y is 0.59 GB beside a 0.41 GB factor);
-      // beyond that the caller solves.
-      bool gram_of_inverse(const std::vector<SparseColumn> &B, std::vector<double> &G) override
+      bool group_grams(const std::vector<std::vector<SparseColumn>> &groups, const std::vector<std::size_t> &leading,
+                       std::vector<std::vector<double>> &grams) override
       {
         dealii::Timer     timer;
         const BlasThreads one_blas_thread(1);
-        const double      memory_limit = std::max(stats.predicted_factor_bytes, 1e9);
-        const bool        done         = triangular_solves->gram_of_inverse(B, memory_limit, G);
+        grams = triangular_solves->group_grams(groups, leading);
         stats.solve_seconds += timer.wall_time();
-        if (done)
-          stats.n_solved_vectors += B.size();
-        return done;
+        for (const auto &group : groups)
+          stats.n_solved_vectors += group.size();
+        return true;
       }
 
     private:

@@ -110,10 +110,12 @@ namespace modal_haptics
     // length n). A block is much cheaper per column than single solves: the factor is read once.
     virtual void solve_block(double *columns, unsigned int n_rhs) = 0;
 
-    // G = B^T A^-1 B (column-major) for sparse columns B, when the factorization gives it without
-    // a full solve per column (CHOLMOD's: SupernodalSolve::gram_of_inverse); false otherwise, and
-    // the caller solves.
-    virtual bool gram_of_inverse(const std::vector<SparseColumn> & /*B*/, std::vector<double> & /*G*/)
+    // The Gram matrices G_g = B_g^T A^-1 B_g[:, 0 .. leading[g]) of groups of sparse columns
+    // (column-major; SupernodalSolve::group_grams), when the
+    // factorization gives them without a full solve per column (CHOLMOD's:
+    // SupernodalSolve::group_grams); false otherwise, and the caller solves.
+    virtual bool group_grams(const std::vector<std::vector<SparseColumn>> & /*groups*/,
+                             const std::vector<std::size_t> & /*leading*/, std::vector<std::vector<double>> & /*grams*/)
     {
       return false;
     }

@@ -513,13 +513,11 @@ namespace modal_haptics
       [&](const Index s, double *X, const unsigned int t) { backward(s, X, int(n_rhs), workspace[t].data()); });
   }
 
-  void SupernodalSolve::mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns,
-                                   const std::size_t first, const std::size_t last,
-                                   const std::vector<Index> &position_of_row, std::vector<char> &on_path,
-                                   std::vector<Index> &path) const
+  void SupernodalSolve::mark_paths(const std::vector<SparseColumn> &B, const std::vector<Index> &position_of_row,
+                                   std::vector<char> &on_path, std::vector<Index> &path) const
   {
-    for (std::size_t k = first; k < last; ++k)
-      for (const auto &entry : B[columns[k]])
+    for (const auto &column : B)
+      for (const auto &entry : column)
         // Up the tree until a supernode already on a path (the rest of its path is too).
         for (Index s = supernode_of_column[position_of_row[entry.first]]; s >= 0 && !on_path[s];
              s = parent_supernode[s])
@@ -529,149 +527,66 @@ namespace modal_haptics
           }
   }
 
-  // The supernodes on the paths of each group of 'width' columns (in solve order), ascending:
-  // children before parents, the order of a forward solve.
-  std::vector<std::vector<SupernodalSolve::Index>>
-  SupernodalSolve::group_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &order,
-                               const std::size_t width, const std::vector<Index> &position_of_row) const
+  std::vector<double> SupernodalSolve::group_gram(const std::vector<SparseColumn> &B, const std::size_t leading,
+                                                  const std::vector<Index> &position_of_row, double *X,
+                                                  double *workspace, std::vector<char> &on_path) const
   {
-    std::vector<std::vector<Index>> paths;
-    std::vector<char>               on_path(n_supernodes, 0);
-    for (std::size_t first = 0; first < B.size(); first += width)
-      {
-        paths.emplace_back();
-        mark_paths(B, order, first, std::min(first + width, B.size()), position_of_row, on_path, paths.back());
-        std::sort(paths.back().begin(), paths.back().end());
-        for (const Index s : paths.back())
-          on_path[s] = 0;
-      }
-    return paths;
-  }
+    const int          width = int(B.size());
+    std::vector<Index> path;
+    mark_paths(B, position_of_row, on_path, path);
+    std::sort(path.begin(), path.end()); // children before parents: the order of a forward solve
+    for (int k = 0; k < width; ++k)
+      for (const auto &[row, value] : B[k])
+        X[position_of_row[row] + std::size_t(k) * n] += value;
+    for (const Index s : path)
+      forward(s, X, width, workspace, nullptr);
 
-  // Y's rows in runs of consecutive supernodes (of all_paths, Y's row order) that the same groups
-  // of columns reach: columns [lo, hi) of the solve order (the columns outside are zero on those
-  // rows).
-  std::vector<SupernodalSolve::RowRun> SupernodalSolve::column_ranges(const std::vector<std::vector<Index>> &paths,
-                                                                      const std::size_t width, const std::size_t m,
-                                                                      const std::vector<Index> &all_paths) const
-  {
-    std::vector<std::size_t> lo(n_supernodes, m), hi(n_supernodes, 0);
-    for (std::size_t group = 0; group < paths.size(); ++group)
-      for (const Index s : paths[group])
-        {
-          lo[s] = std::min(lo[s], group * width);
-          hi[s] = std::max(hi[s], std::min((group + 1) * width, m));
-        }
-    std::vector<RowRun> runs;
-    Index               row = 0;
-    for (const Index s : all_paths)
+    // Y: the path's rows of X, gathered (and cleared in X), then G = Y^T Y.
+    Index rows_of_Y = 0;
+    for (const Index s : path)
+      rows_of_Y += first_column[s + 1] - first_column[s];
+    std::vector<double> Y(std::size_t(rows_of_Y) * width);
+    for (int k = 0; k < width; ++k)
       {
-        const Index rows_of_s = first_column[s + 1] - first_column[s];
-        if (!runs.empty() && runs.back().lo == lo[s] && runs.back().hi == hi[s])
-          runs.back().n_rows += rows_of_s;
-        else
-          runs.push_back({row, rows_of_s, lo[s], hi[s]});
-        row += rows_of_s;
+        Index row = 0;
+        for (const Index s : path)
+          for (Index column = first_column[s]; column < first_column[s + 1]; ++column, ++row)
+            {
+              double &x                              = X[column + std::size_t(k) * n];
+              Y[row + std::size_t(k) * rows_of_Y] = x;
+              x                                      = 0.;
+            }
       }
-    return runs;
-  }
-
-  // Y^T Y (m x m) from the runs: each adds Y[its rows, lo:hi]^T Y[its rows, lo:hi], its lower
-  // triangle by blocks of G's columns spread over the threads (one BLAS thread each, like the
-  // solves). The top of the tree reaches every column; a subtree only its own, a short range.
-  std::vector<double> SupernodalSolve::sparse_gram(const std::vector<double> &Y, const Index n_rows_Y,
-                                                   const std::size_t m, const std::vector<RowRun> &runs) const
-  {
-    std::vector<double> G(m * m, 0.);
-    const std::size_t   width    = 64;
-    const unsigned int  threads  = n_threads();
-    const int           ld_Y     = int(std::max<Index>(n_rows_Y, 1)), ld_G = int(m);
-    const double        one      = 1.;
-    run_on_threads(threads, [&](const unsigned int t) {
-      for (std::size_t block = t * width; block < m; block += threads * width)
-        for (const RowRun &run : runs)
-          {
-            const std::size_t first = std::max(block, run.lo), last = std::min(block + width, run.hi);
-            if (first >= last)
-              continue;
-            const int below = int(run.hi - first), columns = int(last - first), k = int(run.n_rows);
-            const double *Y_run = &Y[run.first_row + first * n_rows_Y];
-            dgemm_("T", "N", &below, &columns, &k, &one, Y_run, &ld_Y, Y_run, &ld_Y, &one, &G[first + first * m], &ld_G);
-          }
-    });
+    for (const Index s : path)
+      on_path[s] = 0;
+    const int           n_leading = int(leading);
+    std::vector<double> G(std::size_t(width) * n_leading, 0.);
+    const int           ld_Y = int(std::max<Index>(rows_of_Y, 1)), k = int(rows_of_Y);
+    const double        one = 1., zero = 0.;
+    if (width > 0 && n_leading > 0 && k > 0)
+      dgemm_("T", "N", &width, &n_leading, &k, &one, Y.data(), &ld_Y, Y.data(), &ld_Y, &zero, G.data(), &width);
     return G;
   }
 
-  bool SupernodalSolve::gram_of_inverse(const std::vector<SparseColumn> &B, const double memory_limit,
-                                        std::vector<double> &G) const
+  std::vector<std::vector<double>>
+  SupernodalSolve::group_grams(const std::vector<std::vector<SparseColumn>> &groups,
+                               const std::vector<std::size_t> &leading) const
   {
-    const std::size_t  m = B.size();
     std::vector<Index> position_of_row(n);
     for (Index i = 0; i < n; ++i)
       position_of_row[permutation[i]] = i;
-
-    // Y's rows: the columns of L in the supernodes on any column's path, ascending.
-    std::vector<char>  on_any_path(n_supernodes, 0);
-    std::vector<Index> all_paths;
-    std::vector<std::size_t> all_columns(m);
-    std::iota(all_columns.begin(), all_columns.end(), 0);
-    mark_paths(B, all_columns, 0, m, position_of_row, on_any_path, all_paths);
-    std::sort(all_paths.begin(), all_paths.end());
-    std::vector<Index> row_of_Y(n, -1);
-    Index              n_rows_Y = 0;
-    for (const Index s : all_paths)
-      for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
-        row_of_Y[column] = n_rows_Y++;
-    if (8. * double(n_rows_Y) * double(m) > memory_limit)
-      return false;
-    std::vector<double> Y(std::size_t(n_rows_Y) * m, 0.);
-
-    // Columns in the order of their first supernode (a postorder of the tree): neighbours in that
-    // order share most of their paths.
-    std::vector<std::size_t> order(m);
-    std::vector<Index>       first_supernode(m, n_supernodes);
-    for (std::size_t k = 0; k < m; ++k)
-      {
-        order[k] = k;
-        for (const auto &entry : B[k])
-          first_supernode[k] = std::min(first_supernode[k], supernode_of_column[position_of_row[entry.first]]);
-      }
-    std::stable_sort(order.begin(), order.end(),
-                     [&](const std::size_t a, const std::size_t b) { return first_supernode[a] < first_supernode[b]; });
-
-    // Groups of columns (in that order), spread over the threads: each forward-solves its group on
-    // the union of the group's paths in a full-length workspace, moves the result into Y (column
-    // k: the k-th in 'order') and clears what it wrote.
-    const std::size_t  width   = 64;
-    const unsigned int threads = n_threads();
-    const auto         paths   = group_paths(B, order, width, position_of_row);
+    std::size_t widest = 1;
+    for (const auto &group : groups)
+      widest = std::max(widest, group.size());
+    std::vector<std::vector<double>> grams(groups.size());
+    const unsigned int               threads = n_threads();
     run_on_threads(threads, [&](const unsigned int t) {
-      std::vector<double> X(std::size_t(n) * width, 0.);
-      std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * width);
-      for (std::size_t group = t; group < paths.size(); group += threads)
-        {
-          const std::size_t first = group * width, count = std::min(width, m - first);
-          for (std::size_t k = 0; k < count; ++k)
-            for (const auto &[row, value] : B[order[first + k]])
-              X[position_of_row[row] + k * n] += value;
-          for (const Index s : paths[group])
-            forward(s, X.data(), int(count), workspace.data(), nullptr);
-          for (const Index s : paths[group])
-            for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
-              for (std::size_t k = 0; k < count; ++k)
-                {
-                  Y[row_of_Y[column] + (first + k) * n_rows_Y] = X[column + k * n];
-                  X[column + k * n]                            = 0.;
-                }
-        }
+      std::vector<double> X(std::size_t(n) * widest, 0.);
+      std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * widest);
+      std::vector<char>   on_path(n_supernodes, 0);
+      for (std::size_t g = t; g < groups.size(); g += threads)
+        grams[g] = group_gram(groups[g], leading[g], position_of_row, X.data(), workspace.data(), on_path);
     });
-    const auto gram = sparse_gram(Y, n_rows_Y, m, column_ranges(paths, width, m, all_paths));
-
-    // Back from the order of the solves to B's.
-    G.assign(m * m, 0.);
-    for (std::size_t b = 0; b < m; ++b)
-      for (std::size_t a = b; a < m; ++a)
-        G[order[a] + order[b] * m] = G[order[b] + order[a] * m] = gram[a + b * m];
-    return true;
+    return grams;
   }
 } // namespace modal_haptics

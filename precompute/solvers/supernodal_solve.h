@@ -31,13 +31,17 @@ namespace modal_haptics
     // Solves A X = B in place for n_rhs columns of length n, one after the other (column-major).
     void solve(double *columns, unsigned int n_rhs) const;
 
-    // G = B^T A^-1 B (m x m, column-major) for m sparse columns B. With P A P^T = L L^T, G = Y^T Y
-    // for Y = L^-1 P B: a forward solve only, and only over the supernodes on the elimination
-    // tree's paths from each column's nonzero rows to a root, for Y is zero on every other row.
-    // Columns that lie close together in the part share most of their paths. Returns false
-    // without computing anything when Y on the rows of those paths would take more than
-    // memory_limit bytes. Threads as solve(): the caller keeps the BLAS on one thread.
-    bool gram_of_inverse(const std::vector<SparseColumn> &B, double memory_limit, std::vector<double> &G) const;
+    // The Gram matrices G_g = B_g^T A^-1 B_g[:, 0 .. k_g) of groups of sparse columns with their
+    // first k_g columns (each |B_g| x k_g, column-major; k_g = leading[g]): the entries of A^-1
+    // between loads that lie close together in the part (a contact's own compliance, and between
+    // neighbouring contacts) without a full solve. With
+    // P A P^T = L L^T, G_g = Y^T Y for Y = L^-1 P B_g: a forward solve only, over the supernodes on
+    // the elimination tree's paths from the group's nonzero rows to a root (Y is zero elsewhere).
+    // Columns close together share most of their paths, so a group of neighbours costs little
+    // more than one of them. Groups go to the threads in turn; the caller keeps the BLAS on one
+    // thread. Memory: one n x (largest group) workspace per thread.
+    std::vector<std::vector<double>> group_grams(const std::vector<std::vector<SparseColumn>> &groups,
+                                                 const std::vector<std::size_t> &leading) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }
 
@@ -51,25 +55,14 @@ namespace modal_haptics
     struct Block;
 
     void assign_subtrees(unsigned int threads);
-    // Rows of Y (first_row, n_rows) that only the columns lo .. hi - 1 of the solve order reach.
-    struct RowRun
-    {
-      Index       first_row, n_rows;
-      std::size_t lo, hi;
-    };
-    std::vector<std::vector<Index>> group_paths(const std::vector<SparseColumn> &B,
-                                                const std::vector<std::size_t> &order, std::size_t width,
-                                                const std::vector<Index> &position_of_row) const;
-    std::vector<RowRun> column_ranges(const std::vector<std::vector<Index>> &paths, std::size_t width, std::size_t m,
-                                      const std::vector<Index> &all_paths) const;
-    std::vector<double> sparse_gram(const std::vector<double> &Y, Index n_rows_Y, std::size_t m,
-                                    const std::vector<RowRun> &runs) const;
-    // Marks the supernodes on the paths from the nonzero rows of the columns B[columns[first,
-    // last)] to the roots in on_path and appends the newly marked ones to 'path' (unsorted).
-    void mark_paths(const std::vector<SparseColumn> &B, const std::vector<std::size_t> &columns, std::size_t first,
-                    std::size_t last,
-                    const std::vector<Index> &position_of_row, std::vector<char> &on_path,
-                    std::vector<Index> &path) const;
+    // Marks the supernodes on the paths from the nonzero rows of the columns B to the roots in
+    // on_path and appends the newly marked ones to 'path' (unsorted).
+    void mark_paths(const std::vector<SparseColumn> &B, const std::vector<Index> &position_of_row,
+                    std::vector<char> &on_path, std::vector<Index> &path) const;
+    // One group of group_grams in the thread's workspace X (n x its width, zero on entry and on exit).
+    std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading,
+                                   const std::vector<Index> &position_of_row, double *X, double *workspace,
+                                   std::vector<char> &on_path) const;
     // One supernode of L y = b: y at its own rows, its updates to the rows below subtracted from
     // X, or from 'top_updates' for the rows of the top (when given; laid out as X, n_top_columns rows).
     void forward(Index supernode, double *X, int n_rhs, double *workspace, double *top_updates) const;

@@ -121,7 +121,6 @@ namespace modal_haptics
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
       // A free-floating part is refused before assembly (setup_system): no load needs relief.
       void relieve_load(Field &) const {}
-      void solve_static(Field &u);
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
       void solve_static(Block &X);
@@ -131,7 +130,10 @@ namespace modal_haptics
       }
       void solve_static(std::vector<Field> &fields);
       // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
-      bool compliance_of_patch_loads(const std::vector<unsigned int> &, std::vector<double> &) const { return false; }
+      bool group_grams(const std::vector<ContactGroup> &, std::vector<std::vector<double>> &) const
+      {
+        return false;
+      }
       const Field &block_column(const Block &X, const unsigned int column) const { return X.columns[column]; }
       void sum_over_processes(std::vector<double> &values) const;
       void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
@@ -653,14 +655,6 @@ namespace modal_haptics
         },
         task.name, scene.modes.shift);
       result.static_solve_iterations = std::max(result.static_solve_iterations, steps);
-    }
-
-    void DistributedSpace::solve_static(DistributedVector &u)
-    {
-      std::vector<DistributedVector> one(1);
-      one[0].swap(u);
-      solve_static(one);
-      u.swap(one[0]);
     }
 
     void DistributedSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const

@@ -73,7 +73,6 @@ namespace modal_haptics
                                                                   double *max_outside) const;
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
       void relieve_load(Field &load) const { relieve_load(load.begin()); }
-      void solve_static(Field &u) { solve_static(u.data(), 1); }
       void solve_static(std::vector<Field> &fields);
       Block new_block(const unsigned int n_columns) const
       {
@@ -85,7 +84,7 @@ namespace modal_haptics
       {
         return amg_inverse() ? amg_inverse()->columns_fitting_one_solve(wanted) : wanted;
       }
-      bool compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance);
+      bool group_grams(const std::vector<ContactGroup> &groups, std::vector<std::vector<double>> &grams);
       const double *block_column(const Block &X, const unsigned int column) const { return &X.values[column * X.n]; }
       void sum_over_processes(std::vector<double> &) const {}
       void condense(space_parts::DofWeights &weights) const { condense_weights(constraints, weights); }
@@ -554,18 +553,22 @@ namespace modal_haptics
         std::copy(columns.begin() + k * n, columns.begin() + (k + 1) * n, fields[k].begin());
     }
 
-    // W^T K^-1 W from the factorization when it is a factor of K itself (no shift to refine
-    // against, no inertia relief to apply) and can give it (CHOLMOD's).
-    bool SerialSpace::compliance_of_patch_loads(const std::vector<unsigned int> &loads, std::vector<double> &compliance)
+    // W^T K^-1 W of groups of loads from the factorization when it is a factor of K itself (no shift
+    // to refine against, no inertia relief to apply) and can give it (CHOLMOD's).
+    bool SerialSpace::group_grams(const std::vector<ContactGroup> &groups, std::vector<std::vector<double>> &grams)
     {
       if (shift != 0. || !rigid_modes.empty())
         return false;
-      std::vector<SparseColumn> W;
-      W.reserve(3 * loads.size());
-      for (const unsigned int v : loads)
-        for (const auto &direction : surface.patch_loads.at(v))
-          W.emplace_back(direction.begin(), direction.end());
-      return factorization->gram_of_inverse(W, compliance);
+      std::vector<std::vector<SparseColumn>> columns(groups.size());
+      std::vector<std::size_t>               members(groups.size());
+      for (std::size_t g = 0; g < groups.size(); ++g)
+        {
+          for (const unsigned int v : groups[g].vertices)
+            for (const auto &direction : surface.patch_loads.at(v))
+              columns[g].emplace_back(direction.begin(), direction.end());
+          members[g] = 3 * groups[g].n_members;
+        }
+      return factorization->group_grams(columns, members, grams);
     }
 
     void SerialSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const

@@ -9,6 +9,7 @@
 #include "scene/supports.h"
 #include "solvers/eigensolver.h"
 #include "solvers/solver_choice.h"
+#include "space/contact_blocks.h"
 #include "space/space_result.h"
 
 #include <deal.II/base/mpi.h>
@@ -264,17 +265,34 @@ namespace modal_haptics
     // and their time, with its M products and orthogonalization apart.
     void record_iteration(ModalSpaceResult &result, const EigenSolution &solution);
 
-    // The loads of the static correction, candidates first, then the shared vertices that are not
-    // candidates; sizes the result's candidate blocks and compliances (cross compliance if asked).
-    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
-                                                     ModalSpaceResult &result);
+    // The loads of a space's static correction and what is recorded of each: the candidates (by
+    // default every display vertex of the space's region) and the shared vertices; the groups they
+    // are solved in and each candidate's neighbours (contact_blocks.h).
+    struct StaticCorrectionPlan
+    {
+      std::vector<unsigned int> loads;          // display vertices, ascending
+      std::vector<int>          load_of_vertex; // per display vertex: its index in loads, or -1
+      ContactBlockPlan          blocks;         // groups of loads; neighbours of the candidates
+      std::vector<double>       normals;        // the display surface's outward normals, 3 per vertex
+      std::vector<double>       load_modes;     // B_v = W_v^T Phi per load, 3 x r row-major each
+    };
 
-    // Records what the solve K^-1 W_v e_d of load number 'load' (vertex v) gives: the full compliance
-    // at shared vertices, the candidate's residual compliance, and the cross compliance with every
-    // candidate. averaged(vertex, d) = W_vertex^T K^-1 W_v e_d. Needs the candidate blocks B.
-    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, unsigned int load,
-                                unsigned int load_vertex,
+    // Sizes the result's candidate blocks, cross-compliance rows and maps; the plan's load_modes
+    // are the caller's to fill (they need the modes).
+    StaticCorrectionPlan plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                const ContactSurface &display, ModalSpaceResult &result);
+
+    // Records what the solves K^-1 W_v e_d of load number 'load' (vertex v) give: its full
+    // compliance (the felt-stiffness map; the shared vertices' full_compliance), and at a candidate
+    // its residual compliance and its cross compliance with each neighbour.
+    // averaged(vertex, d) = W_vertex^T K^-1 W_v e_d for v itself and its neighbours.
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const StaticCorrectionPlan &plan,
+                                unsigned int load,
                                 const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged);
+    // The display vertices whose responses a load's solve must give: the load itself, then (at a
+    // candidate) its neighbours.
+    std::vector<unsigned int> response_vertices(const ModalSpaceResult &result, const StaticCorrectionPlan &plan,
+                                                unsigned int load);
     std::string static_correction_summary(const ModalSpaceResult &result, std::size_t n_loads);
 
     // A static solve with the factorization of A = K - shift M is refined against K itself: 'refine'
@@ -294,11 +312,16 @@ namespace modal_haptics
                                const std::array<double, 3> &uc_modal, const std::vector<double> &display_full,
                                const std::vector<double> &display_modal, const std::vector<double> &modal_coefficients);
 
-    // The two-hand check: the first and last validated candidates pushed at once with 'forces'; the
+    // The two-hand checks: pairs of neighbouring candidates pushed at once with 'forces'; the
     // kernel's formula with the cross compliance against the full answers at both (patch averages).
     constexpr std::array<std::array<double, 3>, 2> two_contact_forces = {{{{0., 0., 1.}}, {{0., 1., 0.}}}};
+    // 'count' pairs (a, b) of candidates, b a neighbour of a, drawn with a fixed seed.
+    std::vector<std::array<unsigned int, 2>> two_contact_pairs(const ModalSpaceResult &result, unsigned int count);
     double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
                              const std::array<std::array<double, 3>, 2> &full_responses);
+    // The residual compliance C_ab of two candidates (indices): their own C at a == b, the stored
+    // cross block of neighbours, else zero (9 values, row-major).
+    std::array<double, 9> residual_compliance(const ModalSpaceResult &result, unsigned int a, unsigned int b);
 
     // One summary line of the validation for the log.
     std::string validation_summary(const ModalSpaceResult &result);

@@ -16,15 +16,15 @@
 //   std::vector<EvaluationPoint> evaluation_points(points, double *max_outside) const  (collective)
 //   Field patch_load(unsigned vertex, const std::array<double, 3> &factor) const   sum_d factor_d W_v e_d
 //   void relieve_load(Field &) const  inertia relief of a free part's load (identity when clamped)
-//   void solve_static(Field &)        K^-1 in place (with a free part: the inertia-relief answer)
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
 //   void solve_static(Block &)
 //   unsigned columns_per_static_solve(unsigned wanted) const   at most wanted: fewer where a block
 //                                     solve's work space would not fit the memory
-//   void solve_static(std::vector<Field> &)   several fields in place, together where that is cheaper
-//   bool compliance_of_patch_loads(loads, std::vector<double> &G)   G = W^T K^-1 W of the loads'
-//                                     columns (3 per load), if the backend can without solving each
+//   void solve_static(std::vector<Field> &)   K^-1 in place (with a free part: the inertia-relief
+//                                     answer), several fields together where that is cheaper
+//   bool group_grams(groups, grams)   per ContactGroup, W^T K^-1 W_members of its vertices' patch loads
+//                                     (3 columns per vertex), if the backend can without solving each
 //   const auto &block_column(const Block &, unsigned column) const               ghosted
 //   void sum_over_processes(std::vector<double> &) const
 //   void condense(DofWeights &) const  weights on constrained DoFs moved to the DoFs they follow (C^T w)
@@ -46,6 +46,7 @@
 #include <deal.II/numerics/data_out.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <sstream>
 
@@ -167,41 +168,47 @@ namespace modal_haptics
           }
     }
 
-    // The index of a candidate vertex in result.candidates (sorted).
-    inline unsigned int candidate_index(const ModalSpaceResult &result, const unsigned int vertex)
+    // The loads' responses from the Gram matrices of their groups (the backend's group_grams): in
+    // group g, the response at the group's vertex q to the load of its member p in direction d is
+    // column 3p + d, rows 3q .. 3q + 2.
+    template <typename Backend>
+    bool record_from_group_grams(Backend &b, const PhaseInputs &in, ModalSpaceResult &result,
+                                 const space_parts::StaticCorrectionPlan &plan)
     {
-      return std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex) - result.candidates.begin();
+      const auto                      &groups = plan.blocks.groups;
+      std::vector<std::vector<double>> grams;
+      if (!b.group_grams(groups, grams))
+        return false;
+      for (std::size_t g = 0; g < groups.size(); ++g)
+        {
+          const auto        &vertices = groups[g].vertices;
+          const std::size_t  m        = 3 * vertices.size();
+          std::map<unsigned int, unsigned int> position;
+          for (unsigned int k = 0; k < vertices.size(); ++k)
+            position[vertices[k]] = k;
+          for (unsigned int p = 0; p < plan.blocks.groups[g].n_members; ++p)
+            space_parts::record_static_response(
+              result, in.task, plan, plan.load_of_vertex[vertices[p]], [&](const unsigned int target, const unsigned int d) {
+                const std::size_t     q = position.at(target);
+                std::array<double, 3> u;
+                for (unsigned int c = 0; c < 3; ++c)
+                  u[c] = grams[g][(3 * p + d) * m + 3 * q + c];
+                return u;
+              });
+        }
+      return true;
     }
 
-    // The static responses read off W^T K^-1 W of every load (column 3k + d: load k, direction d;
-    // the candidates are loads 0 .. nc - 1, as plan_static_correction orders them).
-    inline void record_from_compliance(ModalSpaceResult &result, const PhaseInputs &in,
-                                       const std::vector<unsigned int> &loads, const std::vector<double> &compliance)
-    {
-      const std::size_t m = 3 * loads.size();
-      for (unsigned int k = 0; k < loads.size(); ++k)
-        space_parts::record_static_response(
-          result, in.task, k, loads[k], [&](const unsigned int vertex, const unsigned int d) {
-            const std::size_t     target = vertex == loads[k] ? k : candidate_index(result, vertex);
-            std::array<double, 3> u;
-            for (unsigned int c = 0; c < 3; ++c)
-              u[c] = compliance[(3 * k + d) * m + 3 * target + c];
-            return u;
-          });
-    }
-
-    // The static responses by solving K u = W_v e_d a block of loads at a time and reading each
-    // column's patch averages at the load itself and at every candidate (cross compliance); the
+    // The loads' responses by solving K u = W_v e_d a block of loads at a time and reading each
+    // column's patch averages at the load itself and at its neighbours (cross compliance); the
     // averages of a block are summed over the processes once.
     template <typename Backend>
     void record_from_block_solves(Backend &b, const PhaseInputs &in, ModalSpaceResult &result,
-                                  const std::vector<unsigned int> &loads, const dealii::Timer &timer)
+                                  const space_parts::StaticCorrectionPlan &plan, const dealii::Timer &timer)
     {
-      const unsigned int nc          = result.candidates.size();
-      const bool         store_cross = !result.cross_compliance.empty();
-      const unsigned int n_targets   = 1 + (store_cross ? nc : 0); // the load itself, then every candidate
+      const auto &loads = plan.loads;
       // 16 loads (48 columns) per block: one pass over a factor serves them all.
-      const unsigned int block       = std::max(1u, b.columns_per_static_solve(3 * 16) / 3);
+      const unsigned int  block = std::max(1u, b.columns_per_static_solve(3 * 16) / 3);
       std::vector<double> averages;
       double              last_progress = 0.; // [s] of timer
       for (unsigned int first = 0; first < loads.size(); first += block)
@@ -212,25 +219,29 @@ namespace modal_haptics
             b.add_patch_loads(X, 3 * k, loads[first + k]);
           b.solve_static(X);
 
-          averages.assign(std::size_t(count) * 3 * n_targets * 3, 0.);
-          const auto at = [&](const unsigned int k, const unsigned int d, const unsigned int t) {
-            return &averages[((std::size_t(k) * 3 + d) * n_targets + t) * 3];
-          };
+          // Per load k and direction d, the averages at its response vertices, 3 each, in one vector.
+          std::vector<std::vector<unsigned int>> targets(count);
+          std::vector<std::size_t>               start(count + 1, 0);
+          for (unsigned int k = 0; k < count; ++k)
+            {
+              targets[k]   = space_parts::response_vertices(result, plan, first + k);
+              start[k + 1] = start[k] + 9 * targets[k].size();
+            }
+          averages.assign(start[count], 0.);
           for (unsigned int k = 0; k < count; ++k)
             for (unsigned int d = 0; d < 3; ++d)
-              for (unsigned int t = 0; t < n_targets; ++t)
+              for (unsigned int t = 0; t < targets[k].size(); ++t)
                 {
-                  const auto u = b.surface.local_patch_average(t == 0 ? loads[first + k] : result.candidates[t - 1],
-                                                               b.block_column(X, 3 * k + d));
-                  std::copy(u.begin(), u.end(), at(k, d, t));
+                  const auto u = b.surface.local_patch_average(targets[k][t], b.block_column(X, 3 * k + d));
+                  std::copy(u.begin(), u.end(), &averages[start[k] + 3 * (d * targets[k].size() + t)]);
                 }
           b.sum_over_processes(averages);
           for (unsigned int k = 0; k < count; ++k)
             space_parts::record_static_response(
-              result, in.task, first + k, loads[first + k], [&](const unsigned int vertex, const unsigned int d) {
-                const unsigned int t = vertex == loads[first + k] ? 0 : 1 + candidate_index(result, vertex);
+              result, in.task, plan, first + k, [&](const unsigned int vertex, const unsigned int d) {
+                const std::size_t t = std::find(targets[k].begin(), targets[k].end(), vertex) - targets[k].begin();
                 std::array<double, 3> u;
-                std::copy(at(k, d, t), at(k, d, t) + 3, u.begin());
+                std::copy_n(&averages[start[k] + 3 * (d * targets[k].size() + t)], 3, u.begin());
                 return u;
               });
           // A line every 30 s: a block takes milliseconds over a factor, minutes without one.
@@ -243,64 +254,89 @@ namespace modal_haptics
         }
     }
 
-    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T, and the
-    // cross terms W_a^T K^-1 W_b. Where the backend gives W^T K^-1 W of every load at once (a
-    // Cholesky factor of K: forward solves on the loads' elimination-tree paths only) it is read
-    // off that; else the loads are solved in blocks. For a free part K^-1 is the inertia-relief
-    // flexibility and Lambda^-1 leaves out the rigid-body modes (static_gain).
+    // Residual flexibility (mode acceleration): C_v = W_v^T K^-1 W_v - B_v Lambda^-1 B_v^T at the
+    // candidates, the cross terms between neighbouring candidates, and the full W_v^T K^-1 W_v of
+    // every load (the felt-stiffness map). Where the backend gives the Gram matrices of groups of
+    // loads (a Cholesky factor of K: forward solves on the loads' elimination-tree paths only) they
+    // come from those; else the loads are solved in blocks. For a free part K^-1 is the inertia-relief flexibility and Lambda^-1 leaves out the
+    // rigid-body modes (static_gain).
     template <typename Backend>
     void compute_static_correction(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
     {
       const auto        &modes = b.kept_modes();
       const unsigned int r     = modes.size();
-      const auto         loads = space_parts::plan_static_correction(in.scene, in.task, result);
-      const unsigned int nc    = result.candidates.size();
       dealii::Timer      timer;
-      build_patch_loads(b, in, loads);
+      auto plan = space_parts::plan_static_correction(in.scene, in.task, in.display, result);
+      build_patch_loads(b, in, plan.loads);
+      const double loads_built = timer.wall_time();
 
       // B_v = W_v^T Phi with the same W_v as the solves: then B Lambda^-1 B^T + C is W^T K^-1 W.
-      for (unsigned int a = 0; a < nc; ++a)
+      plan.load_modes.assign(3 * std::size_t(r) * plan.loads.size(), 0.);
+      for (unsigned int k = 0; k < plan.loads.size(); ++k)
         for (unsigned int i = 0; i < r; ++i)
           {
-            const auto average = b.surface.local_patch_average(result.candidates[a], b.ghosted_mode(i));
+            const auto average = b.surface.local_patch_average(plan.loads[k], b.ghosted_mode(i));
             for (unsigned int c = 0; c < 3; ++c)
-              result.candidate_modes[(3 * std::size_t(a) + c) * r + i] = average[c];
+              plan.load_modes[(3 * std::size_t(k) + c) * r + i] = average[c];
           }
-      b.sum_over_processes(result.candidate_modes);
+      b.sum_over_processes(plan.load_modes);
+      for (unsigned int a = 0; a < result.candidates.size(); ++a)
+        {
+          const std::size_t k = plan.load_of_vertex[result.candidates[a]];
+          std::copy_n(&plan.load_modes[3 * r * k], 3 * r, &result.candidate_modes[3 * r * std::size_t(a)]);
+        }
 
-      std::vector<double> compliance;
-      if (b.compliance_of_patch_loads(loads, compliance))
-        record_from_compliance(result, in, loads, compliance);
-      else
-        record_from_block_solves(b, in, result, loads, timer);
-      result.correction_seconds_per_candidate = loads.empty() ? 0. : timer.wall_time() / loads.size();
-      in.log(space_parts::static_correction_summary(result, loads.size()));
+      const double modal_rows = timer.wall_time();
+      if (!record_from_group_grams(b, in, result, plan))
+        record_from_block_solves(b, in, result, plan, timer);
+      result.correction_seconds_per_candidate = plan.loads.empty() ? 0. : timer.wall_time() / plan.loads.size();
+      in.log(space_parts::static_correction_summary(result, plan.loads.size()) + " (patch loads " +
+             std::to_string(loads_built) + " s, modal rows " + std::to_string(modal_rows - loads_built) + " s, solves " +
+             std::to_string(timer.wall_time() - modal_rows) + " s)");
     }
 
-    // Two hands on one space: the first and last validated candidates pushed at once (in z and y), a
-    // fresh full solve against the kernel's formula with the cross compliance,
-    // u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
+    // Two hands on one space: pairs of neighbouring candidates (space_parts::two_contact_pairs)
+    // pushed at once (in z and y), a fresh full solve each against the kernel's formula with the
+    // cross compliance, u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
     template <typename Backend>
     void validate_two_contacts(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
     {
-      const auto &task = in.task;
-      if (task.validation_vertices.size() < 2 || result.cross_compliance.empty())
+      const auto pairs = space_parts::two_contact_pairs(result, in.scene.contact.validation_pairs);
+      if (pairs.empty())
         return;
-      const std::array<unsigned int, 2> vertices = {{task.validation_vertices.front(), task.validation_vertices.back()}};
-      auto                              f        = b.zero_field();
-      for (unsigned int h = 0; h < 2; ++h)
-        f += b.patch_load(vertices[h], space_parts::two_contact_forces[h]);
-      b.solve_static(f);
-      const auto         &u = b.ghosted(f);
-      std::vector<double> values;
-      for (const unsigned int v : vertices)
+      std::vector<typename Backend::Field> fields;
+      for (const auto &vertices : pairs)
         {
-          const auto average = b.surface.local_patch_average(v, u);
-          values.insert(values.end(), average.begin(), average.end());
+          fields.push_back(b.zero_field());
+          for (unsigned int h = 0; h < 2; ++h)
+            fields.back() += b.patch_load(vertices[h], space_parts::two_contact_forces[h]);
+        }
+      b.solve_static(fields);
+      std::vector<double> values;
+      for (std::size_t k = 0; k < pairs.size(); ++k)
+        {
+          const auto &u = b.ghosted(fields[k]);
+          for (const unsigned int v : pairs[k])
+            {
+              const auto average = b.surface.local_patch_average(v, u);
+              values.insert(values.end(), average.begin(), average.end());
+            }
         }
       b.sum_over_processes(values);
-      result.two_contact_rel_error_corrected = space_parts::two_contact_error(
-        result, vertices, {{{{values[0], values[1], values[2]}}, {{values[3], values[4], values[5]}}}});
+      result.two_contact_checks.clear();
+      for (std::size_t k = 0; k < pairs.size(); ++k)
+        {
+          const double *u = &values[6 * k];
+          TwoContactCheck check;
+          check.vertices = pairs[k];
+          const auto &x = in.display.vertices;
+          check.distance = std::hypot(x[pairs[k][0]][0] - x[pairs[k][1]][0], x[pairs[k][0]][1] - x[pairs[k][1]][1],
+                                      x[pairs[k][0]][2] - x[pairs[k][1]][2]);
+          check.rel_error_corrected =
+            space_parts::two_contact_error(result, pairs[k], {{{{u[0], u[1], u[2]}}, {{u[3], u[4], u[5]}}}});
+          result.two_contact_rel_error_corrected = std::max(result.two_contact_rel_error_corrected, check.rel_error_corrected);
+          result.two_contact_checks.push_back(check);
+        }
     }
 
     // Full static FE for sampled candidates and the three directions, against the modal answer and

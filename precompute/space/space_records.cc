@@ -3,12 +3,16 @@
 // refinement of shifted static solves, the validation errors and their summaries.
 #include "space/modal_space.h"
 
+#include <mrt/surface_normals.h>
+
 #include <deal.II/base/exceptions.h>
 
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <iterator>
 #include <limits>
+#include <random>
 #include <sstream>
 
 namespace modal_haptics
@@ -41,71 +45,135 @@ namespace modal_haptics
       result.orthogonalization_seconds    = solution.orthogonalization_seconds;
     }
 
-    std::vector<unsigned int> plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
-                                                     ModalSpaceResult &result)
+    StaticCorrectionPlan plan_static_correction(const SceneParameters &scene, const SpaceTask &task,
+                                                const ContactSurface &display, ModalSpaceResult &result)
     {
+      const unsigned int nv = display.n_vertices();
       result.candidates     = task.candidates;
       const unsigned int nc = result.candidates.size();
-      std::vector<unsigned int> loads = result.candidates;
-      for (const unsigned int v : task.shared_vertices)
-        if (!std::binary_search(result.candidates.begin(), result.candidates.end(), v))
-          loads.push_back(v);
+      StaticCorrectionPlan plan;
+      std::set_union(result.candidates.begin(), result.candidates.end(), task.shared_vertices.begin(),
+                     task.shared_vertices.end(), std::back_inserter(plan.loads));
+      plan.load_of_vertex.assign(nv, -1);
+      for (unsigned int k = 0; k < plan.loads.size(); ++k)
+        plan.load_of_vertex[plan.loads[k]] = int(k);
+
+      std::vector<double> positions(3 * std::size_t(nv));
+      for (unsigned int v = 0; v < nv; ++v)
+        for (unsigned int c = 0; c < 3; ++c)
+          positions[3 * v + c] = display.vertices[v][c];
+      std::vector<unsigned int> triangles;
+      for (const auto &triangle : display.triangles)
+        triangles.insert(triangles.end(), triangle.begin(), triangle.end());
+      plan.normals.resize(3 * std::size_t(nv));
+      mrt::area_weighted_normals(positions.data(), nv, triangles.data(), display.triangles.size(), plan.normals.data());
+      const double radius = scene.contact.cross_compliance ? scene.contact.cross_compliance_radius * scene.length_unit : -1.;
+      // 64 loads (192 columns) a group, with their halo: wide enough for the BLAS, close enough
+      // together to share their paths in the elimination tree, and the halo (the members'
+      // neighbours, solved again) a smaller share than with smaller groups.
+      plan.blocks = plan_contact_blocks(positions, triangles, plan.loads, result.candidates, radius, 64);
+
       result.candidate_modes.assign(3 * std::size_t(nc) * result.eigenvalues.size(), 0.);
       result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
-      if (scene.contact.cross_compliance && nc > 0)
-        result.cross_compliance.assign(9 * std::size_t(nc) * nc, 0.);
-      return loads;
+      result.cross_offsets.clear();
+      result.cross_neighbours.clear();
+      result.cross_blocks.clear();
+      if (radius >= 0. && nc > 0)
+        {
+          result.cross_offsets    = plan.blocks.neighbours.offsets;
+          result.cross_neighbours = plan.blocks.neighbours.neighbours;
+          result.cross_blocks.assign(9 * result.cross_neighbours.size(), 0.);
+        }
+      result.felt_stiffness.assign(nv, 0.);
+      result.modal_only_stiffness.assign(nv, 0.);
+      return plan;
     }
 
-    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const unsigned int load,
-                                const unsigned int load_vertex,
+    std::vector<unsigned int> response_vertices(const ModalSpaceResult &result, const StaticCorrectionPlan &plan,
+                                                const unsigned int load)
+    {
+      const unsigned int        vertex = plan.loads[load];
+      std::vector<unsigned int> vertices{vertex};
+      const auto found = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex);
+      if (found != result.candidates.end() && *found == vertex && !result.cross_offsets.empty())
+        {
+          const unsigned int a = found - result.candidates.begin();
+          for (unsigned int k = result.cross_offsets[a]; k < result.cross_offsets[a + 1]; ++k)
+            vertices.push_back(result.candidates[result.cross_neighbours[k]]);
+        }
+      return vertices;
+    }
+
+    namespace
+    {
+      // B_a Lambda^-1 B_b^T (3 x 3 row-major) from two loads' modal rows.
+      std::array<double, 9> modal_compliance(const ModalSpaceResult &result, const double *Ba, const double *Bb)
+      {
+        const unsigned int    r = result.eigenvalues.size();
+        std::array<double, 9> C{};
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int d = 0; d < 3; ++d)
+            for (unsigned int i = 0; i < r; ++i)
+              C[3 * c + d] += Ba[c * r + i] * Bb[d * r + i] * static_gain(result.eigenvalues[i]);
+        return C;
+      }
+
+      // 1 / (n^T C n) [N/m]; 0 where C gives no compliance along n (a vertex without triangles).
+      double normal_stiffness(const std::array<double, 9> &C, const double *n)
+      {
+        double compliance = 0.;
+        for (unsigned int c = 0; c < 3; ++c)
+          for (unsigned int d = 0; d < 3; ++d)
+            compliance += n[c] * C[3 * c + d] * n[d];
+        return compliance > 0. ? 1. / compliance : 0.;
+      }
+    } // namespace
+
+    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const StaticCorrectionPlan &plan,
+                                const unsigned int load,
                                 const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged)
     {
-      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
-      // Full compliance at the load itself.
-      std::array<double, 9> G{};
-      for (unsigned int d = 0; d < 3; ++d)
-        {
-          const auto u = averaged(load_vertex, d);
-          for (unsigned int c = 0; c < 3; ++c)
-            G[3 * c + d] = u[c];
-        }
-      if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), load_vertex))
-        result.full_compliance[load_vertex] = G;
-      if (load >= nc)
+      const unsigned int r = result.eigenvalues.size(), vertex = plan.loads[load];
+      const double      *B = &plan.load_modes[3 * std::size_t(r) * load];
+      const auto compliance_with = [&](const unsigned int target) { // W_target^T K^-1 W_v, row-major
+        std::array<double, 9> G{};
+        for (unsigned int d = 0; d < 3; ++d)
+          {
+            const auto u = averaged(target, d);
+            for (unsigned int c = 0; c < 3; ++c)
+              G[3 * c + d] = u[c];
+          }
+        return G;
+      };
+      const std::array<double, 9> G     = compliance_with(vertex);
+      const std::array<double, 9> modal = modal_compliance(result, B, B);
+      result.felt_stiffness[vertex]       = normal_stiffness(G, &plan.normals[3 * std::size_t(vertex)]);
+      result.modal_only_stiffness[vertex] = normal_stiffness(modal, &plan.normals[3 * std::size_t(vertex)]);
+      if (std::binary_search(task.shared_vertices.begin(), task.shared_vertices.end(), vertex))
+        result.full_compliance[vertex] = G;
+      const auto found = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertex);
+      if (found == result.candidates.end() || *found != vertex)
         return;
-      for (unsigned int d = 0; d < 3; ++d)
-        {
-          const auto u_modal = modal_patch_response(result, load, d);
-          for (unsigned int c = 0; c < 3; ++c)
-            result.candidate_compliance[9 * std::size_t(load) + 3 * c + d] = G[3 * c + d] - u_modal[c];
-        }
-      if (result.cross_compliance.empty())
+      const unsigned int a = found - result.candidates.begin();
+      for (unsigned int k = 0; k < 9; ++k)
+        result.candidate_compliance[9 * std::size_t(a) + k] = G[k] - modal[k];
+      if (result.cross_offsets.empty())
         return;
-      const unsigned int stride = 3 * nc;
-      const double      *Bb     = &result.candidate_modes[std::size_t(load) * 3 * r];
-      for (unsigned int a = 0; a < nc; ++a)
+      for (unsigned int k = result.cross_offsets[a]; k < result.cross_offsets[a + 1]; ++k)
         {
-          const double *Ba = &result.candidate_modes[std::size_t(a) * 3 * r];
-          for (unsigned int d = 0; d < 3; ++d)
-            {
-              const auto u = averaged(result.candidates[a], d);
-              for (unsigned int c = 0; c < 3; ++c)
-                {
-                  double modal = 0.;
-                  for (unsigned int i = 0; i < r; ++i)
-                    modal += Ba[c * r + i] * Bb[d * r + i] * static_gain(result.eigenvalues[i]);
-                  result.cross_compliance[std::size_t(3 * a + c) * stride + 3 * load + d] = u[c] - modal;
-                }
-            }
+          const unsigned int target = result.candidates[result.cross_neighbours[k]];
+          const double *Bt = &plan.load_modes[3 * std::size_t(r) * plan.load_of_vertex[target]];
+          const auto    Gt = compliance_with(target), modal_t = modal_compliance(result, Bt, B);
+          for (unsigned int e = 0; e < 9; ++e)
+            result.cross_blocks[9 * std::size_t(k) + e] = Gt[e] - modal_t[e];
         }
     }
 
     std::string static_correction_summary(const ModalSpaceResult &result, const std::size_t n_loads)
     {
-      const unsigned int nc = result.candidates.size();
       std::ostringstream line;
-      line << "static correction: " << nc << " candidates (" << n_loads - nc << " shared vertices), "
+      line << "static correction: " << n_loads << " loads (" << result.candidates.size() << " candidates, "
+           << result.cross_neighbours.size() << " neighbour pairs within the cross compliance radius), "
            << result.correction_seconds_per_candidate * 1e3 << " ms per load";
       return line.str();
     }
@@ -210,13 +278,47 @@ namespace modal_haptics
       vc.field_rel_error_by_modes  = display_error_by_mode_count(result, display, display_full, modal_coefficients);
     }
 
+    std::array<double, 9> residual_compliance(const ModalSpaceResult &result, const unsigned int a, const unsigned int b)
+    {
+      std::array<double, 9> C{};
+      if (a == b)
+        std::copy_n(&result.candidate_compliance[9 * std::size_t(a)], 9, C.begin());
+      else if (!result.cross_offsets.empty())
+        {
+          const auto first = result.cross_neighbours.begin() + result.cross_offsets[a];
+          const auto last  = result.cross_neighbours.begin() + result.cross_offsets[a + 1];
+          const auto found = std::lower_bound(first, last, b);
+          if (found != last && *found == b)
+            std::copy_n(&result.cross_blocks[9 * std::size_t(found - result.cross_neighbours.begin())], 9, C.begin());
+        }
+      return C;
+    }
+
+    std::vector<std::array<unsigned int, 2>> two_contact_pairs(const ModalSpaceResult &result, const unsigned int count)
+    {
+      std::vector<std::array<unsigned int, 2>> pairs;
+      std::vector<unsigned int>                with_neighbours;
+      for (unsigned int a = 0; a + 1 < result.cross_offsets.size(); ++a)
+        if (result.cross_offsets[a + 1] > result.cross_offsets[a])
+          with_neighbours.push_back(a);
+      std::mt19937 random(20261127u + result.index); // a fixed seed: the same pairs every run
+      for (unsigned int k = 0; k < count && !with_neighbours.empty(); ++k)
+        {
+          const unsigned int a = with_neighbours[random() % with_neighbours.size()];
+          const unsigned int n = result.cross_offsets[a + 1] - result.cross_offsets[a];
+          const unsigned int b = result.cross_neighbours[result.cross_offsets[a] + random() % n];
+          pairs.push_back({{result.candidates[a], result.candidates[b]}});
+        }
+      return pairs;
+    }
+
     // The kernel's formula: u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
     double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
                              const std::array<std::array<double, 3>, 2> &full_responses)
     {
-      const unsigned int r = result.eigenvalues.size(), nc = result.candidates.size();
+      const unsigned int r = result.eigenvalues.size();
       const auto        &forces = two_contact_forces;
-      std::array<std::size_t, 2> index{};
+      std::array<unsigned int, 2> index{};
       for (unsigned int h = 0; h < 2; ++h)
         index[h] = std::lower_bound(result.candidates.begin(), result.candidates.end(), vertices[h]) -
                    result.candidates.begin();
@@ -236,8 +338,11 @@ namespace modal_haptics
               for (unsigned int i = 0; i < r; ++i)
                 predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] * static_gain(result.eigenvalues[i]);
               for (unsigned int g = 0; g < 2; ++g)
-                for (unsigned int d = 0; d < 3; ++d)
-                  predicted += result.cross_compliance[(3 * index[h] + c) * 3 * nc + 3 * index[g] + d] * forces[g][d];
+                {
+                  const auto C = residual_compliance(result, index[h], index[g]);
+                  for (unsigned int d = 0; d < 3; ++d)
+                    predicted += C[3 * c + d] * forces[g][d];
+                }
               error += std::pow(predicted - full[c], 2);
               norm += full[c] * full[c];
             }

@@ -21,6 +21,15 @@ namespace modal_haptics
     std::string  reason;
   };
 
+  // Two neighbouring candidates pressed together (z at the first, y at the second), one full static
+  // FE solve against the kernel's formula with the stored cross compliance.
+  struct TwoContactCheck
+  {
+    std::array<unsigned int, 2> vertices{}; // display vertices
+    double distance = 0.;                   // between them [m]
+    double rel_error_corrected = 0.;        // the worse of the two contacts' relative errors
+  };
+
   // One full static FE solve of a unit patch load, compared with the modal and corrected answers.
   struct ValidationCase
   {
@@ -65,7 +74,18 @@ namespace modal_haptics
     std::vector<unsigned int> candidates;
     std::vector<double>       candidate_modes;      // nc x 3 x r
     std::vector<double>       candidate_compliance; // nc x 3 x 3 [m/N]
-    std::vector<double>       cross_compliance;     // (3nc) x (3nc), empty when not stored
+    // The residual compliance between neighbouring candidates (closer than 'Contact/Cross compliance
+    // radius'): candidate a's neighbours are cross_neighbours[cross_offsets[a] .. cross_offsets[a + 1])
+    // (candidate indices, ascending, a itself left out), block (a, b) = W_a^T (K^-1 - Phi Lambda^-1
+    // Phi^T) W_b 3 x 3 row-major at the same position of cross_blocks (9 each) [m/N]. Empty offsets:
+    // not stored.
+    std::vector<unsigned int> cross_offsets, cross_neighbours;
+    std::vector<double>       cross_blocks;
+    // The felt-stiffness map: the normal stiffness 1 / (n^T W_v^T K^-1 W_v n) [N/m] of the patch load
+    // along the outward normal n, at the space's candidates and shared vertices (0 elsewhere: the
+    // scene's map takes each vertex from the space whose region holds it), and what the modes alone
+    // would give there, 1 / (n^T B_v Lambda^-1 B_v^T n).
+    std::vector<double> felt_stiffness, modal_only_stiffness;
 
     std::vector<double>         participation; // r x 6
     double                      mass = 0.;     // [kg]
@@ -83,7 +103,9 @@ namespace modal_haptics
       field("damping_ratios", b.damping_ratios), field("modes_at_vertices", b.modes_at_vertices);
       field("display_modes", b.display_modes), field("candidates", b.candidates);
       field("candidate_modes", b.candidate_modes), field("candidate_compliance", b.candidate_compliance);
-      field("cross_compliance", b.cross_compliance), field("participation", b.participation);
+      field("cross_offsets", b.cross_offsets), field("cross_neighbours", b.cross_neighbours);
+      field("cross_blocks", b.cross_blocks), field("felt_stiffness", b.felt_stiffness);
+      field("modal_only_stiffness", b.modal_only_stiffness), field("participation", b.participation);
       field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
       field("validation", b.validation);
     }
@@ -99,7 +121,8 @@ namespace modal_haptics
     EigenSelfCheck           self_check;
     unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
     std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
-    double two_contact_rel_error_corrected = -1.; // two simultaneous contacts (< 0: not checked)
+    double two_contact_rel_error_corrected = -1.; // the worst two-contact check (< 0: none)
+    std::vector<TwoContactCheck> two_contact_checks;
 
     // What the supports caught, and the rigid-body motions they leave free (a free-floating part:
     // all six): the lowest modes, stored as the exact motions at 0 Hz.
@@ -128,6 +151,7 @@ namespace modal_haptics
       field("dropped_modes", d.dropped_modes), field("cut_off_hz", d.cut_off_hz), field("self_check", d.self_check);
       field("n_spurious_rows", d.n_spurious_rows), field("full_compliance", d.full_compliance);
       field("two_contact_rel_error_corrected", d.two_contact_rel_error_corrected);
+      field("two_contact_checks", d.two_contact_checks);
       field("supports_summary", d.supports_summary), field("free_motions", d.free_motions);
       field("n_rigid_body_modes", d.n_rigid_body_modes);
       field("rigid_computed_frequencies_hz", d.rigid_computed_frequencies_hz);

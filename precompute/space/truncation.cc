@@ -4,7 +4,6 @@
 #include <deal.II/base/exceptions.h>
 
 #include <algorithm>
-#include <numeric>
 
 namespace modal_haptics
 {
@@ -12,15 +11,16 @@ namespace modal_haptics
 
   namespace
   {
-    // Adds sum_{i in [r_kept, r)} B[p][i] B[q][i] / lambda_i to the (rows x rows) block `target` for
-    // the rows of B listed in `rows` (B: one row of r mode values per contact direction).
+    // Adds sum_{i in [r_kept, r)} B_a[c][i] B_b[d][i] / lambda_i to the 3 x 3 block (row-major)
+    // `target` of candidates a and b (B: 3 rows of r mode values per candidate).
     void add_dropped_modes(const std::vector<double> &B, const unsigned int r, const unsigned int r_kept,
-                           const std::vector<double> &eigenvalues, const std::vector<std::size_t> &rows, double *target)
+                           const std::vector<double> &eigenvalues, const std::size_t a, const std::size_t b,
+                           double *target)
     {
-      for (std::size_t p = 0; p < rows.size(); ++p)
-        for (std::size_t q = 0; q < rows.size(); ++q)
+      for (unsigned int c = 0; c < 3; ++c)
+        for (unsigned int d = 0; d < 3; ++d)
           for (unsigned int i = r_kept; i < r; ++i)
-            target[p * rows.size() + q] += B[rows[p] * r + i] * B[rows[q] * r + i] * static_gain(eigenvalues[i]);
+            target[3 * c + d] += B[(3 * a + c) * r + i] * B[(3 * b + d) * r + i] * static_gain(eigenvalues[i]);
     }
 
     // Keeps the first r_kept of every block of r values.
@@ -50,14 +50,15 @@ namespace modal_haptics
 
     const std::size_t nc = space.candidates.size();
     for (std::size_t a = 0; a < nc; ++a)
-      add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, {3 * a, 3 * a + 1, 3 * a + 2},
-                        &kept.candidate_compliance[9 * a]);
-    if (!space.cross_compliance.empty())
       {
-        std::vector<std::size_t> every_row(3 * nc);
-        std::iota(every_row.begin(), every_row.end(), 0);
-        add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, every_row, kept.cross_compliance.data());
+        add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, a, a, &kept.candidate_compliance[9 * a]);
+        for (std::size_t k = space.cross_offsets.empty() ? 0 : space.cross_offsets[a];
+             k < (space.cross_offsets.empty() ? 0 : space.cross_offsets[a + 1]); ++k)
+          add_dropped_modes(space.candidate_modes, r, r_kept, space.eigenvalues, a, space.cross_neighbours[k],
+                            &kept.cross_blocks[9 * k]);
       }
+    // The felt-stiffness map is the full FE's, whatever the count; modal_only_stiffness stays the
+    // computed count's (the map's comparison, not a quantity of the truncated basis).
     for (unsigned int i = r_kept; i < r; ++i)
       kept.dropped_modes.push_back({i, space.frequencies_hz[i], "truncated to " + std::to_string(r_kept) + " modes"});
     return kept;

@@ -182,6 +182,13 @@ const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis) { re
 const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis) { return basis ? basis->region.data() : nullptr; }
 const double   *modalrt_basis_display_normals(const modalrt_basis *basis) { return basis ? basis->normals.data() : nullptr; }
 
+const double *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space)
+{
+  if (!basis || space >= basis->space_count() || basis->spaces[space].felt_stiffness.empty())
+    return nullptr;
+  return basis->spaces[space].felt_stiffness.data();
+}
+
 int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space, uint32_t vertex, double compliance[9],
                                      uint32_t *full_fe)
 {

@@ -2,6 +2,8 @@
 // and the mode-norm bound that sizes the snap search.
 #include "basis.h"
 
+#include <mrt/surface_normals.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -22,36 +24,32 @@ namespace modalrt
       std::copy_n(space.display_modes_f32.data() + first, n, out);
   }
 
+  bool ModalSpace::residual_compliance(const std::uint32_t a, const std::uint32_t b, double C[9]) const noexcept
+  {
+    if (a == b)
+      {
+        std::copy_n(&candidate_compliance[9 * std::size_t(a)], 9, C);
+        return true;
+      }
+    if (cross_count == 0)
+      return false;
+    const std::uint32_t *first = cross_neighbours.data() + cross_offsets[a];
+    const std::uint32_t *last  = cross_neighbours.data() + cross_offsets[a + 1];
+    const std::uint32_t *found = std::lower_bound(first, last, b);
+    if (found == last || *found != b)
+      return false;
+    std::copy_n(&cross_blocks[9 * std::size_t(found - cross_neighbours.data())], 9, C);
+    return true;
+  }
+
   namespace
   {
-    // Area-weighted vertex normals: the sum of the (doubled-area) normals of the triangles around a
-    // vertex, which follows the triangles' outward orientation.
+    // The contract's vertex normals (mrt/surface_normals.h).
     void compute_normals(modalrt_basis &basis)
     {
-      const double *x = basis.vertices.data();
       basis.normals.assign(basis.vertices.size(), 0.0);
-      for (std::size_t t = 0; t < basis.triangle_count; ++t)
-        {
-          const std::uint32_t *tri = &basis.triangles[3 * t];
-          double               e1[3], e2[3];
-          for (int d = 0; d < 3; ++d)
-            {
-              e1[d] = x[3 * tri[1] + d] - x[3 * tri[0] + d];
-              e2[d] = x[3 * tri[2] + d] - x[3 * tri[0] + d];
-            }
-          const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                               e1[0] * e2[1] - e1[1] * e2[0]};
-          for (int k = 0; k < 3; ++k)
-            for (int d = 0; d < 3; ++d)
-              basis.normals[3 * tri[k] + d] += n[d];
-        }
-      for (std::size_t v = 0; v < basis.vertex_count; ++v)
-        {
-          double *n      = &basis.normals[3 * v];
-          const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-          for (int d = 0; d < 3; ++d)
-            n[d] = l > 0.0 ? n[d] / l : 0.0;
-        }
+      mrt::area_weighted_normals(basis.vertices.data(), basis.vertex_count, basis.triangles.data(), basis.triangle_count,
+                                 basis.normals.data());
     }
 
     // Typical spacing of the display vertices: mean edge length, or the bounding box spread over

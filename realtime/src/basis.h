@@ -26,7 +26,7 @@ namespace modalrt
     std::uint32_t mode_count       = 0; // r
     std::uint32_t candidate_count  = 0; // nc
     std::uint32_t validation_count = 0; // nval
-    std::uint32_t cross_count      = 0; // n_cross: 0 or nc
+    std::uint32_t cross_count      = 0; // candidates with cross compliance rows: 0 or nc
 
     modalrt::Vector<double>        eigenvalues;      // r, lambda = omega^2 [rad^2/s^2]
     modalrt::Vector<double>        damping_ratios;   // r
@@ -35,7 +35,14 @@ namespace modalrt
     modalrt::Vector<std::uint32_t> candidates;           // nc, ascending
     modalrt::Vector<double>        candidate_modes;      // 3 nc r, B_v per candidate
     modalrt::Vector<double>        candidate_compliance; // 9 nc, C_v
-    modalrt::Vector<double>        cross_compliance;     // (3 n_cross)^2
+    // The cross compliance between candidates as compressed rows, whichever form the file holds
+    // (version 1.1's CROSS_OFFSETS/NEIGHBOURS/BLOCKS, or 1.0's dense CROSS_COMPLIANCE, every other
+    // candidate a neighbour): candidate a's neighbours are cross_neighbours[cross_offsets[a] ..
+    // cross_offsets[a + 1]), ascending, block (a, b) at the same position of cross_blocks (9 each).
+    modalrt::Vector<std::uint32_t> cross_offsets;        // nc + 1 when cross_count = nc
+    modalrt::Vector<std::uint32_t> cross_neighbours;
+    modalrt::Vector<double>        cross_blocks;
+    modalrt::Vector<double>        felt_stiffness;       // nv [N/m], or empty (not in the file)
     modalrt::Vector<double>        participation;        // 6 r (empty: not stored)
     modalrt::Vector<std::uint32_t> validation_cases;     // 2 nval
     modalrt::Vector<double>        validation_response;  // 3 nval
@@ -46,6 +53,9 @@ namespace modalrt
 
     // Index of `vertex` among the candidates, -1 if it has no static correction.
     int candidate_index(std::uint32_t vertex) const;
+    // The residual compliance C_ab of candidates a and b (3 x 3 row-major): a's own at a == b, the
+    // stored cross block of neighbours; false (C untouched) where none is stored.
+    bool residual_compliance(std::uint32_t a, std::uint32_t b, double C[9]) const noexcept;
   };
 
   struct TransferMatrix

@@ -492,7 +492,7 @@ namespace modalrt
 
       void read_candidates(std::uint32_t s, modalrt::ModalSpace &space)
       {
-        const std::uint64_t r = space.mode_count, nc = space.candidate_count, n3 = 3 * std::uint64_t(space.cross_count);
+        const std::uint64_t r = space.mode_count, nc = space.candidate_count;
         space.candidates = read_optional<std::uint32_t>(format::candidate_vertices, s, nc, "nc");
         check_below(space.candidates, basis_.vertex_count, format::candidate_vertices, "vertex index", s);
         for (std::size_t k = 1; k < space.candidates.size(); ++k)
@@ -501,17 +501,74 @@ namespace modalrt
                                            ": not strictly ascending at index ", k));
         space.candidate_modes      = read_optional<double>(format::candidate_modes, s, 3 * nc * r, "3 nc r");
         space.candidate_compliance = read_optional<double>(format::candidate_compliance, s, 9 * nc, "9 nc");
-        space.cross_compliance     = read_optional<double>(format::cross_compliance, s, n3 * n3, "(3 n_cross)^2");
         check_finite(space.candidate_modes, format::candidate_modes, s);
         check_finite(space.candidate_compliance, format::candidate_compliance, s);
-        check_finite(space.cross_compliance, format::cross_compliance, s);
-        check_cross_diagonal(s, space);
+        if (space.cross_count > 0)
+          read_dense_cross(s, space);
+        else if (find(format::cross_offsets, s) != nullptr)
+          read_sparse_cross(s, space);
+        space.felt_stiffness = read_optional<double>(format::felt_stiffness, s,
+                                                     find(format::felt_stiffness, s) ? basis_.vertex_count : 0, "nv");
+        check_finite(space.felt_stiffness, format::felt_stiffness, s);
+      }
+
+      // Version 1.0's dense CROSS_COMPLIANCE, kept as rows in which every other candidate is a
+      // neighbour (one form for the kernel).
+      void read_dense_cross(std::uint32_t s, modalrt::ModalSpace &space)
+      {
+        const std::uint64_t nc = space.candidate_count, n3 = 3 * nc;
+        const auto dense = read_optional<double>(format::cross_compliance, s, n3 * n3, "(3 n_cross)^2");
+        check_finite(dense, format::cross_compliance, s);
+        check_cross_diagonal(s, space, dense);
+        space.cross_offsets.assign(nc + 1, 0);
+        space.cross_neighbours.assign(nc * (nc - 1), 0);
+        space.cross_blocks.assign(9 * nc * (nc - 1), 0.0);
+        std::size_t k = 0;
+        for (std::uint64_t a = 0; a < nc; ++a)
+          {
+            for (std::uint64_t b = 0; b < nc; ++b)
+              if (b != a)
+                {
+                  space.cross_neighbours[k] = std::uint32_t(b);
+                  for (int i = 0; i < 3; ++i)
+                    for (int j = 0; j < 3; ++j)
+                      space.cross_blocks[9 * k + 3 * i + j] = dense[(3 * a + i) * n3 + 3 * b + j];
+                  ++k;
+                }
+            space.cross_offsets[a + 1] = std::uint32_t(k);
+          }
+      }
+
+      // Version 1.1's compressed rows: nc + 1 offsets from 0, ascending; in each row, neighbours
+      // strictly ascending, below nc and other than the row's own candidate.
+      void read_sparse_cross(std::uint32_t s, modalrt::ModalSpace &space)
+      {
+        const std::uint64_t nc = space.candidate_count;
+        space.cross_offsets    = read_optional<std::uint32_t>(format::cross_offsets, s, nc + 1, "nc + 1");
+        const std::uint64_t n  = space.cross_offsets.empty() ? 0 : space.cross_offsets[nc];
+        for (std::uint64_t a = 0; a < nc; ++a)
+          if (space.cross_offsets[a + 1] < space.cross_offsets[a] || space.cross_offsets[0] != 0)
+            fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section CROSS_OFFSETS of ", space_label(s),
+                                           ": not ascending from 0 at candidate ", a));
+        space.cross_neighbours = read_optional<std::uint32_t>(format::cross_neighbours, s, n, "CROSS_OFFSETS[nc]");
+        space.cross_blocks     = read_optional<double>(format::cross_blocks, s, 9 * n, "9 CROSS_OFFSETS[nc]");
+        check_finite(space.cross_blocks, format::cross_blocks, s);
+        for (std::uint64_t a = 0; a < nc; ++a)
+          for (std::uint64_t k = space.cross_offsets[a]; k < space.cross_offsets[a + 1]; ++k)
+            {
+              const std::uint32_t b = space.cross_neighbours[k];
+              if (b >= nc || b == a || (k > space.cross_offsets[a] && b <= space.cross_neighbours[k - 1]))
+                fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section CROSS_NEIGHBOURS of ", space_label(s),
+                                               ": entry ", k, " (candidate ", b, " in the row of candidate ", a,
+                                               ") is not a strictly ascending index below nc other than ", a));
+            }
+        space.cross_count = std::uint32_t(nc);
       }
 
       // The specification says the diagonal blocks of CROSS_COMPLIANCE equal CANDIDATE_COMPLIANCE;
       // the kernel uses the latter for a HIP alone, so a mismatch would make the felt stiffness
       // depend on whether a second HIP touches elsewhere.
-      void check_cross_diagonal(std::uint32_t s, const modalrt::ModalSpace &space)
+      void check_cross_diagonal(std::uint32_t s, const modalrt::ModalSpace &space, const modalrt::Vector<double> &dense)
       {
         const std::size_t n3 = 3 * std::size_t(space.cross_count);
         for (std::size_t a = 0; a < space.cross_count; ++a)
@@ -521,7 +578,7 @@ namespace modalrt
               for (int j = 0; j < 3; ++j)
                 {
                   const double c = space.candidate_compliance[9 * a + 3 * i + j];
-                  const double x = space.cross_compliance[(3 * a + i) * n3 + 3 * a + j];
+                  const double x = dense[(3 * a + i) * n3 + 3 * a + j];
                   scale          = std::max(scale, std::fabs(c));
                   worst          = std::max(worst, std::fabs(c - x));
                 }

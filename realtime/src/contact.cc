@@ -255,7 +255,8 @@ void modalrt_kernel::refresh_contact_set() noexcept
 }
 
 // C_ab: the candidate's own compliance for one vertex, the cross block for two candidates of the
-// active space, 0 when either vertex has no correction (or corrections are off).
+// active space when stored (neighbours closer than the precompute's cross compliance radius), 0 when
+// either vertex has no correction (or corrections are off).
 void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
 {
   if (a.proxy.active || b.proxy.active)
@@ -263,18 +264,7 @@ void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double 
   std::fill_n(C, 9, 0.0);
   if (!def.use_static_correction || a.candidate < 0 || b.candidate < 0)
     return;
-  const ModalSpace &space = basis.spaces[space_];
-  if (a.candidate == b.candidate)
-    {
-      std::copy_n(&space.candidate_compliance[9 * std::size_t(a.candidate)], 9, C);
-      return;
-    }
-  if (space.cross_count == 0)
-    return;
-  const std::size_t n3 = 3 * std::size_t(space.cross_count);
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      C[3 * i + j] = space.cross_compliance[(3 * std::size_t(a.candidate) + i) * n3 + 3 * std::size_t(b.candidate) + j];
+  basis.spaces[space_].residual_compliance(std::uint32_t(a.candidate), std::uint32_t(b.candidate), C);
 }
 
 void modalrt_kernel::refresh_coupling_matrices() noexcept

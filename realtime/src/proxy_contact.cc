@@ -347,7 +347,8 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
 
 // C_ab between two contacts, at least one a proxy: each contact's load is its corners' patches
 // weighted by the barycentric weights (a snap contact: its vertex, weight 1), so C_ab =
-// sum_i sum_j w_i w_j C(i, j) over corners at candidates, from CROSS_COMPLIANCE; without it, a
+// sum_i sum_j w_i w_j C(i, j) over corners at candidates, from the cross compliance (pairs beyond its
+// radius add nothing); without it, a
 // contact's own C is sum_i w_i C_i (exact at the corners, continuous between) and two contacts do
 // not see each other's correction.
 void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
@@ -374,7 +375,6 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
   LoadPoint   pa[3], pb[3];
   const int   na = load_points(a, pa), nb = load_points(b, pb);
   const auto &space = basis.spaces[space_];
-  const std::size_t n3 = 3 * std::size_t(space.cross_count);
   for (int i = 0; i < na; ++i)
     for (int j = 0; j < nb; ++j)
       {
@@ -382,10 +382,13 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
         const double w = pa[i].weight * pb[j].weight;
         if (ci < 0 || cj < 0 || w == 0.0)
           continue;
-        if (n3 > 0)
-          for (int r = 0; r < 3; ++r)
-            for (int s = 0; s < 3; ++s)
-              C[3 * r + s] += w * space.cross_compliance[(3 * std::size_t(ci) + r) * n3 + 3 * std::size_t(cj) + s];
+        double block[9];
+        if (space.cross_count > 0)
+          {
+            if (space.residual_compliance(std::uint32_t(ci), std::uint32_t(cj), block))
+              for (int k = 0; k < 9; ++k)
+                C[k] += w * block[k];
+          }
         else if (&a == &b && i == j)
           for (int k = 0; k < 9; ++k)
             C[k] += pa[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];

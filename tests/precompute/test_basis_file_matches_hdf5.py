@@ -54,8 +54,11 @@ def main():
             same(f"{name}: candidates", s[(21, k, SW)], g["candidate_vertices"])
             same(f"{name}: candidate modes", s[(22, k, SW)], g["candidate_modes"])
             same(f"{name}: candidate compliance", s[(23, k, SW)], g["candidate_compliance"])
-        if ncross:
-            same(f"{name}: cross compliance", s[(24, k, SW)], g["cross_compliance"])
+        if (28, k, SW) in s:
+            same(f"{name}: cross offsets", s[(28, k, SW)], g["cross_offsets"])
+            same(f"{name}: cross neighbours", s[(29, k, SW)], g["cross_neighbours"])
+            same(f"{name}: cross blocks", s[(30, k, SW)], g["cross_blocks"])
+        same(f"{name}: felt stiffness", s[(31, k, SW)], g["felt_stiffness"])
         if nval:
             same(f"{name}: validation cases", s[(26, k, SW)], g["validation_cases"])
             same(f"{name}: validation response", s[(27, k, SW)], g["validation_response"])

@@ -4,10 +4,10 @@
 // plate-like vector Laplacian (a tree with deep, wide subtrees, like the parts' stiffness), a
 // diagonal matrix (a forest of single supernodes), a tridiagonal one (METIS makes its path a
 // balanced tree; in the natural order it is a chain, with no parallelism to find) and a 1 x 1
-// matrix; a simplicial factor is refused. gram_of_inverse (B^T A^-1 B of sparse columns by forward
-// solves on their elimination-tree paths) against B^T of the full solve, for columns of one to six
-// nonzeros scattered or clustered, an empty column, every thread count; a memory limit below Y's
-// size makes it decline.
+// matrix; a simplicial factor is refused. group_grams (B_g^T A^-1 B_g[:, :k] of groups of sparse
+// columns by forward solves on their elimination-tree paths) against B^T of the full solve, for
+// columns of one to six nonzeros scattered or clustered, an empty column, groups of one column to
+// all of them with a leading block of one to all columns, every thread count.
 #include "solvers/supernodal_solve.h"
 
 #include <cholmod.h>
@@ -150,7 +150,7 @@ namespace
     return B;
   }
 
-  void check_gram_of_inverse(const std::string &name, cholmod_sparse *A, cholmod_common &common)
+  void check_group_grams(const std::string &name, cholmod_sparse *A, cholmod_common &common)
   {
     cholmod_factor *L = factorize(A, common, CHOLMOD_SUPERNODAL);
     const Index     n = L->n;
@@ -165,7 +165,7 @@ namespace
           const modal_haptics::SupernodalSolve reference(*L, 1);
           std::vector<double>                  X = dense;
           reference.solve(X.data(), m);
-          std::vector<double> expected(m * m, 0.);
+          std::vector<double> expected(m * m, 0.); // B^T A^-1 B
           double              largest = 0.;
           for (std::size_t j = 0; j < m; ++j)
             for (std::size_t i = 0; i < m; ++i)
@@ -174,24 +174,37 @@ namespace
                   expected[i + j * m] += dense[r + i * n] * X[r + j * n];
                 largest = std::max(largest, std::abs(expected[i + j * m]));
               }
-          for (const unsigned int threads : {1u, 2u, 3u})
-            {
-              const modal_haptics::SupernodalSolve solver(*L, threads);
-              std::vector<double>                  G;
-              const bool                           done = solver.gram_of_inverse(B, 1e12, G);
-              double                               difference = done ? 0. : 1.;
-              for (std::size_t i = 0; done && i < m * m; ++i)
-                difference = std::max(difference, std::abs(G[i] - expected[i]));
-              char line[240];
-              std::snprintf(line, sizeof line, "gram_of_inverse, %s, %s columns, m = %zu, %u threads: %.1e of max |G|",
-                            name.c_str(), cluster ? "clustered" : "scattered", m, threads,
-                            difference / std::max(largest, 1e-300));
-              check(done && G.size() == m * m && difference <= 1e-12 * std::max(largest, 1e-300), line);
-            }
-          std::vector<double> untouched{42.};
-          const bool declined = !modal_haptics::SupernodalSolve(*L, 2).gram_of_inverse(B, 8., untouched);
-          check(m == 1 || (declined && untouched.size() == 1 && untouched[0] == 42.),
-                "gram_of_inverse declines past its memory limit, G untouched (" + name + ", m = " + std::to_string(m) + ")");
+          // Groups of 'size' consecutive columns (the last one shorter), each with its first 'leading'.
+          for (const std::size_t size : {std::size_t(1), std::size_t(5), m})
+            for (const unsigned int threads : {1u, 2u, 3u})
+              {
+                std::vector<std::vector<modal_haptics::SparseColumn>> groups;
+                std::vector<std::size_t>                              leading, first;
+                for (std::size_t start = 0; start < m; start += size)
+                  {
+                    groups.emplace_back(B.begin() + start, B.begin() + std::min(m, start + size));
+                    leading.push_back(std::max<std::size_t>(1, groups.back().size() / 2));
+                    first.push_back(start);
+                  }
+                const auto grams = modal_haptics::SupernodalSolve(*L, threads).group_grams(groups, leading);
+                double     difference = grams.size() == groups.size() ? 0. : 1.;
+                for (std::size_t g = 0; g < grams.size(); ++g)
+                  {
+                    const std::size_t width = groups[g].size();
+                    if (grams[g].size() != width * leading[g])
+                      difference = 1.;
+                    else
+                      for (std::size_t j = 0; j < leading[g]; ++j)
+                        for (std::size_t i = 0; i < width; ++i)
+                          difference = std::max(difference, std::abs(grams[g][i + j * width] -
+                                                                     expected[first[g] + i + (first[g] + j) * m]));
+                  }
+                char line[240];
+                std::snprintf(line, sizeof line, "group_grams, %s, %s columns, m = %zu in groups of %zu, %u threads: %.1e of max |G|",
+                              name.c_str(), cluster ? "clustered" : "scattered", m, size, threads,
+                              difference / std::max(largest, 1e-300));
+                check(difference <= 1e-12 * std::max(largest, 1e-300), line);
+              }
         }
     cholmod_l_free_factor(&L, &common);
   }
@@ -205,7 +218,7 @@ int main()
   cholmod_sparse *laplacian = vector_laplacian(48, 24, 6, common);
   compare_with_cholmod("plate-like vector Laplacian", laplacian, common, true);
 
-  check_gram_of_inverse("plate-like vector Laplacian", laplacian, common);
+  check_group_grams("plate-like vector Laplacian", laplacian, common);
 
   cholmod_sparse *diagonal = upper_triangle(1000, [](Index j) {
     return std::vector<std::pair<Index, double>>{{j, 1. + j % 7}};
@@ -221,7 +234,7 @@ int main()
   }, common);
   compare_with_cholmod("tridiagonal", chain, common, true);
   compare_with_cholmod("tridiagonal in the natural order", chain, common, false, CHOLMOD_NATURAL);
-  check_gram_of_inverse("tridiagonal", chain, common);
+  check_group_grams("tridiagonal", chain, common);
 
   cholmod_sparse *one = upper_triangle(1, [](Index) { return std::vector<std::pair<Index, double>>{{0, 4.}}; }, common);
   compare_with_cholmod("1 x 1", one, common, false);

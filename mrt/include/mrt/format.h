@@ -1,4 +1,4 @@
-// Constants of the .mrt basis file, version 1.0 (docs/basis-format.md): the layout, the header and
+// Constants of the .mrt basis file, version 1.1 (docs/basis-format.md): the layout, the header and
 // table field offsets, the scalar types and the section kinds. The one place they are written: the
 // writer (writer.h), the kernel's loader (realtime/src/basis_loader.cc) and the tests take them from
 // here.
@@ -11,7 +11,7 @@ namespace mrt
 {
   constexpr char          magic[8]          = {'M', 'O', 'D', 'A', 'L', 'R', 'T', '\0'};
   constexpr std::uint32_t version_major     = 1;
-  constexpr std::uint32_t version_minor     = 0;
+  constexpr std::uint32_t version_minor     = 1;
   constexpr std::size_t   header_bytes      = 64;
   constexpr std::size_t   table_entry_bytes = 40;
   constexpr std::size_t   section_alignment = 64;
@@ -70,6 +70,10 @@ namespace mrt
     participation        = 25,
     validation_cases     = 26,
     validation_response  = 27,
+    cross_offsets        = 28, // version 1.1: the cross compliance between neighbours, compressed rows
+    cross_neighbours     = 29,
+    cross_blocks         = 30,
+    felt_stiffness       = 31, // version 1.1: the felt-stiffness map
     transfer             = 32
   };
 
@@ -97,6 +101,10 @@ namespace mrt
         case participation: return "PARTICIPATION";
         case validation_cases: return "VALIDATION_CASES";
         case validation_response: return "VALIDATION_RESPONSE";
+        case cross_offsets: return "CROSS_OFFSETS";
+        case cross_neighbours: return "CROSS_NEIGHBOURS";
+        case cross_blocks: return "CROSS_BLOCKS";
+        case felt_stiffness: return "FELT_STIFFNESS";
         case transfer: return "TRANSFER";
         default: return "UNKNOWN";
       }
@@ -117,6 +125,8 @@ namespace mrt
         case patch_vertices:
         case space_info:
         case candidate_vertices:
+        case cross_offsets:
+        case cross_neighbours:
         case validation_cases: return u32;
         case space_name: return u8;
         case display_modes: return 0;

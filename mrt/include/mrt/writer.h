@@ -21,7 +21,11 @@ namespace mrt
     std::vector<std::uint32_t> candidates;           // nc, ascending
     std::vector<double>        candidate_modes;      // 3 nc r
     std::vector<double>        candidate_compliance; // 9 nc
-    std::vector<double>        cross_compliance;     // (3 nc)^2 or empty
+    std::vector<double>        cross_compliance;     // (3 nc)^2 or empty: the dense form of version 1.0
+    std::vector<std::uint32_t> cross_offsets;        // nc + 1 or empty: neighbours, compressed rows (1.1)
+    std::vector<std::uint32_t> cross_neighbours;     // candidate indices, ascending per row
+    std::vector<double>        cross_blocks;         // 9 per neighbour [m/N]
+    std::vector<double>        felt_stiffness;       // nv or empty: the felt-stiffness map [N/m]
     std::vector<double>        participation;        // 6 r or empty
     std::vector<std::uint32_t> validation_cases;     // 2 nval
     std::vector<double>        validation_response;  // 3 nval

@@ -133,13 +133,15 @@ extern "C" {
  * kernel's own, release of an impedance contact that would pull), MODALRT_HIP_FORCE_RAMPING,
  * modalrt_kernel_begin_session; and contact_mode, static_friction and dynamic_friction (the sliding
  * proxy contact, MODALRT_CONTACT_PROXY), modalrt_hip_output's proxy_triangle and proxy_weights,
- * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING. */
+ * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING.
+ * 3.1: modalrt_basis_felt_stiffness (the felt-stiffness map); reads .mrt 1.1 (the cross compliance
+ * between neighbouring candidates only, as compressed rows). */
 #define MODALRT_VERSION_MAJOR 3
-#define MODALRT_VERSION_MINOR 0
+#define MODALRT_VERSION_MINOR 1
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
-#define MODALRT_BASIS_FORMAT_MINOR 0
+#define MODALRT_BASIS_FORMAT_MINOR 1
 
 /* Marks "no vertex" / "no space" in outputs. */
 #define MODALRT_NONE 0xFFFFFFFFu
@@ -259,7 +261,8 @@ typedef struct modalrt_space_info
   uint32_t mode_count;        /* [-] r */
   uint32_t candidate_count;   /* [-] contact candidates with a stored static correction */
   uint32_t validation_count;  /* [-] full-FE validation cases */
-  uint32_t cross_count;       /* [-] candidates covered by the cross compliance (0 or candidate_count) */
+  uint32_t cross_count;       /* [-] candidates with cross compliance rows (0 or candidate_count): each with
+                                 its neighbours closer than the precompute's cross compliance radius */
   uint32_t has_participation; /* 1 if PARTICIPATION is stored (frame acceleration drives the modes) */
   uint32_t reserved;          /* 0 */
   double   lowest_frequency;  /* [Hz] */
@@ -277,6 +280,10 @@ MODALRT_API const double   *modalrt_basis_display_vertices(const modalrt_basis *
 MODALRT_API const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis); /* 3 nt vertex indices */
 MODALRT_API const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis);   /* nv space per vertex */
 MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *basis);   /* 3 nv unit outward [-] */
+/* The felt-stiffness map of a space: at every display vertex the stiffness a HIP pressing straight in
+ * along the normal would feel there with the full FE model, 1 / (n^T W^T K^-1 W n) [N/m] (0 where the
+ * space did not compute it); NULL if the file has no map (a .mrt 1.0) or space is out of range. */
+MODALRT_API const double   *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space);
 /* Static compliance G [m/N] (3x3, row-major, body frame) of a contact at display vertex `vertex` in
  * space `space`: the settled felt displacement of the active vertex (patch average) is u_c = G F for
  * a constant force F on it, alone on the part. At a candidate of the space G = B_v Lambda^-1 B_v^T +

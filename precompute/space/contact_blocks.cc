@@ -1,0 +1,170 @@
+#include "space/contact_blocks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <unordered_map>
+
+namespace modal_haptics
+{
+  namespace
+  {
+    struct Box
+    {
+      std::array<double, 3> lower{}, upper{};
+    };
+
+    Box bounding_box(const std::vector<double> &positions, const std::vector<unsigned int> &vertices)
+    {
+      Box box;
+      box.lower.fill(std::numeric_limits<double>::infinity());
+      box.upper.fill(-std::numeric_limits<double>::infinity());
+      for (const unsigned int v : vertices)
+        for (unsigned int c = 0; c < 3; ++c)
+          {
+            box.lower[c] = std::min(box.lower[c], positions[3 * v + c]);
+            box.upper[c] = std::max(box.upper[c], positions[3 * v + c]);
+          }
+      return box;
+    }
+
+    // The Morton (Z-order) key of a position quantized to 2^21 cells per axis of the box:
+    // positions close in the key lie close in space.
+    std::uint64_t morton_key(const Box &box, const double *x)
+    {
+      std::uint64_t key = 0;
+      for (unsigned int c = 0; c < 3; ++c)
+        {
+          const double extent = std::max(box.upper[c] - box.lower[c], 1e-300);
+          const auto   cell   = std::uint64_t(std::min(2097151., std::max(0., (x[c] - box.lower[c]) / extent * 2097151.)));
+          for (unsigned int bit = 0; bit < 21; ++bit)
+            key |= ((cell >> bit) & 1u) << (3 * bit + c);
+        }
+      return key;
+    }
+
+    double distance_squared(const std::vector<double> &positions, const unsigned int a, const unsigned int b)
+    {
+      double sum = 0.;
+      for (unsigned int c = 0; c < 3; ++c)
+        sum += std::pow(positions[3 * a + c] - positions[3 * b + c], 2);
+      return sum;
+    }
+  } // namespace
+
+  namespace
+  {
+    // For each candidate, the candidates it shares a display triangle with (unsorted, repeated).
+    std::vector<std::vector<unsigned int>> triangle_neighbours(const std::vector<unsigned int> &triangles,
+                                                               const std::vector<unsigned int> &candidates,
+                                                               const std::size_t n_vertices)
+    {
+      std::vector<int> candidate_of(n_vertices, -1);
+      for (unsigned int a = 0; a < candidates.size(); ++a)
+        candidate_of[candidates[a]] = int(a);
+      std::vector<std::vector<unsigned int>> adjacent(candidates.size());
+      for (std::size_t t = 0; t + 2 < triangles.size(); t += 3)
+        for (unsigned int i = 0; i < 3; ++i)
+          for (unsigned int j = 0; j < 3; ++j)
+            if (i != j && candidate_of[triangles[t + i]] >= 0 && candidate_of[triangles[t + j]] >= 0)
+              adjacent[candidate_of[triangles[t + i]]].push_back(candidate_of[triangles[t + j]]);
+      return adjacent;
+    }
+  } // namespace
+
+  // A uniform grid of cells of the radius' size: a candidate's neighbours lie in the 27 cells
+  // around its own.
+  CandidateNeighbours candidate_neighbours(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
+                                           const std::vector<unsigned int> &candidates, const double radius)
+  {
+    CandidateNeighbours result;
+    result.offsets.assign(candidates.size() + 1, 0);
+    if (radius < 0. || candidates.size() < 2)
+      return result;
+    const auto adjacent = triangle_neighbours(triangles, candidates, positions.size() / 3);
+    const Box  box  = bounding_box(positions, candidates);
+    const auto cell = [&](const unsigned int v, const unsigned int c) {
+      return std::int64_t(std::floor((positions[3 * v + c] - box.lower[c]) / radius));
+    };
+    const auto key = [](const std::int64_t i, const std::int64_t j, const std::int64_t k) {
+      return (i * 2097152 + j) * 2097152 + k;
+    };
+    std::unordered_map<std::int64_t, std::vector<unsigned int>> cells; // candidate indices
+    if (radius > 0.)
+      for (unsigned int a = 0; a < candidates.size(); ++a)
+        cells[key(cell(candidates[a], 0), cell(candidates[a], 1), cell(candidates[a], 2))].push_back(a);
+    const double radius2 = radius * radius;
+    for (unsigned int a = 0; a < candidates.size(); ++a)
+      {
+        const unsigned int va    = candidates[a];
+        const std::size_t  first = result.neighbours.size();
+        if (radius > 0.) // radius 0: the triangles' neighbours only
+          for (std::int64_t di = -1; di <= 1; ++di)
+            for (std::int64_t dj = -1; dj <= 1; ++dj)
+              for (std::int64_t dk = -1; dk <= 1; ++dk)
+                {
+                  const auto found = cells.find(key(cell(va, 0) + di, cell(va, 1) + dj, cell(va, 2) + dk));
+                  if (found == cells.end())
+                    continue;
+                  for (const unsigned int b : found->second)
+                    if (b != a && distance_squared(positions, va, candidates[b]) <= radius2)
+                      result.neighbours.push_back(b);
+                }
+        result.neighbours.insert(result.neighbours.end(), adjacent[a].begin(), adjacent[a].end());
+        std::sort(result.neighbours.begin() + first, result.neighbours.end());
+        result.neighbours.erase(std::unique(result.neighbours.begin() + first, result.neighbours.end()),
+                                result.neighbours.end());
+        result.offsets[a + 1] = result.neighbours.size();
+      }
+    return result;
+  }
+
+  ContactBlockPlan plan_contact_blocks(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
+                                       const std::vector<unsigned int> &vertices,
+                                       const std::vector<unsigned int> &candidates, const double radius,
+                                       const unsigned int group_size)
+  {
+    ContactBlockPlan plan;
+    plan.neighbours = candidate_neighbours(positions, triangles, candidates, radius);
+    if (vertices.empty())
+      return plan;
+    const Box                                          box = bounding_box(positions, vertices);
+    std::vector<std::pair<std::uint64_t, unsigned int>> ordered;
+    ordered.reserve(vertices.size());
+    for (const unsigned int v : vertices)
+      ordered.emplace_back(morton_key(box, &positions[3 * v]), v);
+    std::sort(ordered.begin(), ordered.end());
+
+    std::vector<int> group_of(positions.size() / 3, -1); // the group a vertex is a member of, while it is built
+    for (std::size_t first = 0; first < ordered.size(); first += std::max(1u, group_size))
+      {
+        ContactGroup      group;
+        const std::size_t last = std::min(ordered.size(), first + std::max(1u, group_size));
+        for (std::size_t k = first; k < last; ++k)
+          {
+            group.vertices.push_back(ordered[k].second);
+            group_of[ordered[k].second] = int(plan.groups.size());
+          }
+        group.n_members = group.vertices.size();
+        for (unsigned int m = 0; m < group.n_members; ++m)
+          {
+            const auto found = std::lower_bound(candidates.begin(), candidates.end(), group.vertices[m]);
+            if (found == candidates.end() || *found != group.vertices[m])
+              continue;
+            const unsigned int a = found - candidates.begin();
+            for (unsigned int k = plan.neighbours.offsets[a]; k < plan.neighbours.offsets[a + 1]; ++k)
+              {
+                const unsigned int vb = candidates[plan.neighbours.neighbours[k]];
+                if (group_of[vb] != int(plan.groups.size()))
+                  {
+                    group.vertices.push_back(vb);
+                    group_of[vb] = int(plan.groups.size()); // once in the halo
+                  }
+              }
+          }
+        plan.groups.push_back(std::move(group));
+      }
+    return plan;
+  }
+} // namespace modal_haptics

@@ -1,0 +1,49 @@
+// Which entries of W^T K^-1 W a space computes, and in which groups: a contact's own 3x3
+// compliance at every display vertex (the felt-stiffness map; at the candidates also the static
+// correction) and the cross blocks between candidates closer than the cross-compliance radius.
+// Pure geometry (no deal.II): the display vertices' positions in, the plan out.
+#pragma once
+
+#include <array>
+#include <vector>
+
+namespace modal_haptics
+{
+  // The candidates within 'radius' of each candidate or sharing a display triangle with it (indices
+  // into candidates, ascending, itself left out), as compressed rows: the neighbours of candidate a
+  // are neighbours[offsets[a] .. offsets[a + 1]). A sliding contact blends the corners of its
+  // triangle, so their cross blocks are always stored.
+  struct CandidateNeighbours
+  {
+    std::vector<unsigned int> offsets{0}, neighbours;
+    unsigned int count(unsigned int a) const { return offsets[a + 1] - offsets[a]; }
+  };
+
+  // A group of display vertices whose loads are solved together: its members (whose own
+  // compliance, and whose cross blocks with their neighbours, the group records), then the
+  // neighbours of its member candidates that are not members (the halo: loaded, not recorded).
+  struct ContactGroup
+  {
+    std::vector<unsigned int> vertices; // display vertices: members first, then the halo
+    unsigned int              n_members = 0;
+  };
+
+  struct ContactBlockPlan
+  {
+    CandidateNeighbours       neighbours;
+    std::vector<ContactGroup> groups; // every vertex of the plan is a member of exactly one
+  };
+
+  // positions: 3 per display vertex (any unit; radius in the same); vertices: those whose own
+  // compliance is computed (ascending, a superset of candidates); candidates: ascending.
+  // Members are grouped along a space-filling curve, so that a group lies close together in the
+  // part (its loads share most of their elimination-tree paths), at most 'group_size' members each.
+  // triangles: 3 display vertices each; radius < 0: no neighbours (no cross compliance).
+  ContactBlockPlan plan_contact_blocks(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
+                                       const std::vector<unsigned int> &vertices,
+                                       const std::vector<unsigned int> &candidates, double radius,
+                                       unsigned int group_size);
+
+  CandidateNeighbours candidate_neighbours(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
+                                           const std::vector<unsigned int> &candidates, double radius);
+} // namespace modal_haptics

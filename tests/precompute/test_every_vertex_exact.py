@@ -1,0 +1,112 @@
+#!/usr/bin/python3
+"""Every display vertex a hand can reach is exact (issue 36): on the small scene with the default
+candidates (every display vertex of each region a corrected contact), at 20 random display vertices
+inside each VOI and 20 outside (global space):
+
+* the corrected felt compliance along x, y and z equals a fresh full static FE solve of that patch
+  load (1e-8 relative; the random vertices are given as validation points, so the precompute solves
+  each afresh, and `modal-rt verify` checks the kernel's own answer against those solves);
+* the felt-stiffness map's normal stiffness equals 1 / (n^T G n) of the full solve's compliance G
+  along the display surface's outward normal (1e-8);
+* 10 random pairs of neighbouring candidates per space pressed together equal one full solve each
+  (the kernel's formula with the stored cross compliance, 1e-8).
+The first run (no validation) gives the display surface and its regions; the second reuses its meshes.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+from precompute_run import binary_and_fresh_workdir, run_precompute
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SAMPLES_PER_REGION = 20
+PAIRS_PER_SPACE = 10
+
+
+def scene_text(extra_contact):
+    """small_scene.prm with the default candidates (every vertex) and the given Contact lines."""
+    lines, skip = [], False
+    for line in open(os.path.join(HERE, "small_scene.prm")):
+        if line.strip().startswith(("set Global candidate stride", "set Maximum candidates", "set Validation samples")):
+            continue
+        if line.strip() == "subsection Contact":
+            lines.append(line)
+            lines.extend(f"  {entry}\n" for entry in extra_contact)
+            continue
+        lines.append(line)
+    return "".join(lines)
+
+
+def vertex_normals(x, triangles):
+    """The contract's normals (mrt/surface_normals.h): area-weighted, normalized."""
+    n = np.zeros_like(x)
+    face = np.cross(x[triangles[:, 1]] - x[triangles[:, 0]], x[triangles[:, 2]] - x[triangles[:, 0]])
+    for k in range(3):
+        np.add.at(n, triangles[:, k], face)
+    return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+def main():
+    args = binary_and_fresh_workdir(required=("--modal-rt",))
+    first = os.path.join(args.workdir, "surface")
+    run_precompute(args.binary, first, scene_text(["set Validation samples = 0"]))
+    with h5py.File(os.path.join(first, "small_block.h5"), "r") as h5:
+        x = h5["display_surface/vertices"][:]
+        region = h5["display_surface/region"][:]
+    random = np.random.default_rng(36)
+    picked = np.concatenate([random.choice(np.flatnonzero(region == s), SAMPLES_PER_REGION, replace=False)
+                             for s in np.unique(region)])
+    points = "; ".join(", ".join(f"{1e3 * c:.12g}" for c in x[v]) for v in picked)  # the scene is in mm
+
+    folder = os.path.join(args.workdir, "exact")
+    report, _ = run_precompute(args.binary, folder, scene_text([
+        "set Validation samples = 0", f"set Validation pairs = {PAIRS_PER_SPACE}", f"set Validation points = {points}"]),
+        meshes_from=first)
+    failures = []
+
+    def expect(condition, what):
+        print(("ok      " if condition else "FAILED  ") + what)
+        if not condition:
+            failures.append(what)
+
+    with h5py.File(os.path.join(folder, "small_block.h5"), "r") as h5:
+        triangles = h5["display_surface/triangles"][:]
+        normals = vertex_normals(h5["display_surface/vertices"][:], triangles)
+        for space in report["spaces"]:
+            g = h5["spaces"][space["name"]]
+            own = np.flatnonzero(region == space["index"])
+            expect(len(g["candidate_vertices"]) == len(own),
+                   f"{space['name']}: every one of its region's {len(own)} display vertices is a corrected contact")
+            cases, response = g["validation_cases"][:], g["validation_response"][:]
+            worst_map, checked = 0.0, 0
+            for v in picked[region[picked] == space["index"]]:
+                columns = {int(d): response[k] for k, (vertex, d) in enumerate(cases) if vertex == v}
+                G = np.column_stack([columns[d] for d in range(3)])
+                k_full = 1.0 / (normals[v] @ G @ normals[v])
+                worst_map = max(worst_map, abs(g["felt_stiffness"][v] - k_full) / k_full)
+                checked += 1
+            expect(checked == SAMPLES_PER_REGION,
+                   f"{space['name']}: {checked} random vertices of its region validated in x, y and z")
+            corrected = max(c["contact_rel_error_corrected"] for c in space["validation"])
+            expect(corrected <= 1e-8, f"{space['name']}: corrected felt compliance vs full FE, worst {corrected:.2e} <= 1e-8")
+            expect(worst_map <= 1e-8, f"{space['name']}: felt-stiffness map vs full FE normal stiffness, worst "
+                                      f"{worst_map:.2e} <= 1e-8")
+            pairs = space["two_contact_checks"]
+            worst_pair = max((p["rel_error_corrected"] for p in pairs), default=np.inf)
+            expect(len(pairs) == PAIRS_PER_SPACE and worst_pair <= 1e-8,
+                   f"{space['name']}: {len(pairs)} pairs of neighbours pressed together vs one full solve each, worst "
+                   f"{worst_pair:.2e} <= 1e-8 (up to {1e3 * max(p['distance_m'] for p in pairs):.2f} mm apart)")
+    verify = subprocess.run([args.modal_rt, "verify", "--basis", os.path.join(folder, "small_block.mrt")],
+                            capture_output=True, text=True)
+    print(verify.stdout[-1500:])
+    expect(verify.returncode == 0, "modal-rt verify: the kernel's felt compliance equals every full solve")
+    print(f"{len(failures)} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
