@@ -252,8 +252,11 @@ void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 }
 
 // Coulomb friction on the coupling force a stuck proxy would give, F = K g + D (v_hip - v_surface)
-// (g = x_hip - proxy, the surface as the last tick left it), split along the proxy's normal (F_n =
-// -F.n > 0 presses) and across it (F_t): the proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
+// (g = x_hip - proxy, the surface as the last tick left it), split along the normal of the triangle
+// the proxy walks in (at rest, as every normal of the contact) (F_n = -F.n > 0 presses) and across it (F_t). The face's normal, not
+// the blended vertex normal: near a sharp edge (a rib's top, 1.8 mm wide) the blended normal tilts
+// towards the side face, and its tangential part of a straight press walked the proxy over the edge
+// and down the side. The proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
 // mu_d when sliding); else it slides along F_t until |F_t| = mu_d F_n (a few passes follow the
 // surface's curvature).
 void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
@@ -273,6 +276,7 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     {
       double p[3], n[3], F[3];
       proxy_point(c, p, n);
+      face_normal(c, n);
       for (int d = 0; d < 3; ++d)
         F[d] = K * (in.x[d] - p[d]) + D * relative_velocity[d];
       const double normal = -dot3(F, n);
@@ -299,6 +303,26 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     compose_proxy(c, false);
   if (basis.region[c.vertex] != region_before)
     proxy_region_changed_ = true;
+}
+
+// The unit normal of the proxy's triangle at rest (the normals the contact uses are the rest ones),
+// on the side of the outward (blended) normal `n`, which it replaces; `n` is kept for a degenerate
+// triangle.
+void modalrt_kernel::face_normal(const Contact &c, double n[3]) const noexcept
+{
+  const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
+  const double        *a = &basis.vertices[3 * std::size_t(corners[0])], *b = &basis.vertices[3 * std::size_t(corners[1])],
+               *e = &basis.vertices[3 * std::size_t(corners[2])];
+  double e1[3], e2[3];
+  for (int d = 0; d < 3; ++d)
+    e1[d] = b[d] - a[d], e2[d] = e[d] - a[d];
+  double       face[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const double length  = norm3(face);
+  if (!(length > 0.0))
+    return;
+  const double sign = dot3(face, n) < 0.0 ? -1.0 : 1.0;
+  for (int d = 0; d < 3; ++d)
+    n[d] = sign * face[d] / length;
 }
 
 // Moves the proxy by `step` (body frame, tangential) over the deformed surface: within a triangle
@@ -345,51 +369,48 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
 // Residual compliances, outputs, the passivity observer
 // =================================================================================================
 
-// C_ab between two contacts, at least one a proxy: each contact's load is its corners' patches
-// weighted by the barycentric weights (a snap contact: its vertex, weight 1), so C_ab =
-// sum_i sum_j w_i w_j C(i, j) over corners at candidates, from CROSS_COMPLIANCE; without it, a
-// contact's own C is sum_i w_i C_i (exact at the corners, continuous between) and two contacts do
-// not see each other's correction.
-void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
+void modalrt::blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb,
+                               bool same, double C[9])
 {
   std::fill_n(C, 9, 0.0);
-  if (!def.use_static_correction)
-    return;
-  struct LoadPoint
-  {
-    int    candidate;
-    double weight;
-  };
-  auto load_points = [this](const Contact &c, LoadPoint points[3]) {
-    if (!c.proxy.active)
-      {
-        points[0] = {c.candidate, 1.0};
-        return 1;
-      }
-    const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
-    for (int k = 0; k < 3; ++k)
-      points[k] = {row_of(c.proxy, corners[k]).candidate, c.proxy.weights[k]};
-    return 3;
-  };
-  LoadPoint   pa[3], pb[3];
-  const int   na = load_points(a, pa), nb = load_points(b, pb);
-  const auto &space = basis.spaces[space_];
   const std::size_t n3 = 3 * std::size_t(space.cross_count);
   for (int i = 0; i < na; ++i)
     for (int j = 0; j < nb; ++j)
       {
-        const int ci = pa[i].candidate, cj = pb[j].candidate;
-        const double w = pa[i].weight * pb[j].weight;
+        const int    ci = a[i].candidate, cj = b[j].candidate;
+        const double w  = a[i].weight * b[j].weight;
         if (ci < 0 || cj < 0 || w == 0.0)
           continue;
         if (n3 > 0)
           for (int r = 0; r < 3; ++r)
             for (int s = 0; s < 3; ++s)
               C[3 * r + s] += w * space.cross_compliance[(3 * std::size_t(ci) + r) * n3 + 3 * std::size_t(cj) + s];
-        else if (&a == &b && i == j)
+        else if (same && i == j)
           for (int k = 0; k < 9; ++k)
-            C[k] += pa[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];
+            C[k] += a[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];
       }
+}
+
+// C_ab between two contacts, at least one a proxy (blended_residual of their loads).
+void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
+{
+  std::fill_n(C, 9, 0.0);
+  if (!def.use_static_correction)
+    return;
+  auto load_corners = [this](const Contact &c, LoadCorner corners[3]) {
+    if (!c.proxy.active)
+      {
+        corners[0] = {c.candidate, 1.0};
+        return 1;
+      }
+    const std::uint32_t *vertices = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
+    for (int k = 0; k < 3; ++k)
+      corners[k] = {row_of(c.proxy, vertices[k]).candidate, c.proxy.weights[k]};
+    return 3;
+  };
+  LoadCorner pa[3], pb[3];
+  const int  na = load_corners(a, pa), nb = load_corners(b, pb);
+  blended_residual(basis.spaces[space_], pa, na, pb, nb, &a == &b, C);
 }
 
 void modalrt_kernel::write_proxy_output(const Contact &c, modalrt_hip_output &out) const noexcept
