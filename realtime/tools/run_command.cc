@@ -235,11 +235,11 @@ namespace modalrt_tool
     // (1000 N/m, 2 N s/m) within the device's limits, and softened at low rates so that the
     // sampled-passivity condition K T / 2 < b + D holds with a 10 % margin.
     modalrt_kernel_def kernel_def(const RunOptions &o, const DeviceSpec &spec, const modalrt_basis *basis,
-                                  std::uint32_t hips)
+                                  const Session &session)
     {
       modalrt_kernel_def def      = modalrt_kernel_default_def();
       def.time_step               = 1.0 / o.rate;
-      def.hip_capacity            = hips;
+      def.hip_capacity            = session.hip_count;
       def.device.max_force        = spec.max_force;
       def.device.max_stiffness    = spec.max_stiffness;
       def.device.max_damping      = spec.max_damping;
@@ -248,6 +248,12 @@ namespace modalrt_tool
       const double passive        = 0.9 * 2.0 * (spec.physical_damping + def.coupling_damping) / def.time_step;
       def.coupling_stiffness      = std::min({def.coupling_stiffness, spec.max_stiffness, passive});
       def.fail_safe_hold          = o.hold;
+      if (session.proxy) // the session's `proxy` row: sliding contacts
+        {
+          def.contact_mode     = MODALRT_CONTACT_PROXY;
+          def.static_friction  = session.static_friction;
+          def.dynamic_friction = session.dynamic_friction;
+        }
       def.fail_safe_ramp          = o.ramp;
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
       return def;
@@ -281,25 +287,27 @@ namespace modalrt_tool
     }
 
     bool write_outputs(const RunOptions &o, const RunReport &report, const HapticResult &haptic,
-                       const DisplayResult &display, std::uint32_t hips, std::string &error)
+                       const DisplayResult &display, const modalrt_basis *basis, std::uint32_t hips, std::string &error)
     {
-      return write_trace(o.output_dir + "/trace.csv", haptic, hips, error) &&
+      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, error) &&
              write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, error) &&
+             write_slides(o.output_dir + "/slides.csv", haptic.slides, report.space_names, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
              write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
     }
 
-    // force_displacement.png from trace.csv and presses.csv. Optional: without Python and matplotlib
-    // (or with --no-plot) the run still succeeds, and one line says how to draw it later. A stale
-    // picture of an earlier run is removed first.
-    bool draw_plot(const RunOptions &o)
+    // force_displacement.png from trace.csv and presses.csv, and slide_stiffness.png from trace.csv and
+    // slides.csv when the run slid. Optional: without Python and matplotlib (or with --no-plot) the
+    // run still succeeds, and one line says how to draw it later. A stale picture of an earlier run is
+    // removed first.
+    bool draw_plot(const RunOptions &o, const std::string &script, const std::string &picture, bool wanted)
     {
       std::error_code code;
-      std::filesystem::remove(o.output_dir + "/force_displacement.png", code);
-      if (!o.plot)
+      std::filesystem::remove(o.output_dir + "/" + picture, code);
+      if (!o.plot || !wanted)
         return false;
       std::string notice;
-      const bool  written = plot_force_displacement(o.output_dir, notice);
+      const bool  written = plot_run(script, picture, o.output_dir, notice);
       if (!written)
         std::fprintf(stderr, "modal-rt: %s\n", notice.c_str());
       return written;
@@ -379,7 +387,7 @@ namespace modalrt_tool
           return false;
         }
       session.hip_count = live.device->hip_count();
-      live.def          = kernel_def(o, live.device->spec(), live.basis, session.hip_count);
+      live.def          = kernel_def(o, live.device->spec(), live.basis, session);
       if (modalrt_kernel_create(live.basis, &live.def, &live.kernel) != MODALRT_OK)
         {
           fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
@@ -425,6 +433,7 @@ namespace modalrt_tool
       report.coupling_damping   = live.def.coupling_damping;
       report.snap_distance      = live.def.snap_distance;
       report.device_counters    = live.device->counters();
+      report.space_names        = space_names(live.basis);
       return report;
     }
 
@@ -435,9 +444,10 @@ namespace modalrt_tool
       RunReport report = make_report(o, session, duration, live, haptic, display);
       report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance);
       std::string error;
-      if (!write_outputs(o, report, haptic, display, session.hip_count, error))
+      if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))
         return fail(error);
-      report.plot_written = draw_plot(o);
+      report.plot_written       = draw_plot(o, "plot_force_displacement.py", "force_displacement.png", true);
+      report.slide_plot_written = draw_plot(o, "plot_slide_stiffness.py", "slide_stiffness.png", !haptic.slides.empty());
       if (!o.quiet)
         print_summary(report);
       if (!display.error.empty())
