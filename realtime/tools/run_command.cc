@@ -44,6 +44,9 @@ namespace modalrt_tool
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
       bool        help          = false;
       UdpSettings udp;                   // serve only
+      bool        proxy         = false; // serve: --contact proxy (run: the session's `proxy` row)
+      double      static_friction  = modalrt_kernel_default_def().static_friction;  // serve: --friction
+      double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
       WatchStarter watch        = nullptr; // what serves --view (null: built without the view)
       const DeviceSession *app  = nullptr; // an app's own device and view: no session file, no outputs
@@ -115,6 +118,22 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
       {"--peer-timeout", for_serve, "S", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
+      {"--contact", for_serve, "snap|proxy", "snap", // run: the session's `proxy` row
+       [](RunOptions &o, const std::string &n, const char *v) {
+         const std::string text = v;
+         if (text != "snap" && text != "proxy")
+           throw UsageError{n + " '" + text + "' is not snap or proxy"};
+         o.proxy = text == "proxy";
+       }},
+      {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",
+       [](RunOptions &o, const std::string &n, const char *v) {
+         const std::string text = v;
+         const std::size_t at = text.find(',');
+         if (at == std::string::npos)
+           throw UsageError{n + ": '" + text + "' is not MU_S,MU_D"};
+         o.static_friction  = number_option(n, text.substr(0, at).c_str(), 0.0, 10.0, "");
+         o.dynamic_friction = number_option(n, text.substr(at + 1).c_str(), 0.0, o.static_friction, "(at most MU_S)");
+       }},
       {"--rate", for_both, "HZ", "1000",
        [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
       {"--duration", for_both, "S", nullptr,
@@ -322,6 +341,9 @@ namespace modalrt_tool
           session.path      = o.serve ? "(udp)" : "(" + o.command + ")";
           session.hip_count = o.serve ? o.udp.hips : 0; // an app's: its device's, once made
           session.end_time  = o.duration > 0.0 ? o.duration : o.serve ? default_serve_duration : 0.0;
+          session.proxy            = o.proxy; // serve's --contact and --friction: what run's `proxy` row sets
+          session.static_friction  = o.static_friction;
+          session.dynamic_friction = o.dynamic_friction;
           return true;
         }
       try

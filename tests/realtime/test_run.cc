@@ -602,6 +602,10 @@ time,hip,event,x,y,z
       {serve + " --hold -1", {"--hold -1", "out of range"}},
       {serve + " --ramp 0", {"--ramp 0", "out of range"}},
       {serve + " --peer-timeout x", {"--peer-timeout", "'x'"}},
+      {serve + " --contact glide", {"--contact", "'glide'", "snap or proxy"}},
+      {serve + " --friction 0.2,0.3", {"--friction 0.3", "out of range", "at most MU_S"}},
+      {serve + " --friction 0.3", {"--friction", "MU_S,MU_D"}},
+      {"run --basis x.mrt --session s.csv --output-dir x --contact proxy", {"unknown option '--contact'"}},
       {"serve --output-dir x", {"missing --basis"}},
       {"frobnicate", {"usage"}},
     };
