@@ -44,7 +44,7 @@ namespace modalrt_tool
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
       bool        help          = false;
       UdpSettings udp;                   // serve only
-      bool        proxy         = false; // serve: --contact proxy (run: the session's `proxy` row)
+      bool        proxy         = false; // serve: --contact proxy, an app's session (run: the session's `proxy` row)
       double      static_friction  = modalrt_kernel_default_def().static_friction;  // serve: --friction
       double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
@@ -127,12 +127,9 @@ namespace modalrt_tool
        }},
       {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",
        [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         const std::size_t at = text.find(',');
-         if (at == std::string::npos)
-           throw UsageError{n + ": '" + text + "' is not MU_S,MU_D"};
-         o.static_friction  = number_option(n, text.substr(0, at).c_str(), 0.0, 10.0, "");
-         o.dynamic_friction = number_option(n, text.substr(at + 1).c_str(), 0.0, o.static_friction, "(at most MU_S)");
+         std::string error;
+         if (!parse_friction(v, o.static_friction, o.dynamic_friction, error))
+           throw UsageError{n + " " + error};
        }},
       {"--rate", for_both, "HZ", "1000",
        [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
@@ -421,7 +418,8 @@ namespace modalrt_tool
     // --view P (the app's watch-only view), or the app's own view of its device.
     bool start_view(const RunOptions &o, Live &live, std::string &error)
     {
-      const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command};
+      const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command,
+                                live.def.contact_mode == MODALRT_CONTACT_PROXY};
       if (o.app)
         live.view = o.app->start_view(context, error);
       else if (o.view_port < 0)
@@ -539,6 +537,22 @@ namespace modalrt_tool
     }
   } // namespace
 
+  bool parse_friction(const std::string &text, double &static_friction, double &dynamic_friction, std::string &error)
+  {
+    const std::size_t at = text.find(',');
+    char             *end_s = nullptr, *end_d = nullptr;
+    const std::string mu_s = text.substr(0, at), mu_d = at == std::string::npos ? "" : text.substr(at + 1);
+    const double      s = std::strtod(mu_s.c_str(), &end_s), d = std::strtod(mu_d.c_str(), &end_d);
+    if (at == std::string::npos || mu_s.empty() || mu_d.empty() || *end_s != '\0' || *end_d != '\0' ||
+        !std::isfinite(s) || !std::isfinite(d))
+      error = "'" + text + "' is not MU_S,MU_D (two numbers)";
+    else if (!(d >= 0.0 && d <= s && s <= 10.0))
+      error = "'" + text + "': needs 0 <= MU_D <= MU_S <= 10";
+    else
+      static_friction = s, dynamic_friction = d;
+    return error.empty();
+  }
+
   std::string run_usage() { return usage_text(false); }
   std::string serve_usage() { return usage_text(true); }
 
@@ -574,6 +588,9 @@ namespace modalrt_tool
     o.rate       = session.rate;
     o.duration   = session.duration;
     o.impedance  = session.impedance;
+    o.proxy            = session.proxy;
+    o.static_friction  = session.static_friction;
+    o.dynamic_friction = session.dynamic_friction;
     o.frame_rate = 0.0;
     o.quiet      = true;
     return execute(o);

@@ -603,7 +603,7 @@ time,hip,event,x,y,z
       {serve + " --ramp 0", {"--ramp 0", "out of range"}},
       {serve + " --peer-timeout x", {"--peer-timeout", "'x'"}},
       {serve + " --contact glide", {"--contact", "'glide'", "snap or proxy"}},
-      {serve + " --friction 0.2,0.3", {"--friction 0.3", "out of range", "at most MU_S"}},
+      {serve + " --friction 0.2,0.3", {"--friction", "'0.2,0.3'", "0 <= MU_D <= MU_S <= 10"}},
       {serve + " --friction 0.3", {"--friction", "MU_S,MU_D"}},
       {"run --basis x.mrt --session s.csv --output-dir x --contact proxy", {"unknown option '--contact'"}},
       {"serve --output-dir x", {"missing --basis"}},
@@ -632,6 +632,8 @@ time,hip,event,x,y,z
 #if MODAL_RT_HAS_VIEW
     ENSURE(tool("view --help", out) == 0 && contains(out, "usage") && contains(out, "--frame-rate HZ (60)"));
     ENSURE(tool("view --basis x.mrt --frobnicate", out) == 2 && contains(out, "unknown option '--frobnicate'"));
+    ENSURE(tool("view --basis x.mrt --contact glide", out) == 2 && contains(out, "'glide' is not snap or proxy"));
+    ENSURE(tool("view --basis x.mrt --friction 0.1,0.2", out) == 2 && contains(out, "0 <= MU_D <= MU_S <= 10"));
 #else
     ENSURE(tool("view --help", out) == 1 && contains(out, "built without the view"));
 #endif
