@@ -12,10 +12,9 @@ changes. `modal-rt run` calls it at the end of a run that slid. Exit status: 0 w
 3 matplotlib is missing (Debian: apt-get install python3-matplotlib).
 """
 import math
-import os
 import sys
 
-from plot_force_displacement import read_csv
+from plot_force_displacement import begin, save_figure
 
 MAX_PANELS = 4
 
@@ -73,24 +72,10 @@ def draw_slide(ax, ax_force, trace, slide):
 
 
 def main(argv):
-    if len(argv) != 2:
-        print("usage: /usr/bin/python3 scripts/plot_slide_stiffness.py OUTPUT_DIR", file=sys.stderr)
-        return 1
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("plot_slide_stiffness.py: matplotlib is missing (apt-get install python3-matplotlib)", file=sys.stderr)
-        return 3
-
-    directory = argv[1]
-    try:
-        slides = read_csv(os.path.join(directory, "slides.csv"))
-        trace = read_csv(os.path.join(directory, "trace.csv"))
-    except OSError as e:
-        print("plot_slide_stiffness.py: %s" % e, file=sys.stderr)
-        return 1
+    started = begin(argv, "plot_slide_stiffness.py", ["slides.csv", "trace.csv"])
+    if isinstance(started, int):
+        return started
+    plt, directory, (slides, trace) = started
     shown = slides[:MAX_PANELS]
     columns = max(1, len(shown))
     fig, axes = plt.subplots(2, columns, figsize=(6.4 * columns, 7.0), squeeze=False,
@@ -104,10 +89,7 @@ def main(argv):
         title += " (first %d of %d, all in slides.csv)" % (MAX_PANELS, len(slides))
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
-    # Written then renamed, as every output of modal-rt run: a reader never sees half a file.
-    path = os.path.join(directory, "slide_stiffness.png")
-    fig.savefig(path + ".tmp", format="png", dpi=110)
-    os.replace(path + ".tmp", path)
+    save_figure(fig, directory, "slide_stiffness.png")
     return 0
 
 

@@ -82,6 +82,15 @@ namespace modalrt_tool
       return std::uint32_t(value);
     }
 
+    // A value that is one of two words: true for the first; otherwise a usage error naming both.
+    bool first_of_two(const std::string &option, const char *value, const char *first, const char *second)
+    {
+      const std::string text = value;
+      if (text != first && text != second)
+        throw UsageError{option + " '" + text + "' is not " + first + " or " + second};
+      return text == first;
+    }
+
     // Every option of `run` and `serve` in one table: its name, the commands that take it, its value
     // (null for a flag), its default as the usage prints it, and what it sets. A new option is one
     // row here.
@@ -119,12 +128,7 @@ namespace modalrt_tool
       {"--peer-timeout", for_serve, "S", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
       {"--contact", for_serve, "snap|proxy", "snap", // run: the session's `proxy` row
-       [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "snap" && text != "proxy")
-           throw UsageError{n + " '" + text + "' is not snap or proxy"};
-         o.proxy = text == "proxy";
-       }},
+       [](RunOptions &o, const std::string &n, const char *v) { o.proxy = !first_of_two(n, v, "snap", "proxy"); }},
       {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",
        [](RunOptions &o, const std::string &n, const char *v) {
          std::string error;
@@ -136,18 +140,10 @@ namespace modalrt_tool
       {"--duration", for_both, "S", nullptr,
        [](RunOptions &o, const std::string &n, const char *v) { o.duration = number_option(n, v, 1e-3, 1e6, "s"); }},
       {"--mode", for_both, "impedance|admittance", "impedance",
-       [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "impedance" && text != "admittance")
-           throw UsageError{n + " '" + text + "' is not impedance or admittance"};
-         o.impedance = text == "impedance";
-       }},
+       [](RunOptions &o, const std::string &n, const char *v) { o.impedance = first_of_two(n, v, "impedance", "admittance"); }},
       {"--device", for_run, "hand|probe", "hand",
        [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "hand" && text != "probe")
-           throw UsageError{n + " '" + text + "' is not hand or probe"};
-         o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
+         o.device = first_of_two(n, v, "hand", "probe") ? DeviceKind::hand : DeviceKind::probe;
        }},
       {"--hold", for_both, "S", "0.5",
        [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
