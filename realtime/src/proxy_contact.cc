@@ -219,22 +219,27 @@ void modalrt_kernel::compose_proxy(Contact &c, bool reload) noexcept
   contacts_changed_ = true; // the residual compliances and the coupling follow the load point
 }
 
-// Where the proxy is on the deformed surface (its contact's correction included) and the blended
-// outward normal there (rest normals: smooth across edges).
+// Where the proxy is on the deformed surface (its contact's correction included) and, unless
+// `normal` is null, the blended outward normal there (rest normals: smooth across edges).
 void modalrt_kernel::proxy_point(const Contact &c, double point[3], double normal[3]) const noexcept
 {
   const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
   for (int d = 0; d < 3; ++d)
-    point[d] = c.correction[d], normal[d] = 0.0;
+    point[d] = c.correction[d];
   for (int k = 0; k < 3; ++k)
     {
       const ProxyRow &row = row_of(c.proxy, corners[k]);
       const double    w   = c.proxy.weights[k];
       for (int d = 0; d < 3; ++d)
-        {
-          point[d] += w * (basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d]);
-          normal[d] += w * basis.normals[3 * std::size_t(corners[k]) + d];
-        }
+        point[d] += w * (basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d]);
+    }
+  if (!normal)
+    return;
+  for (int d = 0; d < 3; ++d)
+    {
+      normal[d] = 0.0;
+      for (int k = 0; k < 3; ++k)
+        normal[d] += c.proxy.weights[k] * basis.normals[3 * std::size_t(corners[k]) + d];
     }
   const double length = norm3(normal);
   for (int d = 0; d < 3; ++d)
@@ -275,7 +280,7 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
   for (int pass = 0; pass < proxy_passes; ++pass)
     {
       double p[3], n[3], F[3];
-      proxy_point(c, p, n);
+      proxy_point(c, p, nullptr);
       face_normal(c, n);
       for (int d = 0; d < 3; ++d)
         F[d] = K * (in.x[d] - p[d]) + D * relative_velocity[d];
@@ -305,24 +310,22 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     proxy_region_changed_ = true;
 }
 
-// The unit normal of the proxy's triangle at rest (the normals the contact uses are the rest ones),
-// on the side of the outward (blended) normal `n`, which it replaces; `n` is kept for a degenerate
-// triangle.
+// The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest
+// ones): its edges' cross product, on the side of its first corner's vertex normal (the display
+// surface's winding need not be outward). A degenerate triangle gives that vertex normal.
 void modalrt_kernel::face_normal(const Contact &c, double n[3]) const noexcept
 {
   const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
   const double        *a = &basis.vertices[3 * std::size_t(corners[0])], *b = &basis.vertices[3 * std::size_t(corners[1])],
-               *e = &basis.vertices[3 * std::size_t(corners[2])];
+               *e = &basis.vertices[3 * std::size_t(corners[2])], *outward = &basis.normals[3 * std::size_t(corners[0])];
   double e1[3], e2[3];
   for (int d = 0; d < 3; ++d)
     e1[d] = b[d] - a[d], e2[d] = e[d] - a[d];
   double       face[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
   const double length  = norm3(face);
-  if (!(length > 0.0))
-    return;
-  const double sign = dot3(face, n) < 0.0 ? -1.0 : 1.0;
+  const double sign    = dot3(face, outward) < 0.0 ? -1.0 : 1.0;
   for (int d = 0; d < 3; ++d)
-    n[d] = sign * face[d] / length;
+    n[d] = length > 0.0 ? sign * face[d] / length : outward[d];
 }
 
 // Moves the proxy by `step` (body frame, tangential) over the deformed surface: within a triangle
