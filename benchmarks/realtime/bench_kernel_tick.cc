@@ -7,7 +7,8 @@
 // the ticks where a contact starts and the modal space switches (row build, transfer, coupling);
 // "slide" and "fixed" rows: one HIP 1 mm deep moving to and fro over the plate at 0.1 m/s, with a
 // sliding proxy contact (mu_s 0.3, mu_d 0.2) or with the fixed (snap) contact it starts with, the two
-// kernels ticked alternately in one loop (the machine's load falls on both alike).
+// kernels ticked alternately in one loop (the machine's load falls on both alike); a comment line
+// before them gives each one's passivity observer at the end and its lowest value.
 //
 // Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE] [--slide-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
@@ -186,6 +187,7 @@ namespace
     in.position[2] = info.bounds_max[2] - 0.001;
     const long warmup = 10000;
     std::vector<std::uint32_t> ns[2];
+    double                     lowest[2] = {0.0, 0.0}; // [J] the passivity observer's lowest value
     for (auto &v : ns)
       v.resize(std::size_t(o.ticks));
     for (long n = -warmup; n < o.ticks; ++n)
@@ -202,10 +204,23 @@ namespace
             if (n >= 0)
               ns[which][std::size_t(n)] =
                 std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+            modalrt_kernel_stats stats;
+            modalrt_kernel_get_stats(kernels[which], &stats);
+            lowest[which] = std::min(lowest[which], stats.passivity_energy);
           }
       }
     if (!out[0].in_contact || !out[1].in_contact)
       std::fprintf(stderr, "bench-kernel-tick: a sliding or fixed HIP lost its contact\n");
+    // The passivity observer of each (Hannaford & Ryu: the work the moving HIP did on the kernel).
+    modalrt_kernel_stats stats[2];
+    for (int k = 0; k < 2; ++k)
+      modalrt_kernel_get_stats(kernels[k], &stats[k]);
+    modalrt_space_info space;
+    modalrt_basis_get_space_info(basis, 0, &space);
+    std::printf("# slide r=%u: passivity observer over %ld ticks: fixed %+.6g J (lowest %+.3g J), sliding %+.6g J "
+                "(lowest %+.3g J)\n",
+                space.mode_count, o.ticks + warmup, stats[0].passivity_energy, lowest[0], stats[1].passivity_energy,
+                lowest[1]);
     for (modalrt_kernel *k : kernels)
       modalrt_kernel_destroy(k);
     return {percentiles(ns[0]), percentiles(ns[1])};
