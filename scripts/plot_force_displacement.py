@@ -20,6 +20,35 @@ import sys
 MAX_PANELS = 6
 
 
+def begin(argv, script, tables):
+    """What a plot script of a modal-rt run starts with: from its command line (OUTPUT_DIR), matplotlib's
+    pyplot on the Agg backend, the directory and the CSV `tables` read from it; or the exit status after
+    a message naming `script` (1: bad usage or input, 3: matplotlib is missing)."""
+    if len(argv) != 2:
+        print("usage: /usr/bin/python3 scripts/%s OUTPUT_DIR" % script, file=sys.stderr)
+        return 1
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("%s: matplotlib is missing (apt-get install python3-matplotlib)" % script, file=sys.stderr)
+        return 3
+    directory = argv[1]
+    try:
+        return plt, directory, [read_csv(os.path.join(directory, name)) for name in tables]
+    except OSError as e:
+        print("%s: %s" % (script, e), file=sys.stderr)
+        return 1
+
+
+def save_figure(fig, directory, name):
+    """Written then renamed, as every output of modal-rt run: a reader never sees half a file."""
+    path = os.path.join(directory, name)
+    fig.savefig(path + ".tmp", format="png", dpi=110)
+    os.replace(path + ".tmp", path)
+
+
 def read_csv(path):
     """Rows of a CSV file with '#' comment lines, as dicts keyed by the header."""
     with open(path, newline="") as f:
@@ -118,26 +147,10 @@ def run_title(directory, presses):
 
 
 def main(argv):
-    if len(argv) != 2:
-        print("usage: /usr/bin/python3 scripts/plot_force_displacement.py OUTPUT_DIR", file=sys.stderr)
-        return 1
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("plot_force_displacement.py: matplotlib is missing (apt-get install python3-matplotlib)",
-              file=sys.stderr)
-        return 3
-
-    directory = argv[1]
-    try:
-        presses = read_csv(os.path.join(directory, "presses.csv"))
-        trace = read_csv(os.path.join(directory, "trace.csv"))
-    except OSError as e:
-        print("plot_force_displacement.py: %s" % e, file=sys.stderr)
-        return 1
-
+    started = begin(argv, "plot_force_displacement.py", ["presses.csv", "trace.csv"])
+    if isinstance(started, int):
+        return started
+    plt, directory, (presses, trace) = started
     shown = presses[:MAX_PANELS]
     columns = {0: 1, 1: 1, 2: 2, 4: 2}.get(len(shown), 3)
     rows = max(1, math.ceil(len(shown) / columns))
@@ -151,10 +164,7 @@ def main(argv):
     fig.suptitle(run_title(directory, presses), fontsize=11)
     fig.tight_layout()
 
-    # Written then renamed, as every output of modal-rt run: a reader never sees half a file.
-    path = os.path.join(directory, "force_displacement.png")
-    fig.savefig(path + ".tmp", format="png", dpi=110)
-    os.replace(path + ".tmp", path)
+    save_figure(fig, directory, "force_displacement.png")
     return 0
 
 

@@ -1,5 +1,7 @@
 #include "frame_builder.h"
 
+#include "vertex_info.h" // realtime/tools
+
 #include "view_server.h"
 
 #include <algorithm>
@@ -92,6 +94,8 @@ namespace modalrt_view
         const std::uint32_t       v   = o.in_contact ? o.active_vertex : MODALRT_NONE;
         std::copy_n(o.force, 3, hip.force);
         hip.in_contact = o.in_contact;
+        hip.flags      = o.flags;
+        std::copy_n(o.position, 3, hip.position);
         if (v == MODALRT_NONE)
           {
             hip.vertex = MODALRT_NONE;
@@ -103,22 +107,22 @@ namespace modalrt_view
         modalrt_display_reconstruct_f64(snapshot, v, v + 1, MODALRT_DISPLAY_DISPLACEMENTS, hip.displacement);
         for (int d = 0; d < 3; ++d)
           hip.felt[d] = o.position[d] - vertices_[3 * std::size_t(v) + d];
-        if (v != hip.vertex || info_.space != hip.space)
+        const bool moved = o.proxy_triangle != hip.triangle || !std::equal(hip.weights, hip.weights + 3, o.proxy_weights);
+        if (v != hip.vertex || info_.space != hip.space || moved)
           {
-            double G[9];
-            hip.static_stiffness = 0.0;
-            hip.full_fe          = 0;
-            if (modalrt_basis_contact_compliance(basis_, info_.space, v, G, &hip.full_fe) == MODALRT_OK)
-              {
-                const double *n   = &normals_[3 * std::size_t(v)];
-                double        nGn = 0.0;
-                for (int a = 0; a < 3; ++a)
-                  for (int b = 0; b < 3; ++b)
-                    nGn += n[a] * G[3 * a + b] * n[b];
-                hip.static_stiffness = nGn > 0.0 ? 1.0 / nGn : 0.0;
-              }
-            hip.vertex = v;
-            hip.space  = info_.space;
+            double rest[3], n[3], compliance = 0.0;
+            bool   full_fe = false;
+            const int status =
+              o.proxy_triangle != MODALRT_NONE
+                ? modalrt_tool::point_normal_compliance(basis_, info_.space, o.proxy_triangle, o.proxy_weights, rest, n,
+                                                        compliance, full_fe)
+                : modalrt_tool::normal_compliance(basis_, info_.space, v, compliance, full_fe);
+            hip.static_stiffness = status == MODALRT_OK && compliance > 0.0 ? 1.0 / compliance : 0.0;
+            hip.full_fe          = full_fe ? 1u : 0u;
+            hip.vertex   = v;
+            hip.space    = info_.space;
+            hip.triangle = o.proxy_triangle;
+            std::copy_n(o.proxy_weights, 3, hip.weights);
           }
       }
   }
@@ -157,7 +161,7 @@ namespace modalrt_view
         u32(hip.in_contact);
         u32(hip.vertex);
         u32(hip.full_fe);
-        u32(0);
+        u32(hip.flags);
         put(hip.force, 24);
         put(hip.displacement, 24);
         put(hip.felt, 24);
@@ -184,7 +188,8 @@ namespace modalrt_view
           << hip.force[0] << "," << hip.force[1] << "," << hip.force[2] << "],\"displacement\":["
           << hip.displacement[0] << "," << hip.displacement[1] << "," << hip.displacement[2] << "],\"felt\":["
           << hip.felt[0] << "," << hip.felt[1] << "," << hip.felt[2] << "],\"static_stiffness_n_per_m\":"
-          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0) << "}";
+          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0) << ",\"flags\":" << hip.flags
+          << ",\"position\":[" << hip.position[0] << "," << hip.position[1] << "," << hip.position[2] << "]}";
       }
     j << "]}";
     return j.str();

@@ -68,9 +68,12 @@ namespace modalrt_view
   private:
     struct Hip
     {
-      std::uint32_t in_contact = 0, vertex = MODALRT_NONE, full_fe = 0, space = MODALRT_NONE;
+      std::uint32_t in_contact = 0, vertex = MODALRT_NONE, full_fe = 0, space = MODALRT_NONE, flags = 0;
+      std::uint32_t triangle = MODALRT_NONE; // a proxy's triangle and weights, of static_stiffness
+      double        weights[3] = {};
       double        force[3] = {}, displacement[3] = {}, felt[3] = {};
-      double        static_stiffness = 0.0; // [N/m] 1 / (n^T G n) along the normal
+      double        position[3] = {}; // [m] the output position: the felt point (a proxy's), else the HIP
+      double        static_stiffness = 0.0; // [N/m] 1 / (n^T G n) along the normal (a proxy: at its point)
     };
 
     const modalrt_basis       *basis_;

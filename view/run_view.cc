@@ -128,7 +128,8 @@ namespace modalrt_view
       std::string session_json() override
       {
         return "{\"driver\":\"" + (mouse_ ? std::string("mouse") : context_.command) +
-               "\",\"watch_only\":" + (mouse_ ? "false" : "true") + ",\"hips\":" + std::to_string(context_.hips) + "}";
+               "\",\"watch_only\":" + (mouse_ ? "false" : "true") + ",\"hips\":" + std::to_string(context_.hips) +
+               ",\"contact\":\"" + (context_.proxy ? "proxy" : "snap") + "\"}";
       }
 
     private:

@@ -22,6 +22,9 @@ namespace modalrt_view
       double        rate       = 1000.0; // [Hz]
       double        frame_rate = 60.0;   // [Hz] frames pushed to each browser
       double        duration   = 0.0;    // [s] 0: until SIGINT/SIGTERM
+      bool          proxy      = false;  // --contact proxy: sliding contacts, the mouse drags them (impedance)
+      double        static_friction  = modalrt_kernel_default_def().static_friction;
+      double        dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
       bool          help       = false;
     };
 
@@ -55,7 +58,7 @@ namespace modalrt_view
               return o;
             }
           if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
-              option != "--frame-rate" && option != "--duration")
+              option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction")
             throw UsageError{"unknown option '" + option + "'"};
           if (i + 1 >= argc)
             throw UsageError{option + " needs a value"};
@@ -70,6 +73,18 @@ namespace modalrt_view
             o.rate = number(option, value, 100, 20000);
           else if (option == "--frame-rate")
             o.frame_rate = number(option, value, 1, 240);
+          else if (option == "--contact")
+            {
+              if (std::string(value) != "snap" && std::string(value) != "proxy")
+                throw UsageError{option + " '" + value + "' is not snap or proxy"};
+              o.proxy = std::string(value) == "proxy";
+            }
+          else if (option == "--friction")
+            {
+              std::string error;
+              if (!modalrt_tool::parse_friction(value, o.static_friction, o.dynamic_friction, error))
+                throw UsageError{option + " " + error};
+            }
           else
             o.duration = number(option, value, 0, 1e7);
         }
@@ -82,7 +97,8 @@ namespace modalrt_view
   std::string view_usage()
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
-           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--help]\n";
+           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
+           "                     [--friction MU_S,MU_D (0.3,0.2)] [--help]\n";
   }
 
   int view_command(int argc, char **argv)
@@ -108,8 +124,12 @@ namespace modalrt_view
     session.rate         = options.rate;
     session.duration     = options.duration;
     session.display_rate = options.frame_rate; // a frame per snapshot read
-    session.make_device  = [&mouse](const modalrt_basis *basis) {
-      auto device = std::make_unique<MouseDevice>(basis);
+    session.impedance        = options.proxy; // a proxy slides on impedance ticks only
+    session.proxy            = options.proxy;
+    session.static_friction  = options.static_friction;
+    session.dynamic_friction = options.dynamic_friction;
+    session.make_device  = [&mouse, &options](const modalrt_basis *basis) {
+      auto device = std::make_unique<MouseDevice>(basis, options.proxy);
       mouse       = device.get();
       return device;
     };

@@ -27,30 +27,62 @@ namespace
     return MODALRT_ERROR_INVALID_ARGUMENT;
   }
 
-  // G += sum_i b_i b_i^T / lambda_i for the 3 x r row block b (row-major) of a contact.
-  void add_modal_compliance(const double *B, const double *lambda, std::uint32_t r, double G[9])
+  // The static compliance of a load spread over display vertices with weights: B Lambda^-1 B^T with
+  // B = sum_k w_k B_k (a candidate's stored block, else its patch row: the kernel's contact rows),
+  // taken in pieces of `piece` modes so that no 3 x r buffer is allocated, plus the residual the
+  // kernel gives that load (blended_residual). full_fe: every weighted corner a candidate, and the
+  // cross compliance stored or a single weighted corner.
+  int blended_compliance(const char *function, const modalrt_basis &basis, const ModalSpace &space,
+                         const std::uint32_t *vertices, const double *weights, int count, double G[9],
+                         std::uint32_t *full_fe)
   {
-    for (std::uint32_t i = 0; i < r; ++i)
-      for (int c = 0; c < 3; ++c)
-        for (int d = 0; d < 3; ++d)
-          G[3 * c + d] += B[c * r + i] * B[d * r + i] / lambda[i];
-  }
-
-  // Same for a vertex without a stored block: the kernel's contact row (patch_row), taken in pieces
-  // of `piece` modes so that no 3 x r buffer is allocated.
-  void add_patch_compliance(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t vertex, double G[9])
-  {
-    constexpr std::uint32_t piece = 32;
-    double                  B[3 * piece];
-    for (std::uint32_t begin = 0; begin < space.mode_count; begin += piece)
+    // Eigenvalues are ascending: one check covers every mode.
+    if (space.mode_count > 0 && !(space.eigenvalues.front() > 0.0))
       {
-        const std::uint32_t end = std::min(space.mode_count, begin + piece), n = end - begin;
-        patch_row(basis, space, vertex, begin, end, B);
+        set_last_error((std::string(function) + ": the space has a mode with omega = 0: no static compliance").c_str());
+        return MODALRT_ERROR_VALUE;
+      }
+    constexpr std::uint32_t piece = 32;
+    const std::uint32_t     r     = space.mode_count;
+    LoadCorner              corners[3];
+    int                     weighted = 0;
+    bool                    all_candidates = true;
+    for (int k = 0; k < count; ++k)
+      {
+        corners[k] = {space.candidate_index(vertices[k]), weights[k]};
+        if (weights[k] > 0.0)
+          ++weighted, all_candidates = all_candidates && corners[k].candidate >= 0;
+      }
+    std::fill_n(G, 9, 0.0);
+    double B[3 * piece], row[3 * piece];
+    for (std::uint32_t begin = 0; begin < r; begin += piece)
+      {
+        const std::uint32_t end = std::min(r, begin + piece), n = end - begin;
+        std::fill_n(B, 3 * n, 0.0);
+        for (int k = 0; k < count; ++k)
+          {
+            if (weights[k] == 0.0)
+              continue;
+            if (corners[k].candidate >= 0)
+              for (int c = 0; c < 3; ++c)
+                std::copy_n(&space.candidate_modes[(3 * std::size_t(corners[k].candidate) + c) * r + begin], n, &row[c * n]);
+            else
+              patch_row(basis, space, vertices[k], begin, end, row);
+            for (std::uint32_t i = 0; i < 3 * n; ++i)
+              B[i] += weights[k] * row[i];
+          }
         for (std::uint32_t i = 0; i < n; ++i)
           for (int c = 0; c < 3; ++c)
             for (int d = 0; d < 3; ++d)
               G[3 * c + d] += B[c * n + i] * B[d * n + i] / space.eigenvalues[begin + i];
       }
+    double C[9];
+    blended_residual(space, corners, count, corners, count, true, C);
+    for (int k = 0; k < 9; ++k)
+      G[k] += C[k];
+    if (full_fe)
+      *full_fe = all_candidates && (weighted == 1 || space.cross_count > 0) ? 1u : 0u;
+    return MODALRT_OK;
   }
 
   int null_kernel(const char *function)
@@ -194,27 +226,27 @@ int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space,
 {
   if (!basis || !compliance || space >= basis->space_count() || vertex >= basis->vertex_count)
     return invalid("modalrt_basis_contact_compliance: null argument, space or vertex out of range");
-  const ModalSpace &s = basis->spaces[space];
-  // Eigenvalues are ascending: one check covers every mode.
-  if (s.mode_count > 0 && !(s.eigenvalues.front() > 0.0))
+  const double weight = 1.0;
+  return blended_compliance("modalrt_basis_contact_compliance", *basis, basis->spaces[space], &vertex, &weight, 1,
+                            compliance, full_fe);
+}
+
+int modalrt_basis_point_compliance(const modalrt_basis *basis, uint32_t space, uint32_t triangle, const double weights[3],
+                                   double compliance[9], uint32_t *full_fe)
+{
+  if (!basis || !weights || !compliance || space >= basis->space_count() || triangle >= basis->triangle_count)
+    return invalid("modalrt_basis_point_compliance: null argument, space or triangle out of range");
+  double sum = 0.0;
+  for (int k = 0; k < 3; ++k)
     {
-      set_last_error("modalrt_basis_contact_compliance: the space has a mode with omega = 0: no static compliance");
-      return MODALRT_ERROR_VALUE;
+      if (!(weights[k] >= 0.0 && weights[k] <= 1.0))
+        return invalid("modalrt_basis_point_compliance: a weight is negative, above 1 or not finite");
+      sum += weights[k];
     }
-  std::fill_n(compliance, 9, 0.0);
-  const int candidate = s.candidate_index(vertex);
-  if (candidate >= 0)
-    {
-      add_modal_compliance(&s.candidate_modes[3 * std::size_t(s.mode_count) * std::size_t(candidate)],
-                           s.eigenvalues.data(), s.mode_count, compliance);
-      for (int k = 0; k < 9; ++k)
-        compliance[k] += s.candidate_compliance[9 * std::size_t(candidate) + k];
-    }
-  else
-    add_patch_compliance(*basis, s, vertex, compliance);
-  if (full_fe)
-    *full_fe = candidate >= 0 ? 1u : 0u;
-  return MODALRT_OK;
+  if (!(std::fabs(sum - 1.0) <= 1e-9))
+    return invalid("modalrt_basis_point_compliance: the weights do not sum to 1");
+  return blended_compliance("modalrt_basis_point_compliance", *basis, basis->spaces[space],
+                            &basis->triangles[3 * std::size_t(triangle)], weights, 3, compliance, full_fe);
 }
 
 int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from)

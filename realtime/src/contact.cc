@@ -267,6 +267,10 @@ void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double 
   basis.spaces[space_].residual_compliance(std::uint32_t(a.candidate), std::uint32_t(b.candidate), C);
 }
 
+// B_a G B_b^T and B_a H B_b^T (+ C_ab) for every pair of active contacts. A contact's own block
+// (a = b) is symmetric: its six distinct entries are summed in one pass over the modes (a sliding
+// contact refreshes it whenever its proxy moves, so this is on its hot path); pairs a < b take the
+// nine entries one by one.
 void modalrt_kernel::refresh_coupling_matrices() noexcept
 {
   coupling_dirty_                   = false;
@@ -274,7 +278,28 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
   const std::uint32_t    r = integrator.mode_count(), n = active_count_, n3 = 3 * n;
   const double          *g1 = integrator.g1(), *g2 = integrator.g2();
   for (std::uint32_t a = 0; a < n; ++a)
-    for (std::uint32_t b = a; b < n; ++b)
+    {
+      const double *x = contacts_[active_[a]].B, *y = x + r, *z = y + r;
+      double        xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, vxx = 0, vxy = 0, vxz = 0, vyy = 0, vyz = 0, vzz = 0;
+#pragma omp simd reduction(+ : xx, xy, xz, yy, yz, zz, vxx, vxy, vxz, vyy, vyz, vzz)
+      for (std::uint32_t i = 0; i < r; ++i)
+        {
+          const double gx = g1[i] * x[i], gy = g1[i] * y[i], hx = g2[i] * x[i], hy = g2[i] * y[i];
+          xx += gx * x[i], xy += gx * y[i], xz += gx * z[i], yy += gy * y[i], yz += gy * z[i], zz += g1[i] * z[i] * z[i];
+          vxx += hx * x[i], vxy += hx * y[i], vxz += hx * z[i], vyy += hy * y[i], vyz += hy * z[i], vzz += g2[i] * z[i] * z[i];
+        }
+      const double s[3][3]  = {{xx, xy, xz}, {xy, yy, yz}, {xz, yz, zz}};
+      const double sv[3][3] = {{vxx, vxy, vxz}, {vxy, vyy, vyz}, {vxz, vyz, vzz}};
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d)
+          {
+            const std::size_t ab   = (3 * a + c) * n3 + 3 * a + d;
+            coupling_[ab]          = s[c][d] + compliance_[ab];
+            coupling_velocity_[ab] = sv[c][d];
+          }
+    }
+  for (std::uint32_t a = 0; a < n; ++a)
+    for (std::uint32_t b = a + 1; b < n; ++b)
       for (int c = 0; c < 3; ++c)
         for (int d = 0; d < 3; ++d)
           {

@@ -126,6 +126,7 @@ private:
   void  begin_proxy(std::uint32_t hip, bool at_hip) noexcept;
   void  slide_proxies(std::uint32_t count) noexcept;
   void  slide_proxy(Contact &contact, const modalrt::BodyInput &in) noexcept;
+  void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
   bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
   modalrt::ProxyRow &proxy_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;

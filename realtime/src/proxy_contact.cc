@@ -219,22 +219,27 @@ void modalrt_kernel::compose_proxy(Contact &c, bool reload) noexcept
   contacts_changed_ = true; // the residual compliances and the coupling follow the load point
 }
 
-// Where the proxy is on the deformed surface (its contact's correction included) and the blended
-// outward normal there (rest normals: smooth across edges).
+// Where the proxy is on the deformed surface (its contact's correction included) and, unless
+// `normal` is null, the blended outward normal there (rest normals: smooth across edges).
 void modalrt_kernel::proxy_point(const Contact &c, double point[3], double normal[3]) const noexcept
 {
   const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
   for (int d = 0; d < 3; ++d)
-    point[d] = c.correction[d], normal[d] = 0.0;
+    point[d] = c.correction[d];
   for (int k = 0; k < 3; ++k)
     {
       const ProxyRow &row = row_of(c.proxy, corners[k]);
       const double    w   = c.proxy.weights[k];
       for (int d = 0; d < 3; ++d)
-        {
-          point[d] += w * (basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d]);
-          normal[d] += w * basis.normals[3 * std::size_t(corners[k]) + d];
-        }
+        point[d] += w * (basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d]);
+    }
+  if (!normal)
+    return;
+  for (int d = 0; d < 3; ++d)
+    {
+      normal[d] = 0.0;
+      for (int k = 0; k < 3; ++k)
+        normal[d] += c.proxy.weights[k] * basis.normals[3 * std::size_t(corners[k]) + d];
     }
   const double length = norm3(normal);
   for (int d = 0; d < 3; ++d)
@@ -252,8 +257,11 @@ void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 }
 
 // Coulomb friction on the coupling force a stuck proxy would give, F = K g + D (v_hip - v_surface)
-// (g = x_hip - proxy, the surface as the last tick left it), split along the proxy's normal (F_n =
-// -F.n > 0 presses) and across it (F_t): the proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
+// (g = x_hip - proxy, the surface as the last tick left it), split along the normal of the triangle
+// the proxy walks in (at rest, as every normal of the contact) (F_n = -F.n > 0 presses) and across it (F_t). The face's normal, not
+// the blended vertex normal: near a sharp edge (a rib's top, 1.8 mm wide) the blended normal tilts
+// towards the side face, and its tangential part of a straight press walked the proxy over the edge
+// and down the side. The proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
 // mu_d when sliding); else it slides along F_t until |F_t| = mu_d F_n (a few passes follow the
 // surface's curvature).
 void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
@@ -272,7 +280,8 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
   for (int pass = 0; pass < proxy_passes; ++pass)
     {
       double p[3], n[3], F[3];
-      proxy_point(c, p, n);
+      proxy_point(c, p, nullptr);
+      face_normal(c, n);
       for (int d = 0; d < 3; ++d)
         F[d] = K * (in.x[d] - p[d]) + D * relative_velocity[d];
       const double normal = -dot3(F, n);
@@ -299,6 +308,24 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     compose_proxy(c, false);
   if (basis.region[c.vertex] != region_before)
     proxy_region_changed_ = true;
+}
+
+// The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest
+// ones): its edges' cross product, on the side of its first corner's vertex normal (the display
+// surface's winding need not be outward). A degenerate triangle gives that vertex normal.
+void modalrt_kernel::face_normal(const Contact &c, double n[3]) const noexcept
+{
+  const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
+  const double        *a = &basis.vertices[3 * std::size_t(corners[0])], *b = &basis.vertices[3 * std::size_t(corners[1])],
+               *e = &basis.vertices[3 * std::size_t(corners[2])], *outward = &basis.normals[3 * std::size_t(corners[0])];
+  double e1[3], e2[3];
+  for (int d = 0; d < 3; ++d)
+    e1[d] = b[d] - a[d], e2[d] = e[d] - a[d];
+  double       face[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const double length  = norm3(face);
+  const double sign    = dot3(face, outward) < 0.0 ? -1.0 : 1.0;
+  for (int d = 0; d < 3; ++d)
+    n[d] = length > 0.0 ? sign * face[d] / length : outward[d];
 }
 
 // Moves the proxy by `step` (body frame, tangential) over the deformed surface: within a triangle
@@ -345,41 +372,15 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
 // Residual compliances, outputs, the passivity observer
 // =================================================================================================
 
-// C_ab between two contacts, at least one a proxy: each contact's load is its corners' patches
-// weighted by the barycentric weights (a snap contact: its vertex, weight 1), so C_ab =
-// sum_i sum_j w_i w_j C(i, j) over corners at candidates, from the cross compliance (pairs beyond its
-// radius add nothing); without it, a
-// contact's own C is sum_i w_i C_i (exact at the corners, continuous between) and two contacts do
-// not see each other's correction.
-void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
+void modalrt::blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb,
+                               bool same, double C[9])
 {
   std::fill_n(C, 9, 0.0);
-  if (!def.use_static_correction)
-    return;
-  struct LoadPoint
-  {
-    int    candidate;
-    double weight;
-  };
-  auto load_points = [this](const Contact &c, LoadPoint points[3]) {
-    if (!c.proxy.active)
-      {
-        points[0] = {c.candidate, 1.0};
-        return 1;
-      }
-    const std::uint32_t *corners = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
-    for (int k = 0; k < 3; ++k)
-      points[k] = {row_of(c.proxy, corners[k]).candidate, c.proxy.weights[k]};
-    return 3;
-  };
-  LoadPoint   pa[3], pb[3];
-  const int   na = load_points(a, pa), nb = load_points(b, pb);
-  const auto &space = basis.spaces[space_];
   for (int i = 0; i < na; ++i)
     for (int j = 0; j < nb; ++j)
       {
-        const int ci = pa[i].candidate, cj = pb[j].candidate;
-        const double w = pa[i].weight * pb[j].weight;
+        const int    ci = a[i].candidate, cj = b[j].candidate;
+        const double w  = a[i].weight * b[j].weight;
         if (ci < 0 || cj < 0 || w == 0.0)
           continue;
         double block[9];
@@ -389,10 +390,32 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
               for (int k = 0; k < 9; ++k)
                 C[k] += w * block[k];
           }
-        else if (&a == &b && i == j)
+        else if (same && i == j)
           for (int k = 0; k < 9; ++k)
-            C[k] += pa[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];
+            C[k] += a[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];
       }
+}
+
+// C_ab between two contacts, at least one a proxy (blended_residual of their loads).
+void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
+{
+  std::fill_n(C, 9, 0.0);
+  if (!def.use_static_correction)
+    return;
+  auto load_corners = [this](const Contact &c, LoadCorner corners[3]) {
+    if (!c.proxy.active)
+      {
+        corners[0] = {c.candidate, 1.0};
+        return 1;
+      }
+    const std::uint32_t *vertices = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
+    for (int k = 0; k < 3; ++k)
+      corners[k] = {row_of(c.proxy, vertices[k]).candidate, c.proxy.weights[k]};
+    return 3;
+  };
+  LoadCorner pa[3], pb[3];
+  const int  na = load_corners(a, pa), nb = load_corners(b, pb);
+  blended_residual(basis.spaces[space_], pa, na, pb, nb, &a == &b, C);
 }
 
 void modalrt_kernel::write_proxy_output(const Contact &c, modalrt_hip_output &out) const noexcept

@@ -10,6 +10,8 @@
 
 namespace modalrt
 {
+  struct ModalSpace;
+
   // Triangle edges a proxy may cross in one tick (bounded work; a faster HIP is followed over the
   // next ticks).
   constexpr std::uint32_t proxy_edge_budget = 4;
@@ -44,6 +46,23 @@ namespace modalrt
         weights[k] = 0.0, rows[k].vertex = MODALRT_NONE, rows[k].candidate = -1;
     }
   };
+
+  // One corner of a load spread over display vertices (a contact at a vertex: that vertex, weight 1;
+  // a proxy: its triangle's corners and barycentric weights): its index among the space's
+  // candidates (-1: none) and its weight.
+  struct LoadCorner
+  {
+    int    candidate;
+    double weight;
+  };
+
+  // The residual compliance C_ab [m/N] (3 x 3) between two such loads: sum_i sum_j w_i w_j C(i, j)
+  // over corners at candidates, from the stored cross compliance (a triangle's corners are always
+  // neighbours; a pair beyond the precompute's radius adds nothing); without it a load's own C
+  // (`same`) is sum_i w_i C_i (exact at the corners, continuous between) and two loads do not see
+  // each other's.
+  void blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb, bool same,
+                        double C[9]);
 
   // Barycentric weights of the point of triangle (a, b, c) closest to x (Ericson, Real-Time
   // Collision Detection, 5.1.5): >= 0, sum 1; exactly a corner's when x is at that corner.

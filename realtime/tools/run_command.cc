@@ -44,6 +44,9 @@ namespace modalrt_tool
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
       bool        help          = false;
       UdpSettings udp;                   // serve only
+      bool        proxy         = false; // serve: --contact proxy, an app's session (run: the session's `proxy` row)
+      double      static_friction  = modalrt_kernel_default_def().static_friction;  // serve: --friction
+      double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
       WatchStarter watch        = nullptr; // what serves --view (null: built without the view)
       const DeviceSession *app  = nullptr; // an app's own device and view: no session file, no outputs
@@ -77,6 +80,15 @@ namespace modalrt_tool
       if (value != std::floor(value))
         throw UsageError{option + ": '" + text + "' is not an integer"};
       return std::uint32_t(value);
+    }
+
+    // A value that is one of two words: true for the first; otherwise a usage error naming both.
+    bool first_of_two(const std::string &option, const char *value, const char *first, const char *second)
+    {
+      const std::string text = value;
+      if (text != first && text != second)
+        throw UsageError{option + " '" + text + "' is not " + first + " or " + second};
+      return text == first;
     }
 
     // Every option of `run` and `serve` in one table: its name, the commands that take it, its value
@@ -115,23 +127,23 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
       {"--peer-timeout", for_serve, "S", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
+      {"--contact", for_serve, "snap|proxy", "snap", // run: the session's `proxy` row
+       [](RunOptions &o, const std::string &n, const char *v) { o.proxy = !first_of_two(n, v, "snap", "proxy"); }},
+      {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",
+       [](RunOptions &o, const std::string &n, const char *v) {
+         std::string error;
+         if (!parse_friction(v, o.static_friction, o.dynamic_friction, error))
+           throw UsageError{n + " " + error};
+       }},
       {"--rate", for_both, "HZ", "1000",
        [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
       {"--duration", for_both, "S", nullptr,
        [](RunOptions &o, const std::string &n, const char *v) { o.duration = number_option(n, v, 1e-3, 1e6, "s"); }},
       {"--mode", for_both, "impedance|admittance", "impedance",
-       [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "impedance" && text != "admittance")
-           throw UsageError{n + " '" + text + "' is not impedance or admittance"};
-         o.impedance = text == "impedance";
-       }},
+       [](RunOptions &o, const std::string &n, const char *v) { o.impedance = first_of_two(n, v, "impedance", "admittance"); }},
       {"--device", for_run, "hand|probe", "hand",
        [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "hand" && text != "probe")
-           throw UsageError{n + " '" + text + "' is not hand or probe"};
-         o.device = text == "hand" ? DeviceKind::hand : DeviceKind::probe;
+         o.device = first_of_two(n, v, "hand", "probe") ? DeviceKind::hand : DeviceKind::probe;
        }},
       {"--hold", for_both, "S", "0.5",
        [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
@@ -235,11 +247,11 @@ namespace modalrt_tool
     // (1000 N/m, 2 N s/m) within the device's limits, and softened at low rates so that the
     // sampled-passivity condition K T / 2 < b + D holds with a 10 % margin.
     modalrt_kernel_def kernel_def(const RunOptions &o, const DeviceSpec &spec, const modalrt_basis *basis,
-                                  std::uint32_t hips)
+                                  const Session &session)
     {
       modalrt_kernel_def def      = modalrt_kernel_default_def();
       def.time_step               = 1.0 / o.rate;
-      def.hip_capacity            = hips;
+      def.hip_capacity            = session.hip_count;
       def.device.max_force        = spec.max_force;
       def.device.max_stiffness    = spec.max_stiffness;
       def.device.max_damping      = spec.max_damping;
@@ -248,6 +260,12 @@ namespace modalrt_tool
       const double passive        = 0.9 * 2.0 * (spec.physical_damping + def.coupling_damping) / def.time_step;
       def.coupling_stiffness      = std::min({def.coupling_stiffness, spec.max_stiffness, passive});
       def.fail_safe_hold          = o.hold;
+      if (session.proxy) // the session's `proxy` row: sliding contacts
+        {
+          def.contact_mode     = MODALRT_CONTACT_PROXY;
+          def.static_friction  = session.static_friction;
+          def.dynamic_friction = session.dynamic_friction;
+        }
       def.fail_safe_ramp          = o.ramp;
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
       return def;
@@ -281,25 +299,27 @@ namespace modalrt_tool
     }
 
     bool write_outputs(const RunOptions &o, const RunReport &report, const HapticResult &haptic,
-                       const DisplayResult &display, std::uint32_t hips, std::string &error)
+                       const DisplayResult &display, const modalrt_basis *basis, std::uint32_t hips, std::string &error)
     {
-      return write_trace(o.output_dir + "/trace.csv", haptic, hips, error) &&
+      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, error) &&
              write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, error) &&
+             write_slides(o.output_dir + "/slides.csv", haptic.slides, report.space_names, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
              write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
     }
 
-    // force_displacement.png from trace.csv and presses.csv. Optional: without Python and matplotlib
-    // (or with --no-plot) the run still succeeds, and one line says how to draw it later. A stale
-    // picture of an earlier run is removed first.
-    bool draw_plot(const RunOptions &o)
+    // force_displacement.png from trace.csv and presses.csv, and slide_stiffness.png from trace.csv and
+    // slides.csv when the run slid. Optional: without Python and matplotlib (or with --no-plot) the
+    // run still succeeds, and one line says how to draw it later. A stale picture of an earlier run is
+    // removed first.
+    bool draw_plot(const RunOptions &o, const std::string &script, const std::string &picture, bool wanted)
     {
       std::error_code code;
-      std::filesystem::remove(o.output_dir + "/force_displacement.png", code);
-      if (!o.plot)
+      std::filesystem::remove(o.output_dir + "/" + picture, code);
+      if (!o.plot || !wanted)
         return false;
       std::string notice;
-      const bool  written = plot_force_displacement(o.output_dir, notice);
+      const bool  written = plot_run(script, picture, o.output_dir, notice);
       if (!written)
         std::fprintf(stderr, "modal-rt: %s\n", notice.c_str());
       return written;
@@ -314,6 +334,9 @@ namespace modalrt_tool
           session.path      = o.serve ? "(udp)" : "(" + o.command + ")";
           session.hip_count = o.serve ? o.udp.hips : 0; // an app's: its device's, once made
           session.end_time  = o.duration > 0.0 ? o.duration : o.serve ? default_serve_duration : 0.0;
+          session.proxy            = o.proxy; // serve's --contact and --friction: what run's `proxy` row sets
+          session.static_friction  = o.static_friction;
+          session.dynamic_friction = o.dynamic_friction;
           return true;
         }
       try
@@ -379,7 +402,7 @@ namespace modalrt_tool
           return false;
         }
       session.hip_count = live.device->hip_count();
-      live.def          = kernel_def(o, live.device->spec(), live.basis, session.hip_count);
+      live.def          = kernel_def(o, live.device->spec(), live.basis, session);
       if (modalrt_kernel_create(live.basis, &live.def, &live.kernel) != MODALRT_OK)
         {
           fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
@@ -391,7 +414,8 @@ namespace modalrt_tool
     // --view P (the app's watch-only view), or the app's own view of its device.
     bool start_view(const RunOptions &o, Live &live, std::string &error)
     {
-      const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command};
+      const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command,
+                                live.def.contact_mode == MODALRT_CONTACT_PROXY};
       if (o.app)
         live.view = o.app->start_view(context, error);
       else if (o.view_port < 0)
@@ -425,6 +449,7 @@ namespace modalrt_tool
       report.coupling_damping   = live.def.coupling_damping;
       report.snap_distance      = live.def.snap_distance;
       report.device_counters    = live.device->counters();
+      report.space_names        = space_names(live.basis);
       return report;
     }
 
@@ -435,9 +460,10 @@ namespace modalrt_tool
       RunReport report = make_report(o, session, duration, live, haptic, display);
       report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance);
       std::string error;
-      if (!write_outputs(o, report, haptic, display, session.hip_count, error))
+      if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))
         return fail(error);
-      report.plot_written = draw_plot(o);
+      report.plot_written       = draw_plot(o, "plot_force_displacement.py", "force_displacement.png", true);
+      report.slide_plot_written = draw_plot(o, "plot_slide_stiffness.py", "slide_stiffness.png", !haptic.slides.empty());
       if (!o.quiet)
         print_summary(report);
       if (!display.error.empty())
@@ -507,6 +533,22 @@ namespace modalrt_tool
     }
   } // namespace
 
+  bool parse_friction(const std::string &text, double &static_friction, double &dynamic_friction, std::string &error)
+  {
+    const std::size_t at = text.find(',');
+    char             *end_s = nullptr, *end_d = nullptr;
+    const std::string mu_s = text.substr(0, at), mu_d = at == std::string::npos ? "" : text.substr(at + 1);
+    const double      s = std::strtod(mu_s.c_str(), &end_s), d = std::strtod(mu_d.c_str(), &end_d);
+    if (at == std::string::npos || mu_s.empty() || mu_d.empty() || *end_s != '\0' || *end_d != '\0' ||
+        !std::isfinite(s) || !std::isfinite(d))
+      error = "'" + text + "' is not MU_S,MU_D (two numbers)";
+    else if (!(d >= 0.0 && d <= s && s <= 10.0))
+      error = "'" + text + "': needs 0 <= MU_D <= MU_S <= 10";
+    else
+      static_friction = s, dynamic_friction = d;
+    return error.empty();
+  }
+
   std::string run_usage() { return usage_text(false); }
   std::string serve_usage() { return usage_text(true); }
 
@@ -542,6 +584,9 @@ namespace modalrt_tool
     o.rate       = session.rate;
     o.duration   = session.duration;
     o.impedance  = session.impedance;
+    o.proxy            = session.proxy;
+    o.static_friction  = session.static_friction;
+    o.dynamic_friction = session.dynamic_friction;
     o.frame_rate = 0.0;
     o.quiet      = true;
     return execute(o);

@@ -22,6 +22,7 @@ namespace modalrt_tool
     modalrt_kernel      *kernel;
     std::uint32_t        hips;
     std::string          command; // "run", "serve", or the app's command that plays its own device
+    bool                 proxy = false; // the kernel's contacts are sliding proxies (MODALRT_CONTACT_PROXY)
   };
 
   // Why --view and `modal-rt view` are refused by a tool built without the view.
@@ -40,6 +41,9 @@ namespace modalrt_tool
   // basis/session file, device or output, 2 bad command line.
   int         run_command(int argc, char **argv, bool serve, WatchStarter watch);
   std::string run_usage();   // the usage lines, from the option table
+  // "MU_S,MU_D" of --friction (serve, view): 0 <= MU_D <= MU_S <= 10; false and a message otherwise.
+  bool        parse_friction(const std::string &text, double &static_friction, double &dynamic_friction,
+                             std::string &error);
   std::string serve_usage();
 
   // A session an app plays with a device of its own: the run loop of `run` (the kernel defined for
@@ -51,6 +55,9 @@ namespace modalrt_tool
     double      rate         = 1000.0; // [Hz] ticks
     double      duration     = 0.0;    // [s] of ticks; 0: until Ctrl-C
     bool        impedance    = false;  // false: admittance
+    bool        proxy        = false;  // sliding proxy contacts (MODALRT_CONTACT_PROXY), with these coefficients
+    double      static_friction  = modalrt_kernel_default_def().static_friction;
+    double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
     double      display_rate = 60.0;   // [Hz] snapshots handed to the view
     std::function<std::unique_ptr<Device>(const modalrt_basis *)>                          make_device;
     std::function<std::unique_ptr<RunObserver>(const ViewContext &, std::string &error)> start_view;

@@ -50,6 +50,10 @@ namespace modalrt_tool
       return true;
     }
 
+    // Slides recorded per HIP (a session's slides are a handful; a device's through serve may be many:
+    // those past this are counted, not recorded).
+    constexpr std::size_t slide_capacity = 4096;
+
     // Everything the haptic thread touches, sized before the first tick.
     class HapticLoop
     {
@@ -65,6 +69,7 @@ namespace modalrt_tool
         result_.period_us.assign(settings.tick_limit, 0.0f);
         const std::uint64_t rows = settings.tick_limit / settings.trace_decimation + 1;
         result_.trace.assign(rows * hips_, TraceSample{});
+        slides_.reset(hips_, slide_capacity * hips_, settings.impedance);
       }
 
       void run(std::atomic<bool> &done)
@@ -129,6 +134,11 @@ namespace modalrt_tool
             const std::uint64_t rows = (n + settings_.trace_decimation - 1) / settings_.trace_decimation;
             result_.trace.resize(rows * hips_); // rows past a stopped session's last tick were never written
           }
+        if (settings_.record)
+          {
+            result_.slides         = slides_.finish();
+            result_.slides_dropped = slides_.dropped();
+          }
         result_.last_inputs  = inputs_;
         result_.last_outputs = outputs_;
       }
@@ -162,7 +172,10 @@ namespace modalrt_tool
               ++result_.non_finite_outputs;
           }
         device_.end_tick();
-        if (settings_.record && n % settings_.trace_decimation == 0)
+        if (!settings_.record)
+          return;
+        slides_.observe(t, inputs_.data(), outputs_.data(), frame_position_);
+        if (n % settings_.trace_decimation == 0)
           record_trace(n / settings_.trace_decimation, t);
       }
 
@@ -231,6 +244,8 @@ namespace modalrt_tool
             s.active_vertex = o.active_vertex;
             s.space         = o.space;
             s.flags         = o.flags;
+            s.proxy_triangle = o.proxy_triangle;
+            std::copy_n(o.proxy_weights, 3, s.proxy_weights);
           }
       }
 
@@ -246,6 +261,7 @@ namespace modalrt_tool
       std::size_t                     next_event_   = 0;
       std::size_t                     frame_cursor_ = 0;
       double                          frame_position_[3] = {0.0, 0.0, 0.0}; // [m] of the last accepted frame
+      SlideTracker                    slides_;
     };
 
     // The display side: snapshots at 60 Hz, a VTU frame every 1/frame_rate s of simulated time.

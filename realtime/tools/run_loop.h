@@ -17,6 +17,7 @@
 
 #include "devices.h"
 #include "session.h"
+#include "slides.h"
 
 #include <modalrt/modalrt.h>
 
@@ -41,6 +42,8 @@ namespace modalrt_tool
     std::uint32_t active_vertex; // MODALRT_NONE when not in contact
     std::uint32_t space;
     std::uint32_t flags;         // MODALRT_HIP_* of that tick (presses.csv skips FAIL_SAFE and FORCE_RAMPING)
+    std::uint32_t proxy_triangle   = MODALRT_NONE; // proxy contact: its display triangle
+    double        proxy_weights[3] = {0.0, 0.0, 0.0}; // [-] its barycentric weights there
   };
 
   struct HapticSettings
@@ -70,6 +73,8 @@ namespace modalrt_tool
     std::vector<float> latency_us; // per tick: wake-up to device written
     std::vector<float> period_us;  // per tick: start minus the previous tick's start
     std::vector<TraceSample> trace; // decimation rows x HIPs
+    std::vector<Slide>       slides; // every tick's proxies, in order of start (slides.h)
+    std::uint64_t            slides_dropped = 0; // beyond the records' capacity
     std::vector<modalrt_hip_input>  last_inputs;
     std::vector<modalrt_hip_output> last_outputs;
   };

@@ -137,14 +137,64 @@ namespace modalrt_tool
     return write_file_atomically(path, text, error);
   }
 
-  bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count, std::string &error)
+  namespace
+  {
+    double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+    // What one trace row of one HIP in contact felt along the normal of its load point (a proxy's point
+    // on its triangle, else the active vertex): the force pushing into the part and the friction
+    // (tangential) force [N], the static stiffness there 1 / (n^T G n) and the felt one, the normal force
+    // over the normal displacement of the load point into the part [N/m]. NaN where there is none.
+    struct FeltAlongNormal
+    {
+      double normal_force = std::nan(""), tangential_force = std::nan("");
+      double static_stiffness = std::nan(""), felt_stiffness = std::nan("");
+    };
+
+    FeltAlongNormal felt_along_normal(const modalrt_basis *basis, const TraceSample &s, double force_sign)
+    {
+      FeltAlongNormal out;
+      if (!s.in_contact)
+        return out;
+      double rest[3], n[3], compliance = std::nan("");
+      bool   full_fe = false;
+      int    status  = MODALRT_OK;
+      if (s.proxy_triangle != MODALRT_NONE)
+        status = point_normal_compliance(basis, s.space, s.proxy_triangle, s.proxy_weights, rest, n, compliance, full_fe);
+      else
+        {
+          std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(s.active_vertex), 3, rest);
+          std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(s.active_vertex), 3, n);
+          status = normal_compliance(basis, s.space, s.active_vertex, compliance, full_fe);
+        }
+      const double along = dot3(s.force, n);
+      double       tangential[3], moved[3];
+      for (int d = 0; d < 3; ++d)
+        tangential[d] = s.force[d] - along * n[d], moved[d] = s.contact[d] - s.frame[d] - rest[d];
+      out.normal_force     = force_sign * along;
+      out.tangential_force = std::sqrt(dot3(tangential, tangential));
+      out.felt_stiffness   = out.normal_force / -dot3(moved, n);
+      if (status == MODALRT_OK)
+        out.static_stiffness = 1.0 / compliance;
+      return out;
+    }
+  } // namespace
+
+  bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
+                   const modalrt_basis *basis, bool impedance, std::string &error)
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
-                       "(the felt point in contact, else the device), force [N], in contact, active vertex (-1: "
-                       "none), active space, the output's MODALRT_HIP_* flags (32 FAIL_SAFE, 64 FORCE_RAMPING, ...); then "
-                       "the origin of the part's frame [m]\ntime";
+                       "(the felt point in contact: a proxy's position on the deformed surface; else the device), "
+                       "force [N], in contact, active vertex (-1: none), active space, the output's MODALRT_HIP_* "
+                       "flags (32 FAIL_SAFE, 64 FORCE_RAMPING, 128 SLIDING, ...), the proxy's triangle (-1: none) "
+                       "and barycentric weights, then along the outward normal n of the load point (the proxy's "
+                       "point, else the active vertex): fn the force pushing into the part [N], ft the friction "
+                       "(tangential) force [N], static_stiffness 1 / (n^T G n) of the basis there [N/m], "
+                       "felt_stiffness fn / the load point's displacement into the part [N/m] (nan: not in "
+                       "contact); then the origin of the part's frame [m]\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
-      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags"})
+      for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags",
+                                 "triangle", "w0", "w1", "w2", "fn", "ft", "static_stiffness", "felt_stiffness"})
         text += ",hip" + std::to_string(h) + "_" + column;
     text += ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
@@ -158,9 +208,14 @@ namespace modalrt_tool
             for (const double *v : {s.hip, s.contact, s.force})
               for (int d = 0; d < 3; ++d)
                 text += "," + format("%.9g", v[d]);
-            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u", s.in_contact,
-                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space, s.flags);
+            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u,%lld", s.in_contact,
+                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space, s.flags,
+                          s.proxy_triangle == MODALRT_NONE ? -1ll : (long long)s.proxy_triangle);
             text += field;
+            const FeltAlongNormal felt = felt_along_normal(basis, s, impedance ? 1.0 : -1.0);
+            for (double value : {s.proxy_weights[0], s.proxy_weights[1], s.proxy_weights[2], felt.normal_force,
+                                 felt.tangential_force, felt.static_stiffness, felt.felt_stiffness})
+              text += "," + format("%.9g", value);
           }
         const double *frame = result.trace[r * hip_count].frame;
         text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]) + '\n';
@@ -170,8 +225,6 @@ namespace modalrt_tool
 
   namespace
   {
-    double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
     // Space names go into a CSV field and a plot title: no separators, no control characters.
     std::string csv_safe(const char *text)
     {
@@ -182,18 +235,29 @@ namespace modalrt_tool
       return out;
     }
 
+    // true when HIP `hip` is sliding at time t (between a slide's first and last sliding tick).
+    bool sliding_at(const std::vector<Slide> &slides, std::uint32_t hip, double t)
+    {
+      for (const Slide &s : slides)
+        if (s.hip == hip && t >= s.start && t <= s.end)
+          return true;
+      return false;
+    }
+
     // The contact periods of one HIP: runs of trace rows in contact at the same active vertex (a
-    // release and a new snap between two rows start a new press).
+    // release and a new snap between two rows start a new press). Rows within a slide belong to the
+    // slide (slides.csv), not to a press: a proxy moving over the part is not pressing one vertex.
     void collect_presses(const HapticResult &result, std::uint32_t hips, std::uint32_t hip, std::vector<Press> &out)
     {
       const std::size_t rows = result.trace.size() / hips;
       bool              open = false;
       for (std::size_t r = 0; r < rows; ++r)
         {
-          const TraceSample &s = result.trace[r * hips + hip];
-          if (open && (!s.in_contact || s.active_vertex != out.back().vertex))
+          const TraceSample &s       = result.trace[r * hips + hip];
+          const bool         pressed = s.in_contact && !sliding_at(result.slides, hip, s.time);
+          if (open && (!pressed || s.active_vertex != out.back().vertex))
             open = false;
-          if (s.in_contact && !open)
+          if (pressed && !open)
             {
               Press p;
               p.hip       = hip;
@@ -207,15 +271,25 @@ namespace modalrt_tool
         }
     }
 
-    // The static compliance of the press's contact along its normal, in the space of its last row.
-    void static_reference(Press &p, const modalrt_basis *basis)
+    // The static compliance of the press's contact along its normal, in the space of its last row: at
+    // the vertex, or for a proxy contact at the proxy's point of that row (a press does not slide:
+    // the proxy stays there), with that point's rest position and blended normal.
+    void static_reference(Press &p, const TraceSample &last, const modalrt_basis *basis)
     {
       modalrt_space_info info;
       modalrt_basis_get_space_info(basis, p.space, &info);
       p.space_name = csv_safe(info.name);
-      std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(p.vertex), 3, p.normal);
-      std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(p.vertex), 3, p.rest);
-      if (normal_compliance(basis, p.space, p.vertex, p.compliance, p.full_fe) != MODALRT_OK)
+      int status   = MODALRT_OK;
+      if (last.proxy_triangle != MODALRT_NONE)
+        status = point_normal_compliance(basis, p.space, last.proxy_triangle, last.proxy_weights, p.rest, p.normal,
+                                         p.compliance, p.full_fe);
+      else
+        {
+          std::copy_n(modalrt_basis_display_normals(basis) + 3 * std::size_t(p.vertex), 3, p.normal);
+          std::copy_n(modalrt_basis_display_vertices(basis) + 3 * std::size_t(p.vertex), 3, p.rest);
+          status = normal_compliance(basis, p.space, p.vertex, p.compliance, p.full_fe);
+        }
+      if (status != MODALRT_OK)
         p.compliance = std::nan(""); // a space with a free mode: no static stiffness to compare with
     }
 
@@ -357,14 +431,14 @@ namespace modalrt_tool
       return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     }
 
-    // scripts/plot_force_displacement.py: installed beside this program (<prefix>/bin/modal-rt finds
+    // scripts/`script`: installed beside this program (<prefix>/bin/modal-rt finds
     // <prefix>/share/modal-haptics/scripts, MODAL_HAPTICS_SCRIPTS_FROM_BIN), else of the source tree
     // this tool was built from (__FILE__ is realtime/tools/run_outputs.cc there), else of a build
     // directory inside the repository (build/bin/modal-rt). Empty if none exists.
-    std::string find_plot_script()
+    std::string find_plot_script(const std::string &script)
     {
       namespace fs        = std::filesystem;
-      const fs::path name = "scripts/plot_force_displacement.py";
+      const fs::path name = fs::path("scripts") / script;
       std::error_code code;
       std::vector<fs::path> places;
       const fs::path        exe = fs::read_symlink("/proc/self/exe", code);
@@ -406,7 +480,7 @@ namespace modalrt_tool
         p.start = result.trace[p.first_row * hip_count].time;
         p.end   = result.trace[p.last_row * hip_count].time;
         p.space = result.trace[p.last_row * hip_count + p.hip].space;
-        static_reference(p, basis);
+        static_reference(p, result.trace[p.last_row * hip_count + p.hip], basis);
         felt_response(p, result, hip_count, impedance ? 1.0 : -1.0);
         multi_contact_reference(p, result, hip_count, basis, reference, impedance ? 1.0 : -1.0);
       }
@@ -452,26 +526,63 @@ namespace modalrt_tool
     return write_file_atomically(path, text, error);
   }
 
-  bool plot_force_displacement(const std::string &output_dir, std::string &notice)
+  bool plot_run(const std::string &script_name, const std::string &picture, const std::string &output_dir,
+                std::string &notice)
   {
     const char       *python = "/usr/bin/python3";
-    const std::string script = find_plot_script();
-    const std::string how    = "apt-get install python3-matplotlib, then /usr/bin/python3 "
-                               "scripts/plot_force_displacement.py " + output_dir;
+    const std::string script = find_plot_script(script_name);
+    const std::string how    = "apt-get install python3-matplotlib, then /usr/bin/python3 scripts/" + script_name + " " +
+                            output_dir;
     if (script.empty() || access(python, X_OK) != 0)
       {
-        notice = std::string("force_displacement.png skipped: ") +
-                 (script.empty() ? "scripts/plot_force_displacement.py not found" : "no /usr/bin/python3") + " (" +
-                 how + ")";
+        notice = picture + " skipped: " + (script.empty() ? "scripts/" + script_name + " not found" : "no /usr/bin/python3") +
+                 " (" + how + ")";
         return false;
       }
     const int status = run_program({python, script, output_dir});
     if (status == 0)
       return true;
-    notice = status == 3 ? "force_displacement.png skipped: matplotlib is missing (" + how + ")"
-                         : "force_displacement.png not written: " + script + " failed (exit status " +
-                             std::to_string(status) + ")";
+    notice = status == 3 ? picture + " skipped: matplotlib is missing (" + how + ")"
+                         : picture + " not written: " + script + " failed (exit status " + std::to_string(status) + ")";
     return false;
+  }
+
+  std::vector<std::string> space_names(const modalrt_basis *basis)
+  {
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    std::vector<std::string> names;
+    for (std::uint32_t k = 0; k < info.space_count; ++k)
+      {
+        modalrt_space_info space;
+        modalrt_basis_get_space_info(basis, k, &space);
+        names.push_back(csv_safe(space.name));
+      }
+    return names;
+  }
+
+  bool write_slides(const std::string &path, const std::vector<Slide> &slides,
+                    const std::vector<std::string> &space_names, std::string &error)
+  {
+    std::string text =
+      "# modal-rt run slides: one row per slide of a HIP's proxy, from the first tick it slid to the last in one "
+      "contact (every tick, not the trace's rows): length_m the proxy's path over the part (body frame) [m], "
+      "max_force_step_n the largest |F_n - F_(n-1)| between consecutive ticks [N], max_force_n the largest |F| [N], "
+      "passivity_energy_j the work the hand did on the kernel over it, sum of -F_(n-1) . (x_n - x_(n-1)) [J] "
+      "(never far below 0 for a passive coupling)\n"
+      "slide,hip,start_s,end_s,space_start,space_start_name,space_end,space_end_name,ticks,sliding_ticks,length_m,"
+      "max_force_step_n,max_force_n,passivity_energy_j\n";
+    char line[512];
+    for (std::size_t k = 0; k < slides.size(); ++k)
+      {
+        const Slide &s = slides[k];
+        std::snprintf(line, sizeof line, "%zu,%u,%.9g,%.9g,%u,%s,%u,%s,%llu,%llu,%.9g,%.9g,%.9g,%.9g\n", k, s.hip, s.start,
+                      s.end, s.space_start, space_names.at(s.space_start).c_str(), s.space_end,
+                      space_names.at(s.space_end).c_str(), (unsigned long long)s.ticks,
+                      (unsigned long long)s.sliding_ticks, s.length, s.max_force_step, s.max_force, s.energy);
+        text += line;
+      }
+    return write_file_atomically(path, text, error);
   }
 
   double percentile(std::vector<float> values, double p)
@@ -586,6 +697,18 @@ namespace modalrt_tool
     o["device_counters"] = Json::object();
     for (const auto &[name, count] : r.device_counters)
       o["device_counters"][name] = count;
+    o["passivity_energy_j"] = r.kernel.passivity_energy;
+    o["slides"]             = Json::array();
+    for (const Slide &s : h.slides)
+      o["slides"].push_back(Json{{"hip", s.hip},
+                                 {"start_s", s.start},
+                                 {"end_s", s.end},
+                                 {"space_start", s.space_start},
+                                 {"space_end", s.space_end},
+                                 {"length_m", s.length},
+                                 {"max_force_step_n", s.max_force_step},
+                                 {"passivity_energy_j", s.energy}});
+    o["slides_dropped"] = h.slides_dropped;
     o["final"] = final_states(h);
     // Paths are bytes: invalid UTF-8 in one is replaced (U+FFFD), not an exception.
     return o.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -620,6 +743,31 @@ namespace modalrt_tool
       if (presses.size() > shown)
         std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);
     }
+    // Per slide: how far the proxy went, the largest force change per tick, the passivity observer.
+    void print_slides(const RunReport &r)
+    {
+      const std::vector<Slide> &slides = r.haptic->slides;
+      constexpr std::size_t     shown  = 12;
+      if (!slides.empty())
+        std::printf("  slides        %zu: the proxy's path, the largest force change per tick, the energy the hand "
+                    "put in (passive: >= 0)\n",
+                    slides.size());
+      for (std::size_t k = 0; k < std::min(slides.size(), shown); ++k)
+        {
+          const Slide &s = slides[k];
+          std::printf("  slide %-7zu HIP %u, %s -> %s, %.2f-%.2f s: %.1f mm slid (%llu of %llu ticks sliding); largest "
+                      "force change %.3g N per tick (force up to %.3g N); passivity %+.3g J\n",
+                      k, s.hip, r.space_names.at(s.space_start).c_str(), r.space_names.at(s.space_end).c_str(), s.start,
+                      s.end, 1e3 * s.length, (unsigned long long)s.sliding_ticks, (unsigned long long)s.ticks,
+                      s.max_force_step, s.max_force, s.energy);
+        }
+      if (slides.size() > shown)
+        std::printf("  ...           %zu more slides in slides.csv\n", slides.size() - shown);
+      if (r.haptic->slides_dropped > 0)
+        std::printf("  slides        %llu more not recorded (beyond the records' capacity)\n",
+                    (unsigned long long)r.haptic->slides_dropped);
+    }
+
     // The verdict on the schedule: late ticks (overruns) and lost ones (missed periods) against the
     // threshold of realtime/README.md. A late tick repeats the last force for part of a period; up
     // to one tick in a thousand (one a second at 1 kHz, isolated) is below what a hand feels.
@@ -671,6 +819,7 @@ namespace modalrt_tool
                 (unsigned long long)d.reconstructions, d.max_reconstruct_ms, d.frames.size(),
                 d.error.empty() ? "" : "; ERROR: ", d.error.c_str());
     print_presses(r.presses);
+    print_slides(r);
     for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
       {
         const modalrt_hip_output &o = h.last_outputs[k];
@@ -678,7 +827,8 @@ namespace modalrt_tool
                     o.in_contact ? ("vertex " + std::to_string(o.active_vertex)).c_str() : "free", o.space,
                     o.position[0], o.position[1], o.position[2], o.force[0], o.force[1], o.force[2]);
       }
-    std::printf("  outputs       %s/{stats.json, trace.csv, presses.csv, frames.pvd, frames/%s}\n", r.output_dir.c_str(),
-                r.plot_written ? ", force_displacement.png" : "");
+    std::printf("  outputs       %s/{stats.json, trace.csv, presses.csv, slides.csv, frames.pvd, frames/%s%s}\n",
+                r.output_dir.c_str(), r.plot_written ? ", force_displacement.png" : "",
+                r.slide_plot_written ? ", slide_stiffness.png" : "");
   }
 } // namespace modalrt_tool

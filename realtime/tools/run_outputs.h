@@ -36,11 +36,22 @@ namespace modalrt_tool
   // frames.pvd: the frames as a time series.
   bool write_pvd(const std::string &path, const std::vector<FrameRecord> &frames, std::string &error);
 
-  // trace.csv: one row per decimated tick, the HIPs' columns side by side.
-  bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count, std::string &error);
+  // trace.csv: one row per decimated tick, the HIPs' columns side by side; along the normal of each
+  // contact's load point, the normal and friction forces and the static and felt stiffness (from
+  // `basis`; `impedance`: the trace's force is the one rendered on the device).
+  bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
+                   const modalrt_basis *basis, bool impedance, std::string &error);
+
+  // The name of every space of the basis, safe in a CSV field.
+  std::vector<std::string> space_names(const modalrt_basis *basis);
+
+  // slides.csv: one row per slide (slides.h), the space names from `space_names`.
+  bool write_slides(const std::string &path, const std::vector<Slide> &slides,
+                    const std::vector<std::string> &space_names, std::string &error);
 
   // One press: a contact period of one HIP (consecutive trace rows in contact at the same active
-  // vertex), what it felt like, and the static stiffness of that contact. Along the vertex's outward
+  // vertex, outside its slides), what it felt like, and the static stiffness of that contact (a proxy
+  // contact: at the proxy's point, its rest position and blended normal). Along the vertex's outward
   // normal n (rest normal; sessions translate the part, so it is also the world normal): the force
   // pushes into the part and the active vertex is displaced into it, both counted positive.
   struct Press
@@ -50,9 +61,10 @@ namespace modalrt_tool
     std::string   space_name;
     std::size_t   first_row = 0, last_row = 0; // trace rows
     double        start = 0.0, end = 0.0;      // [s] first and last trace row in contact
-    double        normal[3] = {0, 0, 0};       // [-] outward unit normal of the vertex
-    double        rest[3]   = {0, 0, 0};       // [m] rest position of the vertex, body frame
-    double        compliance = 0.0;            // [m/N] n^T G n (modalrt_basis_contact_compliance); NaN if none
+    double        normal[3] = {0, 0, 0};       // [-] outward unit normal of the vertex (a proxy: its point's)
+    double        rest[3]   = {0, 0, 0};       // [m] rest position of the vertex (a proxy: its point's), body frame
+    double        compliance = 0.0;            // [m/N] n^T G n (modalrt_basis_contact_compliance, a proxy:
+                                               //       modalrt_basis_point_compliance); NaN if none
     bool          full_fe    = false;          // G is the full-FE compliance (a candidate vertex)
     std::uint32_t max_contacts = 0;            // HIPs in contact at once during the press
     double        felt_time = 0.0;             // [s] end of the push: the last local maximum of the normal
@@ -79,9 +91,10 @@ namespace modalrt_tool
   // presses.csv: one row per press (the columns are documented in realtime/README.md).
   bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance, std::string &error);
 
-  // Runs scripts/plot_force_displacement.py on the output directory with /usr/bin/python3. Returns
-  // true when force_displacement.png was written; else `notice` says why and how to make it.
-  bool plot_force_displacement(const std::string &output_dir, std::string &notice);
+  // Runs scripts/`script` (plot_force_displacement.py, plot_slide_stiffness.py) on the output directory
+  // with /usr/bin/python3. Returns true when it wrote `picture`; else `notice` says why and how to make it.
+  bool plot_run(const std::string &script, const std::string &picture, const std::string &output_dir,
+                std::string &notice);
 
   // Percentile p (0..100) of the values (nearest rank); 0 for none.
   double percentile(std::vector<float> values, double p);
@@ -101,7 +114,9 @@ namespace modalrt_tool
     double              coupling_stiffness = 0.0, coupling_damping = 0.0, snap_distance = 0.0;
     std::vector<std::pair<std::string, std::uint64_t>> device_counters; // packets, ... (serve)
     std::vector<Press>  presses;
+    std::vector<std::string> space_names; // per space of the basis (the slides' spaces)
     bool                plot_written = false; // force_displacement.png
+    bool                slide_plot_written = false; // slide_stiffness.png
   };
 
   RunReport   summarize(const HapticResult &haptic, double rate);

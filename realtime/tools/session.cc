@@ -1,8 +1,11 @@
 #include "session.h"
 
+#include <modalrt/modalrt.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -99,6 +102,31 @@ namespace modalrt_tool
       return channels;
     }
 
+    // The `proxy` row: at time 0, once; x = mu_s and y = mu_d (both empty: the kernel's defaults),
+    // 0 <= mu_d <= mu_s <= 10 (the kernel's ranges), no z.
+    void parse_proxy(const RowContext &at, const std::vector<std::string> &fields, double time, Session &s)
+    {
+      if (time != 0.0)
+        at.fail("the 'proxy' row sets the kernel's contact mode: its time must be 0 (found " + fields[0] + ")");
+      if (s.proxy)
+        at.fail("a second 'proxy' row (the session has one contact mode)");
+      if (fields.size() > 5 && !fields[5].empty())
+        at.fail("event 'proxy' takes x = static friction and y = dynamic friction, no z (found '" + fields[5] + "')");
+      const bool given = fields.size() > 3 && !(fields[3].empty() && (fields.size() < 5 || fields[4].empty()));
+      const modalrt_kernel_def defaults = modalrt_kernel_default_def();
+      s.proxy            = true;
+      s.static_friction  = given ? parse_number(at, fields[3], "x") : defaults.static_friction;
+      s.dynamic_friction = given ? parse_number(at, fields.size() > 4 ? fields[4] : std::string(), "y")
+                                 : defaults.dynamic_friction;
+      if (!(s.static_friction <= 10.0 && s.dynamic_friction >= 0.0 && s.dynamic_friction <= s.static_friction))
+        {
+          char text[128];
+          std::snprintf(text, sizeof text, "friction mu_s %g, mu_d %g: needs 0 <= mu_d <= mu_s <= 10", s.static_friction,
+                        s.dynamic_friction);
+          at.fail(text);
+        }
+    }
+
     // One data row: appended to the session's channels or events.
     void parse_row(const RowContext &at, const std::vector<std::string> &fields, Session &s, double &last_time,
                    bool &ended)
@@ -116,7 +144,7 @@ namespace modalrt_tool
       last_time = time;
 
       const std::string &event    = fields[2];
-      const bool         hip_free = event == "frame" || event == "end";
+      const bool         hip_free = event == "frame" || event == "end" || event == "proxy";
       if (hip_free && !(fields[1].empty() || fields[1] == "-"))
         at.fail("event '" + event + "' belongs to no HIP: put '-' in column 'hip' (found '" + fields[1] + "')");
       double xyz[3] = {0.0, 0.0, 0.0};
@@ -150,8 +178,10 @@ namespace modalrt_tool
           s.end_time = time;
           ended      = true;
         }
+      else if (event == "proxy")
+        parse_proxy(at, fields, time, s);
       else
-        at.fail("unknown event '" + event + "' (expected target, force, press, release, frame or end)");
+        at.fail("unknown event '" + event + "' (expected target, force, press, release, frame, proxy or end)");
     }
 
     // Every HIP the session names needs a starting position: its first target key.

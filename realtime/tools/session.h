@@ -7,6 +7,7 @@
 //   1.0,0,press,0.0,0.05,0.023         # contact now at the display vertex nearest this point [m], body
 //   2.0,0,release,,,                   # release now
 //   2.5,-,frame,0.0,0.0,0.1            # key of the part frame's origin [m], world
+//   0.0,-,proxy,0.3,0.2                # contacts are sliding proxies, friction mu_s, mu_d (time 0, once)
 //   6.0,-,end,,,                       # the session ends here
 //
 // Keyed channels (target, force, frame) blend between consecutive keys with a minimum-jerk
@@ -75,6 +76,11 @@ namespace modalrt_tool
     Channel              frame;    // origin of the part's frame [m] world (empty: at rest at 0)
     std::vector<Event>   events;   // sorted by time
     double               end_time = 0.0; // [s] the `end` row, else the last row's time
+    // The `proxy` row: the kernel's contacts are sliding proxies (MODALRT_CONTACT_PROXY) with these
+    // Coulomb coefficients; else the snap contact.
+    bool                 proxy            = false;
+    double               static_friction  = 0.0; // [-] mu_s
+    double               dynamic_friction = 0.0; // [-] mu_d
   };
 
   // Reads and checks a session file. Throws SessionError naming file, line and culprit.

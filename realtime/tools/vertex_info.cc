@@ -39,18 +39,54 @@ namespace modalrt_tool
     }
   } // namespace
 
+  namespace
+  {
+    // n^T G n.
+    double along(const double G[9], const double n[3])
+    {
+      double Gn[3];
+      for (int c = 0; c < 3; ++c)
+        Gn[c] = dot3(G + 3 * c, n);
+      return dot3(n, Gn);
+    }
+  } // namespace
+
   int normal_compliance(const modalrt_basis *basis, std::uint32_t space, std::uint32_t vertex, double &compliance,
                         bool &full_fe)
   {
-    double        G[9], Gn[3];
+    double        G[9];
     std::uint32_t full = 0;
     const int     status = modalrt_basis_contact_compliance(basis, space, vertex, G, &full);
     if (status != MODALRT_OK)
       return status;
-    const double *n = modalrt_basis_display_normals(basis) + 3 * std::size_t(vertex);
-    for (int c = 0; c < 3; ++c)
-      Gn[c] = dot3(G + 3 * c, n);
-    compliance = dot3(n, Gn);
+    compliance = along(G, modalrt_basis_display_normals(basis) + 3 * std::size_t(vertex));
+    full_fe    = full != 0;
+    return MODALRT_OK;
+  }
+
+  int point_normal_compliance(const modalrt_basis *basis, std::uint32_t space, std::uint32_t triangle,
+                              const double weights[3], double rest[3], double normal[3], double &compliance,
+                              bool &full_fe)
+  {
+    double        G[9];
+    std::uint32_t full = 0;
+    const int     status = modalrt_basis_point_compliance(basis, space, triangle, weights, G, &full);
+    if (status != MODALRT_OK)
+      return status;
+    const std::uint32_t *corners = modalrt_basis_display_triangles(basis) + 3 * std::size_t(triangle);
+    for (int d = 0; d < 3; ++d)
+      {
+        rest[d] = normal[d] = 0.0;
+        for (int k = 0; k < 3; ++k)
+          {
+            rest[d] += weights[k] * modalrt_basis_display_vertices(basis)[3 * std::size_t(corners[k]) + d];
+            normal[d] += weights[k] * modalrt_basis_display_normals(basis)[3 * std::size_t(corners[k]) + d];
+          }
+      }
+    const double length = std::sqrt(dot3(normal, normal));
+    for (int d = 0; d < 3; ++d)
+      normal[d] /= length;
+    compliance = along(G, normal);
     full_fe    = full != 0;
     return MODALRT_OK;
   }

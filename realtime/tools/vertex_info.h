@@ -17,6 +17,14 @@ namespace modalrt_tool
   int normal_compliance(const modalrt_basis *basis, std::uint32_t space, std::uint32_t vertex, double &compliance,
                         bool &full_fe);
 
+  // Where a proxy contact sits, what a HIP pressing straight in feels there: the point of display
+  // triangle `triangle` at barycentric weights `weights`, its rest position [m] and outward unit
+  // normal n (the corners' blended, as the kernel's), and n^T G n [m/N] with G from
+  // modalrt_basis_point_compliance (full_fe: the full-FE compliance of the blended load).
+  int point_normal_compliance(const modalrt_basis *basis, std::uint32_t space, std::uint32_t triangle,
+                              const double weights[3], double rest[3], double normal[3], double &compliance,
+                              bool &full_fe);
+
   // The display vertex closest to `point` [m] (body frame, rest); its distance [m] in `distance`.
   std::uint32_t nearest_vertex(const modalrt_basis *basis, const double point[3], double &distance);
 

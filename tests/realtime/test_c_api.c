@@ -77,7 +77,7 @@ int main(int argc, char **argv)
   modalrt_snapshot_info snapshot_info;
   modalrt_hip_input   input;
   modalrt_hip_output  output;
-  double              compliance[9], q[1];
+  double              compliance[9], q[1], weights[3] = {1.0, 0.0, 0.0};
   float               surface[3];
   uint32_t            modes = 0;
   const char          *path  = argc > 1 ? argv[1] : "c_api_lattice.mrt";
@@ -116,6 +116,8 @@ int main(int argc, char **argv)
                  "modalrt_basis_get_space_info");
   EXPECT_FAILURE(modalrt_basis_contact_compliance(basis, 0, 0xFFFFFFu, compliance, NULL), MODALRT_ERROR_INVALID_ARGUMENT,
                  "modalrt_basis_contact_compliance");
+  EXPECT_FAILURE(modalrt_basis_point_compliance(basis, 0, 0xFFFFFFu, weights, compliance, NULL),
+                 MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_basis_point_compliance");
   EXPECT_FAILURE(modalrt_basis_get_section(basis, 9999, &section), MODALRT_ERROR_INVALID_ARGUMENT,
                  "modalrt_basis_get_section");
   EXPECT_FAILURE(modalrt_basis_verify_case(basis, 99999, &verify_case), MODALRT_ERROR_INVALID_ARGUMENT,

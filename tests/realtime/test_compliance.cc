@@ -117,6 +117,78 @@ namespace
     std::printf("  vertex %u (no stored block): kernel settles to G F, modal part only\n", vertex);
   }
 
+  // modalrt_basis_point_compliance (where a proxy sits): at a corner (weight 1) it is that vertex's
+  // contact compliance; inside a triangle of a lattice whose every vertex is a candidate with the cross
+  // compliance, it is the full model's compliance of the blended load, sum_a sum_b w_a w_b (B_a
+  // Lambda^-1 B_b^T + C_ab), computed here from the content; with a corner that is not a candidate it
+  // says it is not full FE. Bad weights are refused.
+  void point_compliance(const modalrt_basis *basis)
+  {
+    modalrt::LatticeOptions o = lattice();
+    o.all_candidates          = true;
+    o.candidate_stride        = 1;
+    const auto      content   = modalrt::make_lattice_cantilever(o);
+    modalrt_basis  *all       = test::load(content);
+    const uint32_t *triangles = modalrt_basis_display_triangles(all);
+    const uint32_t  space     = 1;
+    modalrt_space_info space_info;
+    modalrt_basis_get_space_info(all, space, &space_info);
+    const uint32_t *candidates = modalrt_basis_candidates(all, space);
+    auto is_candidate = [&](uint32_t v) { return std::binary_search(candidates, candidates + space_info.candidate_count, v); };
+    uint32_t t = 0; // a triangle away from the clamp: every corner a candidate
+    while (!(is_candidate(triangles[3 * t]) && is_candidate(triangles[3 * t + 1]) && is_candidate(triangles[3 * t + 2])))
+      ++t;
+    const double    corner[3] = {0.0, 1.0, 0.0}, inside[3] = {0.2, 0.3, 0.5};
+    double          G[9], V[9];
+    uint32_t        full_fe = 0;
+    const int status = modalrt_basis_point_compliance(all, space, t, corner, G, &full_fe);
+    if (status != MODALRT_OK)
+      std::printf("  %s (triangle %u)\n", modalrt_last_error_message(), t);
+    ENSURE(status == MODALRT_OK && full_fe == 1);
+    ENSURE(modalrt_basis_contact_compliance(all, space, triangles[3 * t + 1], V, nullptr) == MODALRT_OK);
+    for (int k = 0; k < 9; ++k)
+      ENSURE_NEAR(G[k], V[k], 1e-12 * std::fabs(V[8]));
+    ENSURE(modalrt_basis_point_compliance(all, space, t, inside, G, &full_fe) == MODALRT_OK && full_fe == 1);
+    const modalrt::BasisSpaceContent &s = content.spaces[space];
+    const std::size_t r = s.eigenvalues.size(), n3 = 3 * s.candidates.size();
+    auto index = [&](std::uint32_t v) { return std::size_t(std::find(s.candidates.begin(), s.candidates.end(), v) - s.candidates.begin()); };
+    double worst = 0.0;
+    for (int c = 0; c < 3; ++c)
+      for (int d = 0; d < 3; ++d)
+        {
+          double exact = 0.0;
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              {
+                const std::size_t ia = index(triangles[3 * t + a]), ib = index(triangles[3 * t + b]);
+                double            sum = s.cross_compliance[(3 * ia + c) * n3 + 3 * ib + d];
+                for (std::size_t i = 0; i < r; ++i)
+                  sum += s.candidate_modes[(3 * ia + c) * r + i] * s.candidate_modes[(3 * ib + d) * r + i] / s.eigenvalues[i];
+                exact += inside[a] * inside[b] * sum;
+              }
+          worst = std::max(worst, std::fabs(G[3 * c + d] - exact) / std::fabs(G[8]));
+        }
+    std::printf("  point compliance inside a triangle: within %.1e of the blended load's exact compliance\n", worst);
+    ENSURE(worst < 1e-12);
+    modalrt_basis_destroy(all);
+    // On the stride-2 lattice some corner of some triangle is not a candidate: not full FE there.
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    bool some_not_full = false;
+    for (uint32_t k = 0; k < info.display_triangle_count; ++k)
+      {
+        ENSURE(modalrt_basis_point_compliance(basis, 0, k, inside, G, &full_fe) == MODALRT_OK && G[8] > 0.0);
+        some_not_full = some_not_full || full_fe == 0;
+      }
+    ENSURE(some_not_full);
+    const double negative[3] = {-0.1, 0.6, 0.5}, short_sum[3] = {0.2, 0.3, 0.4};
+    ENSURE(modalrt_basis_point_compliance(basis, 0, 0, negative, G, nullptr) == MODALRT_ERROR_INVALID_ARGUMENT);
+    ENSURE(modalrt_basis_point_compliance(basis, 0, 0, short_sum, G, nullptr) == MODALRT_ERROR_INVALID_ARGUMENT);
+    ENSURE(std::string(modalrt_last_error_message()).find("sum to 1") != std::string::npos);
+    ENSURE(modalrt_basis_point_compliance(basis, 0, info.display_triangle_count, inside, G, nullptr) ==
+           MODALRT_ERROR_INVALID_ARGUMENT);
+  }
+
   void bad_arguments(const modalrt_basis *basis)
   {
     double G[9];
@@ -137,6 +209,7 @@ int main()
   other_vertices_give_the_modal_part(content, basis);
   bad_arguments(basis);
   ENSURE(allocations.load() == 0);
+  point_compliance(basis);
   modalrt_basis_destroy(basis);
   return test::finish("test_compliance");
 }

@@ -97,11 +97,12 @@ namespace
 
   // A HIP held at a fixed point inside the part: the coupling force converges to the static
   // solution of (I + K C) F = K (x_hip - x_rest), C the full compliance of the active vertices.
-  void steady_state(std::uint32_t hips)
+  // sparse: the cross compliance in version 1.1's rows (test::load writes and reads it back).
+  void steady_state(std::uint32_t hips, bool sparse)
   {
     const LatticeOptions o = soft_lattice();
     const BasisContent   c = modalrt::make_lattice_cantilever(o);
-    modalrt_basis       *b = test::load(c);
+    modalrt_basis       *b = test::load(sparse ? modalrt::with_sparse_cross(c) : c);
     modalrt_kernel_def def = modalrt_kernel_default_def();
     def.hip_capacity       = hips;
     def.switch_rule        = MODALRT_SWITCH_NEVER; // stay in the global space (fewest modes, largest correction)
@@ -217,8 +218,9 @@ namespace
 int main()
 {
   device_limits();
-  steady_state(1);
-  steady_state(2);
+  steady_state(1, false);
+  steady_state(2, false);
+  steady_state(2, true);
   force_clamped();
   stiff_coupling_is_stable();
   return test::finish("test_coupling");

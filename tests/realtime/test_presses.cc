@@ -60,11 +60,11 @@ namespace
     ENSURE(unflagged.size() == 1 && unflagged[0].felt_force == 7.0);
     // trace.csv shows which rows were left out: hip0_flags is 32 on the plateau, 64 on the ramp.
     std::string error;
-    ENSURE(modalrt_tool::write_trace("presses_trace.csv", press_trace(basis, vertex, force, flags), 1, error));
+    ENSURE(modalrt_tool::write_trace("presses_trace.csv", press_trace(basis, vertex, force, flags), 1, basis, true, error));
     std::ifstream     file("presses_trace.csv");
     std::stringstream text;
     text << file.rdbuf();
-    ENSURE(text.str().find("hip0_space,hip0_flags,frame_x") != std::string::npos);
+    ENSURE(text.str().find("hip0_space,hip0_flags,hip0_triangle,hip0_w0,hip0_w1,hip0_w2,hip0_fn,hip0_ft,hip0_static_stiffness,hip0_felt_stiffness,frame_x") != std::string::npos);
     const std::string row = ",1," + std::to_string(vertex) + ",1,";
     ENSURE(text.str().find(row + "32,") != std::string::npos && text.str().find(row + "64,") != std::string::npos);
     std::remove("presses_trace.csv");

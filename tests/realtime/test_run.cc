@@ -425,6 +425,156 @@ time,hip,event,x,y,z
       }
   }
 
+  // Slides through modal-rt run (the session's `proxy` row): HIP 0 pressed 2 mm below the lattice's
+  // top face slides along it from x = 0.06 m across the tip VOI's boundary (x = 0.12 m) to 0.17 m;
+  // in a second session two HIPs slide past each other. Asserted from slides.csv, trace.csv and
+  // presses.csv: the slide is found (its length, the switch into the tip space), the largest force
+  // change per tick while sliding is bounded and far below the snap contact's on the same session,
+  // the passivity observer is not below -1e-4 J, the trace's static stiffness is the basis's at the
+  // proxy's point, and no press is made of a slide's rows.
+  const char *slide_session = R"(time,hip,event,x,y,z
+0.0,-,proxy,0.3,0.2
+0.0,0,target,0.06,0.025,0.02
+0.3,0,target,0.06,0.025,0.008
+0.6,0,target,0.06,0.025,0.008
+1.8,0,target,0.17,0.025,0.008
+2.1,0,target,0.17,0.025,0.008
+2.4,0,target,0.17,0.025,0.02
+2.5,-,end
+)";
+
+  const char *two_slides_session = R"(time,hip,event,x,y,z
+0.0,-,proxy,0.3,0.2
+0.0,0,target,0.05,0.015,0.02
+0.0,1,target,0.15,0.035,0.02
+0.3,0,target,0.05,0.015,0.008
+0.3,1,target,0.15,0.035,0.008
+0.6,0,target,0.05,0.015,0.008
+0.6,1,target,0.15,0.035,0.008
+1.6,0,target,0.15,0.015,0.008
+1.6,1,target,0.05,0.035,0.008
+1.9,0,target,0.15,0.015,0.02
+1.9,1,target,0.05,0.035,0.02
+2.0,-,end
+)";
+
+  // The largest |F_n - F_(n-1)| of HIP `hip` between consecutive trace rows in contact (a trace at
+  // --trace-rate = --rate has every tick), and the rows of the run (header first).
+  double largest_contact_step(const std::vector<std::vector<std::string>> &trace, std::uint32_t hip)
+  {
+    const std::string h = "hip" + std::to_string(hip) + "_";
+    const std::size_t contact = column(trace[0], h + "contact"), fx = column(trace[0], h + "fx");
+    double            largest = 0.0;
+    for (std::size_t r = 2; r < trace.size(); ++r)
+      {
+        if (trace[r][contact] != "1" && trace[r - 1][contact] != "1")
+          continue;
+        double step = 0.0;
+        for (std::size_t d = 0; d < 3; ++d)
+          step += std::pow(std::stod(trace[r][fx + d]) - std::stod(trace[r - 1][fx + d]), 2);
+        largest = std::max(largest, std::sqrt(step));
+      }
+    return largest;
+  }
+
+  void slides()
+  {
+    const double bound = -1e-4; // [J] the passivity observer's documented floor
+    write_text("run_slide.csv", slide_session);
+    std::string out;
+    ENSURE(run("--basis " + basis_path + " --session run_slide.csv --output-dir run_out_slide --trace-rate 1000", out) == 0);
+    std::printf("%s", out.c_str());
+    ENSURE(contains(out, "  slide 0       HIP 0, global -> tip"));
+    const auto slides = read_csv("run_out_slide/slides.csv");
+    ENSURE(slides.size() == 2);
+    if (slides.size() != 2)
+      return;
+    const auto  &h          = slides[0];
+    const double length     = std::stod(slides[1][column(h, "length_m")]);
+    const double step       = std::stod(slides[1][column(h, "max_force_step_n")]);
+    const double energy     = std::stod(slides[1][column(h, "passivity_energy_j")]);
+    const double start      = std::stod(slides[1][column(h, "start_s")]), end = std::stod(slides[1][column(h, "end_s")]);
+    ENSURE(slides[1][column(h, "space_start")] == "0" && slides[1][column(h, "space_end")] == "1");
+    ENSURE(length > 0.08 && length < 0.13);
+    ENSURE(energy >= bound);
+    const std::string stats = read_text("run_out_slide/stats.json");
+    ENSURE(json_number(stats, "switches") >= 1 && json_number(stats, "allocations_after_start") == 0);
+    ENSURE(contains(stats, "\"passivity_energy_j\": "));
+
+    // The trace's static stiffness is 1 / (n^T G n) of modalrt_basis_point_compliance at the proxy's
+    // point, n the corners' blended normal.
+    const auto     trace = read_csv("run_out_slide/trace.csv");
+    modalrt_basis *basis = nullptr;
+    ENSURE(modalrt_basis_load(basis_path.c_str(), &basis) == MODALRT_OK);
+    const auto  &t        = trace[0];
+    std::size_t  checked  = 0;
+    double       worst    = 0.0;
+    for (std::size_t r = 1; r < trace.size(); r += 37)
+      {
+        if (trace[r][column(t, "hip0_contact")] != "1")
+          continue;
+        const std::uint32_t triangle = std::stoul(trace[r][column(t, "hip0_triangle")]);
+        const double w[3] = {std::stod(trace[r][column(t, "hip0_w0")]), std::stod(trace[r][column(t, "hip0_w1")]),
+                             std::stod(trace[r][column(t, "hip0_w2")])};
+        double G[9], n[3] = {0, 0, 0};
+        ENSURE(modalrt_basis_point_compliance(basis, std::stoul(trace[r][column(t, "hip0_space")]), triangle, w, G,
+                                              nullptr) == MODALRT_OK);
+        for (int k = 0; k < 3; ++k)
+          for (int d = 0; d < 3; ++d)
+            n[d] += w[k] * modalrt_basis_display_normals(basis)[3 * modalrt_basis_display_triangles(basis)[3 * triangle + k] + d];
+        double nGn = 0.0, length_n = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            nGn += n[a] * G[3 * a + b] * n[b] / (length_n * length_n);
+        const double k = std::stod(trace[r][column(t, "hip0_static_stiffness")]);
+        worst          = std::max(worst, std::fabs(k * nGn - 1.0));
+        ++checked;
+      }
+    modalrt_basis_destroy(basis);
+    ENSURE(checked >= 20 && worst < 1e-6);
+    // No press is made of the slide's rows.
+    const auto presses = read_csv("run_out_slide/presses.csv");
+    for (std::size_t k = 1; k < presses.size(); ++k)
+      {
+        const double s = std::stod(presses[k][column(presses[0], "start_s")]), e = std::stod(presses[k][column(presses[0], "end_s")]);
+        ENSURE(e < start || s > end);
+      }
+
+    // The same session with the snap contact: dragged along, it is released and snaps again.
+    std::string snap_session = slide_session;
+    snap_session.erase(snap_session.find("0.0,-,proxy"), std::string("0.0,-,proxy,0.3,0.2\n").size());
+    write_text("run_slide_snap.csv", snap_session);
+    ENSURE(run("--basis " + basis_path + " --session run_slide_snap.csv --output-dir run_out_slide_snap --trace-rate "
+                 "1000 --no-plot --quiet",
+               out) == 0);
+    const double snap = largest_contact_step(read_csv("run_out_slide_snap/trace.csv"), 0);
+    std::printf("  slide across the VOI boundary through modal-rt run: %.1f mm, largest force change per tick %.3e N "
+                "(the snap contact on the same session: %.3e N), passivity %+.3e J; static stiffness in the trace "
+                "within %.1e of the basis's at %zu points\n",
+                1e3 * length, step, snap, energy, worst, checked);
+    // [N] per tick: a tenth of the ~0.46 N normal force; the snap contact steps by force_rate_limit (0.2 N)
+    // at each release, 9 times the proxy's measured 0.023 N.
+    ENSURE(step > 0.0 && step < 0.05 && snap > 4.0 * step);
+    ENSURE(read_csv("run_out_slide_snap/slides.csv").size() == 1); // the snap contact never slides
+
+    write_text("run_two_slides.csv", two_slides_session);
+    ENSURE(run("--basis " + basis_path + " --session run_two_slides.csv --output-dir run_out_two_slides --no-plot",
+               out) == 0);
+    std::printf("%s", out.c_str());
+    const auto two = read_csv("run_out_two_slides/slides.csv");
+    ENSURE(two.size() == 3);
+    if (two.size() != 3)
+      return;
+    ENSURE(two[1][column(h, "hip")] != two[2][column(h, "hip")]);
+    ENSURE(std::stod(two[2][column(h, "start_s")]) < std::stod(two[1][column(h, "end_s")])); // at the same time
+    for (std::size_t k = 1; k < 3; ++k)
+      {
+        ENSURE(std::stod(two[k][column(h, "length_m")]) > 0.06);
+        ENSURE(std::stod(two[k][column(h, "max_force_step_n")]) < 0.05);
+        ENSURE(std::stod(two[k][column(h, "passivity_energy_j")]) >= bound);
+      }
+  }
+
   void bad_command_lines()
   {
     const std::string files = "--basis " + basis_path + " --session run_two_hips.csv";
@@ -452,6 +602,10 @@ time,hip,event,x,y,z
       {serve + " --hold -1", {"--hold -1", "out of range"}},
       {serve + " --ramp 0", {"--ramp 0", "out of range"}},
       {serve + " --peer-timeout x", {"--peer-timeout", "'x'"}},
+      {serve + " --contact glide", {"--contact", "'glide'", "snap or proxy"}},
+      {serve + " --friction 0.2,0.3", {"--friction", "'0.2,0.3'", "0 <= MU_D <= MU_S <= 10"}},
+      {serve + " --friction 0.3", {"--friction", "MU_S,MU_D"}},
+      {"run --basis x.mrt --session s.csv --output-dir x --contact proxy", {"unknown option '--contact'"}},
       {"serve --output-dir x", {"missing --basis"}},
       {"frobnicate", {"usage"}},
     };
@@ -478,6 +632,8 @@ time,hip,event,x,y,z
 #if MODAL_RT_HAS_VIEW
     ENSURE(tool("view --help", out) == 0 && contains(out, "usage") && contains(out, "--frame-rate HZ (60)"));
     ENSURE(tool("view --basis x.mrt --frobnicate", out) == 2 && contains(out, "unknown option '--frobnicate'"));
+    ENSURE(tool("view --basis x.mrt --contact glide", out) == 2 && contains(out, "'glide' is not snap or proxy"));
+    ENSURE(tool("view --basis x.mrt --friction 0.1,0.2", out) == 2 && contains(out, "0 <= MU_D <= MU_S <= 10"));
 #else
     ENSURE(tool("view --help", out) == 1 && contains(out, "built without the view"));
 #endif
@@ -519,6 +675,10 @@ time,hip,event,x,y,z
       {"run_bad_time.csv", "0.5,0,target,0,0,0\n0.2,0,target,0,0,0\n", {"run_bad_time.csv:4", "time 0.2"}},
       {"run_bad_hip.csv", "0.5,x,target,0,0,0\n", {"run_bad_hip.csv:3", "hip 'x'"}},
       {"run_bad_target.csv", "0.5,1,force,0,0,-1\n", {"run_bad_target.csv", "HIP 1 has no 'target' row"}},
+      {"run_bad_proxy_time.csv", "0.5,-,proxy,0.3,0.2\n", {"run_bad_proxy_time.csv:3", "its time must be 0"}},
+      {"run_bad_proxy_twice.csv", "0,-,proxy\n0,-,proxy\n", {"run_bad_proxy_twice.csv:4", "a second 'proxy' row"}},
+      {"run_bad_proxy_mu.csv", "0,-,proxy,0.2,0.3\n", {"run_bad_proxy_mu.csv:3", "mu_s 0.2, mu_d 0.3"}},
+      {"run_bad_proxy_hip.csv", "0,1,proxy,0.3,0.2\n", {"run_bad_proxy_hip.csv:3", "belongs to no HIP"}},
     };
     for (const auto &c : cases)
       {
@@ -542,6 +702,7 @@ int main()
   admittance_static_response(content);
   stop_on_sigint();
   multi_contact_full_fe();
+  slides();
   bad_command_lines();
   serve_writes_no_frames_by_default();
   bad_session_files();

@@ -17,10 +17,13 @@
 //   5. The second device (a restart on another port) then takes the slot (no contact carried over
 //      from the client's press), leaves with BYE, and the first client comes back with a counter
 //      restarted at 0 without HELLO: accepted (slot free), its first command not in contact.
+//   6. A bridge with sliding contacts (--contact proxy): the command's position is the proxy's, its
+//      HIP flags say SLIDING while it slides, the friction force is mu_d times the normal one.
 // The only timing asserted is the command rate, within a factor of 2, and the takeover's promptness.
 #include "test_support.h"
 
 #include <algorithm>
+#include <array>
 #include <arpa/inet.h>
 #include <chrono>
 #include <csignal>
@@ -50,7 +53,7 @@ namespace
     std::uint16_t version, hips;
     std::uint32_t sequence, flags;
     std::uint64_t tick;
-    double        force[3];
+    double        force[3], position[3];
     std::uint32_t in_contact, hip_flags;
     std::uint32_t client; // which socket received it (0 the client, 1 its restart on a new port)
   };
@@ -128,6 +131,7 @@ namespace
         if (r.hips == 1)
           {
             std::memcpy(r.force, buffer + 24, 24);
+            std::memcpy(r.position, buffer + 24 + 24, 24);
             std::memcpy(&r.in_contact, buffer + 24 + 72, 4);
             std::memcpy(&r.hip_flags, buffer + 24 + 84, 4);
           }
@@ -135,17 +139,24 @@ namespace
       }
   }
 
-  pid_t start_bridge(int port)
+  // The bridge on `port`; `proxy`: with sliding contacts (--contact proxy --friction 0.3,0.2), its
+  // outputs in serve_out_proxy.
+  pid_t start_bridge(int port, bool proxy = false)
   {
     const pid_t child = fork();
     if (child == 0)
       {
-        const int out = open("serve_output.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int out = open(proxy ? "serve_output_proxy.txt" : "serve_output.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(out, 1);
         dup2(out, 2);
         const std::string p = std::to_string(port);
-        execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir", "serve_out",
-              "--port", p.c_str(), "--duration", "120", "--frame-rate", "2", static_cast<char *>(nullptr));
+        if (proxy)
+          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir",
+                "serve_out_proxy", "--port", p.c_str(), "--duration", "120", "--contact", "proxy", "--friction",
+                "0.3,0.2", "--no-plot", static_cast<char *>(nullptr));
+        else
+          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir", "serve_out",
+                "--port", p.c_str(), "--duration", "120", "--frame-rate", "2", static_cast<char *>(nullptr));
         _exit(127);
       }
     return child;
@@ -462,6 +473,78 @@ namespace
     ENSURE(json_number(stats, "non_finite_outputs") == 0);
     ENSURE(stats.find("\"stopped_by\": \"signal\"") != std::string::npos);
   }
+
+  // 6. Sliding through the bridge (--contact proxy, mu_s 0.3, mu_d 0.2): a client presses 2 mm into
+  // the lattice's top face near the root and drags its HIP 40 mm along x at 0.04 m/s. The command
+  // carries the proxy: its HIP flags have SLIDING (128) while it slides, its position is the proxy's
+  // on the surface (above the pressing HIP and behind it, by the coupling force over K), and the
+  // force's tangential part is mu_d times the normal one. The snap bridge above never sets SLIDING.
+  void slide_through_the_bridge(int port, const std::vector<Reply> &snap_replies)
+  {
+    constexpr std::uint32_t sliding_flag = 128u;
+    const pid_t             bridge       = start_bridge(port, true);
+    sockaddr_in             server{};
+    server.sin_family      = AF_INET;
+    server.sin_port        = htons(std::uint16_t(port));
+    server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const int          client = udp_socket();
+    std::vector<Reply> replies;
+    std::uint32_t      sequence = 7;
+    double             x[3]     = {0.05, 0.025, 0.015};
+    for (int k = 0; k < 20000 && replies.empty(); ++k)
+      {
+        send_to(client, server, state_packet(++sequence, x, hello));
+        pause_and_drain(client, replies, 500);
+      }
+    ENSURE(!replies.empty());
+    std::vector<std::array<double, 3>> sent; // the HIP position of each sequence number from the first
+    const std::uint32_t                first = sequence + 1;
+    const int                          press = 800, drag = 2000; // 0.5 ms each
+    for (int k = 0; k < press + drag; ++k)
+      {
+        x[2] = 0.015 - 0.007 * std::min(1.0, k / 400.0); // 2 mm below the top face at z = 0.01
+        x[0] = 0.05 + (k < press ? 0.0 : 0.04 * (k - press) * 0.0005);
+        auto packet = state_packet(++sequence, x);
+        const double velocity = k < press ? 0.0 : 0.04;
+        std::memcpy(&packet[16 + 24], &velocity, 8);
+        send_to(client, server, packet);
+        sent.push_back({x[0], x[1], x[2]});
+        pause_and_drain(client, replies, 500);
+      }
+    send_to(client, server, state_packet(++sequence, x, bye));
+    kill(bridge, SIGINT);
+    int status = 0;
+    waitpid(bridge, &status, 0);
+    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    const double K = 1000.0, mu_d = 0.2; // [N/m] the default coupling, the bridge's --friction
+    std::size_t  sliding = 0;
+    double       worst_ratio = 0.0, worst_gap = 0.0, lag = 0.0;
+    for (const Reply &r : replies)
+      {
+        if (r.hips != 1 || !(r.hip_flags & sliding_flag) || r.sequence < first || r.sequence - first >= sent.size())
+          continue;
+        const auto  &hip = sent[r.sequence - first];
+        const double tangential = std::hypot(r.force[0], r.force[1]), normal = r.force[2];
+        ENSURE(r.in_contact == 1 && normal > 0.2);
+        worst_ratio = std::max(worst_ratio, std::fabs(tangential / normal - mu_d) / mu_d);
+        // The proxy is on the surface above the HIP, by the normal force over K (the lattice's top face
+        // moves less than that between two states).
+        worst_gap = std::max(worst_gap, std::fabs((r.position[2] - hip[2]) - normal / K) / (normal / K));
+        lag       = std::max(lag, hip[0] - r.position[0]);
+        ++sliding;
+      }
+    std::size_t snap_sliding = 0;
+    for (const Reply &r : snap_replies)
+      snap_sliding += (r.hip_flags & sliding_flag) != 0;
+    std::printf("  slide through the bridge: %zu commands flagged SLIDING, F_t/F_n within %.2e of mu_d, proxy above "
+                "the HIP by F_n/K within %.1e, behind it by up to %.2f mm; the snap bridge: %zu flagged\n",
+                sliding, worst_ratio, worst_gap, 1e3 * lag, snap_sliding);
+    ENSURE(sliding > 500 && worst_ratio < 0.05 && worst_gap < 0.3 && lag > 0.0001);
+    ENSURE(snap_sliding == 0);
+    const std::string stats = read_text("serve_out_proxy/stats.json");
+    ENSURE(json_number(stats, "length_m") > 0.03); // its slide, found by the loop as run's
+    close(client);
+  }
 } // namespace
 
 int main()
@@ -507,5 +590,6 @@ int main()
   close(c.client);
   close(c.restarted);
   close(c.stranger);
+  slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
   return test::finish("test_serve");
 }

@@ -9,7 +9,9 @@ const params = new URLSearchParams(location.search);
 // The mouse is a device through a virtual spring: a drag of s metres (the pointer's travel, measured
 // in the scene at the pressed point's depth) pushes along the inward normal with F = k s.
 const springNPerM = Number(params.get('spring') ?? 200); // [N/m] (0.2 N/mm)
-$('spring').textContent = `${(springNPerM / 1000).toPrecision(3)} N/mm (F = k · drag)`;
+// With sliding contacts (modal-rt view --contact proxy) a drag over the part slides the HIP there,
+// pressing with this force along the inward normal.
+const slideForceN = Number(params.get('force') ?? 0.5); // [N]
 
 const state = window.viewState = {
   ready: false, frames: 0, renderedFrames: 0, fps: 0, receivedFps: 0, bytesPerFrame: 0, basisBytes: 0,
@@ -27,6 +29,9 @@ $('file').textContent = info.file.split('/').pop();
 // --view`): then the page only watches.
 const session = info.session ?? { driver: 'mouse', watch_only: false, hips: 2 };
 state.watchOnly = session.watch_only;
+state.sliding = session.contact === 'proxy' && !state.watchOnly; // the mouse slides proxies
+$('spring').textContent = state.sliding ? `slide: ${slideForceN.toPrecision(3)} N along the inward normal`
+  : `${(springNPerM / 1000).toPrecision(3)} N/mm (F = k · drag)`;
 if (state.watchOnly) {
   $('contacts-title').innerHTML = `Contacts <small>(watch-only: driven by <b>modal-rt ${session.driver}</b>; the mouse turns the view)</small>`;
   for (const id of ['mouse-spring', 'mouse-hold']) $(id).style.display = 'none';
@@ -179,7 +184,8 @@ const voiBoxes = info.spaces.map((s, index) => {
   return helper;
 });
 
-// HIPs: a sphere at the felt position and the force arrow.
+// HIPs: a sphere at the felt position (a sliding contact's proxy), the force arrow, the proxy's path.
+const PATH_POINTS = 20000;
 const hipColors = Array.from({ length: session.hips }, (_, h) => [0xff4fd8, 0x4fffe0, 0xffd24f, 0x8fff4f][h % 4]);
 const hips = hipColors.map((_, h) => {
   const sphere = new THREE.Mesh(new THREE.SphereGeometry(size * 0.006), new THREE.MeshBasicMaterial({ color: hipColors[h] }));
@@ -189,7 +195,14 @@ const hips = hipColors.map((_, h) => {
   const label = document.createElement('div');
   label.className = 'label'; label.style.display = 'none'; label.style.color = '#' + hipColors[h].toString(16);
   $('labels').appendChild(label);
-  return { sphere, arrow, label, history: [], vertex: null }; // vertex: of the press the history is of
+  // The proxy's path over the part while in contact (a sliding contact; a snap contact's stays a dot).
+  const pathGeometry = new THREE.BufferGeometry();
+  pathGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * PATH_POINTS), 3));
+  pathGeometry.setDrawRange(0, 0);
+  const path = new THREE.Line(pathGeometry, new THREE.LineBasicMaterial({ color: hipColors[h], depthTest: false }));
+  path.renderOrder = 1;
+  scene.add(path);
+  return { sphere, arrow, label, history: [], vertex: null, path, pathPoints: 0 }; // vertex: of the press the history is of
 });
 
 // Validation points (offline side).
@@ -224,7 +237,8 @@ function parseFrame(buffer) {
   for (let h = 0; h < hipCount; ++h, o += 96) {
     const v3 = (p) => [dv.getFloat64(p, true), dv.getFloat64(p + 8, true), dv.getFloat64(p + 16, true)];
     f.hips.push({ inContact: dv.getUint32(o, true), vertex: dv.getUint32(o + 4, true), fullFe: dv.getUint32(o + 8, true),
-      force: v3(o + 16), kernelDisplacement: v3(o + 40), felt: v3(o + 64), staticStiffness: dv.getFloat64(o + 88, true) });
+      flags: dv.getUint32(o + 12, true), force: v3(o + 16), kernelDisplacement: v3(o + 40), felt: v3(o + 64),
+      staticStiffness: dv.getFloat64(o + 88, true) });
   }
   f.bytes = buffer.byteLength;
   return f;
@@ -257,6 +271,7 @@ const live = state.live = { status: 'connecting…', scaleMax: SCALE_FLOOR, auto
 const orbitHint = 'drag the background: rotate · right-drag: pan · wheel: zoom';
 const hints = {
   live: state.watchOnly ? `${orbitHint} · watch-only: the session drives the HIPs`
+    : state.sliding ? `press the part: HIP 0 pushes there with ${slideForceN} N (shift: HIP 1); drag over the part: it slides · ${orbitHint}`
     : `click the part: HIP 0 presses there (shift-click: HIP 1), drag away to press harder · ${orbitHint}`,
   modes: `${orbitHint} · presses only on the Live tab`,
   validation: `${orbitHint} · presses only on the Live tab`,
@@ -307,8 +322,20 @@ function trackPresses(f) {
   let newPress = false;
   f.hips.forEach((hip, h) => {
     const view = hips[h];
-    if (hip.inContact !== 1) { view.vertex = null; return; }
-    if (view.vertex !== hip.vertex) { view.history = []; view.vertex = hip.vertex; newPress = true; }
+    if (hip.inContact !== 1) { view.vertex = null; view.inContact = false; return; }
+    // The kernel's output position: the felt point (a proxy's on the deformed surface).
+    hip.position = restPosition(hip.vertex).add(new THREE.Vector3(...hip.felt)).toArray();
+    if (!view.inContact) view.pathPoints = 0; // a new contact starts a new path
+    view.inContact = true;
+    if (view.pathPoints < PATH_POINTS) {
+      view.path.geometry.attributes.position.array.set(hip.position, 3 * view.pathPoints++);
+      view.path.geometry.attributes.position.needsUpdate = true;
+      view.path.geometry.setDrawRange(0, view.pathPoints);
+    }
+    if (state.sliding) { // a slide is one press: its curve runs on over the vertices it passes
+      if (view.vertex === null) { view.history = []; newPress = true; }
+      view.vertex = hip.vertex;
+    } else if (view.vertex !== hip.vertex) { view.history = []; view.vertex = hip.vertex; newPress = true; }
     hip.js = vertexDisplacement(f, hip.vertex);
     view.history.push([Math.max(0, alongNormal(hip.felt, hip.vertex)), Math.hypot(...hip.force)]);
     if (view.history.length > 2000) view.history.shift();
@@ -341,11 +368,30 @@ renderer.domElement.addEventListener('pointerdown', (event) => {
   drag = { hip, vertex: best, x: event.clientX, y: event.clientY, pixel, force: 0 };
   controls.enabled = false;
   renderer.domElement.setPointerCapture(event.pointerId);
+  if (state.sliding) { slideTo(hit, hip); return; }
   send(`press ${hip} ${best} 0`);
   state.pressed = { hip, vertex: best, force: 0, pixelMetres: pixel };
 });
+// Sliding contacts: the HIP goes under the point of the part under the pointer (at rest: the mesh the
+// ray meets is the rest one), the nearest vertex's normal pressing, with the slide force.
+function slideTo(hit, hip) {
+  let best = hit.face.a, bestD = Infinity;
+  for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
+    const d = restPosition(v).distanceToSquared(hit.point);
+    if (d < bestD) { bestD = d; best = v; }
+  }
+  const p = hit.point;
+  send(`slide ${hip} ${best} ${p.x} ${p.y} ${p.z} ${slideForceN}`);
+  state.pressed = { hip, vertex: best, force: slideForceN, point: p.toArray() };
+}
 renderer.domElement.addEventListener('pointermove', (event) => {
   if (!drag) return;
+  if (state.sliding) {
+    raycaster.setFromCamera(pointerNdc(event), camera);
+    const hit = raycaster.intersectObject(mesh)[0];
+    if (hit) slideTo(hit, drag.hip); // off the part: the HIP stays where it was
+    return;
+  }
   const travel = Math.hypot(event.clientX - drag.x, event.clientY - drag.y) * drag.pixel; // [m]
   drag.force = springNPerM * travel;
   state.pressed = { hip: drag.hip, vertex: drag.vertex, force: drag.force, travel, pixelMetres: drag.pixel };
@@ -388,7 +434,16 @@ function hipPanel(h, hip, space) {
     <div class="row"><span>|u| (magnitude)</span><span class="num" id="hip${h}-u" data-value="${hip.js.join(',')}">${formatMm(Math.hypot(...hip.js), live.scaleMax)}</span></div>
     <div class="row"><span>u·n (along the surface normal)</span><span class="num" id="hip${h}-un">${formatMm(along, live.scaleMax)}</span></div>
     <div class="row"><span>felt stiffness (live) F/(u·n)</span><span class="num">${fmt(felt)} N/mm</span></div>
-    <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>`;
+    <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>${state.sliding ? proxyRows(h, hip) : ''}`;
+}
+
+// A sliding contact: whether its proxy slides, the force across the normal (friction) and along it.
+function proxyRows(h, hip) {
+  const v = hip.vertex, n = [0, 1, 2].map((d) => basis.normals[3 * v + d]);
+  const along = hip.force.reduce((sum, f, d) => sum + f * n[d], 0);
+  const across = Math.hypot(...hip.force.map((f, d) => f - along * n[d]));
+  return `<div class="row"><span>proxy</span><span id="hip${h}-proxy">${(hip.flags & 128) ? 'sliding' : 'stuck'}, path ${hips[h].pathPoints} points</span></div>
+    <div class="row"><span>friction |F_t| / normal F_n</span><span class="num">${across.toFixed(4)} N / ${along.toFixed(4)} N</span></div>`;
 }
 
 function drawPlot(pressing) {
@@ -470,7 +525,9 @@ function showHip(hip, h, e, tick) {
   view.label.style.display = show ? 'block' : 'none';
   if (!show) return { inContact: 0 };
   const F = Math.hypot(...hip.force);
-  const at = restPosition(hip.vertex).add(new THREE.Vector3(...hip.js).multiplyScalar(e));
+  // At the felt point; a proxy's offset from its vertex is not amplified, the part's displacement is.
+  const at = state.sliding ? new THREE.Vector3(...hip.position).add(new THREE.Vector3(...hip.js).multiplyScalar(e - 1))
+    : restPosition(hip.vertex).add(new THREE.Vector3(...hip.js).multiplyScalar(e));
   view.sphere.position.copy(at);
   if (F > 0) {
     const dir = new THREE.Vector3(...hip.force).normalize();
@@ -481,7 +538,8 @@ function showHip(hip, h, e, tick) {
   view.label.style.left = `${(p.x * 0.5 + 0.5) * container.clientWidth + 8}px`;
   view.label.style.top = `${(-p.y * 0.5 + 0.5) * container.clientHeight - 24}px`;
   view.label.textContent = `${F.toFixed(3)} N`;
-  return { inContact: 1, vertex: hip.vertex, tick, force: hip.force, forceN: F, displacement: hip.js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt };
+  return { inContact: 1, vertex: hip.vertex, tick, force: hip.force, forceN: F, displacement: hip.js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt,
+    position: hip.position, flags: hip.flags, sliding: (hip.flags & 128) !== 0, pathPoints: view.pathPoints, staticStiffness: hip.staticStiffness };
 }
 
 // The haptic loop's figures: each over the server's last closed one-second window.
@@ -615,6 +673,11 @@ window.viewDebug = {
     return { x: rect.left + (p.x * 0.5 + 0.5) * rect.width, y: rect.top + (-p.y * 0.5 + 0.5) * rect.height };
   },
   canvas: renderer.domElement,
+  // HIP h's drawn path: how many points, the first and the last [m].
+  path(h) {
+    const a = hips[h].path.geometry.attributes.position.array, n = hips[h].pathPoints;
+    return { points: n, first: n ? Array.from(a.slice(0, 3)) : null, last: n ? Array.from(a.slice(3 * n - 3, 3 * n)) : null };
+  },
   formatMm,
   restMm,
 };

@@ -88,7 +88,9 @@
  *   - Impedance ticks: before the step the proxy moves over the surface (across triangles by the
  *     surface's adjacency, at most 4 edges per tick) under Coulomb friction applied to the coupling
  *     force a stuck proxy would give, F = K g + D (v_hip - v_surface), g = x_hip - proxy, split
- *     along the proxy's outward normal (F_n = -F.n, > 0 when pressing) and across it (F_t): a
+ *     along the normal of the proxy's triangle (at rest; F_n = -F.n, > 0 when pressing) and across
+ *     it (F_t; the plane the proxy walks in, so a press straight in does not slide it off a narrow
+ *     face whose blended vertex normals tilt towards its edges): a
  *     sticking proxy stays while |F_t| <= static_friction F_n; then it slides, moved along F_t so
  *     that |F_t| = dynamic_friction F_n, until |F_t| falls within that cone, when it sticks again.
  *     0 and 0 is frictionless (the tangential force vanishes). At a boundary edge of the surface
@@ -134,7 +136,8 @@ extern "C" {
  * modalrt_kernel_begin_session; and contact_mode, static_friction and dynamic_friction (the sliding
  * proxy contact, MODALRT_CONTACT_PROXY), modalrt_hip_output's proxy_triangle and proxy_weights,
  * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING.
- * 3.1: modalrt_basis_felt_stiffness (the felt-stiffness map); reads .mrt 1.1 (the cross compliance
+ * 3.1: modalrt_basis_point_compliance (the static compliance where a proxy sits),
+ * modalrt_basis_felt_stiffness (the felt-stiffness map); reads .mrt 1.1 (the cross compliance
  * between neighbouring candidates only, as compressed rows). */
 #define MODALRT_VERSION_MAJOR 3
 #define MODALRT_VERSION_MINOR 1
@@ -295,6 +298,18 @@ MODALRT_API const double   *modalrt_basis_felt_stiffness(const modalrt_basis *ba
  * space has a mode with omega = 0: a part that is not held has no static compliance). */
 MODALRT_API int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space, uint32_t vertex,
                                                  double compliance[9], uint32_t *full_fe);
+/* Static compliance G [m/N] (3x3, row-major, body frame) of a load at a point of display triangle
+ * `triangle`, spread over its three corners' contacts with the barycentric weights `weights` (>= 0,
+ * sum 1): where a proxy contact sits (modalrt_hip_output's proxy_triangle and proxy_weights). G =
+ * B Lambda^-1 B^T + C with B = sum_k w_k B_k (each corner's row as in modalrt_basis_contact_compliance)
+ * and C = sum_a sum_b w_a w_b C_ab over corners at candidates from CROSS_COMPLIANCE (without it,
+ * sum_k w_k C_k): the residual the kernel gives a proxy there. *full_fe is 1 when it is the full static
+ * FE compliance of the blended load: every corner with a weight is a candidate, and the space stores
+ * CROSS_COMPLIANCE or one corner holds the whole weight. `full_fe` may be NULL. No allocation.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, space or triangle out of range, weights
+ * negative, non-finite or not summing to 1 within 1e-9), ERROR_VALUE (a mode with omega = 0). */
+MODALRT_API int modalrt_basis_point_compliance(const modalrt_basis *basis, uint32_t space, uint32_t triangle,
+                                               const double weights[3], double compliance[9], uint32_t *full_fe);
 /* 1 if the file holds TRANSFER from space `from` into space `to`, else 0. */
 MODALRT_API int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from);
 

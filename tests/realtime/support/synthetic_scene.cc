@@ -511,4 +511,28 @@ namespace modalrt
           }
     return c;
   }
+  BasisContent with_sparse_cross(BasisContent content)
+  {
+    for (auto &sp : content.spaces)
+      {
+        const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
+        if (sp.cross_compliance.empty())
+          continue;
+        sp.cross_offsets.assign(1, 0);
+        for (std::size_t a = 0; a < nc; ++a)
+          {
+            for (std::size_t b = 0; b < nc; ++b)
+              if (b != a)
+                {
+                  sp.cross_neighbours.push_back(std::uint32_t(b));
+                  for (int i = 0; i < 3; ++i)
+                    for (int j = 0; j < 3; ++j)
+                      sp.cross_blocks.push_back(sp.cross_compliance[(3 * a + i) * n3 + 3 * b + j]);
+                }
+            sp.cross_offsets.push_back(std::uint32_t(sp.cross_neighbours.size()));
+          }
+        sp.cross_compliance.clear();
+      }
+    return content;
+  }
 } // namespace modalrt

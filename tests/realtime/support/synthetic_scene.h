@@ -56,6 +56,10 @@ namespace modalrt
 
   BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());
 
+  // The same content with every space's dense CROSS_COMPLIANCE (version 1.0) as version 1.1's
+  // compressed rows, every other candidate a neighbour: both forms must give the kernel the same numbers.
+  BasisContent with_sparse_cross(BasisContent content);
+
   // Display vertex of lattice node (i, j) of the top face.
   inline std::uint32_t lattice_display_vertex(const LatticeOptions &o, std::uint32_t i, std::uint32_t j)
   {
