@@ -299,7 +299,8 @@ namespace modal_haptics
                       "At each validation point, a geometrically nonlinear full-FE solve (total Lagrangian, "
                       "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
                       "the force-displacement curve and the forces up to which the linear felt compliance "
-                      "stays within 1, 5 and 10 %. Units: none.");
+                      "stays within 1, 5 and 10 %. Off by default: a Newton iteration refactorizes the tangent "
+                      "(the default scene's two points take about 290 s, docs/accuracy.md). Units: none.");
     prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
                       Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
                       "Hyperelastic law of the validity analysis, with the part's Young's modulus and "

@@ -135,6 +135,7 @@ subsection Contact
   set Patch radius        = 15
   set Validation samples  = 0
   set Validation points   = 0, 0, 10
+  set Validity analysis   = true
   set Force limit         = 1e4
   set Validity material   = St. Venant-Kirchhoff
   set Validity load steps = 10
