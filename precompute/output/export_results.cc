@@ -106,6 +106,31 @@ namespace modal_haptics
       return flat;
     }
 
+    // The nonlinear force-displacement curve of each validity contact: a group per contact.
+    void write_validity(dealii::HDF5::Group &space, const ModalSpaceResult &s, const Writers &w)
+    {
+      if (s.validity.empty())
+        return;
+      auto validity = space.create_group("validity");
+      for (const auto &curve : s.validity)
+        {
+          auto          c = validity.create_group("vertex_" + std::to_string(curve.vertex));
+          const hsize_t m = curve.forces.size();
+          c.set_attribute("vertex", curve.vertex);
+          c.set_attribute("material", curve.material);
+          c.set_attribute("linear_compliance_m_per_n", curve.linear_compliance);
+          c.set_attribute("force_limit_n", curve.force_limit);
+          c.set_attribute("force_reached_n", curve.force_reached);
+          c.set_attribute("stop_reason", curve.stop_reason.empty() ? std::string("none") : curve.stop_reason);
+          write_array(c, "direction", std::vector<double>(curve.direction.begin(), curve.direction.end()), {3}, w);
+          write_array(c, "force_n", curve.forces, {m}, w);
+          write_array(c, "displacement_m", curve.displacements, {m}, w);
+          write_array(c, "newton_iterations", curve.newton_iterations, {m}, w);
+          write_array(c, "validity_force_n", std::vector<double>(curve.validity_force.begin(), curve.validity_force.end()),
+                      {3}, w);
+        }
+    }
+
     void write_space(dealii::HDF5::Group &spaces, const ModalSpaceResult &s, const unsigned int nv, const Writers &w)
     {
       auto g = spaces.create_group(s.name);
@@ -145,6 +170,7 @@ namespace modal_haptics
         }
       write_array(g, "validation_cases", cases, {nval, 2}, w);
       write_array(g, "validation_response", response, {nval, 3}, w);
+      write_validity(g, s, w);
     }
   } // namespace
 
@@ -332,6 +358,32 @@ namespace modal_haptics
       return validation;
     }
 
+    // The nonlinear solves at the validity contacts (docs/report-schema.md, "validity").
+    Json validity_json(const std::vector<ValidityCurve> &curves)
+    {
+      Json validity = Json::array();
+      for (const auto &c : curves)
+        {
+          Json forces = Json::object();
+          for (unsigned int k = 0; k < validity_departures.size(); ++k)
+            forces[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = c.validity_force[k];
+          validity.push_back({{"vertex", c.vertex},
+                              {"direction", c.direction},
+                              {"material", c.material},
+                              {"linear_compliance_m_per_n", c.linear_compliance},
+                              {"force_limit_n", c.force_limit},
+                              {"force_reached_n", c.force_reached},
+                              {"stop_reason", c.stop_reason.empty() ? Json() : Json(c.stop_reason)},
+                              {"validity_force_n", forces},
+                              {"force_n", c.forces},
+                              {"displacement_m", c.displacements},
+                              {"newton_iterations", c.newton_iterations},
+                              {"newton_residuals", c.newton_residuals},
+                              {"seconds", c.seconds}});
+        }
+      return validity;
+    }
+
     Json mesh_json(const meshing::ScenarioMesh &mesh)
     {
       return {{"file", std::filesystem::path(mesh.msh_file).filename().string()},
@@ -454,6 +506,8 @@ namespace modal_haptics
       space["mass_kg"]           = s.mass;
       space["centre_of_mass_m"]  = s.centre_of_mass;
       space["validation"]        = validation_json(s.validation);
+      if (!s.validity.empty())
+        space["validity"] = validity_json(s.validity);
       if (s.two_contact_rel_error_corrected >= 0.)
         space["two_contact_rel_error_corrected"] = s.two_contact_rel_error_corrected;
       Json &pairs = space["two_contact_checks"] = Json::array();

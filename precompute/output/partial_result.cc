@@ -45,6 +45,13 @@ namespace boost::serialization
   }
 
   template <class Archive>
+  void serialize(Archive &ar, modal_haptics::ValidityCurve &c, const unsigned int)
+  {
+    ar &c.vertex &c.direction &c.material &c.linear_compliance &c.forces &c.displacements &c.newton_iterations;
+    ar &c.newton_residuals &c.force_limit &c.force_reached &c.stop_reason &c.validity_force &c.seconds;
+  }
+
+  template <class Archive>
   void serialize(Archive &ar, modal_haptics::EigenSelfCheck &c, const unsigned int)
   {
     ar &c.orthonormality_error &c.max_relative_residual;
@@ -78,7 +85,7 @@ namespace modal_haptics
   namespace
   {
     // The first line of every partial result file; a new layout of the archive gets a new number.
-    const std::string format_line = "modal-haptics partial result, format 3";
+    const std::string format_line = "modal-haptics partial result, format 4";
   } // namespace
 
   std::string partial_result_file(const std::string &directory, const std::string &scenario)

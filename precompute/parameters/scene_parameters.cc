@@ -303,6 +303,29 @@ namespace modal_haptics
                       "The display correction field of a contact is kept where it exceeds this fraction of "
                       "its maximum (it is local); the validation reports the error this truncation leaves. "
                       "Units: none.");
+    prm.declare_entry("Force limit", text(c.force_limit), Patterns::Double(0.),
+                      "The largest contact force the validity analysis ramps each validation point's patch "
+                      "load up to (the default is the kernel's default device force limit, device.max_force). "
+                      "Units: N.");
+    prm.declare_entry("Validity analysis", text(c.validity_analysis), Patterns::Bool(),
+                      "At each validation point, a geometrically nonlinear full-FE solve (total Lagrangian, "
+                      "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
+                      "the force-displacement curve and the forces up to which the linear felt compliance "
+                      "stays within 1, 5 and 10 %. Off by default: a Newton iteration refactorizes the tangent "
+                      "(the default scene's two points take about 290 s, docs/accuracy.md). Units: none.");
+    prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
+                      Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
+                      "Hyperelastic law of the validity analysis, with the part's Young's modulus and "
+                      "Poisson's ratio: compressible neo-Hookean, or St. Venant-Kirchhoff (which softens "
+                      "without bound in compression). Units: none.");
+    prm.declare_entry("Validity direction", "normal", Patterns::Anything(),
+                      "The direction the validity analysis presses along: 'normal' (into the part, along "
+                      "the display surface's normal at the contact) or a vector 'x, y, z' (normalized). "
+                      "Units: none.");
+    prm.declare_entry("Validity load steps", text(c.validity_load_steps), Patterns::Integer(1, 1000),
+                      "The validity analysis' first load increment is 'Force limit' divided by this; an "
+                      "increment is halved where Newton fails and grows where it converges fast. "
+                      "Units: none.");
     prm.leave_subsection();
   }
 
@@ -319,6 +342,20 @@ namespace modal_haptics
     correction_field_tolerance = prm.get_double("Correction field tolerance");
     for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
       validation_points.push_back(parse_point(point, "Contact/Validation points"));
+    force_limit          = prm.get_double("Force limit");
+    AssertThrow(force_limit > 0., dealii::ExcMessage("'Contact/Force limit' is " + prm.get("Force limit") +
+                                                     " N: it must be above 0."));
+    validity_analysis    = prm.get_bool("Validity analysis");
+    validity_neo_hookean = prm.get("Validity material") == "neo-Hookean";
+    if (const auto direction = prm.get("Validity direction"); direction != "normal")
+      {
+        auto d = parse_point(direction, "Contact/Validity direction");
+        const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        AssertThrow(norm > 0., dealii::ExcMessage("'Contact/Validity direction' is '" + direction +
+                                                  "': expected 'normal' or a nonzero vector 'x, y, z'."));
+        validity_direction = meshing::Point3{{d[0] / norm, d[1] / norm, d[2] / norm}};
+      }
+    validity_load_steps  = prm.get_integer("Validity load steps");
     prm.leave_subsection();
   }
 

@@ -14,6 +14,7 @@
 #include "scene_mesher.h"
 #include "scene/supports.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,13 @@ namespace modal_haptics
     // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of
     // the space whose VOI holds it and is validated in every space.
     std::vector<meshing::Point3> validation_points;
+    // Where linear stops being true (precompute/nonlinear/large_deformation.h): at each validation
+    // point, a geometrically nonlinear solve of the patch load ramped up to force_limit.
+    double       force_limit         = 10.;  // [N] the kernel's default device.max_force (realtime/src/api.cc)
+    bool         validity_analysis   = false; // off: 287 s for the default scene's two points (docs/accuracy.md)
+    bool         validity_neo_hookean = true; // else St. Venant-Kirchhoff
+    std::optional<meshing::Point3> validity_direction; // unit; empty: the surface's inward normal
+    unsigned int validity_load_steps = 10;   // first load increment = force_limit / this
 
     static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Contact"
     void        parse_parameters(dealii::ParameterHandler &prm);

@@ -361,6 +361,9 @@ namespace modal_haptics
               std::sort(list->begin(), list->end());
             }
         shared.push_back(v);
+        if (scene.contact.validity_analysis &&
+            std::find(task.validity_vertices.begin(), task.validity_vertices.end(), v) == task.validity_vertices.end())
+          task.validity_vertices.push_back(v);
         if (verbose)
           std::cout << "[contacts] validation point (" << point[0] << ", " << point[1] << ", " << point[2]
                     << ") -> display vertex " << v << " in space '" << task.name << "'" << std::endl;

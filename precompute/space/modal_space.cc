@@ -5,6 +5,7 @@
 
 #include "solvers/amg_eigensolver.h"
 #include "output/atomic_file.h"
+#include "nonlinear/large_deformation.h"
 #include "space/distributed_space.h"
 #include "space/space_phases.h"
 
@@ -121,6 +122,7 @@ namespace modal_haptics
           export_matrices();
       }
       void solve_eigenproblem() override;
+      void analyse_validity() override;
       void finish() override;
 
       void read_mesh();
@@ -329,6 +331,23 @@ namespace modal_haptics
             << " constrained rows have M_ii = 0)";
       log(check.str());
       select_modes();
+    }
+
+    // The nonlinear solves on this space's mesh, FE space, supports and sparsity (large_deformation.h).
+    void SerialSpace::analyse_validity()
+    {
+      const nonlinear::SpaceView space{dof_handler,      mapping,
+                                       quadrature,       constraints,
+                                       sparsity_pattern, supports.elastic_faces,
+                                       scene.modes.factorization_kind};
+      nonlinear::analyse_validity(
+        space, scene, task, display, [this](const unsigned int v, const std::array<double, 3> &d) { return patch_load(v, d); },
+        [this](const meshing::Point3 &x) {
+          double outside = 0.;
+          evaluation_points({x}, &outside);
+          return outside;
+        },
+        result, [this](const std::string &line) { log(line); }, [this](const std::string &line) { summarize(line); });
     }
 
     void SerialSpace::finish()

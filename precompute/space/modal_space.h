@@ -138,6 +138,11 @@ namespace modal_haptics
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
       virtual void validate() = 0;
+      // The nonlinear solves at the validity contacts (precompute/nonlinear/): serial only.
+      virtual void analyse_validity()
+      {
+        summarize("validity analysis left out: the distributed backend has no nonlinear solve (serial runs only)");
+      }
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;       // a progress line: not printed with --quiet

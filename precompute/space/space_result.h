@@ -47,6 +47,30 @@ namespace modal_haptics
     double solve_relative_residual     = 0.; // ||K u - f|| / ||f|| of the full solve
   };
 
+  // The felt force-displacement curve of one contact under a geometrically nonlinear full-FE solve
+  // (precompute/nonlinear/large_deformation.h), and the forces up to which the linear felt
+  // compliance holds (docs/report-schema.md, "validity").
+  struct ValidityCurve
+  {
+    unsigned int          vertex = 0;   // display vertex
+    std::array<double, 3> direction{};  // unit vector the patch load presses along
+    std::string           material;     // the hyperelastic law of the solve
+    double                linear_compliance = 0.; // d^T W^T K^-1 W d [m/N]
+    std::vector<double>   forces;        // [N] converged load levels, ascending (0 left out)
+    std::vector<double>   displacements; // [m] d^T W^T u at each: the felt displacement
+    std::vector<unsigned int> newton_iterations;            // per converged level
+    std::vector<std::vector<double>> newton_residuals;      // per converged level: |R| / |f| per iteration
+    double      force_limit   = 0.; // [N] 'Contact/Force limit'
+    double      force_reached = 0.; // [N] the last converged level (= force_limit when complete)
+    std::string stop_reason;        // empty when the limit was reached; else why the solve stopped
+    // The force [N] where |c_linear / c_nonlinear - 1| first reaches 1 %, 5 %, 10 % (c = u / F, the
+    // secant compliance felt), interpolated between levels; infinity when it is not reached up to the
+    // force limit; force_reached when the solve stopped before (the part does not carry more).
+    std::array<double, 3> validity_force{};
+    double seconds = 0.; // wall time of the solve
+  };
+  constexpr std::array<double, 3> validity_departures = {{0.01, 0.05, 0.10}};
+
   // A space's result is read by three readers, one struct each: the basis (what the .mrt and .h5
   // files hold), its diagnostics (report.json) and the rows this process holds (MPI bookkeeping,
   // never written). for_each_field lists every written field once, with its name: the partial
@@ -92,6 +116,7 @@ namespace modal_haptics
     std::array<double, 3>       centre_of_mass{};
     std::array<double, 9>       inertia{};     // about the centre of mass [kg m^2]
     std::vector<ValidationCase> validation;
+    std::vector<ValidityCurve>  validity; // the nonlinear solves at the space's validity contacts
 
     template <typename Self, typename Visitor>
     static void for_each_field(Self &b, Visitor &&field)
@@ -107,7 +132,7 @@ namespace modal_haptics
       field("cross_blocks", b.cross_blocks), field("felt_stiffness", b.felt_stiffness);
       field("modal_only_stiffness", b.modal_only_stiffness), field("participation", b.participation);
       field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
-      field("validation", b.validation);
+      field("validation", b.validation), field("validity", b.validity);
     }
   };
 
@@ -194,6 +219,7 @@ namespace modal_haptics
     std::vector<unsigned int>   candidates;         // display vertices with a static correction
     std::vector<unsigned int>   validation_vertices; // a subset of candidates
     std::vector<unsigned int>   shared_vertices;    // vertices whose full compliance every space reports
+    std::vector<unsigned int>   validity_vertices;  // 'Validation points' in this space's region: nonlinear solves
   };
 
   // The space with its first r modes only (r <= its count), as if the eigensolve had kept r: the
