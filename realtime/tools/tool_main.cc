@@ -1,6 +1,7 @@
 // modal-rt: looks into a .mrt basis file, checks the kernel against it, and plays sessions.
 //
-//   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, section sizes
+//   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, the felt-stiffness
+//                                  map per space (range, softest spots: stiffness_map.cc), section sizes
 //   modal-rt info   --basis FILE --vertex N | --near X,Y,Z
 //                                  one display vertex (by index, or the closest to a point [m]): its
 //                                  position, normal, region, candidacy and felt stiffness (vertex_info.cc)
@@ -15,6 +16,7 @@
 //   and the commands of the app's extensions (the view: modal-rt view, view/README.md).
 //
 // Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
+#include "stiffness_map.h"
 #include "tool_main.h"
 #include "vertex_info.h"
 
@@ -135,6 +137,7 @@ namespace
     print_header(info);
     for (uint32_t s = 0; s < info.space_count; ++s)
       print_space(basis, s, info.space_count);
+    modalrt_tool::print_felt_stiffness_map(basis);
     print_sections(basis, info.section_count);
     return 0;
   }

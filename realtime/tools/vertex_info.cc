@@ -1,4 +1,5 @@
 #include "vertex_info.h"
+#include "stiffness_map.h"
 
 #include <cmath>
 #include <cstdio>
@@ -140,5 +141,6 @@ namespace modalrt_tool
     std::printf("  spaces    all %u (each holds the whole display surface); a corrected contact (candidate) "
                 "of: %s\n", info.space_count, candidate_of.empty() ? "none" : candidate_of.c_str());
     print_felt_stiffness(basis, vertex, region, info.space_count);
+    print_vertex_felt_stiffness(basis, vertex);
   }
 } // namespace modalrt_tool

@@ -3,9 +3,13 @@
 // corrupt file is reported with its name and a non-zero exit status. info --vertex / --near: a
 // vertex's felt stiffness equals 1 / (n^T (B Lambda^-1 B^T + C) n) from the basis content at a
 // candidate and says "modal only" elsewhere; --near finds the vertex at a point; bad values are named.
+// The felt-stiffness map (FELT_STIFFNESS): info prints per space its range over the space's region and
+// its 5 softest spots, the numbers of the map written; --vertex prints the scene's map at the vertex,
+// which at a candidate equals the full-FE felt stiffness from B, Lambda and C.
 #include "test_support.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -144,6 +148,86 @@ namespace
     modalrt_basis_destroy(basis);
     std::remove("tool_vertex.mrt");
   }
+
+  // The number after `key` in `out` (NaN if absent), from position `from` on.
+  double number_after(const std::string &out, const std::string &key, std::size_t from = 0)
+  {
+    const std::size_t at = out.find(key, from);
+    return at == std::string::npos ? std::nan("") : std::atof(out.c_str() + at + key.size());
+  }
+
+  void felt_stiffness_map()
+  {
+    modalrt::LatticeOptions o;
+    o.patch_radius                = 0.03;
+    o.felt_stiffness              = true;
+    const modalrt::BasisContent c = modalrt::make_lattice_cantilever(o);
+    ENSURE(modalrt::write_basis_file("tool_map.mrt", c));
+    std::string out;
+    ENSURE(run("info --basis tool_map.mrt", out) == 0);
+    std::printf("%s", out.substr(out.find("felt-stiffness map"), out.find("\nsection") - out.find("felt-stiffness map")).c_str());
+    for (std::uint32_t s = 0; s < c.spaces.size(); ++s)
+      {
+        // What the file holds over the space's region: the computed values, softest first.
+        std::vector<std::pair<double, std::uint32_t>> values;
+        std::uint32_t                                 region_size = 0;
+        for (std::uint32_t v = 0; v < c.vertex_count(); ++v)
+          if (c.region[v] == s)
+            {
+              ++region_size;
+              if (c.spaces[s].felt_stiffness[v] > 0.0)
+                values.emplace_back(1e-3 * c.spaces[s].felt_stiffness[v], v);
+            }
+        std::sort(values.begin(), values.end());
+        const std::size_t n = values.size();
+        ENSURE(n >= 5 && (s == 0 ? n < region_size : n == region_size)); // the clamped vertices (x = 0): none
+        const std::string line = "space " + std::to_string(s) + " '" + c.spaces[s].name + "': " + std::to_string(n) +
+                                 " of its region's " + std::to_string(region_size) + " vertices: ";
+        const std::size_t at = out.find(line);
+        ENSURE(at != std::string::npos);
+        const double median = n % 2 ? values[n / 2].first : 0.5 * (values[n / 2 - 1].first + values[n / 2].first);
+        ENSURE_NEAR(number_after(out, "min ", at) / values.front().first, 1.0, 1e-5);
+        ENSURE_NEAR(number_after(out, "median ", at) / median, 1.0, 1e-5);
+        ENSURE_NEAR(number_after(out, "max ", at) / values.back().first, 1.0, 1e-5);
+        for (std::size_t k = 0; k < 5; ++k)
+          {
+            const std::uint32_t v    = values[k].second;
+            const std::string   spot = "softest " + std::to_string(k + 1) + ": vertex " + std::to_string(v) + " at (";
+            const std::size_t   p    = out.find(spot, at);
+            ENSURE(p != std::string::npos);
+            ENSURE_NEAR(std::atof(out.c_str() + p + spot.size()), 1e3 * c.vertices[3 * v], 1e-3);
+            ENSURE_NEAR(number_after(out, "mm: ", p) / values[k].first, 1.0, 1e-5);
+          }
+      }
+
+    ENSURE(!contains(out, "softest 6:"));
+
+    // --vertex: the scene's map at a tip candidate is its full-FE felt stiffness; a clamped vertex has none.
+    const std::vector<unsigned char> bytes = modalrt::write_basis(c);
+    modalrt_basis                   *basis = nullptr;
+    ENSURE(modalrt_basis_load_memory(bytes.data(), bytes.size(), &basis) == MODALRT_OK);
+    const std::uint32_t v  = modalrt::lattice_display_vertex(o, 8, 1);
+    const auto         &c1 = c.spaces[1].candidates;
+    const std::size_t   k  = std::find(c1.begin(), c1.end(), v) - c1.begin();
+    ENSURE(c.region[v] == 1 && k < c1.size());
+    ENSURE(run("info --basis tool_map.mrt --vertex " + std::to_string(v), out) == 0);
+    const double expected = expected_n_per_mm(c, 1, k, modalrt_basis_display_normals(basis) + 3 * v);
+    const double printed  = number_after(out, "felt-stiffness map: ");
+    ENSURE_NEAR(printed / expected, 1.0, 1e-9);
+    ENSURE(contains(out, "N/mm (its region's space 1, full FE)"));
+    std::printf("map at vertex %u: printed %.12g N/mm, full FE from the file's B, Lambda, C %.12g N/mm\n", v, printed,
+                expected);
+    ENSURE(run("info --basis tool_map.mrt --vertex " + std::to_string(modalrt::lattice_display_vertex(o, 0, 1)), out) == 0);
+    ENSURE(contains(out, "felt-stiffness map: not computed here (0 in its region's space 0)"));
+    modalrt_basis_destroy(basis);
+
+    // A file without a map says so.
+    o.felt_stiffness = false;
+    ENSURE(modalrt::write_basis_file("tool_map.mrt", modalrt::make_lattice_cantilever(o)));
+    ENSURE(run("info --basis tool_map.mrt", out) == 0 && contains(out, "felt-stiffness map: none in this file"));
+    ENSURE(run("info --basis tool_map.mrt --vertex 3", out) == 0 && contains(out, "felt-stiffness map: none in this file"));
+    std::remove("tool_map.mrt");
+  }
 } // namespace
 
 int main()
@@ -152,5 +236,6 @@ int main()
   inconsistent_basis();
   corrupt_file();
   vertex_info();
+  felt_stiffness_map();
   return test::finish("test_tool");
 }

@@ -1,5 +1,7 @@
 #include "synthetic_scene.h"
 
+#include <mrt/surface_normals.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -299,6 +301,24 @@ namespace modalrt
               sp.candidate_modes.push_back(projection[v][d * L.n + i]);
           const auto C = modal_compliance(L, projection[v], projection[v], r, L.n);
           sp.candidate_compliance.insert(sp.candidate_compliance.end(), C.begin(), C.end());
+        }
+      if (o.felt_stiffness)
+        {
+          // The map of the precompute: along the contract's normals, the full compliance (all modes).
+          std::vector<double> normals(3 * std::size_t(nv));
+          mrt::area_weighted_normals(c.vertices.data(), nv, c.triangles.data(), c.triangles.size() / 3,
+                                     normals.data());
+          sp.felt_stiffness.assign(nv, 0.0);
+          for (std::uint32_t v : sp.candidates)
+            {
+              const auto    G = modal_compliance(L, projection[v], projection[v], 0, L.n);
+              const double *n = normals.data() + 3 * std::size_t(v);
+              double        nGn = 0.0;
+              for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b)
+                  nGn += n[a] * G[3 * a + b] * n[b];
+              sp.felt_stiffness[v] = 1.0 / nGn;
+            }
         }
       const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
       if (o.cross && nc > 0)

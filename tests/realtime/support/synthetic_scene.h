@@ -52,6 +52,8 @@ namespace modalrt
     bool          all_candidates   = false; // every unclamped vertex is a candidate of every space
                                             // (else only the vertices of the space's region)
     std::uint32_t validation_vertices = 3;  // per space, x 3 directions
+    bool          felt_stiffness   = false; // store FELT_STIFFNESS: at each candidate of a space the exact
+                                            // 1 / (n^T W^T K^-1 W n) [N/m] (n: mrt's area-weighted normal), 0 elsewhere
   };
 
   BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());

@@ -1,0 +1,25 @@
+// The felt-stiffness map of a basis (.mrt FELT_STIFFNESS, modalrt_basis_felt_stiffness) as modal-rt
+// info prints it and the view draws it: the scene's map takes each display vertex from the space of
+// its region (DISPLAY_REGION), where a HIP pressing there is (issue 36, item 3).
+#pragma once
+
+#include <modalrt/modalrt.h>
+
+#include <cstdint>
+
+namespace modalrt_tool
+{
+  // Whether the file holds a map (a .mrt 1.1 from a precompute that computed it).
+  bool has_felt_stiffness_map(const modalrt_basis *basis);
+
+  // The scene's map at `vertex` [N/m]: its region's space's value; 0 where that space did not
+  // compute it or the file has no map.
+  double scene_felt_stiffness(const modalrt_basis *basis, std::uint32_t vertex);
+
+  // modal-rt info --basis: per space, the map over its region (how many of its vertices have a value,
+  // min / median / max in N/mm) and its `softest` softest spots (vertex, rest position in mm, N/mm).
+  void print_felt_stiffness_map(const modalrt_basis *basis, std::uint32_t softest = 5);
+
+  // modal-rt info --vertex: the scene's map at `vertex`, one line.
+  void print_vertex_felt_stiffness(const modalrt_basis *basis, std::uint32_t vertex);
+} // namespace modalrt_tool
