@@ -1,5 +1,7 @@
 #include "view_server.h"
 
+#include "stiffness_map.h" // realtime/tools
+
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
@@ -91,7 +93,8 @@ namespace modalrt_view
     // The display basis in the view's binary layout (view/README.md, "Basis"): rest vertices,
     // triangles, normals and regions, then per space its display modes as float32, per vertex and
     // mode one (x, y, z) triple (the layout of the shader's texture), plus, when the file stores
-    // float64 modes, the same in float64 (the page's exact read-out of a vertex).
+    // float64 modes, the same in float64 (the page's exact read-out of a vertex); last the scene's
+    // felt-stiffness map.
     std::vector<unsigned char> basis_binary(const modalrt_basis *basis, const std::string &path)
     {
       modalrt_basis_info info{};
@@ -168,6 +171,12 @@ namespace modalrt_view
           if (!exact.empty())
             append(bytes, exact.data(), exact.size());
         }
+      // The scene's felt-stiffness map [N/mm]: each vertex from its region's space, 0 where it was
+      // not computed (and everywhere when the file has no map).
+      std::vector<float> stiffness(nv);
+      for (std::uint32_t v = 0; v < nv; ++v)
+        stiffness[v] = float(1e-3 * modalrt_tool::scene_felt_stiffness(basis, v));
+      append(bytes, stiffness.data(), stiffness.size());
       return bytes;
     }
 
@@ -181,6 +190,7 @@ namespace modalrt_view
       j << "{\"file\":" << json_string(path) << ",\"vertices\":" << info.display_vertex_count
         << ",\"triangles\":" << info.display_triangle_count << ",\"mode_scalar_bytes\":" << info.mode_scalar_bytes
         << ",\"patch_radius_m\":" << json_number(info.patch_radius) << ",\"basis_bytes\":" << basis_bytes
+        << ",\"felt_stiffness_map\":" << (modalrt_tool::has_felt_stiffness_map(basis) ? "true" : "false")
         << ",\"bounds_min\":[" << json_number(info.bounds_min[0]) << "," << json_number(info.bounds_min[1]) << ","
         << json_number(info.bounds_min[2]) << "],\"bounds_max\":[" << json_number(info.bounds_max[0]) << ","
         << json_number(info.bounds_max[1]) << "," << json_number(info.bounds_max[2]) << "],\"spaces\":[";

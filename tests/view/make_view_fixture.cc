@@ -1,6 +1,7 @@
 // Writes a synthetic basis for the view's browser test and benchmark:
 //   make_view_fixture lattice FILE           the lattice cantilever (exact modes, candidates with
-//                                            static corrections, cross compliance, float64 modes)
+//                                            static corrections, cross compliance, float64 modes, the
+//                                            felt-stiffness map at the candidates, 0 at the clamped edge)
 //   make_view_fixture plate FILE NX NY R     the analytic plate with NX x NY display vertices and R
 //                                            modes per space (float32 modes), for the 100k benchmark
 #include "synthetic_scene.h"
@@ -20,6 +21,7 @@ int main(int argc, char **argv)
       o.nx           = 13;
       o.ny           = 4;
       o.patch_radius = 0.02; // [m] a patch of a few vertices at this spacing (16.7 mm)
+      o.felt_stiffness = true;
       ok             = modalrt::write_basis_file(argv[2], modalrt::make_lattice_cantilever(o), &error);
     }
   else if (kind == "plate" && argc == 6)

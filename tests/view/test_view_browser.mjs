@@ -18,9 +18,13 @@
 //   - Live -> Modes (space, mode, amplification changed) -> Validation -> Live leaves the live
 //     amplification, colour scale, active space and status word as they were; each tab has its own
 //     legend; the validation table follows the modal-only/corrected switch.
+//   - the Stiffness tab: hovering a vertex shows the felt-stiffness map's value there, equal to what
+//     the kernel reads from the .mrt (`modal-rt info --vertex V`, modalrt_basis_felt_stiffness) within
+//     float32's 1e-6; the legend's ends are the map's smallest and largest values (info's ranges per
+//     space); a vertex of the clamped edge says "not computed";
 //   - on Ctrl-C it exits 0 and its haptic thread (the run loop with the mouse device) allocated nothing.
 // Usage: node test_view_browser.mjs --modal-rt BIN --basis FILE [--screenshot PNG]
-import { spawn } from 'node:child_process';
+import { execFileSync, spawn } from 'node:child_process';
 import { writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
@@ -142,6 +146,7 @@ try {
   await checkPlotKept(page);
   await checkTabsOwnTheirState(page);
   await checkValidationTable(page);
+  await checkStiffnessMode(page, vertex);
 
   // Ctrl-C: the run loop stops cleanly and says how it ran; the mouse device, like every device of
   // the loop, allocated nothing in the haptic thread.
@@ -204,5 +209,44 @@ async function checkValidationTable(page) {
     `the validation table follows the modal-only/corrected switch (${modal.length} cases: ${modal[0]} ... then ${corrected[0]} ...)`);
   const legend = await page.textContent('#validation-legend');
   check(legend.includes('contact error') && await page.isHidden('#live-legend'), 'Validation shows its own legend (the error scale), not the |u| bar');
+  await page.click('#tab-live');
+}
+
+// The Stiffness tab against the kernel's reading of the same .mrt (modal-rt info): the value under the
+// pointer at `vertex` (the map's, its region's space), the legend's range, a vertex without a value.
+async function checkStiffnessMode(page, vertex) {
+  const info = (...extra) => execFileSync(args['modal-rt'], ['info', '--basis', args.basis, ...extra], { encoding: 'utf8' });
+  const mapAt = (v) => Number(info('--vertex', String(v)).match(/felt-stiffness map: ([0-9.eE+-]+) N\/mm/)?.[1]);
+  const ranges = [...info().matchAll(/: min ([0-9.eE+-]+) \/ median [0-9.eE+-]+ \/ max ([0-9.eE+-]+) N\/mm/g)];
+  const low = Math.min(...ranges.map((m) => Number(m[1]))), high = Math.max(...ranges.map((m) => Number(m[2])));
+  await page.click('#tab-stiffness');
+  await page.waitForTimeout(300);
+  const range = await page.evaluate(() => { const t = document.getElementById('stiffness-range').textContent; return t.slice(t.indexOf(', ') + 2); });
+  const hover = async (v, toward) => {
+    const a = await page.evaluate((x) => window.viewDebug.project(x), v);
+    const b = await page.evaluate((x) => window.viewDebug.project(x), toward);
+    await page.mouse.move(a.x + 0.2 * (b.x - a.x) + 1, a.y + 0.2 * (b.y - a.y)); // just inside the part, nearest to v
+    await page.mouse.move(a.x + 0.2 * (b.x - a.x), a.y + 0.2 * (b.y - a.y));
+    return page.evaluate(() => ({ vertex: Number(document.getElementById('stiffness-vertex').dataset.value),
+      value: Number(document.getElementById('stiffness-value').dataset.value), text: document.getElementById('stiffness-value').textContent }));
+  };
+  const expected = mapAt(vertex);
+  const shown = await hover(vertex, vertex - 1);
+  check(shown.vertex === vertex && expected > 0 && Math.abs(shown.value - expected) <= 1e-6 * expected,
+    `Stiffness: under the pointer vertex ${shown.vertex}, ${shown.value} N/mm ("${shown.text}") = the map's ${expected} N/mm (modal-rt info --vertex) within 1e-6`);
+  const edge = 13; // lattice node (0, 1): on the clamped edge, no correction, no value
+  const grey = await hover(edge, edge + 1);
+  check(grey.vertex === edge && grey.value === 0 && grey.text === 'not computed' && !(mapAt(edge) > 0),
+    `Stiffness: vertex ${grey.vertex} of the clamped edge says "${grey.text}"`);
+  const legend = await page.evaluate(() => [document.getElementById('stiffness-legend-low')?.textContent, document.getElementById('stiffness-legend-high')?.textContent]);
+  const near = (text, x) => Math.abs(parseFloat(text) - x) <= 1e-3 * x;
+  // The colours span the smallest value to the 95th percentile (a clamp's vertices are almost rigid).
+  const top = parseFloat(legend[1]?.replace('≥ ', ''));
+  check(legend.every((t) => t?.endsWith(' N/mm')) && near(legend[0], low) && top > low && top <= high * (1 + 1e-3)
+    && range.split(' – ').map(parseFloat).every((x, i) => near(`${x}`, [low, high][i])),
+    `Stiffness: legend ${legend.join(' .. ')} from the map's smallest value; the map ${range} = info's range ${low} .. ${high} N/mm`);
+  const status = await page.textContent('#status');
+  check(status.startsWith('stiffness (offline)') && await page.isHidden('#live-legend'), `Stiffness says what it shows: "${status}"`);
+  if (args.screenshot) await page.screenshot({ path: args.screenshot.replace(/\.png$/, '_stiffness.png') });
   await page.click('#tab-live');
 }

@@ -53,7 +53,8 @@ function parseBasis(buffer) {
     const phi64 = scalarBytes === 8 ? take(Float64Array, 3 * nv * r) : null;
     spaces.push({ r, phi32, phi64 });
   }
-  return { nv, nt, vertices, triangles, normals, regions, spaces };
+  const stiffness = take(Float32Array, nv); // [N/mm] the scene's felt-stiffness map, 0: not computed
+  return { nv, nt, vertices, triangles, normals, regions, spaces, stiffness };
 }
 const basis = parseBasis(basisBuffer);
 const rho = info.patch_radius_m;
@@ -118,6 +119,7 @@ const uniforms = {
   phi: { value: textures[0] }, r: { value: basis.spaces[0].r }, texWidth: { value: texWidth },
   q: { value: Array.from({ length: maxModes / 4 }, () => new THREE.Vector4()) },
   exaggeration: { value: 1 }, scaleMax: { value: 1e-3 }, rho: { value: rho }, plain: { value: 0 },
+  stiffnessOn: { value: 0 }, stiffnessLogLow: { value: 0 }, stiffnessLogHigh: { value: 1 },
   contactOn: { value: [0, 0] }, contactVertex: { value: [0, 0] },
   contactPos: { value: [new THREE.Vector3(), new THREE.Vector3()] }, contactC: { value: [new THREE.Vector3(), new THREE.Vector3()] },
 };
@@ -128,8 +130,11 @@ const material = new THREE.ShaderMaterial({
     uniform sampler2D phi; uniform int r; uniform int texWidth; uniform vec4 q[${maxModes / 4}];
     uniform float exaggeration; uniform float scaleMax; uniform float rho;
     uniform float contactOn[2]; uniform int contactVertex[2]; uniform vec3 contactPos[2]; uniform vec3 contactC[2];
-    out float vMagnitude; out vec3 vPosition;
+    in float stiffness; // [N/mm] the felt-stiffness map, 0: not computed
+    out float vMagnitude; out vec3 vPosition; out float vComputed; out float vLogStiffness;
     void main() {
+      vComputed = stiffness > 0.0 ? 1.0 : 0.0;
+      vLogStiffness = vComputed * log(max(stiffness, 1e-30)); // over the computed corners only (divided by vComputed)
       int v = gl_VertexID;
       vec3 u = vec3(0.0);
       for (int i = 0; i < r; ++i) {
@@ -150,7 +155,8 @@ const material = new THREE.ShaderMaterial({
   fragmentShader: `
     precision highp float;
     uniform float plain; // 1: a neutral grey (the Validation tab's part at rest: its colours are the points')
-    in float vMagnitude; in vec3 vPosition; out vec4 color;
+    uniform float stiffnessOn; uniform float stiffnessLogLow; uniform float stiffnessLogHigh; // the Stiffness tab
+    in float vMagnitude; in vec3 vPosition; in float vComputed; in float vLogStiffness; out vec4 color;
     vec3 turbo(float x) {
       x = mix(${TURBO_LOW}, ${TURBO_HIGH}, clamp(x, 0.0, 1.0));
       vec4 v4 = vec4(1.0, x, x * x, x * x * x); vec2 v2 = v4.zw * v4.z;
@@ -160,11 +166,17 @@ const material = new THREE.ShaderMaterial({
       // A headlight: the faces the viewer looks at are lit, whatever the orbit.
       vec3 n = normalize(cross(dFdx(vPosition), dFdy(vPosition)));
       float light = 0.6 + 0.4 * abs(dot(n, normalize(cameraPosition - vPosition)));
-      color = vec4(mix(turbo(vMagnitude), vec3(0.62, 0.66, 0.72), plain) * light, 1.0);
+      vec3 base = mix(turbo(vMagnitude), vec3(0.62, 0.66, 0.72), plain);
+      if (stiffnessOn > 0.5) { // log scale; grey where the map has no value (blended across a triangle's edge)
+        float x = (vLogStiffness / max(vComputed, 1e-6) - stiffnessLogLow) / max(stiffnessLogHigh - stiffnessLogLow, 1e-6);
+        base = mix(vec3(0.45, 0.47, 0.50), turbo(x), vComputed);
+      }
+      color = vec4(base * light, 1.0);
     }`,
 });
 const geometry = new THREE.BufferGeometry();
 geometry.setAttribute('position', new THREE.BufferAttribute(basis.vertices, 3));
+geometry.setAttribute('stiffness', new THREE.BufferAttribute(basis.stiffness, 1));
 geometry.setIndex(new THREE.BufferAttribute(basis.triangles, 1));
 geometry.computeBoundingSphere();
 geometry.boundingSphere.radius *= 4; // the shader moves the vertices
@@ -275,11 +287,14 @@ const hints = {
     : `click the part: HIP 0 presses there (shift-click: HIP 1), drag away to press harder · ${orbitHint}`,
   modes: `${orbitHint} · presses only on the Live tab`,
   validation: `${orbitHint} · presses only on the Live tab`,
+  stiffness: `point at the part: its felt stiffness there · ${orbitHint} · presses only on the Live tab`,
 };
 const statusOf = {
   live: () => live.status,
   modes: () => `modes (offline): ${$('mode-text').textContent} of space ${spaceName(Number($('mode-space').value))}, not the live part`,
   validation: () => `validation (offline): ${$('validation-kind').selectedOptions[0].text} contact errors of space ${spaceName(Number($('validation-space').value))}`,
+  stiffness: () => (info.felt_stiffness_map ? 'stiffness (offline): the felt-stiffness map, each vertex from its region\'s space'
+    : 'stiffness (offline): this basis has no felt-stiffness map'),
 };
 function showStatus() { $('status').textContent = statusOf[state.mode](); }
 function setLiveStatus(text) { live.status = text; showStatus(); }
@@ -348,6 +363,15 @@ function trackPresses(f) {
 const raycaster = new THREE.Raycaster();
 let drag = null;
 function send(text) { if (socket.readyState === WebSocket.OPEN) socket.send(text); }
+// The display vertex a ray's hit stands for: the hit triangle's corner nearest to the hit point.
+function nearestCorner(hit) {
+  let best = hit.face.a, bestD = Infinity;
+  for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
+    const d = restPosition(v).distanceToSquared(hit.point);
+    if (d < bestD) { bestD = d; best = v; }
+  }
+  return best;
+}
 function pointerNdc(event) {
   const rect = renderer.domElement.getBoundingClientRect();
   return new THREE.Vector2(((event.clientX - rect.left) / rect.width) * 2 - 1, -((event.clientY - rect.top) / rect.height) * 2 + 1);
@@ -357,12 +381,7 @@ renderer.domElement.addEventListener('pointerdown', (event) => {
   raycaster.setFromCamera(pointerNdc(event), camera);
   const hit = raycaster.intersectObject(mesh)[0];
   if (!hit) return; // the background: OrbitControls turns the view
-  // Snap to the hit triangle's vertex nearest to the hit point.
-  let best = hit.face.a, bestD = Infinity;
-  for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
-    const d = restPosition(v).distanceToSquared(hit.point);
-    if (d < bestD) { bestD = d; best = v; }
-  }
+  const best = nearestCorner(hit); // the snap
   const hip = event.shiftKey ? 1 : 0;
   const pixel = 2 * hit.distance * Math.tan(THREE.MathUtils.degToRad(camera.fov / 2)) / renderer.domElement.clientHeight;
   drag = { hip, vertex: best, x: event.clientX, y: event.clientY, pixel, force: 0 };
@@ -375,11 +394,7 @@ renderer.domElement.addEventListener('pointerdown', (event) => {
 // Sliding contacts: the HIP goes under the point of the part under the pointer (at rest: the mesh the
 // ray meets is the rest one), the nearest vertex's normal pressing, with the slide force.
 function slideTo(hit, hip) {
-  let best = hit.face.a, bestD = Infinity;
-  for (const v of [hit.face.a, hit.face.b, hit.face.c]) {
-    const d = restPosition(v).distanceToSquared(hit.point);
-    if (d < bestD) { bestD = d; best = v; }
-  }
+  const best = nearestCorner(hit);
   const p = hit.point;
   send(`slide ${hip} ${best} ${p.x} ${p.y} ${p.z} ${slideForceN}`);
   state.pressed = { hip, vertex: best, force: slideForceN, point: p.toArray() };
@@ -478,7 +493,7 @@ function liveExaggeration() {
 }
 
 // What every tab sets before drawing: the space, q, the contacts, the amplification and the colour.
-function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain }) {
+function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain, stiffness = 0 }) {
   uniforms.phi.value = textures[spaceIndex];
   uniforms.r.value = basis.spaces[spaceIndex].r;
   for (let i = 0; i < maxModes; ++i) uniforms.q.value[i >> 2].setComponent(i & 3, i < q.length ? q[i] : 0);
@@ -491,6 +506,7 @@ function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain }) 
     uniforms.contactC.value[k].set(...c.c);
   }
   uniforms.exaggeration.value = exaggeration; uniforms.scaleMax.value = scaleMax; uniforms.plain.value = plain;
+  uniforms.stiffnessOn.value = stiffness;
   voiBoxes.forEach((box, i) => { if (box) box.material.color.set(i === spaceIndex ? 0xffd34f : 0x667788); });
 }
 
@@ -606,6 +622,54 @@ function showValidation() {
   showStatus();
 }
 
+// The Stiffness tab: the part at rest coloured by the scene's felt-stiffness map (each vertex from its
+// region's space; grey where it has none), and the value at the vertex under the pointer. Log scale
+// from the map's smallest value to its 95th percentile, stiffer drawn as the top colour: vertices on a
+// clamp are almost rigid (up to 5e7 N/mm on the default scene, against 4.5 to 950 N/mm elsewhere) and
+// would leave the rest of the part one colour.
+const STIFFNESS_TOP_PERCENTILE = 0.95;
+const stiffnessRange = (() => {
+  const values = basis.stiffness.filter((k) => k > 0).sort();
+  const n = values.length;
+  return { low: values[0], high: values[Math.max(0, Math.ceil(STIFFNESS_TOP_PERCENTILE * n) - 1)], max: values[n - 1], computed: n };
+})();
+const nPerMm = (k) => `${k.toPrecision(4)} N/mm`;
+function showStiffness() {
+  const { low, high, max, computed } = stiffnessRange;
+  if (computed > 0) {
+    showLegend('stiffness-legend', 'felt stiffness, pressing straight in (log scale; grey: not computed)',
+      (x) => turbo(x), nPerMm(low), `${high < max ? '≥ ' : ''}${nPerMm(high)}`);
+    $('stiffness-range').textContent = `${computed} of ${basis.nv} vertices, ${nPerMm(low)} – ${nPerMm(max)}`;
+  } else {
+    $('stiffness-legend').innerHTML = '<small>this basis has no felt-stiffness map (FELT_STIFFNESS, .mrt 1.1): the part is grey</small>';
+    $('stiffness-range').textContent = '–';
+  }
+  uniforms.stiffnessLogLow.value = Math.log(computed > 0 ? low : 1);
+  uniforms.stiffnessLogHigh.value = Math.log(computed > 0 ? high : 10);
+  applyModal(0, [], [], { exaggeration: 1, scaleMax: 1, plain: 0, stiffness: 1 });
+  showStatus();
+}
+const stiffnessLabel = document.createElement('div');
+stiffnessLabel.className = 'label'; stiffnessLabel.style.display = 'none';
+$('labels').appendChild(stiffnessLabel);
+renderer.domElement.addEventListener('pointermove', (event) => {
+  if (state.mode !== 'stiffness') return;
+  raycaster.setFromCamera(pointerNdc(event), camera);
+  const hit = raycaster.intersectObject(mesh)[0];
+  if (!hit) { stiffnessLabel.style.display = 'none'; return; }
+  const v = nearestCorner(hit), k = basis.stiffness[v];
+  const text = k > 0 ? nPerMm(k) : 'not computed';
+  $('stiffness-vertex').textContent = `${v} (${whereText(v).voi})`;
+  $('stiffness-vertex').dataset.value = v;
+  $('stiffness-value').textContent = text;
+  $('stiffness-value').dataset.value = k;
+  const rect = renderer.domElement.getBoundingClientRect();
+  stiffnessLabel.textContent = `vertex ${v}: ${text}`;
+  stiffnessLabel.style.left = `${event.clientX - rect.left + 12}px`;
+  stiffnessLabel.style.top = `${event.clientY - rect.top - 24}px`;
+  stiffnessLabel.style.display = 'block';
+});
+
 function reportTables() {
   let html = '<table><tr><th>space</th><th>r</th><th>f [Hz]</th><th>cand.</th><th>cross</th></tr>';
   info.spaces.forEach((s) => {
@@ -627,20 +691,23 @@ function reportTables() {
 }
 
 // Tabs: a switch shows the tab's panel, hint and status; Live redraws from its own state at once.
+const TABS = ['live', 'modes', 'validation', 'stiffness'];
 function selectTab(name) {
   state.mode = name;
-  for (const other of ['live', 'modes', 'validation']) {
+  for (const other of TABS) {
     $(`tab-${other}`).classList.toggle('on', other === name);
     $(`${other}-panel`).style.display = other === name ? '' : 'none';
   }
   validationPoints.visible = name === 'validation';
   hips.forEach((h) => { h.sphere.visible = h.arrow.visible = false; h.label.style.display = 'none'; });
   $('hint').textContent = hints[name];
+  if (name !== 'stiffness') stiffnessLabel.style.display = 'none';
   if (name === 'validation') showValidation();
+  if (name === 'stiffness') showStiffness();
   if (name === 'live') drawLive(latest, false);
   showStatus();
 }
-for (const name of ['live', 'modes', 'validation']) $(`tab-${name}`).onclick = () => selectTab(name);
+for (const name of TABS) $(`tab-${name}`).onclick = () => selectTab(name);
 for (const id of ['mode-space', 'validation-space'])
   info.spaces.forEach((s, i) => $(id).add(new Option(`${i} ${s.name}`, i)));
 $('mode-space').onchange = () => { $('mode-index').max = info.spaces[Number($('mode-space').value)].modes - 1; };
