@@ -18,6 +18,16 @@ def main(path):
         print(f"{s['name']:10} {s['n_dofs']:9d} {s['n_modes']:5d} {s['frequencies_hz'][0]:9.2f} "
               f"{s['frequencies_hz'][-1]:9.1f} {s['orthonormality_error']:9.1e} {s['max_relative_residual']:9.1e} "
               f"{s['static_correction']['n_candidates']:5d} {modal:10.2e} {corrected:9.1e}")
+    for s in report["spaces"]:
+        m = s.get("felt_stiffness")
+        if not m:
+            continue
+        soft = m["softest"][0]
+        x = ", ".join(f"{1e3 * c:.1f}" for c in soft["position_m"])
+        print(f"felt stiffness, {s['name']} ({m['n_vertices']} vertices): {m['min_n_per_mm']:.1f} / "
+              f"{m['median_n_per_mm']:.1f} / {m['max_n_per_mm']:.3g} N/mm (min / median / max); softest at vertex "
+              f"{soft['vertex']} ({x}) mm; the modes alone: median {m['modal_only_ratio_median']:.3f} x as stiff, "
+              f"off by > 8 % at {100 * m['modal_only_off_by_more_than_8_percent']:.0f} % of the vertices")
     for c in report.get("cross_space", []):
         if c["region"] != c["space"]:
             continue  # the VOI that holds the vertex is the comparison that matters

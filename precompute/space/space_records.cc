@@ -118,14 +118,16 @@ namespace modal_haptics
         return C;
       }
 
-      // 1 / (n^T C n) [N/m]; 0 where C gives no compliance along n (a vertex without triangles).
+      // 1 / (n^T C n) [N/m]; 0 where C gives no compliance along n: a vertex without triangles, or
+      // one whose patch lies on clamped DoFs (its stiffness would be round-off's 1e30 N/m and more;
+      // above 1e15 N/m, far stiffer than any contact of a real part, it counts as none).
       double normal_stiffness(const std::array<double, 9> &C, const double *n)
       {
         double compliance = 0.;
         for (unsigned int c = 0; c < 3; ++c)
           for (unsigned int d = 0; d < 3; ++d)
             compliance += n[c] * C[3 * c + d] * n[d];
-        return compliance > 0. ? 1. / compliance : 0.;
+        return compliance > 1e-15 ? 1. / compliance : 0.;
       }
     } // namespace
 
@@ -159,13 +161,16 @@ namespace modal_haptics
         result.candidate_compliance[9 * std::size_t(a) + k] = G[k] - modal[k];
       if (result.cross_offsets.empty())
         return;
+      // Block (a, b) = W_a^T R W_b in a's row: by symmetry, entry (c, d) is the response at b along
+      // d to a's load along c, the transpose of what this load's solve reads at b.
       for (unsigned int k = result.cross_offsets[a]; k < result.cross_offsets[a + 1]; ++k)
         {
           const unsigned int target = result.candidates[result.cross_neighbours[k]];
           const double *Bt = &plan.load_modes[3 * std::size_t(r) * plan.load_of_vertex[target]];
-          const auto    Gt = compliance_with(target), modal_t = modal_compliance(result, Bt, B);
-          for (unsigned int e = 0; e < 9; ++e)
-            result.cross_blocks[9 * std::size_t(k) + e] = Gt[e] - modal_t[e];
+          const auto    at_target = compliance_with(target), modal_ab = modal_compliance(result, B, Bt);
+          for (unsigned int c = 0; c < 3; ++c)
+            for (unsigned int d = 0; d < 3; ++d)
+              result.cross_blocks[9 * std::size_t(k) + 3 * c + d] = at_target[3 * d + c] - modal_ab[3 * c + d];
         }
     }
 

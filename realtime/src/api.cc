@@ -214,6 +214,16 @@ const uint32_t *modalrt_basis_display_triangles(const modalrt_basis *basis) { re
 const uint32_t *modalrt_basis_display_regions(const modalrt_basis *basis) { return basis ? basis->region.data() : nullptr; }
 const double   *modalrt_basis_display_normals(const modalrt_basis *basis) { return basis ? basis->normals.data() : nullptr; }
 
+int modalrt_basis_pair_is_exact(const modalrt_basis *basis, uint32_t space, uint32_t a, uint32_t b)
+{
+  if (!basis || space >= basis->space_count())
+    return 0;
+  const ModalSpace &s = basis->spaces[space];
+  const int         ca = s.candidate_index(a), cb = s.candidate_index(b);
+  double            C[9];
+  return ca >= 0 && cb >= 0 && s.residual_compliance(std::uint32_t(ca), std::uint32_t(cb), C) ? 1 : 0;
+}
+
 const double *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space)
 {
   if (!basis || space >= basis->space_count() || basis->spaces[space].felt_stiffness.empty())

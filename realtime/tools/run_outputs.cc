@@ -347,7 +347,8 @@ namespace modalrt_tool
     // presses compared with full FE). A reference kernel (admittance, no auto release) snaps each
     // HIP to its vertex, is settled to the exact static equilibrium under the forces the part received
     // in that trace row, and one tick gives each contact's displacement u_c = B q + C F + the cross
-    // terms: with every contact a candidate of the space and CROSS_COMPLIANCE stored, that is the full
+    // terms: with every contact a candidate of the space and every pair's cross compliance stored
+    // (modalrt_basis_pair_is_exact), that is the full
     // static FE answer W_a^T K^-1 sum_b W_b F_b; otherwise the modal part (and the corrections that exist).
     void multi_contact_reference(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,
                                  modalrt_kernel *reference, double force_sign)
@@ -378,6 +379,17 @@ namespace modalrt_tool
       p.multi_full_fe = space.cross_count > 0;
       if (!p.multi_full_fe)
         p.multi_note = std::string("space '") + csv_safe(space.name) + "' stores no cross compliance";
+      for (std::size_t i = 0; p.multi_full_fe && i < in_contact.size(); ++i)
+        for (std::size_t j = i + 1; p.multi_full_fe && j < in_contact.size(); ++j)
+          {
+            const std::uint32_t va = result.trace[first * hips + in_contact[i]].active_vertex;
+            const std::uint32_t vb = result.trace[first * hips + in_contact[j]].active_vertex;
+            if (modalrt_basis_pair_is_exact(basis, p.space, va, vb))
+              continue;
+            p.multi_full_fe = false;
+            p.multi_note    = "vertices " + std::to_string(va) + " and " + std::to_string(vb) +
+                           " are farther apart than the cross compliance radius of '" + csv_safe(space.name) + "'";
+          }
       const double *rest = modalrt_basis_display_vertices(basis);
       for (std::uint32_t h : in_contact)
         {

@@ -29,10 +29,13 @@ PAIRS_PER_SPACE = 10
 
 def scene_text(extra_contact):
     """small_scene.prm with the default candidates (every vertex) and the given Contact lines."""
-    lines, skip = [], False
+    lines = []
     for line in open(os.path.join(HERE, "small_scene.prm")):
-        if line.strip().startswith(("set Global candidate stride", "set Maximum candidates", "set Validation samples")):
+        if line.strip().startswith(("set Global candidate stride", "set Maximum candidates", "set Validation samples",
+                                    "set Cross compliance radius")):
             continue
+        if line.strip().startswith("set Source"):  # the scene's .prm is written into another folder
+            line = f"  set Source = {os.path.join(HERE, 'block.geo')}\n"
         if line.strip() == "subsection Contact":
             lines.append(line)
             lines.extend(f"  {entry}\n" for entry in extra_contact)

@@ -52,7 +52,7 @@ EIGENVALUES_RELATIVE = 1e-12
 ROUND_OFF_LEVEL = {"orthonormality_error", "max_relative_residual", "contact_rel_error_corrected",
                    "solve_relative_residual", "two_contact_rel_error_corrected"}
 # Report entries that measure the run rather than the results (and every time in seconds, "*_s").
-RUN_DEPENDENT = {"processes", "seconds", "seconds_per_candidate", "reused", "h5_bytes", "parameter_file"}
+RUN_DEPENDENT = {"processes", "seconds", "seconds_per_load", "reused", "h5_bytes", "parameter_file"}
 # The eigensolver's counts, which depend on where round-off puts its stop when runs are not bit-reproducible.
 ITERATION_COUNTS = {"operator_applications", "solved_vectors"}
 

@@ -137,7 +137,7 @@ extern "C" {
  * proxy contact, MODALRT_CONTACT_PROXY), modalrt_hip_output's proxy_triangle and proxy_weights,
  * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING.
  * 3.1: modalrt_basis_point_compliance (the static compliance where a proxy sits),
- * modalrt_basis_felt_stiffness (the felt-stiffness map); reads .mrt 1.1 (the cross compliance
+ * modalrt_basis_felt_stiffness (the felt-stiffness map), modalrt_basis_pair_is_exact; reads .mrt 1.1 (the cross compliance
  * between neighbouring candidates only, as compressed rows). */
 #define MODALRT_VERSION_MAJOR 3
 #define MODALRT_VERSION_MINOR 1
@@ -287,6 +287,11 @@ MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *b
  * along the normal would feel there with the full FE model, 1 / (n^T W^T K^-1 W n) [N/m] (0 where the
  * space did not compute it); NULL if the file has no map (a .mrt 1.0) or space is out of range. */
 MODALRT_API const double   *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space);
+/* 1 when two HIPs at display vertices a and b of a space feel the full FE answer together: both are
+ * candidates and their residual cross compliance is stored (neighbours closer than the precompute's
+ * cross compliance radius, or sharing a display triangle), or a == b is a candidate; else 0 (also
+ * for a bad argument). */
+MODALRT_API int modalrt_basis_pair_is_exact(const modalrt_basis *basis, uint32_t space, uint32_t a, uint32_t b);
 /* Static compliance G [m/N] (3x3, row-major, body frame) of a contact at display vertex `vertex` in
  * space `space`: the settled felt displacement of the active vertex (patch average) is u_c = G F for
  * a constant force F on it, alone on the part. At a candidate of the space G = B_v Lambda^-1 B_v^T +
