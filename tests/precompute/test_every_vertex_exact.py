@@ -60,9 +60,14 @@ def main():
     with h5py.File(os.path.join(first, "small_block.h5"), "r") as h5:
         x = h5["display_surface/vertices"][:]
         region = h5["display_surface/region"][:]
+        # Where a hand can press: not on the clamped bottom face (its compliance is round-off, the
+        # map says 0 there).
+        reachable = np.zeros(len(region), bool)
+        for g in h5["spaces"].values():
+            reachable |= (g["felt_stiffness"][:] > 0) & (region == g.attrs["index"])
     random = np.random.default_rng(36)
-    picked = np.concatenate([random.choice(np.flatnonzero(region == s), SAMPLES_PER_REGION, replace=False)
-                             for s in np.unique(region)])
+    picked = np.concatenate([random.choice(np.flatnonzero((region == s) & reachable), SAMPLES_PER_REGION,
+                                           replace=False) for s in np.unique(region)])
     points = "; ".join(", ".join(f"{1e3 * c:.12g}" for c in x[v]) for v in picked)  # the scene is in mm
 
     folder = os.path.join(args.workdir, "exact")

@@ -70,6 +70,7 @@ subsection Modes
 end
 subsection Contact
   set Patch radius = {size / 250}
+  set Global candidate stride = 0
   set Validation samples = 0
   set Validation points = {size}, {size / 40}, {size / 40}
 end
