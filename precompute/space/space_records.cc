@@ -3,6 +3,7 @@
 // refinement of shifted static solves, the validation errors and their summaries.
 #include "space/modal_space.h"
 
+#include <mrt/cross_rows.h>
 #include <mrt/surface_normals.h>
 
 #include <deal.II/base/exceptions.h>
@@ -290,11 +291,9 @@ namespace modal_haptics
         std::copy_n(&result.candidate_compliance[9 * std::size_t(a)], 9, C.begin());
       else if (!result.cross_offsets.empty())
         {
-          const auto first = result.cross_neighbours.begin() + result.cross_offsets[a];
-          const auto last  = result.cross_neighbours.begin() + result.cross_offsets[a + 1];
-          const auto found = std::lower_bound(first, last, b);
-          if (found != last && *found == b)
-            std::copy_n(&result.cross_blocks[9 * std::size_t(found - result.cross_neighbours.begin())], 9, C.begin());
+          const std::ptrdiff_t k = mrt::cross_position(result.cross_offsets.data(), result.cross_neighbours.data(), a, b);
+          if (k >= 0)
+            std::copy_n(&result.cross_blocks[9 * std::size_t(k)], 9, C.begin());
         }
       return C;
     }

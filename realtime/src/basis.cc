@@ -2,6 +2,7 @@
 // and the mode-norm bound that sizes the snap search.
 #include "basis.h"
 
+#include <mrt/cross_rows.h>
 #include <mrt/surface_normals.h>
 
 #include <algorithm>
@@ -33,12 +34,10 @@ namespace modalrt
       }
     if (cross_count == 0)
       return false;
-    const std::uint32_t *first = cross_neighbours.data() + cross_offsets[a];
-    const std::uint32_t *last  = cross_neighbours.data() + cross_offsets[a + 1];
-    const std::uint32_t *found = std::lower_bound(first, last, b);
-    if (found == last || *found != b)
+    const std::ptrdiff_t k = mrt::cross_position(cross_offsets.data(), cross_neighbours.data(), a, b);
+    if (k < 0)
       return false;
-    std::copy_n(&cross_blocks[9 * std::size_t(found - cross_neighbours.data())], 9, C);
+    std::copy_n(&cross_blocks[9 * std::size_t(k)], 9, C);
     return true;
   }
 
