@@ -311,6 +311,56 @@ namespace
     modalrt_basis_destroy(b);
   }
 
+  // 3b. The same over vertices without a stored block (one vertex in four a candidate), in
+  // circles (turns: look-ahead missed): their patch rows are prepared ahead of the proxy a bounded
+  // amount per tick, and its coupling comes from its triangle's pair blocks. The felt normal
+  // compliance where the proxy is equals the compliance of the blended load
+  // (modalrt_basis_point_compliance), and the ticks allocate nothing.
+  void stiffness_over_patch_rows()
+  {
+    LatticeOptions o   = plate_options();
+    o.all_candidates   = false;
+    o.candidate_stride = 4; // a candidate in four: the others' rows are patch rows
+    modalrt_basis  *b  = test::load(modalrt::make_lattice_cantilever(o));
+    modalrt_kernel *k = test::create(b, proxy_def(0.3, 0.2));
+    const double    radius = 0.02, omega = 0.1 / radius, centre[2] = {0.08, 0.025}, z_top = top(o);
+    modalrt_hip_input  in{};
+    modalrt_hip_output out;
+    double             worst = 0.0;
+    int                probes = 0, uncorrected = 0, failed_ticks = 0;
+    std::uint64_t      allocations = 0;
+    for (int tick = 0; tick < 3000; ++tick)
+      {
+        const double t = tick * T, press = std::min(1.0, t / 0.3);
+        in.position[0] = centre[0] + radius * std::cos(omega * t), in.velocity[0] = -radius * omega * std::sin(omega * t);
+        in.position[1] = centre[1] + radius * std::sin(omega * t), in.velocity[1] = radius * omega * std::cos(omega * t);
+        in.position[2] = z_top + 0.001 - 0.003 * press, in.velocity[2] = 0.0;
+        const std::uint64_t before = modalrt_tool::counted_allocations();
+        modalrt_tool::count_allocations_in_this_thread(tick >= 100);
+        failed_ticks += modalrt_kernel_tick_impedance(k, &in, 1, &out) != MODALRT_OK; // (ENSURE allocates)
+        modalrt_tool::count_allocations_in_this_thread(false);
+        allocations += modalrt_tool::counted_allocations() - before;
+        if (tick < 600 || tick % 97 != 0 || !out.in_contact)
+          continue;
+        const auto felt = probe(k, 1, {0.0, 0.0, -1.0});
+        double     G[9];
+        uint32_t   full_fe = 0;
+        ENSURE(modalrt_basis_point_compliance(b, felt[0].space, felt[0].proxy_triangle, felt[0].proxy_weights, G,
+                                              &full_fe) == MODALRT_OK);
+        const auto rest = rest_of(b, load_of(b, felt[0]));
+        worst = std::max(worst, std::fabs(-(felt[0].position[2] - rest[2]) - G[8]) / G[8]);
+        uncorrected += full_fe == 0;
+        ++probes;
+      }
+    std::printf("  circles over patch rows prepared ahead: %d points (%d not all candidates) within %.1e of the blended "
+                "load's compliance; %llu allocations in 2900 ticks\n",
+                probes, uncorrected, worst, (unsigned long long)allocations);
+    ENSURE(failed_ticks == 0 && probes >= 20 && uncorrected >= 10);
+    ENSURE(worst < 1e-9 && allocations == 0);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(b);
+  }
+
   // 4. A slide from the global region into the tip VOI: the space switches during the slide, the
   // force does not step beyond the bound of a slide.
   void across_a_voi_boundary()
@@ -428,6 +478,7 @@ int main()
   force_continuity();
   friction();
   stiffness_along_a_slide();
+  stiffness_over_patch_rows();
   across_a_voi_boundary();
   two_hips_sliding();
   passivity_and_allocation();
