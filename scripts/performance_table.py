@@ -116,6 +116,23 @@ def tick_figure(rows):
     return f"p50 {r['p50_ns']}, p99 {r['p99_ns']}, p99.9 {r['p99.9_ns']}, max {r['max_ns']} ns"
 
 
+def slide_figure(rows):
+    """The sliding (proxy) contact's tick against the fixed one's of the same run (ticked alternately)."""
+    by = {r["scenario"]: r for r in rows}
+    slide, fixed = by["slide"], by["fixed"]
+    ratio = float(slide["p50_ns"]) / float(fixed["p50_ns"])
+    return (f"sliding p50 {slide['p50_ns']}, p99 {slide['p99_ns']}, p99.9 {slide['p99.9_ns']} ns; fixed p50 "
+            f"{fixed['p50_ns']}, p99 {fixed['p99_ns']}, p99.9 {fixed['p99.9_ns']} ns; sliding/fixed p50 {ratio:.2f}×")
+
+
+def slide_rows(r):
+    def select(rows):
+        found = [row for row in rows if row.get("kind") == "tick" and row.get("r") == r
+                 and row.get("scenario") in ("slide", "fixed")]
+        return found if {row["scenario"] for row in found} == {"slide", "fixed"} else []
+    return select
+
+
 def display_figure(rows):
     by_method = {r["method"]: r for r in rows}
     kernel = by_method["kernel"]
@@ -189,6 +206,8 @@ CASES = [
      rows_where(kind="tick", scenario="admittance", r="200", hips="2", corrected="1"), tick_figure),
     ("kernel tick", "landing (contact start and space switch), r = 200", KERNEL_TICK,
      rows_where(kind="tick", scenario="landing", r="200"), tick_figure),
+    ("kernel tick", "sliding (proxy) contact against the fixed one, r = 200", KERNEL_TICK, slide_rows("200"),
+     slide_figure),
     ("display reconstruction", "float32 modes, largest surface", ["benchmarks/results/*/display.csv"],
      largest("vertices", precision="f32", r="200"), display_figure),
     ("display reconstruction", "float64 modes, largest surface", ["benchmarks/results/*/display.csv"],

@@ -111,25 +111,53 @@ namespace modalrt
           : max_block_norm(space.display_modes_f32.data(), basis.vertex_count, space.mode_count);
   }
 
+  namespace
+  {
+    // out (3 x (mode_end - mode_begin)) += w_k Phi_(patch vertex k), modes [mode_begin, mode_end),
+    // for the patch entries k in [first, last) of the basis's patch arrays.
+    void accumulate_patch(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t first, std::uint32_t last,
+                          std::uint32_t mode_begin, std::uint32_t mode_end, double *out)
+    {
+      const std::size_t r = space.mode_count, n = mode_end - mode_begin;
+      for (std::uint32_t k = first; k < last; ++k)
+        {
+          const double      w     = basis.patch_weights[k];
+          const std::size_t start = std::size_t(basis.patch_vertices[k]) * 3 * r + mode_begin;
+          if (n == r) // all modes: the vertex's 3 x r block is contiguous, one loop over it
+            {
+              if (basis.float64_modes())
+                for (std::size_t i = 0; i < 3 * r; ++i)
+                  out[i] += w * space.display_modes_f64[start + i];
+              else
+                for (std::size_t i = 0; i < 3 * r; ++i)
+                  out[i] += w * double(space.display_modes_f32[start + i]);
+              continue;
+            }
+          for (std::size_t c = 0; c < 3; ++c)
+            {
+              double *row = out + c * n;
+              if (basis.float64_modes())
+                for (std::size_t i = 0; i < n; ++i)
+                  row[i] += w * space.display_modes_f64[start + c * r + i];
+              else
+                for (std::size_t i = 0; i < n; ++i)
+                  row[i] += w * double(space.display_modes_f32[start + c * r + i]);
+            }
+        }
+    }
+  } // namespace
+
   void patch_row(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, std::uint32_t mode_begin,
                  std::uint32_t mode_end, double *out)
   {
-    const std::size_t r = space.mode_count, n = mode_end - mode_begin;
-    std::fill_n(out, 3 * n, 0.0);
-    for (std::uint32_t k = basis.patch_offsets[v]; k < basis.patch_offsets[v + 1]; ++k)
-      {
-        const double      w     = basis.patch_weights[k];
-        const std::size_t first = std::size_t(basis.patch_vertices[k]) * 3 * r + mode_begin;
-        for (std::size_t c = 0; c < 3; ++c)
-          {
-            double *row = out + c * n;
-            if (basis.float64_modes())
-              for (std::size_t i = 0; i < n; ++i)
-                row[i] += w * space.display_modes_f64[first + c * r + i];
-            else
-              for (std::size_t i = 0; i < n; ++i)
-                row[i] += w * double(space.display_modes_f32[first + c * r + i]);
-          }
-      }
+    std::fill_n(out, 3 * std::size_t(mode_end - mode_begin), 0.0);
+    accumulate_patch(basis, space, basis.patch_offsets[v], basis.patch_offsets[v + 1], mode_begin, mode_end, out);
+  }
+
+  void add_patch_entries(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v,
+                         std::uint32_t entry_begin, std::uint32_t entry_end, double *out)
+  {
+    const std::uint32_t first = basis.patch_offsets[v];
+    accumulate_patch(basis, space, first + entry_begin, first + entry_end, 0, space.mode_count, out);
   }
 } // namespace modalrt

@@ -140,6 +140,19 @@ namespace modalrt
   void patch_row(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, std::uint32_t mode_begin,
                  std::uint32_t mode_end, double *out);
 
+  // The number of display vertices in v's contact patch (its entries).
+  inline std::uint32_t patch_size(const modalrt_basis &basis, std::uint32_t v)
+  {
+    return basis.patch_offsets[v + 1] - basis.patch_offsets[v];
+  }
+
+  // Adds entries [entry_begin, entry_end) of v's patch (w_j Phi_j, all r modes) to out (3 x r,
+  // zeroed by the caller before the first entry): a row built entry by entry over several calls, in
+  // the order patch_row takes them, is patch_row's to the last bit. The sliding contact prepares
+  // the rows of the vertices ahead of its proxy this way, a bounded number of entries per tick.
+  void add_patch_entries(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v,
+                         std::uint32_t entry_begin, std::uint32_t entry_end, double *out);
+
   // Row block of the display modes of vertex v in space s, converted to double: out[c r + i].
   void vertex_mode_block(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, double *out);
 } // namespace modalrt

@@ -268,9 +268,10 @@ void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double 
 }
 
 // B_a G B_b^T and B_a H B_b^T (+ C_ab) for every pair of active contacts. A contact's own block
-// (a = b) is symmetric: its six distinct entries are summed in one pass over the modes (a sliding
-// contact refreshes it whenever its proxy moves, so this is on its hot path); pairs a < b take the
-// nine entries one by one.
+// (a = b) is symmetric: its six distinct entries are summed in one pass over the modes; a sliding
+// contact, which refreshes it whenever its proxy moves, takes it from its triangle's pair blocks
+// instead (proxy_coupling_block: no pass over the modes). Pairs a < b take the nine entries one by
+// one.
 void modalrt_kernel::refresh_coupling_matrices() noexcept
 {
   coupling_dirty_                   = false;
@@ -279,23 +280,32 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
   const double          *g1 = integrator.g1(), *g2 = integrator.g2();
   for (std::uint32_t a = 0; a < n; ++a)
     {
-      const double *x = contacts_[active_[a]].B, *y = x + r, *z = y + r;
-      double        xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, vxx = 0, vxy = 0, vxz = 0, vyy = 0, vyz = 0, vzz = 0;
-#pragma omp simd reduction(+ : xx, xy, xz, yy, yz, zz, vxx, vxy, vxz, vyy, vyz, vzz)
-      for (std::uint32_t i = 0; i < r; ++i)
+      double s[9], sv[9];
+      if (contacts_[active_[a]].proxy.active)
+        proxy_coupling_block(contacts_[active_[a]], s, sv); // from its triangle's pair blocks
+      else
         {
-          const double gx = g1[i] * x[i], gy = g1[i] * y[i], hx = g2[i] * x[i], hy = g2[i] * y[i];
-          xx += gx * x[i], xy += gx * y[i], xz += gx * z[i], yy += gy * y[i], yz += gy * z[i], zz += g1[i] * z[i] * z[i];
-          vxx += hx * x[i], vxy += hx * y[i], vxz += hx * z[i], vyy += hy * y[i], vyz += hy * z[i], vzz += g2[i] * z[i] * z[i];
+          const double *x = contacts_[active_[a]].B, *y = x + r, *z = y + r;
+          double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, vxx = 0, vxy = 0, vxz = 0, vyy = 0, vyz = 0, vzz = 0;
+#pragma omp simd reduction(+ : xx, xy, xz, yy, yz, zz, vxx, vxy, vxz, vyy, vyz, vzz)
+          for (std::uint32_t i = 0; i < r; ++i)
+            {
+              const double gx = g1[i] * x[i], gy = g1[i] * y[i], hx = g2[i] * x[i], hy = g2[i] * y[i];
+              xx += gx * x[i], xy += gx * y[i], xz += gx * z[i], yy += gy * y[i], yz += gy * z[i], zz += g1[i] * z[i] * z[i];
+              vxx += hx * x[i], vxy += hx * y[i], vxz += hx * z[i], vyy += hy * y[i], vyz += hy * z[i],
+                vzz += g2[i] * z[i] * z[i];
+            }
+          const double own[9]   = {xx, xy, xz, xy, yy, yz, xz, yz, zz};
+          const double own_v[9] = {vxx, vxy, vxz, vxy, vyy, vyz, vxz, vyz, vzz};
+          std::copy_n(own, 9, s);
+          std::copy_n(own_v, 9, sv);
         }
-      const double s[3][3]  = {{xx, xy, xz}, {xy, yy, yz}, {xz, yz, zz}};
-      const double sv[3][3] = {{vxx, vxy, vxz}, {vxy, vyy, vyz}, {vxz, vyz, vzz}};
       for (int c = 0; c < 3; ++c)
         for (int d = 0; d < 3; ++d)
           {
             const std::size_t ab   = (3 * a + c) * n3 + 3 * a + d;
-            coupling_[ab]          = s[c][d] + compliance_[ab];
-            coupling_velocity_[ab] = sv[c][d];
+            coupling_[ab]          = s[3 * c + d] + compliance_[ab];
+            coupling_velocity_[ab] = sv[3 * c + d];
           }
     }
   for (std::uint32_t a = 0; a < n; ++a)

@@ -87,6 +87,27 @@ namespace modalrt
     w[0] = w0, w[1] = w1, w[2] = w2;
   }
 
+  // u_k = B_k x for three 3 x n row-major blocks (k = 0, 1, 2, into u[3 k + c]) and w = C y for a
+  // fourth, in one pass over x and y: a sliding contact's corners' displacements and its load
+  // point's velocity.
+  inline void dot_corners_pair(const double *b0, const double *b1, const double *b2, const double *c, const double *x,
+                               const double *y, std::uint32_t n, double u[9], double w[3])
+  {
+    const std::size_t m = n;
+    double            s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0, w0 = 0, w1 = 0, w2 = 0;
+#pragma omp simd reduction(+ : s0, s1, s2, s3, s4, s5, s6, s7, s8, w0, w1, w2)
+    for (std::uint32_t i = 0; i < n; ++i)
+      {
+        const double xi = x[i], yi = y[i];
+        s0 += b0[i] * xi, s1 += b0[m + i] * xi, s2 += b0[2 * m + i] * xi;
+        s3 += b1[i] * xi, s4 += b1[m + i] * xi, s5 += b1[2 * m + i] * xi;
+        s6 += b2[i] * xi, s7 += b2[m + i] * xi, s8 += b2[2 * m + i] * xi;
+        w0 += c[i] * yi, w1 += c[m + i] * yi, w2 += c[2 * m + i] * yi;
+      }
+    u[0] = s0, u[1] = s1, u[2] = s2, u[3] = s3, u[4] = s4, u[5] = s5, u[6] = s6, u[7] = s7, u[8] = s8;
+    w[0] = w0, w[1] = w1, w[2] = w2;
+  }
+
   // A x = b for a small dense n x n row-major A, by Gaussian elimination with partial pivoting; A is
   // destroyed and the solution is written over b. False (b partly eliminated) on a vanishing pivot.
   inline bool solve_in_place(double *A, double *b, std::uint32_t n) noexcept

@@ -152,10 +152,16 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
   snap_candidates_.resize(def.snap_candidate_budget);
-  proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * 9 * R : 0, 0.0);
+  // A sliding contact's row slots and their pair blocks (proxy_contact.h): the corners of its
+  // triangle and the rows prepared ahead of it.
+  proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_row_slots * 3 * R : 0, 0.0);
+  proxy_grams_.resize(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_slot_pairs : 0);
   for (std::uint32_t h = 0; h < H && !proxy_rows_.empty(); ++h)
-    for (int k = 0; k < 3; ++k)
-      contacts_[h].proxy.rows[k].B = proxy_rows_.data() + (std::size_t(h) * 3 + k) * 3 * R;
+    {
+      for (std::uint32_t k = 0; k < proxy_row_slots; ++k)
+        contacts_[h].proxy.rows[k].buffer = proxy_rows_.data() + (std::size_t(h) * proxy_row_slots + k) * 3 * R;
+      contacts_[h].proxy.grams = proxy_grams_.data() + std::size_t(h) * proxy_slot_pairs;
+    }
   observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;
@@ -279,6 +285,7 @@ void modalrt_kernel::admittance_step() noexcept
   frame_modal_force(f_.data());
   add_contact_forces(f_.data());
   integrators_[space_].step(q_.data(), v_.data(), f_.data());
+  ++state_stamp_;
   update_corrections();
 }
 
@@ -343,6 +350,7 @@ void modalrt_kernel::impedance_step() noexcept
       q_[i] = flush(q_free_[i] + g1[i] * f_[i]);
       v_[i] = flush(v_free_[i] + g2[i] * f_[i]);
     }
+  ++state_stamp_;
   update_corrections();
   release_pulling_contacts();
 }
@@ -427,7 +435,10 @@ void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outp
       if (c.in_contact)
         {
           double u[3], u_dot[3], x_body[3], x_rel[3], spin[3], u_dot_world[3];
-          dot_rows3_pair(c.B, q_.data(), v_.data(), r, u, u_dot);
+          if (c.proxy.active)
+            proxy_displacement(contacts_[h], u, u_dot);
+          else
+            dot_rows3_pair(c.B, q_.data(), v_.data(), r, u, u_dot);
           for (int d = 0; d < 3; ++d)
             x_body[d] = c.rest[d] + c.anchor[d] + u[d] + c.correction[d];
           rotate(fr.rotation, x_body, x_rel);
@@ -550,6 +561,7 @@ int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count)
         q_[i] = f_[i] / space.eigenvalues[i];
       v_[i] = 0.0;
     }
+  ++state_stamp_;
   update_corrections();
   return MODALRT_OK;
 }
@@ -566,6 +578,7 @@ void modalrt_kernel::reset() noexcept
     }
   std::fill(q_.begin(), q_.end(), 0.0);
   std::fill(v_.begin(), v_.end(), 0.0);
+  ++state_stamp_;
   space_              = def.initial_space;
   stats.active_space  = space_;
   stats.time          = 0.0;

@@ -129,10 +129,19 @@ private:
   void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
   bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
-  modalrt::ProxyRow &proxy_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;
+  int   acquire_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *keep) noexcept;
+  std::uint32_t add_row_entries(modalrt::ProxyRow &row, std::uint32_t budget) const noexcept;
+  std::uint8_t  corner_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;
+  void  make_lookahead(Contact &contact) noexcept;
+  std::uint32_t add_gram_modes(modalrt::ProxyState &proxy, std::uint32_t i, std::uint32_t j,
+                               std::uint32_t budget) const noexcept;
+  void  pack_triangle(Contact &contact) noexcept;
+  void  prepare_proxy(Contact &contact) noexcept;
+  void  proxy_coupling_block(const Contact &contact, double S[9], double Sv[9]) const noexcept;
   void  compose_proxy(Contact &contact, bool reload) noexcept;
   void  proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
   void  write_proxy_output(const Contact &contact, modalrt_hip_output &out) const noexcept;
+  void  proxy_displacement(Contact &contact, double u[3], double u_dot[3]) noexcept;
   void  observe_passivity(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
   int   load_vertex_row(std::uint32_t vertex, double *B) const noexcept;
 
@@ -162,10 +171,12 @@ private:
   modalrt::Vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
   modalrt::Vector<double>            system_, rhs_;  // the coupling solve
   modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
-  modalrt::Vector<double>            proxy_rows_;    // hip_capacity x 3 corners x 3 x max_modes
+  modalrt::Vector<double>            proxy_rows_;    // hip_capacity x proxy_row_slots x 3 x max_modes
+  modalrt::Vector<modalrt::ProxyGram> proxy_grams_;  // hip_capacity x proxy_slot_pairs
   modalrt::Vector<double>            observed_positions_; // 3 hip_capacity: the HIPs at the last observed tick [m] world
   std::uint32_t                  observed_count_ = 0; // HIPs observed at the last tick (0: not primed)
   bool                           proxy_region_changed_ = false; // a proxy's nearest vertex changed region
+  std::uint64_t                  state_stamp_ = 1; // changes whenever q_ or v_ do (the proxies' cached B q, B v)
   bool                           contacts_changed_ = true;
   bool                           coupling_dirty_   = true;
   bool                           contact_started_  = false;

@@ -4,6 +4,12 @@
 // rest positions, normals and residual compliances, so the force and the felt compliance stay
 // continuous as it crosses from one vertex's neighbourhood to the next. modalrt.h states the rules;
 // the passivity observer of the impedance ticks is here too.
+//
+// The tick's cost (realtime/README.md): the rows of the vertices the proxy is about to reach, and the
+// pair blocks B_k G B_l^T of their triangles, are prepared ahead a bounded amount per tick
+// (prepare_proxy), so that a crossing finds them ready; the coupling block then needs no pass over
+// the modes (proxy_coupling_block), and the corners' displacements B_k q come from the last tick's
+// outputs (proxy_displacement).
 #include "kernel.h"
 
 #include "dense.h"
@@ -50,39 +56,99 @@ namespace modalrt
 
 namespace
 {
-  // The cached row of `vertex` (a corner of the proxy's triangle: always cached).
-  const ProxyRow &row_of(const ProxyState &proxy, std::uint32_t vertex)
+  // The edges of a triangle Y and their normal equations, for barycentric_step.
+  TriangleSystem triangle_system(const double Y[3][3])
   {
-    for (const ProxyRow &row : proxy.rows)
-      if (row.vertex == vertex)
-        return row;
-    return proxy.rows[0];
+    TriangleSystem t;
+    for (int d = 0; d < 3; ++d)
+      t.e1[d] = Y[1][d] - Y[0][d], t.e2[d] = Y[2][d] - Y[0][d];
+    t.a11 = dot3(t.e1, t.e1), t.a12 = dot3(t.e1, t.e2), t.a22 = dot3(t.e2, t.e2), t.det = t.a11 * t.a22 - t.a12 * t.a12;
+    t.inverse_det = 1.0 / t.det;
+    return t;
   }
 
-  // Deformed corners of the proxy's triangle without the contact's correction (a common offset).
-  void deformed_corners(const modalrt_basis &basis, const ProxyState &proxy, double Y[3][3])
+  // The proxy's triangle as deformed (corners at rest + u, without the contact's correction, a
+  // common offset) and its system, made once per triangle and modal state.
+  const DeformedTriangle &deformed_triangle(const modalrt_basis &basis, ProxyState &proxy, std::uint64_t state)
   {
+    DeformedTriangle &t = proxy.deformed;
+    if (t.triangle == proxy.triangle && t.state == state)
+      return t;
     const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.triangle)];
     for (int k = 0; k < 3; ++k)
+      for (int d = 0; d < 3; ++d)
+        t.Y[k][d] = basis.vertices[3 * std::size_t(corners[k]) + d] + proxy.corner(k).u[d];
+    t.system   = triangle_system(t.Y);
+    t.triangle = proxy.triangle;
+    t.state    = state;
+    return t;
+  }
+
+  // M += B_a G B_b^T and N += B_a H B_b^T over modes [first, last) (a, b: 3 x r rows; G = diag(g1),
+  // H = diag(g2)).
+  void add_pair_gram(const double *a, const double *b, const double *g1, const double *g2, std::uint32_t r,
+                     std::uint32_t first, std::uint32_t last, double M[9], double N[9])
+  {
+    const double *a0 = a, *a1 = a + r, *a2 = a + 2 * std::size_t(r), *b0 = b, *b1 = b + r, *b2 = b + 2 * std::size_t(r);
+    for (int half = 0; half < 2; ++half)
       {
-        const ProxyRow &row = row_of(proxy, corners[k]);
-        for (int d = 0; d < 3; ++d)
-          Y[k][d] = basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d];
+        const double *g   = half == 0 ? g1 : g2;
+        double       *out = half == 0 ? M : N;
+        double        s00 = 0, s01 = 0, s02 = 0, s10 = 0, s11 = 0, s12 = 0, s20 = 0, s21 = 0, s22 = 0;
+#pragma omp simd reduction(+ : s00, s01, s02, s10, s11, s12, s20, s21, s22)
+        for (std::uint32_t i = first; i < last; ++i)
+          {
+            const double x0 = g[i] * a0[i], x1 = g[i] * a1[i], x2 = g[i] * a2[i];
+            s00 += x0 * b0[i], s01 += x0 * b1[i], s02 += x0 * b2[i];
+            s10 += x1 * b0[i], s11 += x1 * b1[i], s12 += x1 * b2[i];
+            s20 += x2 * b0[i], s21 += x2 * b1[i], s22 += x2 * b2[i];
+          }
+        const double sum[9] = {s00, s01, s02, s10, s11, s12, s20, s21, s22};
+        for (int e = 0; e < 9; ++e)
+          out[e] += sum[e];
       }
   }
 
-  // Barycentric change dw (sum 0) whose displacement over triangle Y is the projection of `step` on
-  // its plane (least squares over the two edges). False for a degenerate triangle.
-  bool barycentric_step(const double Y[3][3], const double step[3], double dw[3])
+  // The same for b = a: six sums, mirrored (the block is symmetric to the last bit).
+  void add_own_gram(const double *a, const double *g1, const double *g2, std::uint32_t r, std::uint32_t first,
+                    std::uint32_t last, double M[9], double N[9])
   {
-    double e1[3], e2[3];
-    for (int d = 0; d < 3; ++d)
-      e1[d] = Y[1][d] - Y[0][d], e2[d] = Y[2][d] - Y[0][d];
-    const double a11 = dot3(e1, e1), a12 = dot3(e1, e2), a22 = dot3(e2, e2), det = a11 * a22 - a12 * a12;
-    if (!(det > 1e-12 * a11 * a22))
+    const double *a0 = a, *a1 = a + r, *a2 = a + 2 * std::size_t(r);
+    for (int half = 0; half < 2; ++half)
+      {
+        const double *g   = half == 0 ? g1 : g2;
+        double       *out = half == 0 ? M : N;
+        double        s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0;
+#pragma omp simd reduction(+ : s00, s01, s02, s11, s12, s22)
+        for (std::uint32_t i = first; i < last; ++i)
+          {
+            const double x0 = g[i] * a0[i], x1 = g[i] * a1[i];
+            s00 += x0 * a0[i], s01 += x0 * a1[i], s02 += x0 * a2[i];
+            s11 += x1 * a1[i], s12 += x1 * a2[i], s22 += g[i] * a2[i] * a2[i];
+          }
+        const double sum[9] = {s00, s01, s02, s01, s11, s12, s02, s12, s22};
+        for (int e = 0; e < 9; ++e)
+          out[e] += sum[e];
+      }
+  }
+
+  // The slot holding `vertex`'s row (ready or not), -1 if none.
+  int find_slot(const ProxyState &proxy, std::uint32_t vertex)
+  {
+    for (std::uint32_t s = 0; s < proxy_row_slots; ++s)
+      if (proxy.rows[s].vertex == vertex)
+        return int(s);
+    return -1;
+  }
+
+  // Barycentric change dw (sum 0) whose displacement over the triangle is the projection of `step`
+  // on its plane (least squares over the two edges). False for a degenerate triangle.
+  bool barycentric_step(const TriangleSystem &t, const double step[3], double dw[3])
+  {
+    if (!(t.det > 1e-12 * t.a11 * t.a22))
       return false;
-    const double b1 = dot3(step, e1), b2 = dot3(step, e2);
-    const double s1 = (a22 * b1 - a12 * b2) / det, s2 = (a11 * b2 - a12 * b1) / det;
+    const double b1 = dot3(step, t.e1), b2 = dot3(step, t.e2);
+    const double s1 = (t.a22 * b1 - t.a12 * b2) * t.inverse_det, s2 = (t.a11 * b2 - t.a12 * b1) * t.inverse_det;
     dw[0] = -s1 - s2, dw[1] = s1, dw[2] = s2;
     return true;
   }
@@ -99,8 +165,9 @@ namespace
     double sum = 0.0;
     for (int k = 0; k < 3; ++k)
       sum += (w[k] = k == exit ? 0.0 : std::max(0.0, w[k] + s * dw[k]));
+    const double scale = 1.0 / sum;
     for (int k = 0; k < 3; ++k)
-      w[k] /= sum;
+      w[k] *= scale;
     return s;
   }
 } // namespace
@@ -158,23 +225,274 @@ void modalrt_kernel::begin_proxy(std::uint32_t hip, bool at_hip) noexcept
     compose_proxy(c, false);
 }
 
-// The cached row of `vertex`, loaded (with u = B q) into a slot whose vertex is not one of
-// `corners` (the triangle being entered) when absent.
-ProxyRow &modalrt_kernel::proxy_row(Contact &c, std::uint32_t vertex, const std::uint32_t *corners) noexcept
+// A slot for `vertex`'s row, taken from a vertex that is not wanted: never a corner of `keep` (the
+// triangle the proxy is on or entering); an empty slot first, else the one wanted longest ago (the
+// look-ahead's rows carry the current stamp). A candidate's row is its stored block, ready at once;
+// a patch row starts empty and is accumulated by add_row_entries. The slot's pair blocks are void.
+int modalrt_kernel::acquire_row(Contact &c, std::uint32_t vertex, const std::uint32_t *keep) noexcept
 {
-  ProxyRow *free_slot = nullptr;
-  for (ProxyRow &row : c.proxy.rows)
+  ProxyState &proxy = c.proxy;
+  int         best  = -1;
+  for (std::uint32_t s = 0; s < proxy_row_slots; ++s)
     {
-      if (row.vertex == vertex)
-        return row;
-      if (!free_slot && row.vertex != corners[0] && row.vertex != corners[1] && row.vertex != corners[2])
-        free_slot = &row;
+      const ProxyRow &row = proxy.rows[s];
+      if (row.vertex == MODALRT_NONE)
+        {
+          best = int(s);
+          break;
+        }
+      if (row.vertex == keep[0] || row.vertex == keep[1] || row.vertex == keep[2])
+        continue;
+      if (best < 0 || row.stamp < proxy.rows[best].stamp)
+        best = int(s);
     }
-  ProxyRow &row = free_slot ? *free_slot : c.proxy.rows[0];
+  ProxyRow         &row   = proxy.rows[best]; // slots outnumber a triangle's corners: never -1
+  const ModalSpace &space = basis.spaces[space_];
+  row.clear();
   row.vertex    = vertex;
-  row.candidate = load_vertex_row(vertex, row.B);
+  row.candidate = space.candidate_index(vertex);
+  row.stamp     = proxy.crossings;
+  if (row.candidate >= 0)
+    {
+      row.B     = &space.candidate_modes[3 * std::size_t(space.mode_count) * std::size_t(row.candidate)];
+      row.ready = true;
+    }
+  else
+    {
+      std::fill_n(row.buffer, 3 * std::size_t(space.mode_count), 0.0);
+      row.B = row.buffer;
+    }
+  for (std::uint32_t s = 0; s < proxy_row_slots; ++s)
+    proxy.gram(std::uint32_t(best), s).clear();
+  return best;
+}
+
+// Accumulates up to `budget` more patch entries into a row that is not ready; returns how many.
+std::uint32_t modalrt_kernel::add_row_entries(ProxyRow &row, std::uint32_t budget) const noexcept
+{
+  const std::uint32_t size = patch_size(basis, row.vertex), end = std::min(size, row.built + budget);
+  const std::uint32_t done = end - row.built;
+  add_patch_entries(basis, basis.spaces[space_], row.vertex, row.built, end, row.buffer);
+  row.built = end;
+  row.ready = end == size;
+  return done;
+}
+
+// Adds chunks of modes to the pair block of slots i and j (both rows ready) until it is ready or
+// `budget` modes are spent (the last chunk may go over); returns the modes added. The chunks are the
+// same whoever adds them (the look-ahead or a crossing that found the block unprepared), so the
+// block does not depend on when it was made.
+std::uint32_t modalrt_kernel::add_gram_modes(ProxyState &proxy, std::uint32_t i, std::uint32_t j,
+                                             std::uint32_t budget) const noexcept
+{
+  ProxyGram             &g = proxy.gram(i, j);
+  const ModalIntegrator &integrator = integrators_[space_];
+  const std::uint32_t    r = integrator.mode_count();
+  const double          *a = proxy.rows[std::min(i, j)].B, *b = proxy.rows[std::max(i, j)].B;
+  if (g.built == 0)
+    std::fill_n(g.M, 9, 0.0), std::fill_n(g.N, 9, 0.0);
+  std::uint32_t done = 0;
+  while (done < budget && g.built < r)
+    {
+      const std::uint32_t first = g.built, last = std::min(r, first + proxy_gram_chunk);
+      if (i == j)
+        add_own_gram(a, integrator.g1(), integrator.g2(), r, first, last, g.M, g.N);
+      else
+        add_pair_gram(a, b, integrator.g1(), integrator.g2(), r, first, last, g.M, g.N);
+      g.built = last;
+      done += last - first;
+    }
+  g.ready = g.built == r;
+  return done;
+}
+
+// The slot of `vertex`'s row as a corner of triangle `corners` the proxy is on or entering: ready
+// (finished here if the look-ahead has not done it: a proxy faster than the preparation, or a start)
+// and with its displacement u = B q.
+std::uint8_t modalrt_kernel::corner_row(Contact &c, std::uint32_t vertex, const std::uint32_t *corners) noexcept
+{
+  int slot = find_slot(c.proxy, vertex);
+  if (slot < 0)
+    slot = acquire_row(c, vertex, corners);
+  ProxyRow &row = c.proxy.rows[slot];
+  if (!row.ready)
+    add_row_entries(row, patch_size(basis, vertex));
+  row.stamp = c.proxy.crossings;
   dot_rows3(row.B, q_.data(), mode_count(), row.u);
-  return row;
+  row.u_stamp = state_stamp_;
+  return std::uint8_t(slot);
+}
+
+// The pair blocks of the proxy's triangle (finished here where the look-ahead has not prepared
+// them), packed for proxy_coupling_block once per triangle entered.
+void modalrt_kernel::pack_triangle(Contact &c) noexcept
+{
+  ProxyState &proxy = c.proxy;
+  if (proxy.packed_triangle == proxy.triangle)
+    return;
+  static constexpr int pairs[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+  for (int p = 0; p < 6; ++p)
+    {
+      const std::uint32_t i = proxy.corner_slot[pairs[p][0]], j = proxy.corner_slot[pairs[p][1]];
+      if (!proxy.gram(i, j).ready)
+        add_gram_modes(proxy, i, j, ~0u);
+      const ProxyGram &g = proxy.gram(i, j);
+      double          *packed = proxy.packed[p];
+      for (int half = 0; half < 2; ++half)
+        {
+          const double *m = half == 0 ? g.M : g.N;
+          double       *out = packed + 6 * half;
+          if (i == j) // symmetric: its upper triangle
+            out[0] = m[0], out[1] = m[1], out[2] = m[2], out[3] = m[4], out[4] = m[5], out[5] = m[8];
+          else // M + M^T
+            out[0] = 2.0 * m[0], out[1] = m[1] + m[3], out[2] = m[2] + m[6], out[3] = 2.0 * m[4],
+            out[4] = m[5] + m[7], out[5] = 2.0 * m[8];
+        }
+    }
+  // The residual compliance of the corner pairs, as blended_residual reads them for a load with
+  // itself (proxy_pair_compliance): per pair none, a stored block weighted by w_k w_l, or (without
+  // cross compliance) a corner's own block weighted by w_k.
+  const ModalSpace &space = basis.spaces[space_];
+  proxy.residual_any      = false;
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l)
+      {
+        const int ck = proxy.corner(k).candidate, cl = proxy.corner(l).candidate;
+        ProxyResidual &pair = proxy.residual[3 * k + l];
+        pair.kind           = ProxyResidual::none;
+        if (!def.use_static_correction || ck < 0 || cl < 0)
+          continue;
+        if (space.cross_count > 0)
+          {
+            if (space.residual_compliance(std::uint32_t(ck), std::uint32_t(cl), pair.C))
+              pair.kind = ProxyResidual::pair, proxy.residual_any = true;
+          }
+        else if (k == l)
+          {
+            std::copy_n(&space.candidate_compliance[9 * std::size_t(ck)], 9, pair.C);
+            pair.kind = ProxyResidual::own, proxy.residual_any = true;
+          }
+      }
+  proxy.packed_triangle = proxy.triangle;
+}
+
+// The look-ahead of the proxy's triangle (proxy_contact.h). The rows kept for the corners of its
+// triangles are stamped as wanted now.
+void modalrt_kernel::make_lookahead(Contact &c) noexcept
+{
+  ProxyState         &proxy = c.proxy;
+  const std::uint32_t t     = proxy.triangle;
+  proxy.ahead_count         = 0;
+  proxy.ahead_next          = 0;
+  proxy.ahead_triangle      = t;
+  std::uint32_t triangle = t;
+  double        w[3]     = {proxy.weights[0], proxy.weights[1], proxy.weights[2]};
+  while (dot3(proxy.heading, proxy.heading) > 0.0 && proxy.ahead_count < proxy_lookahead)
+    {
+      const std::uint32_t *from = &basis.triangles[3 * std::size_t(triangle)];
+      double               X[3][3], dw[3];
+      for (int k = 0; k < 3; ++k)
+        std::copy_n(&basis.vertices[3 * std::size_t(from[k])], 3, X[k]);
+      if (!barycentric_step(triangle_system(X), proxy.heading, dw))
+        break;
+      int    exit = -1;
+      double s    = HUGE_VAL;
+      for (int k = 0; k < 3; ++k)
+        if (dw[k] < 0.0 && w[k] / -dw[k] < s)
+          s = w[k] / -dw[k], exit = k;
+      const std::uint32_t next = exit < 0 ? MODALRT_NONE : basis.adjacency.neighbour(triangle, exit);
+      if (next == MODALRT_NONE)
+        break;
+      const std::uint32_t *to       = &basis.triangles[3 * std::size_t(next)];
+      double               entry[3] = {0.0, 0.0, 0.0};
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k)
+          if (to[j] == from[k] && k != exit)
+            entry[j] = std::max(0.0, w[k] + s * dw[k]);
+      std::copy_n(entry, 3, w);
+      proxy.ahead[proxy.ahead_count++] = triangle = next;
+    }
+  if (proxy.ahead_count == 0) // no heading (a start), or it leads out: every way out
+    for (int e = 0; e < 3; ++e)
+      if (const std::uint32_t next = basis.adjacency.neighbour(t, e); next != MODALRT_NONE)
+        proxy.ahead[proxy.ahead_count++] = next;
+  for (std::uint32_t j = 0; j < proxy.ahead_count; ++j)
+    {
+      const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.ahead[j])];
+      for (ProxyRow &row : proxy.rows)
+        if (row.vertex == corners[0] || row.vertex == corners[1] || row.vertex == corners[2])
+          row.stamp = proxy.crossings;
+    }
+}
+
+// The bounded work of an impedance tick ahead of the proxy: the look-ahead's triangles in order,
+// their corners' rows and then their pair blocks, about proxy_prepare_work multiply-adds of each
+// (proxy_contact.h). Nothing once they are all prepared, until the proxy
+// enters another triangle.
+void modalrt_kernel::prepare_proxy(Contact &c) noexcept
+{
+  ProxyState &proxy = c.proxy;
+  if (proxy.ahead_triangle != proxy.triangle)
+    make_lookahead(c);
+  const std::uint32_t *own     = &basis.triangles[3 * std::size_t(proxy.triangle)];
+  const std::uint32_t  r       = mode_count();
+  std::uint32_t        entries = std::max<std::uint32_t>(1, proxy_prepare_work / (3 * r)), modes = proxy_prepare_work / 24;
+  for (; proxy.ahead_next < proxy.ahead_count; ++proxy.ahead_next)
+    {
+      const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.ahead[proxy.ahead_next])];
+      std::uint32_t        slot[3];
+      for (int k = 0; k < 3; ++k)
+        {
+          int s = find_slot(proxy, corners[k]);
+          if (s < 0)
+            {
+              if (entries == 0)
+                return;
+              s = acquire_row(c, corners[k], own);
+            }
+          ProxyRow &row = proxy.rows[s];
+          if (!row.ready)
+            {
+              entries -= add_row_entries(row, entries);
+              if (!row.ready)
+                return;
+            }
+          slot[k] = std::uint32_t(s);
+        }
+      for (int k = 0; k < 3; ++k)
+        for (int l = k; l < 3; ++l)
+          if (!proxy.gram(slot[k], slot[l]).ready)
+            {
+              if (modes == 0)
+                return;
+              modes -= std::min(modes, add_gram_modes(proxy, slot[k], slot[l], modes));
+              if (!proxy.gram(slot[k], slot[l]).ready)
+                return;
+            }
+    }
+}
+
+// The contact's own coupling block from the pair blocks of its triangle (ProxyGram):
+// B G B^T = sum_k w_k^2 M_kk + sum_(k<l) w_k w_l (M_kl + M_kl^T), the same for H; 72 multiply-adds
+// over the packed upper triangles whatever the number of modes.
+void modalrt_kernel::proxy_coupling_block(const Contact &c, double S[9], double Sv[9]) const noexcept
+{
+  const ProxyState &proxy = c.proxy;
+  const double     *w     = proxy.weights;
+  const double      ww[6] = {w[0] * w[0], w[1] * w[1], w[2] * w[2], w[0] * w[1], w[0] * w[2], w[1] * w[2]};
+  const double(&P)[6][12] = proxy.packed;
+  double sum[12];
+#pragma omp simd
+  for (int e = 0; e < 12; ++e)
+    sum[e] = ww[0] * P[0][e] + ww[1] * P[1][e] + ww[2] * P[2][e] + ww[3] * P[3][e] + ww[4] * P[4][e] + ww[5] * P[5][e];
+  for (int half = 0; half < 2; ++half)
+    {
+      const double *t   = sum + 6 * half;
+      double       *out = half == 0 ? S : Sv;
+      out[0] = t[0], out[1] = t[1], out[2] = t[2];
+      out[3] = t[1], out[4] = t[3], out[5] = t[4];
+      out[6] = t[2], out[7] = t[4], out[8] = t[5];
+    }
 }
 
 // The contact's load point from its proxy: rest position, normal and row B blended by the weights;
@@ -182,21 +500,29 @@ ProxyRow &modalrt_kernel::proxy_row(Contact &c, std::uint32_t vertex, const std:
 // (a new contact, or a new active space).
 void modalrt_kernel::compose_proxy(Contact &c, bool reload) noexcept
 {
-  ProxyState &proxy = c.proxy;
+  ProxyState          &proxy   = c.proxy;
+  const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.triangle)];
   if (reload || proxy.rows_space != space_)
     {
       for (ProxyRow &row : proxy.rows)
-        row.vertex = MODALRT_NONE;
-      proxy.rows_space = space_;
+        row.clear();
+      proxy.rows_space      = space_;
+      proxy.ahead_triangle  = MODALRT_NONE;
+      proxy.packed_triangle = MODALRT_NONE;
+      ++proxy.crossings;
+      for (int k = 0; k < 3; ++k)
+        proxy.corner_slot[k] = corner_row(c, corners[k], corners);
     }
-  const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.triangle)];
-  const ProxyRow      *rows[3];
-  for (int k = 0; k < 3; ++k)
-    rows[k] = &proxy_row(c, corners[k], corners);
+  const ProxyRow *rows[3] = {&proxy.corner(0), &proxy.corner(1), &proxy.corner(2)};
   const std::size_t n = 3 * std::size_t(mode_count());
   const double      w0 = proxy.weights[0], w1 = proxy.weights[1], w2 = proxy.weights[2];
+  // Local pointers: the rows cannot alias the contact's blended row (another buffer, or the basis),
+  // which the compiler could not know through c.B and vectorizes with them.
+  const double *const b0 = rows[0]->B, *const b1 = rows[1]->B, *const b2 = rows[2]->B;
+  double *const       B  = c.B;
+#pragma omp simd
   for (std::size_t i = 0; i < n; ++i)
-    c.B[i] = w0 * rows[0]->B[i] + w1 * rows[1]->B[i] + w2 * rows[2]->B[i];
+    B[i] = w0 * b0[i] + w1 * b1[i] + w2 * b2[i];
   int heaviest = 0;
   for (int k = 1; k < 3; ++k)
     if (proxy.weights[k] > proxy.weights[heaviest])
@@ -204,18 +530,21 @@ void modalrt_kernel::compose_proxy(Contact &c, bool reload) noexcept
   double normal[3] = {0.0, 0.0, 0.0};
   for (int d = 0; d < 3; ++d)
     {
-      c.rest[d] = 0.0;
+      double rest = 0.0;
       for (int k = 0; k < 3; ++k)
         {
-          c.rest[d] += proxy.weights[k] * basis.vertices[3 * std::size_t(corners[k]) + d];
+          rest += proxy.weights[k] * basis.vertices[3 * std::size_t(corners[k]) + d];
           normal[d] += proxy.weights[k] * basis.normals[3 * std::size_t(corners[k]) + d];
         }
+      c.rest[d] = rest;
     }
-  const double length = norm3(normal);
+  const double length = norm3(normal), scale = length > 0.0 ? 1.0 / length : 0.0;
   for (int d = 0; d < 3; ++d)
-    c.normal[d] = length > 0.0 ? normal[d] / length : 0.0;
+    c.normal[d] = normal[d] * scale;
   c.vertex          = corners[heaviest];
   c.candidate       = rows[heaviest]->candidate;
+  proxy.bv_stamp    = 0; // B changed
+  pack_triangle(c);
   contacts_changed_ = true; // the residual compliances and the coupling follow the load point
 }
 
@@ -228,7 +557,7 @@ void modalrt_kernel::proxy_point(const Contact &c, double point[3], double norma
     point[d] = c.correction[d];
   for (int k = 0; k < 3; ++k)
     {
-      const ProxyRow &row = row_of(c.proxy, corners[k]);
+      const ProxyRow &row = c.proxy.corner(k);
       const double    w   = c.proxy.weights[k];
       for (int d = 0; d < 3; ++d)
         point[d] += w * (basis.vertices[3 * std::size_t(corners[k]) + d] + row.u[d]);
@@ -266,22 +595,32 @@ void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 // surface's curvature).
 void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
 {
-  const std::uint32_t r = mode_count();
-  for (ProxyRow &row : c.proxy.rows)
-    if (row.vertex != MODALRT_NONE)
-      dot_rows3(row.B, q_.data(), r, row.u);
+  // The corners' displacements and the load point's velocity as the last tick's outputs left them
+  // (write_outputs), unless the state moved since (a settle, a switch, a new contact).
+  ProxyState         &proxy = c.proxy;
+  const std::uint32_t r     = mode_count();
+  for (int k = 0; k < 3; ++k)
+    if (proxy.corner(k).u_stamp != state_stamp_)
+      dot_rows3(proxy.corner(k).B, q_.data(), r, proxy.corner(k).u), proxy.corner(k).u_stamp = state_stamp_;
   const std::uint32_t region_before = basis.region[c.vertex];
   const double        K = def.coupling_stiffness, D = def.coupling_damping;
   double              relative_velocity[3];
-  dot_rows3(c.B, v_.data(), r, relative_velocity);
+  if (proxy.bv_stamp == state_stamp_)
+    std::copy_n(proxy.bv, 3, relative_velocity);
+  else
+    dot_rows3(c.B, v_.data(), r, relative_velocity);
   for (int d = 0; d < 3; ++d)
     relative_velocity[d] = in.v[d] - relative_velocity[d];
   bool moved = false;
   for (int pass = 0; pass < proxy_passes; ++pass)
     {
-      double p[3], n[3], F[3];
-      proxy_point(c, p, nullptr);
-      face_normal(c, n);
+      double                  p[3], n[3], F[3];
+      const DeformedTriangle &Y = deformed_triangle(basis, proxy, state_stamp_);
+      for (int d = 0; d < 3; ++d) // proxy_point's sum, over the corners as deformed
+        p[d] = c.correction[d] + proxy.weights[0] * Y.Y[0][d] + proxy.weights[1] * Y.Y[1][d] + proxy.weights[2] * Y.Y[2][d];
+      if (proxy.face_triangle != proxy.triangle)
+        face_normal(c, proxy.face), proxy.face_triangle = proxy.triangle;
+      std::copy_n(proxy.face, 3, n);
       for (int d = 0; d < 3; ++d)
         F[d] = K * (in.x[d] - p[d]) + D * relative_velocity[d];
       const double normal = -dot3(F, n);
@@ -302,12 +641,15 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
         F[d] *= excess / (K * across);
       if (!walk_proxy(c, F))
         break;
+      if (pass == 0)
+        std::copy_n(F, 3, c.proxy.heading); // where the look-ahead expects the proxy to go
       moved = true;
     }
   if (moved)
     compose_proxy(c, false);
   if (basis.region[c.vertex] != region_before)
     proxy_region_changed_ = true;
+  prepare_proxy(c);
 }
 
 // The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest
@@ -338,9 +680,8 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
   bool        moved        = false;
   for (std::uint32_t crossing = 0; crossing <= proxy_edge_budget; ++crossing)
     {
-      double Y[3][3], dw[3];
-      deformed_corners(basis, proxy, Y);
-      if (!barycentric_step(Y, remaining, dw))
+      double dw[3];
+      if (!barycentric_step(deformed_triangle(basis, proxy, state_stamp_).system, remaining, dw))
         break;
       int          exit;
       const double s = advance(proxy.weights, dw, exit);
@@ -355,14 +696,19 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
       const std::uint32_t *from = &basis.triangles[3 * std::size_t(proxy.triangle)];
       const std::uint32_t *to   = &basis.triangles[3 * std::size_t(next)];
       double               w[3] = {0.0, 0.0, 0.0};
+      int                  slot[3] = {-1, -1, -1};
       for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k)
           if (to[j] == from[k])
-            w[j] = proxy.weights[k];
+            w[j] = proxy.weights[k], slot[j] = proxy.corner_slot[k];
+      ++proxy.crossings;
+      proxy.packed_triangle = MODALRT_NONE;
+      for (int j = 0; j < 3; ++j) // the new corner: its row from the look-ahead (or built now)
+        slot[j] = slot[j] >= 0 ? slot[j] : corner_row(c, to[j], to);
+      for (int j = 0; j < 3; ++j)
+        proxy.corner_slot[j] = std::uint8_t(slot[j]), proxy.rows[slot[j]].stamp = proxy.crossings;
       proxy.triangle = next;
       std::copy_n(w, 3, proxy.weights);
-      for (int j = 0; j < 3; ++j)
-        proxy_row(c, to[j], to);
       moved = true;
     }
   return moved;
@@ -402,20 +748,55 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
   std::fill_n(C, 9, 0.0);
   if (!def.use_static_correction)
     return;
+  if (&a == &b && a.proxy.packed_triangle == a.proxy.triangle)
+    {
+      if (!a.proxy.residual_any)
+        return;
+      // blended_residual's sum over the pairs of its triangle's corners, the blocks read once per
+      // triangle (pack_triangle): the same terms in the same order.
+      const double *w = a.proxy.weights;
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l)
+          {
+            const ProxyResidual &pair = a.proxy.residual[3 * k + l];
+            const double         ww   = w[k] * w[l];
+            if (pair.kind == ProxyResidual::none || ww == 0.0)
+              continue;
+            const double scale = pair.kind == ProxyResidual::pair ? ww : w[k];
+            for (int e = 0; e < 9; ++e)
+              C[e] += scale * pair.C[e];
+          }
+      return;
+    }
   auto load_corners = [this](const Contact &c, LoadCorner corners[3]) {
     if (!c.proxy.active)
       {
         corners[0] = {c.candidate, 1.0};
         return 1;
       }
-    const std::uint32_t *vertices = &basis.triangles[3 * std::size_t(c.proxy.triangle)];
     for (int k = 0; k < 3; ++k)
-      corners[k] = {row_of(c.proxy, vertices[k]).candidate, c.proxy.weights[k]};
+      corners[k] = {c.proxy.corner(k).candidate, c.proxy.weights[k]};
     return 3;
   };
   LoadCorner pa[3], pb[3];
   const int  na = load_corners(a, pa), nb = load_corners(b, pb);
   blended_residual(basis.spaces[space_], pa, na, pb, nb, &a == &b, C);
+}
+
+// The load point's displacement B q and velocity B v for the outputs, by way of its corners'
+// displacements u_k = B_k q (B q = sum_k w_k u_k), which the next tick's slide starts from.
+void modalrt_kernel::proxy_displacement(Contact &c, double u[3], double u_dot[3]) noexcept
+{
+  ProxyState &proxy = c.proxy;
+  double      corner_u[9];
+  dot_corners_pair(proxy.corner(0).B, proxy.corner(1).B, proxy.corner(2).B, c.B, q_.data(), v_.data(), mode_count(),
+                   corner_u, u_dot);
+  for (int k = 0; k < 3; ++k)
+    std::copy_n(corner_u + 3 * k, 3, proxy.corner(k).u), proxy.corner(k).u_stamp = state_stamp_;
+  std::copy_n(u_dot, 3, proxy.bv);
+  proxy.bv_stamp = state_stamp_;
+  for (int d = 0; d < 3; ++d)
+    u[d] = proxy.weights[0] * corner_u[d] + proxy.weights[1] * corner_u[3 + d] + proxy.weights[2] * corner_u[6 + d];
 }
 
 void modalrt_kernel::write_proxy_output(const Contact &c, modalrt_hip_output &out) const noexcept

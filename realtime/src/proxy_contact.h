@@ -1,7 +1,8 @@
 // The state of a sliding (proxy, god-object) contact: where its proxy sits on the display surface
-// (a triangle and barycentric weights) and the contact rows of that triangle's vertices, kept so
-// that a slide within a triangle costs a blend and a crossing loads one new row. The kernel's
-// functions that move it are in proxy_contact.cc.
+// (a triangle and barycentric weights) and the contact rows of the vertices around it: the
+// triangle's corners, and the vertices the proxy may enter within two edge crossings, prepared
+// ahead a bounded amount per tick, so that a slide within a triangle costs a blend and a crossing
+// finds the new corner's row ready. The kernel's functions that move it are in proxy_contact.cc.
 #pragma once
 
 #include <modalrt/modalrt.h>
@@ -18,14 +19,84 @@ namespace modalrt
   // Friction passes per tick: the first decides stick or slide, the others follow the curvature of
   // the deformed surface to the friction cone's edge.
   constexpr int proxy_passes = 3;
+  // The look-ahead of a proxy on triangle t: the triangles it is expected to enter next, whose
+  // corners' rows and pair blocks are prepared before it gets there. With a heading (its last step
+  // over the surface) the next proxy_lookahead triangles that a straight line from the proxy along
+  // it crosses into (at rest); without one (a start) the triangles across t's edges.
+  constexpr std::uint32_t proxy_lookahead = 3;
+  // Rows a sliding contact keeps (its buffers are sized at kernel creation): the three corners, one
+  // new corner per look-ahead triangle, and six more, so that the rows of the triangles just left
+  // stay while they are not needed elsewhere (a proxy going back finds them).
+  constexpr std::uint32_t proxy_row_slots = 12;
+  constexpr std::uint32_t proxy_slot_pairs = proxy_row_slots * (proxy_row_slots + 1) / 2;
+  // The bounded work of an impedance tick ahead of the proxy, about proxy_prepare_work multiply-adds
+  // whatever r: patch entries (one display vertex's 3 x r modes times its patch weight, 3 r
+  // multiply-adds each, at least one) added to the look-ahead's rows that are not ready (a
+  // candidate's row is its stored block, ready at once), then modes of their pair blocks (24
+  // multiply-adds a mode, in chunks of proxy_gram_chunk modes: the last chunk may go over). Sliding
+  // at 0.1 m/s over bench-kernel-tick's plate at r = 200 that is about one tick in eight, a few us
+  // each; a smaller budget spreads the same work over more ticks and lifts the median tick
+  // (realtime/README.md, "Cost").
+  constexpr std::uint32_t proxy_prepare_work = 6000;
+  constexpr std::uint32_t proxy_gram_chunk   = 64;
 
-  // A vertex's contact row B_v (3 x r, in the kernel's buffer) and its felt displacement B_v q.
+  // A vertex's contact row B_v (3 x r) in the active space: the candidate's CANDIDATE_MODES block
+  // (read in place) or the patch average, accumulated in the slot's own buffer.
   struct ProxyRow
   {
     std::uint32_t vertex    = MODALRT_NONE;
     int           candidate = -1; // index among the active space's candidates, -1 if none
-    double       *B         = nullptr;
-    double        u[3]      = {0.0, 0.0, 0.0};
+    const double *B         = nullptr; // the row when ready: the candidate's block, or `buffer`
+    double       *buffer    = nullptr; // this slot's 3 x max_modes doubles (the kernel's)
+    std::uint32_t built     = 0; // patch entries accumulated into buffer so far
+    bool          ready     = false;
+    std::uint32_t stamp     = 0; // the proxy's crossing count when last wanted (eviction order)
+    double        u[3]      = {0.0, 0.0, 0.0}; // B_v q: kept for the triangle's corners
+    std::uint64_t u_stamp   = 0; // the kernel's state stamp u was taken at (0: never)
+
+    void clear() { vertex = MODALRT_NONE, candidate = -1, B = nullptr, built = 0, ready = false, stamp = 0, u_stamp = 0; }
+  };
+
+  // The residual compliance of a pair of a triangle's corners as a proxy's own load reads it.
+  struct ProxyResidual
+  {
+    enum Kind : std::uint8_t
+    {
+      none, // no correction between them
+      pair, // the stored block C(k, l), weighted by w_k w_l
+      own   // (no cross compliance) a corner's own C_k, weighted by w_k
+    };
+    Kind   kind = none;
+    double C[9];
+  };
+
+  // The pair block of two rows (slots i <= j): M = B_i G B_j^T and N = B_i H B_j^T with the
+  // integrator's per-tick gains G = diag(g1), H = diag(g2) (symmetric when i = j), accumulated over
+  // the modes in chunks of proxy_gram_chunk. A contact's own coupling block at weights w is
+  // sum_k w_k^2 M_kk + sum_(k<l) w_k w_l (M_kl + M_kl^T) over its triangle's corners: no pass over
+  // the modes while the proxy slides within a triangle.
+  struct ProxyGram
+  {
+    double        M[9], N[9];
+    std::uint32_t built = 0; // modes accumulated
+    bool          ready = false;
+
+    void clear() { built = 0, ready = false; }
+  };
+
+  // A triangle's edges e1 = Y1 - Y0, e2 = Y2 - Y0 and their normal equations (the proxy's walk).
+  struct TriangleSystem
+  {
+    double e1[3], e2[3], a11, a12, a22, det, inverse_det;
+  };
+
+  // The proxy's triangle as deformed at a modal state (ProxyState::deformed).
+  struct DeformedTriangle
+  {
+    std::uint32_t  triangle = MODALRT_NONE;
+    std::uint64_t  state    = 0; // the kernel's state stamp
+    double         Y[3][3];      // corners at rest + B_k q
+    TriangleSystem system;
   };
 
   struct ProxyState
@@ -34,16 +105,46 @@ namespace modalrt
     bool          sliding  = false; // dynamic friction (else sticking)
     std::uint32_t triangle = MODALRT_NONE;
     double        weights[3] = {0.0, 0.0, 0.0}; // of the triangle's corners, in the basis's order
-    ProxyRow      rows[3];                       // the corners' rows, in any order
+    ProxyRow      rows[proxy_row_slots];         // rows of the vertices around the proxy, any order
+    ProxyGram    *grams = nullptr;               // proxy_slot_pairs pair blocks (the kernel's)
+    std::uint8_t  corner_slot[3] = {0, 0, 0};    // the slots of the triangle's corners (basis order)
     std::uint32_t rows_space = MODALRT_NONE;     // the space the rows belong to
+    std::uint32_t crossings  = 0;                // triangles entered (the slots' stamps)
+    std::uint32_t ahead[proxy_lookahead];        // the look-ahead of `triangle` (triangles)
+    std::uint32_t ahead_count = 0, ahead_next = 0; // its length; the first not known prepared
+    std::uint32_t ahead_triangle = MODALRT_NONE;   // the triangle it was made for
+    double        heading[3] = {0.0, 0.0, 0.0};    // the proxy's last step over the surface [m] body
+    // The triangle's pair blocks packed for the coupling: per corner pair (00, 11, 22, 01, 02, 12)
+    // the upper triangle of M_kk (or of M_kl + M_kl^T), then of N.
+    double        packed[6][12];
+    ProxyResidual residual[9];                    // corner pairs (k, l) at 3 k + l
+    bool          residual_any = false;           // any of them not none
+    std::uint32_t packed_triangle = MODALRT_NONE; // the triangle both were made for
+    double        face[3] = {0.0, 0.0, 0.0};      // face_normal of face_triangle
+    std::uint32_t face_triangle = MODALRT_NONE;
+    double        bv[3] = {0.0, 0.0, 0.0};        // B v at bv_stamp (write_outputs)
+    DeformedTriangle deformed;                    // of the triangle the walk is on, this tick
+    std::uint64_t bv_stamp = 0;
 
-    // No proxy (the rows keep their buffers).
+    const ProxyRow &corner(int k) const { return rows[corner_slot[k]]; }
+    ProxyRow       &corner(int k) { return rows[corner_slot[k]]; }
+    static std::uint32_t pair(std::uint32_t i, std::uint32_t j) { return i <= j ? j * (j + 1) / 2 + i : i * (i + 1) / 2 + j; }
+    ProxyGram           &gram(std::uint32_t i, std::uint32_t j) { return grams[pair(i, j)]; }
+    const ProxyGram     &gram(std::uint32_t i, std::uint32_t j) const { return grams[pair(i, j)]; }
+
+    // No proxy (the rows and pair blocks keep their buffers).
     void clear()
     {
       active = sliding = false;
-      triangle = rows_space = MODALRT_NONE;
+      triangle = rows_space = ahead_triangle = packed_triangle = face_triangle = deformed.triangle = MODALRT_NONE;
+      bv_stamp = 0;
+      crossings = ahead_count = ahead_next = 0;
       for (int k = 0; k < 3; ++k)
-        weights[k] = 0.0, rows[k].vertex = MODALRT_NONE, rows[k].candidate = -1;
+        weights[k] = heading[k] = 0.0, corner_slot[k] = 0;
+      for (ProxyRow &row : rows)
+        row.clear();
+      for (std::uint32_t p = 0; grams && p < proxy_slot_pairs; ++p)
+        grams[p].clear();
     }
   };
 

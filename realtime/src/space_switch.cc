@@ -66,6 +66,7 @@ void modalrt_kernel::change_space(std::uint32_t target) noexcept
     }
   std::fill(q_.begin() + r_to, q_.end(), 0.0);
   std::fill(v_.begin() + r_to, v_.end(), 0.0);
+  ++state_stamp_;
 
   space_             = target;
   stats.active_space = target;

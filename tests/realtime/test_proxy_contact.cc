@@ -311,6 +311,100 @@ namespace
     modalrt_basis_destroy(b);
   }
 
+  // 3b. The same over vertices without a stored block (one vertex in four a candidate), in
+  // circles (turns: look-ahead missed), r = 70: their patch rows are prepared ahead of the proxy a
+  // bounded amount per tick, and its coupling comes from its triangle's pair blocks. The felt normal
+  // compliance where the proxy is equals the compliance of the blended load
+  // (modalrt_basis_point_compliance), and the ticks allocate nothing.
+  void stiffness_over_patch_rows()
+  {
+    LatticeOptions o   = plate_options();
+    o.all_candidates   = false;
+    o.candidate_stride = 4; // a candidate in four: the others' rows are patch rows
+    o.modes            = {70, 90}; // pair blocks in two chunks, spread over ticks by the budget
+    modalrt_basis  *b  = test::load(modalrt::make_lattice_cantilever(o));
+    modalrt_kernel *k = test::create(b, proxy_def(0.3, 0.2));
+    const double    radius = 0.02, omega = 0.1 / radius, centre[2] = {0.08, 0.025}, z_top = top(o);
+    modalrt_hip_input  in{};
+    modalrt_hip_output out;
+    double             worst = 0.0;
+    int                probes = 0, uncorrected = 0, failed_ticks = 0;
+    std::uint64_t      allocations = 0;
+    for (int tick = 0; tick < 3000; ++tick)
+      {
+        const double t = tick * T, press = std::min(1.0, t / 0.3);
+        in.position[0] = centre[0] + radius * std::cos(omega * t), in.velocity[0] = -radius * omega * std::sin(omega * t);
+        in.position[1] = centre[1] + radius * std::sin(omega * t), in.velocity[1] = radius * omega * std::cos(omega * t);
+        in.position[2] = z_top + 0.001 - 0.003 * press, in.velocity[2] = 0.0;
+        const std::uint64_t before = modalrt_tool::counted_allocations();
+        modalrt_tool::count_allocations_in_this_thread(tick >= 100);
+        failed_ticks += modalrt_kernel_tick_impedance(k, &in, 1, &out) != MODALRT_OK; // (ENSURE allocates)
+        modalrt_tool::count_allocations_in_this_thread(false);
+        allocations += modalrt_tool::counted_allocations() - before;
+        if (tick < 600 || tick % 97 != 0 || !out.in_contact)
+          continue;
+        const auto felt = probe(k, 1, {0.0, 0.0, -1.0});
+        double     G[9];
+        uint32_t   full_fe = 0;
+        ENSURE(modalrt_basis_point_compliance(b, felt[0].space, felt[0].proxy_triangle, felt[0].proxy_weights, G,
+                                              &full_fe) == MODALRT_OK);
+        const auto rest = rest_of(b, load_of(b, felt[0]));
+        worst = std::max(worst, std::fabs(-(felt[0].position[2] - rest[2]) - G[8]) / G[8]);
+        uncorrected += full_fe == 0;
+        ++probes;
+      }
+    std::printf("  circles over patch rows prepared ahead: %d points (%d not all candidates) within %.1e of the blended "
+                "load's compliance; %llu allocations in 2900 ticks\n",
+                probes, uncorrected, worst, (unsigned long long)allocations);
+    ENSURE(failed_ticks == 0 && probes >= 20 && uncorrected >= 10);
+    ENSURE(worst < 1e-9 && allocations == 0);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(b);
+  }
+
+  // 3c. The coupling a sliding contact takes from its triangle's pair blocks (ProxyGram, summed in
+  // chunks of 64 modes: r = 70 and 90 here) is the one the fixed contact sums over the modes: a
+  // proxy put on a vertex (weights 0 and 1) and held there by friction while the HIP presses in and
+  // out along the normal feels, tick by tick, the force of a fixed contact at that vertex.
+  void proxy_at_a_vertex_is_the_fixed_contact()
+  {
+    LatticeOptions o = plate_options();
+    o.modes          = {70, 90};
+    modalrt_basis       *b      = test::load(modalrt::make_lattice_cantilever(o));
+    const std::uint32_t  vertex = modalrt::lattice_display_vertex(o, 7, 1);
+    const double        *x      = modalrt_basis_display_vertices(b) + 3 * vertex;
+    const double        *n      = modalrt_basis_display_normals(b) + 3 * vertex;
+    modalrt_kernel_def   def    = proxy_def(10.0, 10.0);
+    def.auto_release            = 0;
+    modalrt_kernel *kernels[2]  = {test::create(b, def), nullptr};
+    def.contact_mode            = MODALRT_CONTACT_SNAP;
+    kernels[1]                  = test::create(b, def);
+    for (modalrt_kernel *k : kernels)
+      ENSURE(modalrt_kernel_contact_begin(k, 0, vertex) == MODALRT_OK);
+    double worst = 0.0, largest = 0.0;
+    bool   stayed = true;
+    for (int tick = 0; tick < 2000; ++tick)
+      {
+        const double      t = tick * T, depth = 0.002 * (1.0 - std::cos(7.0 * t)), rate = 0.014 * std::sin(7.0 * t);
+        modalrt_hip_input in{};
+        for (int d = 0; d < 3; ++d)
+          in.position[d] = x[d] - depth * n[d], in.velocity[d] = -rate * n[d];
+        modalrt_hip_output out[2];
+        for (int k = 0; k < 2; ++k)
+          ENSURE(modalrt_kernel_tick_impedance(kernels[k], &in, 1, &out[k]) == MODALRT_OK);
+        stayed  = stayed && out[0].active_vertex == vertex && out[1].active_vertex == vertex && out[0].in_contact == 1;
+        worst   = std::max(worst, test::distance(out[0].force, out[1].force));
+        largest = std::max(largest, std::sqrt(out[1].force[0] * out[1].force[0] + out[1].force[1] * out[1].force[1] + out[1].force[2] * out[1].force[2]));
+      }
+    std::printf("  a proxy held on vertex %u against the fixed contact there, r = 70: largest force difference %.1e N "
+                "(forces up to %.2f N) over 2000 ticks\n",
+                vertex, worst, largest);
+    ENSURE(stayed && largest > 1.0 && worst < 1e-9 * largest);
+    for (modalrt_kernel *k : kernels)
+      modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(b);
+  }
+
   // 4. A slide from the global region into the tip VOI: the space switches during the slide, the
   // force does not step beyond the bound of a slide.
   void across_a_voi_boundary()
@@ -428,6 +522,8 @@ int main()
   force_continuity();
   friction();
   stiffness_along_a_slide();
+  stiffness_over_patch_rows();
+  proxy_at_a_vertex_is_the_fixed_contact();
   across_a_voi_boundary();
   two_hips_sliding();
   passivity_and_allocation();
