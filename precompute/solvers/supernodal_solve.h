@@ -39,9 +39,17 @@ namespace modal_haptics
     // the elimination tree's paths from the group's nonzero rows to a root (Y is zero elsewhere).
     // Columns close together share most of their paths, so a group of neighbours costs little
     // more than one of them. Groups go to the threads in turn; the caller keeps the BLAS on one
-    // thread. Memory: one n x (largest group) workspace per thread.
+    // thread. Memory per thread: the group's path and the top times its width.
+    //
+    // Every path ends in the top of the tree (the last separators), where the supernodes are large
+    // and dense: solving through them for every group would cost most of the time. So the trailing
+    // columns, up to max_top_columns of them, are not solved: with L = [L11 0; L21 L22] and
+    // C = B_2 - L21 L11^-1 B_1 (what the paths below leave in the top's rows), the top's share of
+    // Y^T Y is C^T (L22 L22^T)^-1 C, read from that inverse, computed once per call (dense,
+    // max_top_columns^2 doubles; 0: solve through the whole tree).
     std::vector<std::vector<double>> group_grams(const std::vector<std::vector<SparseColumn>> &groups,
-                                                 const std::vector<std::size_t> &leading) const;
+                                                 const std::vector<std::size_t> &leading,
+                                                 std::size_t                     max_top_columns) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }
 
@@ -59,10 +67,31 @@ namespace modal_haptics
     // on_path and appends the newly marked ones to 'path' (unsorted).
     void mark_paths(const std::vector<SparseColumn> &B, const std::vector<Index> &position_of_row,
                     std::vector<char> &on_path, std::vector<Index> &path) const;
-    // One group of group_grams in the thread's workspace X (n x its width, zero on entry and on exit).
-    std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading,
-                                   const std::vector<Index> &position_of_row, double *X, double *workspace,
+    // The trailing columns [first_column, n) of the factor, from first_supernode on, and the inverse
+    // of their block's Schur complement, (L22 L22^T)^-1 (dense, symmetric, size x size): the same
+    // rows and columns of P A^-1 P^T.
+    struct TopInverse
+    {
+      Index               first_supernode, first_column, size;
+      std::vector<double> entries;
+    };
+    // The largest such block of at most max_columns columns (none when the supernodes are not in
+    // postorder: only then is a trailing range closed under parents, a block of L of its own).
+    TopInverse top_inverse(std::size_t max_columns) const;
+    // One group of group_grams. X is local: the rows of the group's path below the top (in the
+    // order of its supernodes), then the top's rows; local_row maps a column of the factor to its
+    // row there (the thread's, kept between groups: only the path's entries change).
+    std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading, const TopInverse &top,
+                                   const std::vector<Index> &position_of_row, std::vector<Index> &local_row,
                                    std::vector<char> &on_path) const;
+    // One supernode of L y = b in the local X (ld rows per column): y at its own rows, its updates
+    // to the rows below subtracted.
+    void forward_local(Index supernode, double *X, int ld, const Index *local_row, int n_rhs,
+                       double *workspace) const;
+    // G += C^T Z C[:, :leading] for C the top's rows of X (t rows from 'top_rows', ld rows per
+    // column) and Z the top inverse.
+    void add_top_share(const TopInverse &top, const double *top_rows, int ld, int width, int leading,
+                       std::vector<double> &G) const;
     // One supernode of L y = b: y at its own rows, its updates to the rows below subtracted from
     // X, or from 'top_updates' for the rows of the top (when given; laid out as X, n_top_columns rows).
     void forward(Index supernode, double *X, int n_rhs, double *workspace, double *top_updates) const;
