@@ -153,16 +153,34 @@ namespace modal_haptics
         }
     }
 
+    // Neighbouring patches share their triangles' quadrature points, bit for bit (a triangle is
+    // split the same way in every patch that covers it), so each point is located once: with every
+    // display vertex a load, a point lies in a dozen patches. The points missing from the cache go
+    // to the backend in one call per patch (the same list on every process: the call is collective).
     template <typename Backend>
     void build_patch_loads(Backend &b, const PhaseInputs &in, const std::vector<unsigned int> &vertices)
     {
+      std::map<meshing::Point3, space_parts::EvaluationPoint> located;
+      const auto evaluate_once = [&](const std::vector<meshing::Point3> &points) {
+        std::vector<meshing::Point3> missing;
+        for (const auto &x : points)
+          if (!located.count(x))
+            missing.push_back(x);
+        std::sort(missing.begin(), missing.end());
+        missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
+        const auto evaluated = b.evaluation_points(missing, nullptr);
+        for (std::size_t k = 0; k < missing.size(); ++k)
+          located.emplace(missing[k], evaluated[k]);
+        std::vector<space_parts::EvaluationPoint> answer;
+        for (const auto &x : points)
+          answer.push_back(located.at(x));
+        return answer;
+      };
       for (const unsigned int v : vertices)
         if (!b.surface.patch_loads.count(v))
           {
             auto &load = b.surface.patch_loads[v];
-            load = space_parts::make_patch_load(in.display, v, [&](const std::vector<meshing::Point3> &points) {
-              return b.evaluation_points(points, nullptr);
-            });
+            load       = space_parts::make_patch_load(in.display, v, evaluate_once);
             for (auto &direction : load)
               b.condense(direction);
           }
