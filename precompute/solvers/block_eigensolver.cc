@@ -144,8 +144,9 @@ namespace modal_haptics
     {
     public:
       BlockKrylov(BlockEigenOperators &operators, unsigned int n_modes, unsigned int block_size, double tolerance,
-                  double memory_limit_bytes, bool verbose)
-        : operators(operators)
+                  double memory_limit_bytes, bool verbose, const CutOffStop &stop)
+        : stop(stop)
+        , operators(operators)
         , n(operators.local_rows())
         , nev(n_modes)
         , block(block_size)
@@ -168,6 +169,7 @@ namespace modal_haptics
 
       EigenSolution solve(const double shift)
       {
+        this->shift = shift;
         // The GEMMs on the basis run on every BLAS thread (1.6x faster on 2 than on 1 on a quiet
         // machine: a 250k x 80 basis times 4 columns, 9-10 against 16 GB/s); the solves set their own.
         dealii::Timer     timer;
@@ -204,7 +206,7 @@ namespace modal_haptics
                 const int  added  = orthogonalize_block(seed.data(), block, size, krylov);
                 if (added == 0)
                   break;
-                if (krylov && trust_estimates && size >= nev + block && estimate_converged(size, added) >= nev)
+                if (krylov && trust_estimates && size >= block + int(stop.minimum) && estimate_converged(size, added))
                   {
                     pending = added;
                     break;
@@ -215,11 +217,12 @@ namespace modal_haptics
               }
             rayleigh_ritz(size, theta, Z);
             const int converged = count_converged(size, theta, Z);
+            wanted              = wanted_count(theta);
             if (verbose)
               std::cout << "[eigensolve]   cycle " << cycle + 1 << ": basis " << size << ", " << converged << " of "
-                        << nev << " converged, " << solved << " vectors solved, " << timer.wall_time() << " s"
+                        << wanted << " converged, " << solved << " vectors solved, " << timer.wall_time() << " s"
                         << std::endl;
-            if (converged >= nev)
+            if (converged >= wanted)
               break;
             if (pending > 0)
               {
@@ -236,7 +239,7 @@ namespace modal_haptics
         solution.n_operator_applications = solved;
         // The Ritz vectors V Z of the last convergence check are the eigenvectors.
         orient_ritz_vectors();
-        for (int i = 0; i < nev; ++i)
+        for (int i = 0; i < wanted; ++i)
           {
             solution.eigenvalues.push_back(shift + 1. / theta[i]);
             dealii::Vector<double> phi(n);
@@ -274,12 +277,12 @@ namespace modal_haptics
       // every run on the same rows, so that two runs of one space export the same modes.
       void orient_ritz_vectors()
       {
-        std::vector<double> products(nev, 0.);
-        for (int i = 0; i < nev; ++i)
+        std::vector<double> products(n_ritz_vectors, 0.);
+        for (int i = 0; i < n_ritz_vectors; ++i)
           for (int r = 0; r < n; ++r)
             products[i] += ritz_vectors[std::size_t(i) * n + r] * orientation[r];
-        operators.sum_over_processes(products.data(), nev);
-        for (int i = 0; i < nev; ++i)
+        operators.sum_over_processes(products.data(), n_ritz_vectors);
+        for (int i = 0; i < n_ritz_vectors; ++i)
           if (products[i] < 0.)
             for (int r = 0; r < n; ++r)
               ritz_vectors[std::size_t(i) * n + r] = -ritz_vectors[std::size_t(i) * n + r];
@@ -419,11 +422,21 @@ namespace modal_haptics
           }
       }
 
-      // How many wanted Ritz pairs of the first 'size' columns have converged, from the block
+      // The count the iteration converges: n_modes, or fewer once the cut-off decides it (theta:
+      // the Ritz values, largest first, i.e. the eigenvalues shift + 1 / theta ascending).
+      int wanted_count(const std::vector<double> &theta) const
+      {
+        std::vector<double> lowest;
+        for (std::size_t i = 0; i < theta.size() && int(i) < nev; ++i)
+          lowest.push_back(shift + 1. / theta[i]);
+        return int(stop.decided_count(lowest, nev));
+      }
+
+      // Whether the wanted Ritz pairs of the first 'size' columns have converged, from the block
       // Krylov relation W = V H + X_new R E^T (E: the last block): the residual of the Ritz pair
       // (theta, V z) is X_new R z_last, whose M norm is |R z_last| (X_new is M-orthonormal). Needs
       // only the recorded coefficients: no product with the n-long bases.
-      int estimate_converged(const int size, const int count)
+      bool estimate_converged(const int size, const int count)
       {
         std::vector<double> H(std::size_t(size) * size), ascending(size);
         for (int j = 0; j < size; ++j)
@@ -446,7 +459,7 @@ namespace modal_haptics
             if (std::sqrt(norm2) > tolerance * std::abs(ascending[size - 1 - converged]))
               break;
           }
-        return converged;
+        return converged >= wanted_count(std::vector<double>(ascending.rbegin(), ascending.rend()));
       }
 
       // The eigenpairs of a symmetric size x size matrix A, in place: eigenvectors in A, eigenvalues ascending.
@@ -520,9 +533,10 @@ namespace modal_haptics
 
       int count_converged(const int size, const std::vector<double> &theta, const std::vector<double> &Z)
       {
-        const auto norms = residual_norms(size, theta, Z, nev, residuals);
+        n_ritz_vectors   = std::min(nev, size); // fewer while the basis is smaller (a stop at the cut-off)
+        const auto norms = residual_norms(size, theta, Z, n_ritz_vectors, residuals);
         int        converged = 0;
-        while (converged < nev && norms[converged] <= tolerance)
+        while (converged < n_ritz_vectors && norms[converged] <= tolerance)
           ++converged;
         first_unconverged = converged;
         return converged;
@@ -542,14 +556,18 @@ namespace modal_haptics
             std::copy(scratch.begin(), scratch.end(), basis->begin());
           }
         (void)theta;
-        const int seeds = std::min(block, nev - first_unconverged);
+        const int seeds = std::min(block, n_ritz_vectors - first_unconverged);
         std::vector<double> seed(residuals.begin() + std::size_t(first_unconverged) * n,
                                  residuals.begin() + std::size_t(first_unconverged + seeds) * n);
         return keep + append_block(seed.data(), seeds, keep);
       }
 
+      const CutOffStop                    stop;
+      double                              shift  = 0.;
       BlockEigenOperators                &operators;
       const int                           n, nev, block; // n: this process's rows
+      int                                 wanted = 0;    // of the nev, those the cut-off needs (wanted_count)
+      int                                 n_ritz_vectors = 0; // columns of ritz_vectors and residuals
       const double                        tolerance;
       const bool                          verbose;
       int                                 capacity = 0;
@@ -582,10 +600,12 @@ namespace modal_haptics
                                          const unsigned int                  block_size,
                                          const double                        tolerance,
                                          const double                        memory_limit_bytes,
-                                         const bool                          verbose)
+                                         const bool                          verbose,
+                                         const CutOffStop                   &stop)
   {
     SerialBlockOperators operators(M, shifted_inverse);
-    return solve_block_shift_invert(operators, shift, n_modes, block_size, tolerance, memory_limit_bytes, verbose);
+    return solve_block_shift_invert(operators, shift, n_modes, block_size, tolerance, memory_limit_bytes, verbose,
+                                    stop);
   }
 
   EigenSolution solve_block_shift_invert(BlockEigenOperators &operators,
@@ -594,9 +614,18 @@ namespace modal_haptics
                                          const unsigned int   block_size,
                                          const double         tolerance,
                                          const double         memory_limit_bytes,
-                                         const bool           verbose)
+                                         const bool           verbose,
+                                         const CutOffStop    &stop)
   {
-    BlockKrylov solver(operators, n_modes, block_size, tolerance, memory_limit_bytes, verbose);
+    BlockKrylov solver(operators, n_modes, block_size, tolerance, memory_limit_bytes, verbose, stop);
     return solver.solve(shift);
+  }
+
+  unsigned int CutOffStop::decided_count(const std::vector<double> &lowest, const unsigned int n_modes) const
+  {
+    for (std::size_t count = std::max(1u, minimum); count <= lowest.size() && count <= n_modes; ++count)
+      if (lowest[count - 1] > cut_off_eigenvalue)
+        return count;
+    return n_modes;
   }
 } // namespace modal_haptics

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 namespace modal_haptics
@@ -60,6 +61,22 @@ namespace modal_haptics
     virtual unsigned int process() const = 0;
   };
 
+  // When the block Krylov eigensolve may stop before its n_modes: the mode-selection rule keeps the
+  // lowest max(minimum, number below the cut-off) modes, so its count is decided once the lowest
+  // 'minimum' have converged and so has one above the cut-off (every later mode lies above it too):
+  // then the iteration stops instead of converging the rest, which the cut-off would drop. Shift-invert
+  // converges the modes nearest the shift (the lowest) first, the trust every count of computed
+  // modes rests on. An infinite cut-off (rule 'none', modal-study) computes all n_modes.
+  struct CutOffStop
+  {
+    unsigned int minimum            = 0;
+    double       cut_off_eigenvalue = std::numeric_limits<double>::infinity(); // (2 pi f_cut)^2 [rad^2/s^2]
+
+    // How many of the lowest eigenvalues (ascending, at least n_modes of them or all there are)
+    // decide the count, at most n_modes.
+    unsigned int decided_count(const std::vector<double> &lowest, unsigned int n_modes) const;
+  };
+
   // The same spectral transformation with a block Krylov method (block_eigensolver.cc): blocks of
   // block_size right-hand sides per solve, thick restarts. Converged when every wanted Ritz pair's residual
   // ||OP z - theta z||_M / theta is below tolerance. The eigenvectors hold this process's rows. The
@@ -71,7 +88,8 @@ namespace modal_haptics
                                          unsigned int         block_size,
                                          double               tolerance,
                                          double               memory_limit_bytes,
-                                         bool                 verbose);
+                                         bool                 verbose,
+                                         const CutOffStop    &stop = {});
 
   // The serial case: M's products on deal.II's threads, the solves by the factorization.
   EigenSolution solve_block_shift_invert(const dealii::SparseMatrix<double> &M,
@@ -81,7 +99,8 @@ namespace modal_haptics
                                          unsigned int                        block_size,
                                          double                              tolerance,
                                          double                              memory_limit_bytes,
-                                         bool                                verbose);
+                                         bool                                verbose,
+                                         const CutOffStop                   &stop = {});
 
   // For deal.II's serial and Trilinos' distributed matrices and vectors alike. A residual is relative
   // to max(|lambda|, lambda_floor) ||M phi||: rigid-body modes (lambda = 0) are measured against the

@@ -405,7 +405,8 @@ namespace modal_haptics
       const double memory_limit = memory_budget_per_process_bytes(scene.modes.factor_memory_limit, comm);
       const EigenSolution solution = solve_block_shift_invert(operators, shift, scene.modes.maximum_count,
                                                               scene.modes.block_size, scene.modes.tolerance,
-                                                              memory_limit, verbose);
+                                                              memory_limit, verbose,
+                                                              space_parts::cut_off_stop(scene.modes));
       space_parts::record_iteration(result, solution);
       result.eigensolver_method = block_krylov_method(scene.modes.block_size, solution) + ", distributed";
       eigenvalues = solution.eigenvalues;

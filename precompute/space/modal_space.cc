@@ -290,7 +290,8 @@ namespace modal_haptics
           else if (method == Method::block_krylov)
             eigen = solve_block_shift_invert(mass_matrix, *factorization, shift, scene.modes.maximum_count,
                                              scene.modes.block_size, scene.modes.tolerance,
-                                             memory_budget_bytes(scene.modes.factor_memory_limit), verbose);
+                                             memory_budget_bytes(scene.modes.factor_memory_limit), verbose,
+                                             space_parts::cut_off_stop(scene.modes));
           else
             eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
                                        scene.modes.maximum_count, scene.modes.tolerance, verbose);

@@ -207,9 +207,11 @@ namespace modal_haptics
     // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
                                            ModalSpaceResult &result);
+    // When the eigensolve has found what select_modes needs (the block Krylov method stops there).
+    CutOffStop cut_off_stop(const ModeParameters &modes);
     // Why select_modes kept what it kept, in the parameters' names: "kept 10 modes: 4 below the 500 Hz
     // cut-off ('Modes/Cut-off rule' = haptic: half 'Modes/Haptic rate'), raised to the floor of 10
-    // ('Modes/Minimum number of modes'); dropped 40 above it".
+    // ('Modes/Minimum number of modes'); dropped 1 above it" (no "dropped" when none was).
     std::string mode_selection_summary(const SceneParameters &scene, const ModalSpaceResult &result);
 
     // A point of the display surface located in the cells of a mesh that this process owns (all of a

@@ -388,11 +388,19 @@ namespace modal_haptics
         out << "all " << computed << " computed ('Modes/Maximum number of modes') lie below " << cut_off
             << "; more may lie below it";
       else if (kept == below)
-        out << "those below " << cut_off << "; dropped " << dropped << " above it";
+        out << "those below " << cut_off;
       else
         out << below << " below " << cut_off << ", raised to the floor of " << modes.minimum_count
-            << " ('Modes/Minimum number of modes'); dropped " << dropped << " above it";
+            << " ('Modes/Minimum number of modes')";
+      // The eigensolve stops where the count is decided (CutOffStop): often nothing is left to drop.
+      if (dropped > 0)
+        out << "; dropped " << dropped << " above it";
       return out.str();
+    }
+
+    CutOffStop cut_off_stop(const ModeParameters &modes)
+    {
+      return {modes.minimum_count, std::pow(two_pi * modes.cut_off_frequency(), 2)};
     }
 
     // The cut-off rule drops modes above its frequency, but never below the floor count; the report
