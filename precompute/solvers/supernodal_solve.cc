@@ -224,19 +224,25 @@ namespace modal_haptics
     const Index  *rows_below;
   };
 
-  void SupernodalSolve::forward(const Index supernode, double *X, const int n_rhs, double *workspace,
-                                double *top_updates) const
+  bool SupernodalSolve::solve_own_rows(const Block &b, double *own, const int ld, const int n_rhs,
+                                       double *workspace) const
   {
-    const Block  b(*this, supernode);
-    const int    ld  = int(n);
-    double      *own = X + b.first;
     const double one = 1., zero = 0.;
     dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
     if (b.below == 0)
-      return;
-    // workspace = L21 y_own, then scattered onto the rows below (ancestors' columns).
+      return false;
     dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, own, &ld, &zero,
            workspace, &b.below);
+    return true;
+  }
+
+  void SupernodalSolve::forward(const Index supernode, double *X, const int n_rhs, double *workspace,
+                                double *top_updates) const
+  {
+    const Block b(*this, supernode);
+    if (!solve_own_rows(b, X + b.first, int(n), n_rhs, workspace))
+      return;
+    // The updates scattered onto the rows below (ancestors' columns).
     for (int c = 0; c < n_rhs; ++c)
       for (int i = 0; i < b.below; ++i)
         {
@@ -594,14 +600,10 @@ namespace modal_haptics
   void SupernodalSolve::forward_local(const Index supernode, double *X, const int ld, const Index *local_row,
                                       const int n_rhs, double *workspace) const
   {
-    const Block  b(*this, supernode);
-    double      *own = X + local_row[b.first]; // a supernode's columns are consecutive rows of X
-    const double one = 1., zero = 0.;
-    dtrsm_("L", "L", "N", "N", &b.n_columns, &n_rhs, &one, b.L, &b.n_rows, own, &ld);
-    if (b.below == 0)
+    const Block b(*this, supernode);
+    // A supernode's columns are consecutive rows of X.
+    if (!solve_own_rows(b, X + local_row[b.first], ld, n_rhs, workspace))
       return;
-    dgemm_("N", "N", &b.below, &n_rhs, &b.n_columns, &one, b.L + b.n_columns, &b.n_rows, own, &ld, &zero,
-           workspace, &b.below);
     for (int c = 0; c < n_rhs; ++c)
       {
         double       *column  = X + std::size_t(c) * ld;

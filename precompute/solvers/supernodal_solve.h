@@ -92,6 +92,9 @@ namespace modal_haptics
     // column) and Z the top inverse.
     void add_top_share(const TopInverse &top, const double *top_rows, int ld, int width, int leading,
                        std::vector<double> &G) const;
+    // y_own = L11^-1 y_own in place (at 'own', ld rows per column) and workspace = L21 y_own (below
+    // x n_rhs): what the supernode subtracts from the rows below it; false when it has none.
+    bool solve_own_rows(const Block &b, double *own, int ld, int n_rhs, double *workspace) const;
     // One supernode of L y = b: y at its own rows, its updates to the rows below subtracted from
     // X, or from 'top_updates' for the rows of the top (when given; laid out as X, n_top_columns rows).
     void forward(Index supernode, double *X, int n_rhs, double *workspace, double *top_updates) const;
