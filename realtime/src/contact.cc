@@ -267,11 +267,11 @@ void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double 
   basis.spaces[space_].residual_compliance(std::uint32_t(a.candidate), std::uint32_t(b.candidate), C);
 }
 
-// B_a G B_b^T and B_a H B_b^T (+ C_ab) for every pair of active contacts. A contact's own block
-// (a = b) is symmetric: its six distinct entries are summed in one pass over the modes; a sliding
-// contact, which refreshes it whenever its proxy moves, takes it from its triangle's pair blocks
-// instead (proxy_coupling_block: no pass over the modes). Pairs a < b take the nine entries one by
-// one.
+// B_a G B_b^T and B_a H B_b^T (+ C_ab) for every pair of active contacts (dense.h's add_own_gram,
+// add_pair_gram, which the sliding contact's pair blocks use too). A contact's own block (a = b) is
+// symmetric: its six distinct entries are summed; a sliding contact, which refreshes it whenever its
+// proxy moves, takes it from its triangle's pair blocks instead (proxy_coupling_block: no pass over
+// the modes).
 void modalrt_kernel::refresh_coupling_matrices() noexcept
 {
   coupling_dirty_                   = false;
@@ -285,20 +285,8 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
         proxy_coupling_block(contacts_[active_[a]], s, sv); // from its triangle's pair blocks
       else
         {
-          const double *x = contacts_[active_[a]].B, *y = x + r, *z = y + r;
-          double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, vxx = 0, vxy = 0, vxz = 0, vyy = 0, vyz = 0, vzz = 0;
-#pragma omp simd reduction(+ : xx, xy, xz, yy, yz, zz, vxx, vxy, vxz, vyy, vyz, vzz)
-          for (std::uint32_t i = 0; i < r; ++i)
-            {
-              const double gx = g1[i] * x[i], gy = g1[i] * y[i], hx = g2[i] * x[i], hy = g2[i] * y[i];
-              xx += gx * x[i], xy += gx * y[i], xz += gx * z[i], yy += gy * y[i], yz += gy * z[i], zz += g1[i] * z[i] * z[i];
-              vxx += hx * x[i], vxy += hx * y[i], vxz += hx * z[i], vyy += hy * y[i], vyz += hy * z[i],
-                vzz += g2[i] * z[i] * z[i];
-            }
-          const double own[9]   = {xx, xy, xz, xy, yy, yz, xz, yz, zz};
-          const double own_v[9] = {vxx, vxy, vxz, vxy, vyy, vyz, vxz, vyz, vzz};
-          std::copy_n(own, 9, s);
-          std::copy_n(own_v, 9, sv);
+          std::fill_n(s, 9, 0.0), std::fill_n(sv, 9, 0.0);
+          add_own_gram(contacts_[active_[a]].B, g1, g2, r, 0, r, s, sv);
         }
       for (int c = 0; c < 3; ++c)
         for (int d = 0; d < 3; ++d)
@@ -310,23 +298,18 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
     }
   for (std::uint32_t a = 0; a < n; ++a)
     for (std::uint32_t b = a + 1; b < n; ++b)
-      for (int c = 0; c < 3; ++c)
-        for (int d = 0; d < 3; ++d)
-          {
-            const double *row_a = contacts_[active_[a]].B + std::size_t(c) * r;
-            const double *row_b = contacts_[active_[b]].B + std::size_t(d) * r;
-            double        s = 0.0, sv = 0.0;
-#pragma omp simd reduction(+ : s, sv)
-            for (std::uint32_t i = 0; i < r; ++i)
-              {
-                s += row_a[i] * g1[i] * row_b[i];
-                sv += row_a[i] * g2[i] * row_b[i];
-              }
-            const std::size_t ab = (3 * a + c) * n3 + 3 * b + d, ba = (3 * b + d) * n3 + 3 * a + c;
-            coupling_[ab] = s + compliance_[ab];
-            coupling_[ba] = s + compliance_[ba];
-            coupling_velocity_[ab] = coupling_velocity_[ba] = sv;
-          }
+      {
+        double s[9] = {}, sv[9] = {};
+        add_pair_gram(contacts_[active_[a]].B, contacts_[active_[b]].B, g1, g2, r, 0, r, s, sv);
+        for (int c = 0; c < 3; ++c)
+          for (int d = 0; d < 3; ++d)
+            {
+              const std::size_t ab = (3 * a + c) * n3 + 3 * b + d, ba = (3 * b + d) * n3 + 3 * a + c;
+              coupling_[ab]          = s[3 * c + d] + compliance_[ab];
+              coupling_[ba]          = s[3 * c + d] + compliance_[ba];
+              coupling_velocity_[ab] = coupling_velocity_[ba] = sv[3 * c + d];
+            }
+      }
 }
 
 // =================================================================================================

@@ -23,6 +23,54 @@ namespace modalrt
     return sum;
   }
 
+  // M += B_a G B_b^T and N += B_a H B_b^T over modes [first, last) (a, b: 3 x r rows; G = diag(g1),
+  // H = diag(g2)).
+  inline void add_pair_gram(const double *a, const double *b, const double *g1, const double *g2, std::uint32_t r,
+                     std::uint32_t first, std::uint32_t last, double M[9], double N[9])
+  {
+    const double *a0 = a, *a1 = a + r, *a2 = a + 2 * std::size_t(r), *b0 = b, *b1 = b + r, *b2 = b + 2 * std::size_t(r);
+    for (int half = 0; half < 2; ++half)
+      {
+        const double *g   = half == 0 ? g1 : g2;
+        double       *out = half == 0 ? M : N;
+        double        s00 = 0, s01 = 0, s02 = 0, s10 = 0, s11 = 0, s12 = 0, s20 = 0, s21 = 0, s22 = 0;
+#pragma omp simd reduction(+ : s00, s01, s02, s10, s11, s12, s20, s21, s22)
+        for (std::uint32_t i = first; i < last; ++i)
+          {
+            const double x0 = g[i] * a0[i], x1 = g[i] * a1[i], x2 = g[i] * a2[i];
+            s00 += x0 * b0[i], s01 += x0 * b1[i], s02 += x0 * b2[i];
+            s10 += x1 * b0[i], s11 += x1 * b1[i], s12 += x1 * b2[i];
+            s20 += x2 * b0[i], s21 += x2 * b1[i], s22 += x2 * b2[i];
+          }
+        const double sum[9] = {s00, s01, s02, s10, s11, s12, s20, s21, s22};
+        for (int e = 0; e < 9; ++e)
+          out[e] += sum[e];
+      }
+  }
+
+  // The same for b = a: six sums, mirrored (the block is symmetric to the last bit).
+  inline void add_own_gram(const double *a, const double *g1, const double *g2, std::uint32_t r, std::uint32_t first,
+                           std::uint32_t last, double M[9], double N[9])
+  {
+    const double *a0 = a, *a1 = a + r, *a2 = a + 2 * std::size_t(r);
+    for (int half = 0; half < 2; ++half)
+      {
+        const double *g   = half == 0 ? g1 : g2;
+        double       *out = half == 0 ? M : N;
+        double        s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0;
+#pragma omp simd reduction(+ : s00, s01, s02, s11, s12, s22)
+        for (std::uint32_t i = first; i < last; ++i)
+          {
+            const double x0 = g[i] * a0[i], x1 = g[i] * a1[i];
+            s00 += x0 * a0[i], s01 += x0 * a1[i], s02 += x0 * a2[i];
+            s11 += x1 * a1[i], s12 += x1 * a2[i], s22 += g[i] * a2[i] * a2[i];
+          }
+        const double sum[9] = {s00, s01, s02, s01, s11, s12, s02, s12, s22};
+        for (int e = 0; e < 9; ++e)
+          out[e] += sum[e];
+      }
+  }
+
   // Two dot products sharing their first vector, in one pass over it: (a . x, a . y).
   inline void dot_pair(const double *a, const double *x, const double *y, std::uint32_t n, double &ax, double &ay)
   {
