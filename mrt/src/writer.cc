@@ -83,6 +83,8 @@ namespace mrt
         }
       if (!sp.felt_stiffness.empty())
         out.push_back(make(felt_stiffness, s, f64, sp.felt_stiffness));
+      if (!sp.validity_force.empty())
+        out.push_back(make(validity_force, s, f64, sp.validity_force));
     }
 
     std::vector<double> packed_scene_scalars(const SceneScalars &named)

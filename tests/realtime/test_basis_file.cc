@@ -93,7 +93,7 @@ namespace
     const std::vector<unsigned char> bytes = modalrt::write_basis(worked_example());
     ENSURE(bytes.size() == 1760);
     const unsigned char expected[48] = {0x4d, 0x4f, 0x44, 0x41, 0x4c, 0x52, 0x54, 0x00, 0x01, 0x00, 0x00, 0x00,
-                                        0x01, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x0d, 0x00, 0x00, 0x00,
+                                        0x02, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x0d, 0x00, 0x00, 0x00,
                                         0xe0, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
                                         0x04, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00};
     ENSURE(std::memcmp(bytes.data(), expected, 48) == 0);
@@ -146,7 +146,7 @@ namespace
   void newer_minor_version()
   {
     BasisContent c  = worked_example();
-    c.version_minor = 3;
+    c.version_minor = mrt::version_minor + 1;
     c.extra_sections.push_back({99, mrt::scene_wide, mrt::scene_wide, 3, 2,
                                 std::vector<unsigned char>(16, 0x11)});
     std::string message;
@@ -169,7 +169,7 @@ namespace
     bytes = good;
     put<std::uint32_t>(bytes, 8, 2);
     modalrt::refresh_checksums(bytes);
-    ensure_rejected(bytes, MODALRT_ERROR_FORMAT, "version 2.1");
+    ensure_rejected(bytes, MODALRT_ERROR_FORMAT, "format version 2.");
 
     bytes = good;
     bytes.resize(good.size() - 100);

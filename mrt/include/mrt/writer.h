@@ -26,6 +26,7 @@ namespace mrt
     std::vector<std::uint32_t> cross_neighbours;     // candidate indices, ascending per row
     std::vector<double>        cross_blocks;         // 9 per neighbour [m/N]
     std::vector<double>        felt_stiffness;       // nv or empty: the felt-stiffness map [N/m]
+    std::vector<double>        validity_force;       // 3 nv or empty: the validity map [N] (1.2)
     std::vector<double>        participation;        // 6 r or empty
     std::vector<std::uint32_t> validation_cases;     // 2 nval
     std::vector<double>        validation_response;  // 3 nval

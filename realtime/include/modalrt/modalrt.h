@@ -144,7 +144,7 @@ extern "C" {
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
-#define MODALRT_BASIS_FORMAT_MINOR 1
+#define MODALRT_BASIS_FORMAT_MINOR 2
 
 /* Marks "no vertex" / "no space" in outputs. */
 #define MODALRT_NONE 0xFFFFFFFFu
