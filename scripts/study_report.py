@@ -4,7 +4,9 @@
     scripts/study_report.py DIR        reads DIR/study.csv and DIR/reference.csv
 
 Writes DIR/study.md (the table and the answers the study is for) and DIR/error_vs_modes.png,
-error_vs_dofs.png, error_vs_offline_time.png, pareto.png. Every number comes from the two CSVs."""
+error_vs_dofs.png, error_vs_offline_time.png, pareto.png; with a force axis ('Force levels': the
+reference's nonlinear curves in DIR/force_curves.csv) also a section on force and
+DIR/stiffness_vs_force.png. Every number comes from the CSVs."""
 import csv
 import os
 import sys
@@ -193,6 +195,76 @@ def plot_pareto(rows, path):
     plt.close(fig)
 
 
+def force_levels(rows):
+    """The study's force levels [N], from study.csv's felt_error_corrected_at_<F>_n columns."""
+    prefix, suffix = "felt_error_corrected_at_", "_n"
+    return sorted(float(key[len(prefix):-len(suffix)]) for key in rows[0] if key.startswith(prefix))
+
+
+def read_force_curves(folder):
+    """{(patch radius, contact): (vertex, linear compliance, [(force, displacement)], stop reason)}."""
+    path = os.path.join(folder, "force_curves.csv")
+    curves = {}
+    if not os.path.exists(path):
+        return curves
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            key = (float(row["patch_radius"]), int(row["contact"]))
+            vertex, linear, points, _ = curves.get(key, (int(row["vertex"]), float(row["linear_compliance_m_per_n"]), [], ""))
+            points.append((float(row["force_n"]), float(row["felt_displacement_m"])))
+            curves[key] = (vertex, linear, points, row["stop_reason"])
+    return curves
+
+
+def force_answer(folder, points, levels, curves):
+    lines = ["The linear basis against the geometrically nonlinear part: at each force level F, |c / c_nl(F) − 1| "
+             "of the felt compliance c (corrected, and modal-only at the largest r) against the reference's "
+             "nonlinear secant compliance c_nl(F) = δ(F)/F (a dead patch load pushing along the study's "
+             "direction), the largest over the contacts; blank where the reference did not carry F.", ""]
+    header = " | ".join(f"{level:g} N" for level in levels)
+    lines += [f"| point | r | {header} |", "|---|---|" + "---|" * len(levels)]
+    for rows in points.values():
+        top = counted(rows)[-1]
+        for label, key in (("corrected", "felt_error_corrected_at_"), ("modal-only", "felt_error_modal_at_")):
+            cells = []
+            for level in levels:
+                value = top[f"{key}{level:g}_n"]
+                cells.append("" if value != value else percent(value))
+            lines.append(f"| {short_name(top)} {label} | {int(top['modes'])} | " + " | ".join(cells) + " |")
+    lines += ["", "Where the reference's own linear compliance departs from its nonlinear one by 1, 5, 10 % "
+              "(the validity forces: above them even an exact linear model is off by that much):", "",
+              "| ρ | contact (vertex) | linear stiffness [N/mm] | 1 % | 5 % | 10 % | solved up to |", "|---|---|---|---|---|---|---|"]
+    with open(os.path.join(folder, "reference.csv")) as f:
+        validity = {(float(r["patch_radius"]), int(r["contact"])): r for r in csv.DictReader(f)}
+    for (rho, contact), (vertex, linear, curve, stop) in sorted(curves.items()):
+        forces = [float(validity[(rho, contact)][f"validity_force_{p}_percent_n"]) for p in (1, 5, 10)]
+        cells = " | ".join("not reached" if f == float("inf") else f"{f:.3g} N" for f in forces)
+        reached = f"{curve[-1][0]:g} N" + (f" ({stop})" if stop else "")
+        lines.append(f"| {rho:g} | {contact} ({vertex}) | {1e-3 / linear:.4g} | {cells} | {reached} |")
+    return lines
+
+
+def plot_stiffness_vs_force(curves, path):
+    """Per contact: the reference's nonlinear secant stiffness F/δ(F) against F, its linear stiffness and
+    the 1, 5, 10 % lines around it."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for (rho, contact), (vertex, linear, curve, _) in sorted(curves.items()):
+        forces = [0.0] + [f for f, _ in curve]
+        stiffness = [1e-3 / linear] + [1e-3 * f / d for f, d in curve]
+        line, = ax.plot(forces, stiffness, "o-", ms=3, label=f"contact {contact} (vertex {vertex}), ρ = {rho:g}")
+        for threshold, style in zip(THRESHOLDS, (":", "--", "-.")):
+            for sign in (-1, 1):
+                ax.axhline(1e-3 / linear * (1 + sign * threshold), color=line.get_color(), ls=style, lw=0.8,
+                           label=f"linear ± {100 * threshold:g} %" if sign > 0 and contact == 1 else None)
+        ax.axhline(1e-3 / linear, color=line.get_color(), lw=0.8)
+    ax.set(xlabel="contact force F [N]", ylabel="felt stiffness F / δ(F) [N/mm]",
+           title="reference: geometrically nonlinear against linear (horizontal)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def reference_lines(folder):
     with open(os.path.join(folder, "reference.csv")) as f:
         references = list(csv.DictReader(f))
@@ -221,6 +293,12 @@ def main():
     plot_error_vs(points, "offline_total_s", "offline time of the studied space [s]",
                   os.path.join(folder, "error_vs_offline_time.png"), "accuracy against offline time")
     plot_pareto(rows, os.path.join(folder, "pareto.png"))
+    levels, curves = force_levels(rows), read_force_curves(folder)
+    force_section = []
+    if levels and curves:
+        plot_stiffness_vs_force(curves, os.path.join(folder, "stiffness_vs_force.png"))
+        force_section = ["", "## Force: where linear stops being true", ""] + force_answer(folder, points, levels, curves) + \
+                        ["", "![stiffness vs force](stiffness_vs_force.png)"]
 
     sections = [["# Speed/accuracy study", "",
                  "Felt-compliance error: the compliance d^T G d along the study's push direction d at each "
@@ -234,12 +312,13 @@ def main():
                 ["", "## Graded VOI mesh against uniform mesh", ""], graded_answer(points),
                 ["", "## P1 against P2", ""], degree_answer(points),
                 ["", "## Plots", "", "![error vs modes](error_vs_modes.png)", "![error vs DoFs](error_vs_dofs.png)",
-                 "![error vs offline time](error_vs_offline_time.png)", "![Pareto front](pareto.png)"]]
+                 "![error vs offline time](error_vs_offline_time.png)", "![Pareto front](pareto.png)"],
+                force_section]
     temporary = os.path.join(folder, "study.md.tmp")
     with open(temporary, "w") as f:
         f.write("\n".join(line for section in sections for line in section) + "\n")
     os.replace(temporary, os.path.join(folder, "study.md"))
-    print(f"{folder}/study.md and 4 plots written")
+    print(f"{folder}/study.md and {5 if force_section else 4} plots written")
     return 0
 
 

@@ -52,9 +52,10 @@ namespace modal_haptics
   struct StudyParameters
   {
     std::string                study_file, scene_file, scenario, contact_points;
-    std::array<double, 3>      push_direction{{0., 0., 1.}}; // unit
+    std::array<double, 3>      push_direction{{0., 0., -1.}}; // unit
     std::vector<unsigned int>  degrees, mode_counts;
     std::vector<double>        coarse_sizes, fine_sizes, uniform_sizes, patch_radii; // [geometry units]
+    std::vector<double>        force_levels; // [N] ascending; empty: no force axis
     std::vector<std::string>   cut_off_rules, eigensolvers;
     double                     reference_size = 1.; // [geometry units]
     unsigned int               reference_modes = 10;
@@ -72,9 +73,10 @@ namespace modal_haptics
     prm.declare_entry("Contact points", "", Patterns::Anything(),
                       "Sampled contacts 'x, y, z; x, y, z; ...' on the part's surface inside the studied VOI: "
                       "the nearest display vertex of each point's surface is loaded. Units: geometry units.");
-    prm.declare_entry("Push direction", "0, 0, 1", Patterns::List(Patterns::Double(), 3, 3),
-                      "The direction the hand pushes in at every contact (its sign does not matter): the felt "
-                      "compliance is d^T G d. A fixed direction, not the surface normal, because a contact on a "
+    prm.declare_entry("Push direction", "0, 0, -1", Patterns::List(Patterns::Double(), 3, 3),
+                      "The direction the hand pushes in at every contact: the felt compliance is d^T G d, whose "
+                      "sign does not matter; the force axis ('Force levels') pushes along d, so there d must "
+                      "point into the part. A fixed direction, not the surface normal, because a contact on a "
                       "rib's narrow top may snap to an edge vertex whose normal leans sideways. Units: none.");
     prm.declare_entry("Element degrees", "2", Patterns::List(Patterns::Integer(1, 2), 1),
                       "Polynomial degrees of the tets (1, 2). Units: none.");
@@ -99,6 +101,12 @@ namespace modal_haptics
                       "Element size of the uniform P2 reference mesh. Units: geometry units.");
     prm.declare_entry("Reference modes", "10", Patterns::Integer(1),
                       "Lowest frequencies of the reference compared with each point's. Units: none.");
+    prm.declare_entry("Force levels", "", Patterns::List(Patterns::Double(0.)),
+                      "Contact forces at which every point's felt compliance (corrected and modal-only) is "
+                      "compared with the geometrically nonlinear one of the reference: the reference then also "
+                      "solves, at each contact, the large-deformation problem (the scene's 'Contact/Validity "
+                      "material') of a dead patch load along 'Push direction' up to the largest level, one "
+                      "Newton solve per contact on the reference mesh. Empty: no force axis. Units: N.");
     prm.declare_entry("Kernel ticks", "20000", Patterns::Integer(100),
                       "Admittance ticks timed per point and r (one HIP pressing on the first contact point). Units: none.");
     prm.leave_subsection();
@@ -116,6 +124,13 @@ namespace modal_haptics
         values.push_back(value);
       }
     return values;
+  }
+
+  std::string number(const double value)
+  {
+    std::ostringstream out;
+    out << std::setprecision(17) << value;
+    return out.str();
   }
 
   StudyParameters read_study_parameters(const std::string &study_file)
@@ -146,6 +161,7 @@ namespace modal_haptics
     study.reference_size  = prm.get_double("Reference size");
     study.reference_modes = prm.get_integer("Reference modes");
     study.kernel_ticks    = prm.get_integer("Kernel ticks");
+    study.force_levels    = parse_list<double>(prm.get("Force levels"));
     prm.leave_subsection();
     AssertThrow(fs::is_regular_file(study.scene_file),
                 ExcMessage(study_file + ": 'Study/Scene file' names '" + study.scene_file + "', which cannot be read."));
@@ -154,6 +170,10 @@ namespace modal_haptics
     AssertThrow(!study.contact_points.empty(),
                 ExcMessage(study_file + ": 'Study/Contact points' must list at least one point inside the VOI."));
     std::sort(study.mode_counts.begin(), study.mode_counts.end());
+    std::sort(study.force_levels.begin(), study.force_levels.end());
+    for (const double force : study.force_levels)
+      AssertThrow(force > 0., ExcMessage(study_file + ": 'Study/Force levels' must be positive forces in N, not " +
+                                         number(force) + "."));
     return study;
   }
 
@@ -164,13 +184,6 @@ namespace modal_haptics
     prm.enter_subsection(subsection);
     prm.set(entry, value);
     prm.leave_subsection();
-  }
-
-  std::string number(const double value)
-  {
-    std::ostringstream out;
-    out << std::setprecision(17) << value;
-    return out.str();
   }
 
   // The scene's parameters with the point's settings in place, checked as any .prm is. Graded points
@@ -207,6 +220,15 @@ namespace modal_haptics
     set_entry(prm, "Contact", "Validation samples", "0");
     set_entry(prm, "Contact", "Global candidate stride", "0");
     set_entry(prm, "Output", "VTU modes", "0");
+    // The force axis: the reference alone solves the nonlinear problem at the contacts.
+    const bool force_axis = point.mesh == "reference" && !study.force_levels.empty();
+    set_entry(prm, "Contact", "Validity analysis", force_axis ? "true" : "false");
+    if (force_axis)
+      {
+        const auto &d = study.push_direction;
+        set_entry(prm, "Contact", "Validity direction", number(d[0]) + ", " + number(d[1]) + ", " + number(d[2]));
+        set_entry(prm, "Contact", "Force limit", number(study.force_levels.back()));
+      }
     return parse_scene_parameters(prm, study.scene_file, output_directory);
   }
 
@@ -280,7 +302,7 @@ namespace modal_haptics
         {
           std::cout << "[study] point " << k + 1 << "/" << points.size() << ": " << points[k].label() << std::endl;
           evaluate_point(points[k]);
-          write_study_table(output_directory, rows); // after every point: a long study that stops keeps what it measured
+          write_study_table(output_directory, rows, study.force_levels); // after every point: a long study that stops keeps what it measured
         }
     }
 
@@ -339,9 +361,58 @@ namespace modal_haptics
       reference.seconds        = results.timings_s.at("total");
       reference.contacts       = find_contacts(scene, results, space, study.push_direction);
       reference.frequencies_hz = space.frequencies_hz;
+      if (!study.force_levels.empty())
+        reference.curves = nonlinear_curves(space, reference.contacts);
       std::cout << "[study] reference: " << space.n_dofs << " DoFs, " << reference.seconds << " s, f1 = "
                 << reference.frequencies_hz.front() << " Hz" << std::endl;
       return reference;
+    }
+
+    // The reference's nonlinear solve at each contact (its validity analysis), in the contacts' order.
+    std::vector<NonlinearCurve> nonlinear_curves(const ModalSpaceResult &space, const std::vector<Contact> &contacts) const
+    {
+      std::vector<NonlinearCurve> curves;
+      for (const auto &contact : contacts)
+        {
+          const auto solved = std::find_if(space.validity.begin(), space.validity.end(),
+                                           [&](const ValidityCurve &c) { return c.vertex == contact.vertex; });
+          AssertThrow(solved != space.validity.end(),
+                      ExcMessage(study.study_file + ": the reference has no nonlinear solve at display vertex " +
+                                 std::to_string(contact.vertex) + " ('Study/Force levels' needs a part held "
+                                 "against every rigid motion)."));
+          NonlinearCurve curve;
+          curve.linear_compliance = solved->linear_compliance;
+          curve.forces            = solved->forces;
+          curve.displacements     = solved->displacements;
+          curve.force_reached     = solved->force_reached;
+          curve.stop_reason       = solved->stop_reason;
+          curve.validity_force    = solved->validity_force;
+          std::cout << "[study] reference: nonlinear at vertex " << contact.vertex << ": " << curve.forces.size()
+                    << " load levels up to " << curve.force_reached << " N"
+                    << (curve.stop_reason.empty() ? "" : " (" + curve.stop_reason + ")") << std::endl;
+          curves.push_back(curve);
+        }
+      return curves;
+    }
+
+    // |c / c_nonlinear(F) - 1| at each force level, the largest over the contacts (NaN where the
+    // reference did not carry F at some contact).
+    std::vector<double> errors_at_forces(const ReferenceSolution &reference, const std::vector<double> &felt) const
+    {
+      std::vector<double> errors;
+      for (const double force : study.force_levels)
+        {
+          double worst = 0.;
+          for (std::size_t k = 0; k < felt.size(); ++k)
+            {
+              const double nonlinear = reference.curves[k].secant_compliance(force);
+              worst = std::isnan(nonlinear) ? nonlinear : std::max(worst, std::abs(felt[k] / nonlinear - 1.));
+              if (std::isnan(worst))
+                break;
+            }
+          errors.push_back(worst);
+        }
+      return errors;
     }
 
     const ReferenceSolution &reference_for(const double rho) const
@@ -402,6 +473,8 @@ namespace modal_haptics
           common.correction_residual = std::max(common.correction_residual,
                                                 frobenius_distance(contact.corrected, contact.full) / frobenius_norm(contact.full));
         }
+      if (!study.force_levels.empty())
+        common.felt_error_corrected_at_force = errors_at_forces(reference, common.corrected_felt_compliance);
 
       // The .mrt and the kernel's cost depend on r alone: a cut-off rule that keeps one of the
       // counted r reuses its measurement.
@@ -411,12 +484,14 @@ namespace modal_haptics
           StudyRow row = common;
           row.r_rule   = rule;
           row.r        = std::min<unsigned int>(r_wanted, space.eigenvalues.size());
+          std::vector<double> modal_felt;
           for (std::size_t k = 0; k < contacts.size(); ++k)
             {
               const auto  &contact = contacts[k];
               const auto   modal   = modal_compliance(space, contact.candidate, row.r);
               const double ref     = along(reference.contacts[k].full, contact.direction);
               const double felt    = along(modal, contact.direction);
+              modal_felt.push_back(felt);
               row.felt_error_modal = std::max(row.felt_error_modal, std::abs(felt - ref) / ref);
               row.felt_error_modal_3x3 =
                 std::max(row.felt_error_modal_3x3, frobenius_distance(modal, reference.contacts[k].full) /
@@ -424,6 +499,8 @@ namespace modal_haptics
               const double own = along(contact.full, contact.direction);
               row.truncation_error = std::max(row.truncation_error, std::abs(felt - own) / own);
             }
+          if (!study.force_levels.empty())
+            row.felt_error_modal_at_force = errors_at_forces(reference, modal_felt);
           for (const auto &vc : space.validation)
             if (std::any_of(contacts.begin(), contacts.end(), [&](const auto &c) { return c.vertex == vc.vertex; }))
               row.display_error_modal = std::max(row.display_error_modal, vc.field_rel_error_by_modes.at(row.r - 1));

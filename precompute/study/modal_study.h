@@ -74,12 +74,41 @@ namespace modal_haptics
     unsigned int display_vertices = 0;
   };
 
+  // The reference's geometrically nonlinear felt response at one contact (the force axis): the
+  // felt displacement d^T W^T u at each converged load level of a dead load pushing along d.
+  struct NonlinearCurve
+  {
+    double              linear_compliance = 0.; // [m/N] the reference's linear d^T W^T K^-1 W d
+    std::vector<double> forces, displacements;  // [N], [m] converged levels, ascending (0 left out)
+    double              force_reached = 0.;     // [N] the last converged level
+    std::string         stop_reason;            // empty when the solve reached its force limit
+    std::array<double, 3> validity_force{};     // [N] 1, 5, 10 % departure (infinity: not reached)
+
+    // The secant compliance delta(F) / F felt at `force` [m/N], interpolated linearly in F between the
+    // levels (it equals linear_compliance at F = 0); NaN beyond force_reached (the part did not carry it).
+    double secant_compliance(const double force) const
+    {
+      if (forces.empty() || force > force_reached * (1. + 1e-12))
+        return std::nan("");
+      double previous_force = 0., previous_secant = linear_compliance;
+      for (std::size_t k = 0; k < forces.size(); ++k)
+        {
+          const double secant = displacements[k] / forces[k];
+          if (force <= forces[k])
+            return previous_secant + (secant - previous_secant) * (force - previous_force) / (forces[k] - previous_force);
+          previous_force = forces[k], previous_secant = secant;
+        }
+      return previous_secant;
+    }
+  };
+
   struct ReferenceSolution
   {
     double                  patch_radius = 0.;
     unsigned int            n_dofs = 0;
     double                  seconds = 0.;
     std::vector<Contact>    contacts;
+    std::vector<NonlinearCurve> curves; // per contact, when the study has 'Force levels'
     std::vector<double>     frequencies_hz;
   };
 
@@ -101,6 +130,10 @@ namespace modal_haptics
     std::uintmax_t mrt_bytes = 0;
     KernelCost kernel;
     std::vector<double> corrected_felt_compliance; // per contact [m/N]
+    // Per force level of the study: |c / c_nonlinear(F) - 1| of the corrected and the modal-only felt
+    // compliance against the reference's nonlinear secant compliance (max over contacts; NaN where the
+    // reference did not carry F).
+    std::vector<double> felt_error_corrected_at_force, felt_error_modal_at_force;
   };
 
   // study_kernel_cost.cc: the kernel loading `basis_file` and pressing on `contact` for `ticks`
@@ -108,8 +141,10 @@ namespace modal_haptics
   KernelCost measure_kernel(const std::string &basis_file, const Contact &contact, unsigned int ticks);
 
   // study_output.cc: <output_directory>/reference.csv and study.csv, each written atomically.
+  // With force levels, also force_curves.csv: the reference's nonlinear curve at each contact.
   void write_reference_table(const std::string &output_directory, const std::vector<ReferenceSolution> &references);
-  void write_study_table(const std::string &output_directory, const std::vector<StudyRow> &rows);
+  void write_study_table(const std::string &output_directory, const std::vector<StudyRow> &rows,
+                         const std::vector<double> &force_levels);
 
   // study_output.cc: scripts/study_report.py on the tables (study.md and the plots); its exit status.
   int write_report(const std::string &output_directory);

@@ -7,7 +7,11 @@ physics and the method say they must:
 - the static correction makes every contact exact for its mesh (B Lambda^-1 B^T + C_v = W^T K^-1 W),
   whatever r;
 - P2 is closer to the reference than P1 on the same mesh (felt compliance and first frequency);
-- a larger r gives a larger .mrt; the kernel ticks were timed; study.md and the four plots exist.
+- a larger r gives a larger .mrt; the kernel ticks were timed; study.md and the four plots exist;
+- the force axis: the reference's nonlinear curve starts at its linear compliance (the nonlinear
+  module's d^T W^T K^-1 W d against the precompute's full compliance), stays near it at the first load
+  level, and every row's error at each force level is |c / c_nl(F) - 1| recomputed from
+  force_curves.csv and the row's felt compliances; the stiffness-vs-force plot exists.
 Bad study files are refused with a message that names the file and the entry."""
 import argparse
 import csv
@@ -79,11 +83,61 @@ def check_costs(points):
                 fail(f"{name}, r = {r['modes']}: kernel cost not measured")
 
 
+def secant_compliance(linear, curve, force):
+    """delta(F)/F interpolated linearly in F between the levels, linear at F = 0 (as modal-study does)."""
+    previous_force, previous_secant = 0.0, linear
+    for level, displacement in curve:
+        secant = displacement / level
+        if force <= level:
+            return previous_secant + (secant - previous_secant) * (force - previous_force) / (level - previous_force)
+        previous_force, previous_secant = level, secant
+    return float("nan")
+
+
+def check_force_axis(output, rows):
+    with open(os.path.join(output, "reference.csv")) as f:
+        references = {int(r["contact"]): r for r in csv.DictReader(f)}
+    curves = {}
+    with open(os.path.join(output, "force_curves.csv")) as f:
+        for r in csv.DictReader(f):
+            linear, curve = curves.setdefault(int(r["contact"]), (float(r["linear_compliance_m_per_n"]), []))
+            curve.append((float(r["force_n"]), float(r["felt_displacement_m"])))
+    if not curves:
+        fail("force_curves.csv has no curve")
+    for contact, (linear, curve) in curves.items():
+        full = float(references[contact]["felt_compliance_m_per_n"])
+        if abs(linear / full - 1) > 1e-8:
+            fail(f"contact {contact}: the nonlinear solve's linear compliance {linear:.10e} != full FE {full:.10e}")
+        first = abs(linear * curve[0][0] / curve[0][1] - 1)
+        if first > 0.02:
+            fail(f"contact {contact}: at the first load level {curve[0][0]} N the nonlinear compliance departs "
+                 f"{100 * first:.2f} % from the linear one (> 2 %)")
+        print(f"contact {contact}: linear compliance = full FE to {abs(linear / full - 1):.1e}; "
+              f"{len(curve)} levels up to {curve[-1][0]:g} N, departure {100 * abs(linear * curve[-1][0] / curve[-1][1] - 1):.3f} %")
+    prefix = "felt_error_corrected_at_"
+    levels = [key[len(prefix):-2] for key in rows[0] if key.startswith(prefix)]
+    if not levels:
+        fail("study.csv has no felt_error_corrected_at_<F>_n column")
+    worst = 0.0
+    for row in rows:
+        felt = [float(x) for x in row["corrected_felt_compliance_m_per_n"].split(";")]
+        for level in levels:
+            expected = max(abs(c / secant_compliance(curves[k + 1][0], curves[k + 1][1], float(level)) - 1)
+                           for k, c in enumerate(felt))
+            reported = float(row[prefix + level + "_n"])
+            worst = max(worst, abs(reported - expected))
+            if abs(reported - expected) > 1e-9 + 1e-6 * expected:
+                fail(f"{row['point']} r = {row['modes']}: error at {level} N is {reported}, recomputed {expected}")
+    print(f"force axis at {', '.join(levels)} N: every row's corrected error recomputed to {worst:.1e}")
+
+
 def check_bad_study(binary, workdir, scene):
     cases = {
         "unknown_scenario": (f"subsection Study\n  set Scene file = {scene}\n  set Scenario = nowhere\n"
                              "  set Contact points = -10, 0, 10\nend\n", "nowhere"),
         "bad_pattern": (f"subsection Study\n  set Scene file = {scene}\n  set Mode counts = 5, many\nend\n", "Mode counts"),
+        "negative_force": (f"subsection Study\n  set Scene file = {scene}\n  set Scenario = left\n"
+                           "  set Contact points = -10, 0, 10\n  set Force levels = 5, -1\nend\n", "Force levels"),
         "missing_scene": ("subsection Study\n  set Scene file = no_such_scene.prm\n  set Scenario = left\n"
                           "  set Contact points = 0, 0, 0\nend\n", "no_such_scene.prm"),
     }
@@ -115,8 +169,9 @@ def main():
     check_correction(rows)
     check_degrees(points)
     check_costs(points)
+    check_force_axis(output, rows)
     for name in ("study.md", "reference.csv", "error_vs_modes.png", "error_vs_dofs.png", "error_vs_offline_time.png",
-                 "pareto.png"):
+                 "pareto.png", "stiffness_vs_force.png"):
         if not os.path.getsize(os.path.join(output, name)) > 0:
             fail(f"{name} is empty")
     scene = os.path.relpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "small_scene.prm"), args.workdir)
