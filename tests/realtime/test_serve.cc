@@ -19,6 +19,8 @@
 //      restarted at 0 without HELLO: accepted (slot free), its first command not in contact.
 //   6. A bridge with sliding contacts (--contact proxy): the command's position is the proxy's, its
 //      HIP flags say SLIDING while it slides, the friction force is mu_d times the normal one.
+//   7. A bridge on a basis with a validity map: the HIP flags say BEYOND_VALIDITY (256) exactly while
+//      the commanded force exceeds the contact's validity force.
 // The only timing asserted is the command rate, within a factor of 2, and the takeover's promptness.
 #include "test_support.h"
 
@@ -139,24 +141,25 @@ namespace
       }
   }
 
-  // The bridge on `port`; `proxy`: with sliding contacts (--contact proxy --friction 0.3,0.2), its
-  // outputs in serve_out_proxy.
-  pid_t start_bridge(int port, bool proxy = false)
+  // The bridge on `port` serving `basis`, its outputs in serve_out<suffix> and its log in
+  // serve_output<suffix>.txt, with the `extra` options.
+  pid_t start_bridge(int port, const std::string &suffix = "", const std::vector<std::string> &extra = {"--frame-rate", "2"},
+                     const std::string &basis = "serve_lattice.mrt")
   {
+    std::vector<std::string> arguments = {MODAL_RT_PROGRAM, "serve", "--basis", basis, "--output-dir",
+                                          "serve_out" + suffix, "--port", std::to_string(port), "--duration", "120"};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
     const pid_t child = fork();
     if (child == 0)
       {
-        const int out = open(proxy ? "serve_output_proxy.txt" : "serve_output.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int out = open(("serve_output" + suffix + ".txt").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(out, 1);
         dup2(out, 2);
-        const std::string p = std::to_string(port);
-        if (proxy)
-          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir",
-                "serve_out_proxy", "--port", p.c_str(), "--duration", "120", "--contact", "proxy", "--friction",
-                "0.3,0.2", "--no-plot", static_cast<char *>(nullptr));
-        else
-          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir", "serve_out",
-                "--port", p.c_str(), "--duration", "120", "--frame-rate", "2", static_cast<char *>(nullptr));
+        std::vector<char *> argv;
+        for (std::string &a : arguments)
+          argv.push_back(a.data());
+        argv.push_back(nullptr);
+        execv(MODAL_RT_PROGRAM, argv.data());
         _exit(127);
       }
     return child;
@@ -482,7 +485,7 @@ namespace
   void slide_through_the_bridge(int port, const std::vector<Reply> &snap_replies)
   {
     constexpr std::uint32_t sliding_flag = 128u;
-    const pid_t             bridge       = start_bridge(port, true);
+    const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot"});
     sockaddr_in             server{};
     server.sin_family      = AF_INET;
     server.sin_port        = htons(std::uint16_t(port));
@@ -545,6 +548,73 @@ namespace
     ENSURE(json_number(stats, "length_m") > 0.03); // its slide, found by the loop as run's
     close(client);
   }
+  // 7. The validity map through the bridge: on a basis with one (vertex 15 of the tip space: F5 =
+  // 1.75 N, the default level), a client presses 8 mm into it and lifts off; every command in contact
+  // carries BEYOND_VALIDITY (256) in its HIP flags exactly when its force exceeds 1.75 N; stats.json
+  // counts them. The first bridge's basis has no map: never flagged.
+  void validity_through_the_bridge(int port, const std::vector<Reply> &plain_replies)
+  {
+    constexpr std::uint32_t beyond_flag = 256u;
+    modalrt::LatticeOptions o;
+    o.patch_radius   = 0.03;
+    o.damping        = {0.7, 0.7};
+    o.validity_force = true;
+    ENSURE(modalrt::write_basis_file("serve_validity.mrt", modalrt::make_lattice_cantilever(o)));
+    const pid_t bridge = start_bridge(port, "_validity", {"--no-plot"}, "serve_validity.mrt");
+    sockaddr_in server{};
+    server.sin_family      = AF_INET;
+    server.sin_port        = htons(std::uint16_t(port));
+    server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const int          client = udp_socket();
+    std::vector<Reply> replies;
+    std::uint32_t      sequence = 3;
+    double             x[3]     = {0.15, 0.025, 0.015};
+    for (int k = 0; k < 20000 && replies.empty(); ++k)
+      {
+        send_to(client, server, state_packet(++sequence, x, hello));
+        pause_and_drain(client, replies, 500);
+      }
+    ENSURE(!replies.empty());
+    for (int k = 0; k < 3000; ++k) // 0.5 ms each: down 13 mm (8 mm below the top face) and back up
+      {
+        const double s = k < 1500 ? k / 1500.0 : (3000 - k) / 1500.0;
+        x[2]           = 0.015 - 0.013 * s * s * (3 - 2 * s);
+        send_to(client, server, state_packet(++sequence, x));
+        pause_and_drain(client, replies, 500);
+      }
+    send_to(client, server, state_packet(++sequence, x, bye));
+    kill(bridge, SIGINT);
+    int status = 0;
+    waitpid(bridge, &status, 0);
+    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    std::size_t flagged = 0, contact = 0, mismatches = 0, plain_flagged = 0;
+    double      largest = 0.0;
+    for (const Reply &r : replies)
+      {
+        if (r.hips != 1)
+          continue;
+        const bool beyond = (r.hip_flags & beyond_flag) != 0;
+        flagged += beyond;
+        if (r.in_contact)
+          {
+            ++contact;
+            largest = std::max(largest, norm(r.force));
+            mismatches += beyond != (norm(r.force) > 1.75);
+          }
+        else
+          mismatches += beyond;
+      }
+    for (const Reply &r : plain_replies)
+      plain_flagged += (r.hip_flags & beyond_flag) != 0;
+    const std::string stats = read_text("serve_out_validity/stats.json");
+    std::printf("  validity through the bridge: %zu of %zu commands in contact flagged BEYOND_VALIDITY (|F| > F5 = "
+                "1.75 N, up to %.3f N), %zu mismatches; stats.json beyond_ticks %g; the bridge without a map: %zu "
+                "flagged\n",
+                flagged, contact, largest, mismatches, json_number(stats, "beyond_ticks"), plain_flagged);
+    ENSURE(flagged > 100 && contact > flagged && mismatches == 0 && plain_flagged == 0);
+    ENSURE(json_number(stats, "beyond_ticks") >= double(flagged)); // every tick counted, commands sent or not
+    close(client);
+  }
 } // namespace
 
 int main()
@@ -591,5 +661,6 @@ int main()
   close(c.restarted);
   close(c.stranger);
   slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
+  validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies);
   return test::finish("test_serve");
 }
