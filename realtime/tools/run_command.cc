@@ -4,6 +4,7 @@
 #include "run_loop.h"
 #include "run_outputs.h"
 #include "session.h"
+#include "stiffness_map.h"
 #include "udp_device.h"
 
 #include <modalrt/modalrt.h>
@@ -428,7 +429,8 @@ namespace modalrt_tool
     bool start_view(const RunOptions &o, Live &live, std::string &error)
     {
       const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command,
-                                live.def.contact_mode == MODALRT_CONTACT_PROXY};
+                                live.def.contact_mode == MODALRT_CONTACT_PROXY, live.def.validity_level,
+                                live.def.validity_clamp != 0};
       if (o.app)
         live.view = o.app->start_view(context, error);
       else if (o.view_port < 0)
@@ -603,6 +605,8 @@ namespace modalrt_tool
     o.proxy            = session.proxy;
     o.static_friction  = session.static_friction;
     o.dynamic_friction = session.dynamic_friction;
+    o.validity_level   = session.validity_level;
+    o.validity_clamp   = session.validity_clamp;
     o.frame_rate = 0.0;
     o.quiet      = true;
     return execute(o);

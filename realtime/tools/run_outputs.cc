@@ -1,6 +1,7 @@
 #include "run_outputs.h"
 
 #include "allocation_counter.h"
+#include "stiffness_map.h"
 #include "vertex_info.h"
 
 #include <algorithm>
@@ -180,25 +181,10 @@ namespace modalrt_tool
     }
   } // namespace
 
-  bool has_validity_map(const modalrt_basis *basis)
+  double trace_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level)
   {
-    modalrt_basis_info info{};
-    modalrt_basis_get_info(basis, &info);
-    for (std::uint32_t s = 0; s < info.space_count; ++s)
-      if (modalrt_basis_validity_forces(basis, s))
-        return true;
-    return false;
-  }
-
-  double contact_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level)
-  {
-    double force = 0.0;
-    if (!s.in_contact)
-      return std::nan("");
-    if (s.proxy_triangle != MODALRT_NONE)
-      modalrt_basis_point_validity_force(basis, s.space, s.proxy_triangle, s.proxy_weights, level, &force);
-    else if (const double *map = modalrt_basis_validity_forces(basis, s.space))
-      force = map[3 * std::size_t(s.active_vertex) + (level == 1 ? 0 : level == 10 ? 2 : 1)];
+    const double force =
+      s.in_contact ? contact_validity_force(basis, s.space, s.active_vertex, s.proxy_triangle, s.proxy_weights, level) : 0.0;
     return force > 0.0 ? force : std::nan("");
   }
 
@@ -242,7 +228,7 @@ namespace modalrt_tool
                                  felt.tangential_force, felt.static_stiffness, felt.felt_stiffness})
               text += "," + format("%.9g", value);
             text += (s.flags & MODALRT_HIP_BEYOND_VALIDITY) ? ",1," : ",0,";
-            text += format("%.9g", contact_validity_force(basis, s, validity_level));
+            text += format("%.9g", trace_validity_force(basis, s, validity_level));
           }
         const double *frame = result.trace[r * hip_count].frame;
         text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]) + '\n';
@@ -390,7 +376,7 @@ namespace modalrt_tool
           if ((s.flags & MODALRT_HIP_BEYOND_VALIDITY) && !p.beyond)
             p.beyond = true, p.beyond_time = s.time, p.beyond_force = size;
         }
-      p.validity_force = contact_validity_force(basis, result.trace[p.last_row * hips + p.hip], level);
+      p.validity_force = trace_validity_force(basis, result.trace[p.last_row * hips + p.hip], level);
     }
 
     void multi_contact_reference(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,

@@ -42,11 +42,9 @@ namespace modalrt_tool
   // `validity_level` [%]: the kernel's (its flag's) level, for the validity force at each contact.
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
                    const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error);
-  // Whether any space of the basis has a validity map (VALIDITY_FORCE, .mrt 1.2).
-  bool has_validity_map(const modalrt_basis *basis);
-  // The validity force [N] at a trace row's contact, as the kernel takes it (a vertex's stored value, a
-  // proxy's blend: modalrt_basis_point_validity_force) at `level` [%]; NaN out of contact or without one.
-  double contact_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level);
+  // The validity force [N] at a trace row's contact at `level` [%] (stiffness_map.h's
+  // contact_validity_force); NaN out of contact or without one.
+  double trace_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level);
 
   // The name of every space of the basis, safe in a CSV field.
   std::vector<std::string> space_names(const modalrt_basis *basis);

@@ -64,6 +64,33 @@ namespace modalrt_tool
     }
   } // namespace
 
+  namespace
+  {
+    // Per space of the basis: its per-vertex map (`map_of`: the C API's array, NULL without one; then
+    // "no map" is printed) and value(map, v) > 0 over its region, ascending (region_values), handed to
+    // print(s, space, map, values, region_size).
+    template <typename Value, typename Print>
+    void print_per_space(const modalrt_basis *basis, const double *(*map_of)(const modalrt_basis *, std::uint32_t),
+                         Value value, Print print)
+    {
+      modalrt_basis_info info;
+      modalrt_basis_get_info(basis, &info);
+      for (std::uint32_t s = 0; s < info.space_count; ++s)
+        {
+          modalrt_space_info space;
+          modalrt_basis_get_space_info(basis, s, &space);
+          const double *map         = map_of(basis, s);
+          std::uint32_t region_size = 0;
+          const auto    values =
+            region_values(basis, s, region_size, [map, &value](std::uint32_t v) { return map ? value(map, v) : 0.0; });
+          if (map == nullptr)
+            std::printf("  space %u '%s': no map (its region has %u vertices)\n", s, space.name, region_size);
+          else
+            print(s, space, map, values, region_size);
+        }
+    }
+  } // namespace
+
   void print_felt_stiffness_map(const modalrt_basis *basis, std::uint32_t softest)
   {
     if (!has_felt_stiffness_map(basis))
@@ -72,28 +99,16 @@ namespace modalrt_tool
                     "computed it)\n");
         return;
       }
-    modalrt_basis_info info;
-    modalrt_basis_get_info(basis, &info);
     std::printf("\nfelt-stiffness map (FELT_STIFFNESS: the stiffness pressing straight in along -n, full FE), "
                 "each space over its region [N/mm]:\n");
-    for (std::uint32_t s = 0; s < info.space_count; ++s)
-      {
-        modalrt_space_info space;
-        modalrt_basis_get_space_info(basis, s, &space);
-        const double *map         = modalrt_basis_felt_stiffness(basis, s);
-        std::uint32_t region_size = 0;
-        const auto    values =
-          region_values(basis, s, region_size, [map](std::uint32_t v) { return map ? 1e-3 * map[v] : 0.0; });
-        if (map == nullptr)
-          {
-            std::printf("  space %u '%s': no map (its region has %u vertices)\n", s, space.name, region_size);
-            continue;
-          }
+    print_per_space(
+      basis, modalrt_basis_felt_stiffness, [](const double *map, std::uint32_t v) { return 1e-3 * map[v]; },
+      [&](std::uint32_t s, const modalrt_space_info &space, const double *, const auto &values, std::uint32_t region_size) {
         std::printf("  space %u '%s': %zu of its region's %u vertices", s, space.name, values.size(), region_size);
         if (values.empty())
           {
             std::printf(", none computed\n");
-            continue;
+            return;
           }
         const std::size_t n      = values.size();
         const double      median = 0.5 * (values[(n - 1) / 2].first + values[n / 2].first);
@@ -103,17 +118,33 @@ namespace modalrt_tool
             print_spot(basis, "softest", k, values[k].second);
             std::printf("%.6g N/mm\n", values[k].first);
           }
-      }
+      });
+  }
+
+  bool has_validity_map(const modalrt_basis *basis)
+  {
+    modalrt_basis_info info{};
+    modalrt_basis_get_info(basis, &info);
+    for (std::uint32_t s = 0; s < info.space_count; ++s)
+      if (modalrt_basis_validity_forces(basis, s))
+        return true;
+    return false;
+  }
+
+  double contact_validity_force(const modalrt_basis *basis, std::uint32_t space, std::uint32_t vertex,
+                                std::uint32_t triangle, const double weights[3], std::uint32_t level)
+  {
+    double force = 0.0;
+    if (triangle != MODALRT_NONE)
+      modalrt_basis_point_validity_force(basis, space, triangle, weights, level, &force);
+    else if (const double *map = modalrt_basis_validity_forces(basis, space))
+      force = map[3 * std::size_t(vertex) + (level == 1 ? 0 : level == 10 ? 2 : 1)];
+    return force;
   }
 
   void print_validity_map(const modalrt_basis *basis, std::uint32_t lowest)
   {
-    modalrt_basis_info info;
-    modalrt_basis_get_info(basis, &info);
-    bool any = false;
-    for (std::uint32_t s = 0; s < info.space_count; ++s)
-      any = any || modalrt_basis_validity_forces(basis, s) != nullptr;
-    if (!any)
+    if (!has_validity_map(basis))
       {
         std::printf("\nvalidity map: none in this file (VALIDITY_FORCE: .mrt 1.2 from a precompute with "
                     "'Contact/Validity analysis')\n");
@@ -121,19 +152,9 @@ namespace modalrt_tool
       }
     std::printf("\nvalidity map (VALIDITY_FORCE: the contact force up to which the linear felt stiffness holds to "
                 "1 / 5 / 10 %%), each space over its region, the lowest F5 first [N]:\n");
-    for (std::uint32_t s = 0; s < info.space_count; ++s)
-      {
-        modalrt_space_info space;
-        modalrt_basis_get_space_info(basis, s, &space);
-        const double *map         = modalrt_basis_validity_forces(basis, s);
-        std::uint32_t region_size = 0;
-        const auto    values =
-          region_values(basis, s, region_size, [map](std::uint32_t v) { return map ? map[3 * std::size_t(v) + 1] : 0.0; });
-        if (map == nullptr)
-          {
-            std::printf("  space %u '%s': no map (its region has %u vertices)\n", s, space.name, region_size);
-            continue;
-          }
+    print_per_space(
+      basis, modalrt_basis_validity_forces, [](const double *map, std::uint32_t v) { return map[3 * std::size_t(v) + 1]; },
+      [&](std::uint32_t s, const modalrt_space_info &space, const double *map, const auto &values, std::uint32_t region_size) {
         std::printf("  space %u '%s': F5 at %zu of its region's %u vertices%s\n", s, space.name, values.size(),
                     region_size, values.empty() ? ", none" : "");
         for (std::size_t k = 0; k < std::min<std::size_t>(lowest, values.size()); ++k)
@@ -143,7 +164,7 @@ namespace modalrt_tool
             std::printf("F1 %s, F5 %s, F10 %s\n", force_text(F[0]).c_str(), force_text(F[1]).c_str(),
                         force_text(F[2]).c_str());
           }
-      }
+      });
   }
 
   void print_vertex_validity(const modalrt_basis *basis, std::uint32_t vertex)

@@ -24,6 +24,15 @@ namespace modalrt_tool
   // modal-rt info --vertex: the scene's map at `vertex`, one line.
   void print_vertex_felt_stiffness(const modalrt_basis *basis, std::uint32_t vertex);
 
+  // Whether any space of the basis has a validity map (VALIDITY_FORCE, .mrt 1.2).
+  bool has_validity_map(const modalrt_basis *basis);
+
+  // The validity force [N] of a contact in `space` at `level` [%] (1, 5, 10) as the kernel compares it
+  // (MODALRT_HIP_BEYOND_VALIDITY): at a proxy's point (`triangle` not MODALRT_NONE, its `weights`) the
+  // blend of modalrt_basis_point_validity_force, else the stored value of `vertex`; 0 where none.
+  double contact_validity_force(const modalrt_basis *basis, std::uint32_t space, std::uint32_t vertex,
+                                std::uint32_t triangle, const double weights[3], std::uint32_t level);
+
   // modal-rt info --basis: per space, the validity map (VALIDITY_FORCE, .mrt 1.2) over its region: how
   // many vertices have an F5, and the `lowest` of them (vertex, rest position in mm, F1, F5, F10 in N).
   void print_validity_map(const modalrt_basis *basis, std::uint32_t lowest = 5);

@@ -4,6 +4,7 @@
 #include "test_support.h"
 
 #include "run_outputs.h"
+#include "stiffness_map.h"
 
 namespace
 {
