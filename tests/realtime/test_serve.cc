@@ -171,6 +171,42 @@ namespace
     drain(s, replies, client);
   }
 
+  // A client of the bridge on loopback `port`: HELLO at x (sequence numbers from `sequence` on) every
+  // 0.5 ms until the first command comes.
+  struct Greeted
+  {
+    sockaddr_in        server{};
+    int                socket = -1;
+    std::vector<Reply> replies;
+    std::uint32_t      sequence = 0;
+  };
+  Greeted greet(int port, std::uint32_t sequence, const double x[3])
+  {
+    Greeted g;
+    g.server.sin_family      = AF_INET;
+    g.server.sin_port        = htons(std::uint16_t(port));
+    g.server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    g.socket                 = udp_socket();
+    g.sequence               = sequence;
+    for (int k = 0; k < 20000 && g.replies.empty(); ++k)
+      {
+        send_to(g.socket, g.server, state_packet(++g.sequence, x, hello));
+        pause_and_drain(g.socket, g.replies, 500);
+      }
+    ENSURE(!g.replies.empty());
+    return g;
+  }
+
+  // The client says BYE at x; the bridge is stopped with SIGINT and must exit 0.
+  void leave_and_stop(Greeted &g, const double x[3], pid_t bridge)
+  {
+    send_to(g.socket, g.server, state_packet(++g.sequence, x, bye));
+    kill(bridge, SIGINT);
+    int status = 0;
+    waitpid(bridge, &status, 0);
+    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+
   // The largest change of force between consecutive commands of replies[from, to) (both in the
   // same session's ticks), and how many were in contact with zero force.
   struct Steps
@@ -486,20 +522,12 @@ namespace
   {
     constexpr std::uint32_t sliding_flag = 128u;
     const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot"});
-    sockaddr_in             server{};
-    server.sin_family      = AF_INET;
-    server.sin_port        = htons(std::uint16_t(port));
-    server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const int          client = udp_socket();
-    std::vector<Reply> replies;
-    std::uint32_t      sequence = 7;
-    double             x[3]     = {0.05, 0.025, 0.015};
-    for (int k = 0; k < 20000 && replies.empty(); ++k)
-      {
-        send_to(client, server, state_packet(++sequence, x, hello));
-        pause_and_drain(client, replies, 500);
-      }
-    ENSURE(!replies.empty());
+    double      x[3]   = {0.05, 0.025, 0.015};
+    Greeted     g      = greet(port, 7, x);
+    const int   client = g.socket;
+    const sockaddr_in   server   = g.server;
+    std::vector<Reply> &replies  = g.replies;
+    std::uint32_t      &sequence = g.sequence;
     std::vector<std::array<double, 3>> sent; // the HIP position of each sequence number from the first
     const std::uint32_t                first = sequence + 1;
     const int                          press = 800, drag = 2000; // 0.5 ms each
@@ -514,11 +542,7 @@ namespace
         sent.push_back({x[0], x[1], x[2]});
         pause_and_drain(client, replies, 500);
       }
-    send_to(client, server, state_packet(++sequence, x, bye));
-    kill(bridge, SIGINT);
-    int status = 0;
-    waitpid(bridge, &status, 0);
-    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    leave_and_stop(g, x, bridge);
     const double K = 1000.0, mu_d = 0.2; // [N/m] the default coupling, the bridge's --friction
     std::size_t  sliding = 0;
     double       worst_ratio = 0.0, worst_gap = 0.0, lag = 0.0;
@@ -561,35 +585,19 @@ namespace
     o.validity_force = true;
     ENSURE(modalrt::write_basis_file("serve_validity.mrt", modalrt::make_lattice_cantilever(o)));
     const pid_t bridge = start_bridge(port, "_validity", {"--no-plot"}, "serve_validity.mrt");
-    sockaddr_in server{};
-    server.sin_family      = AF_INET;
-    server.sin_port        = htons(std::uint16_t(port));
-    server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const int          client = udp_socket();
-    std::vector<Reply> replies;
-    std::uint32_t      sequence = 3;
-    double             x[3]     = {0.15, 0.025, 0.015};
-    for (int k = 0; k < 20000 && replies.empty(); ++k)
-      {
-        send_to(client, server, state_packet(++sequence, x, hello));
-        pause_and_drain(client, replies, 500);
-      }
-    ENSURE(!replies.empty());
+    double      x[3]   = {0.15, 0.025, 0.015};
+    Greeted     g      = greet(port, 3, x);
     for (int k = 0; k < 3000; ++k) // 0.5 ms each: down 13 mm (8 mm below the top face) and back up
       {
         const double s = k < 1500 ? k / 1500.0 : (3000 - k) / 1500.0;
         x[2]           = 0.015 - 0.013 * s * s * (3 - 2 * s);
-        send_to(client, server, state_packet(++sequence, x));
-        pause_and_drain(client, replies, 500);
+        send_to(g.socket, g.server, state_packet(++g.sequence, x));
+        pause_and_drain(g.socket, g.replies, 500);
       }
-    send_to(client, server, state_packet(++sequence, x, bye));
-    kill(bridge, SIGINT);
-    int status = 0;
-    waitpid(bridge, &status, 0);
-    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    leave_and_stop(g, x, bridge);
     std::size_t flagged = 0, contact = 0, mismatches = 0, plain_flagged = 0;
     double      largest = 0.0;
-    for (const Reply &r : replies)
+    for (const Reply &r : g.replies)
       {
         if (r.hips != 1)
           continue;
@@ -613,7 +621,7 @@ namespace
                 flagged, contact, largest, mismatches, json_number(stats, "beyond_ticks"), plain_flagged);
     ENSURE(flagged > 100 && contact > flagged && mismatches == 0 && plain_flagged == 0);
     ENSURE(json_number(stats, "beyond_ticks") >= double(flagged)); // every tick counted, commands sent or not
-    close(client);
+    close(g.socket);
   }
 } // namespace
 

@@ -39,6 +39,15 @@ namespace
     return c.spaces[s].validity_force[3 * std::size_t(v) + std::size_t(p)];
   }
 
+  // The same content as a 1.1 file: no validity map.
+  BasisContent without_map(BasisContent content)
+  {
+    content.version_minor = 1;
+    for (auto &space : content.spaces)
+      space.validity_force.clear();
+    return content;
+  }
+
   // Loads `content` and expects the loader to refuse it with `status` and a message naming
   // VALIDITY_FORCE, the space and `detail`.
   void expect_refused(const BasisContent &content, int status, const char *detail)
@@ -74,11 +83,7 @@ namespace
     modalrt_basis_destroy(basis);
 
     // A 1.1 file (no map): NULL.
-    BasisContent old = content;
-    old.version_minor = 1;
-    for (auto &space : old.spaces)
-      space.validity_force.clear();
-    basis = test::load(old);
+    basis = test::load(without_map(content));
     ENSURE(modalrt_basis_validity_forces(basis, 0) == nullptr && modalrt_basis_validity_forces(basis, 1) == nullptr);
     modalrt_basis_destroy(basis);
 
@@ -275,11 +280,7 @@ namespace
     modalrt_basis_destroy(basis);
 
     // A 1.1 file (no map): the flag is never set, the clamp changes nothing (bit for bit).
-    BasisContent old = content;
-    old.version_minor = 1;
-    for (auto &space : old.spaces)
-      space.validity_force.clear();
-    basis = test::load(old);
+    basis = test::load(without_map(content));
     std::vector<modalrt_hip_output> plain, with_clamp;
     const PressRecord a = press(basis, definition(1), 15, 0.008, 0.0, &plain);
     const PressRecord b = press(basis, definition(1, 1), 15, 0.008, 0.0, &with_clamp);
