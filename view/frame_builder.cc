@@ -1,6 +1,7 @@
 #include "frame_builder.h"
 
-#include "vertex_info.h" // realtime/tools
+#include "stiffness_map.h" // realtime/tools
+#include "vertex_info.h"
 
 #include "view_server.h"
 
@@ -74,9 +75,9 @@ namespace modalrt_view
     tick.wall_ms  = wall_clock_ms();
   }
 
-  FrameBuilder::FrameBuilder(const modalrt_basis *basis, std::uint32_t hips)
+  FrameBuilder::FrameBuilder(const modalrt_basis *basis, std::uint32_t hips, std::uint32_t validity_level)
     : basis_(basis), vertices_(modalrt_basis_display_vertices(basis)), normals_(modalrt_basis_display_normals(basis)),
-      hips_(hips), hip_(hips), contact_vertices_(hips), contact_corrections_(3 * std::size_t(hips))
+      hips_(hips), validity_level_(validity_level), hip_(hips), contact_vertices_(hips), contact_corrections_(3 * std::size_t(hips))
   {}
 
   void FrameBuilder::update(const modalrt_snapshot *snapshot, const HapticTick &tick, const modalrt_hip_output *outputs)
@@ -96,6 +97,9 @@ namespace modalrt_view
         hip.in_contact = o.in_contact;
         hip.flags      = o.flags;
         std::copy_n(o.position, 3, hip.position);
+        hip.validity_force = v == MODALRT_NONE ? 0.0
+                                               : modalrt_tool::contact_validity_force(basis_, info_.space, v, o.proxy_triangle,
+                                                                                      o.proxy_weights, validity_level_);
         if (v == MODALRT_NONE)
           {
             hip.vertex = MODALRT_NONE;
@@ -136,7 +140,7 @@ namespace modalrt_view
     const auto u32 = [&](std::uint32_t v) { put(&v, 4); };
     const auto f64 = [&](double v) { put(&v, 8); };
     u32(0x4654524Du); // "MRTF"
-    u32(1);
+    u32(2);           // 2: each HIP's validity force after its static stiffness
     f64(tick_.wall_ms);
     f64(wall_clock_ms());
     f64(double(info_.tick));
@@ -166,6 +170,7 @@ namespace modalrt_view
         put(hip.displacement, 24);
         put(hip.felt, 24);
         f64(hip.static_stiffness);
+        f64(hip.validity_force);
       }
   }
 
@@ -188,7 +193,8 @@ namespace modalrt_view
           << hip.force[0] << "," << hip.force[1] << "," << hip.force[2] << "],\"displacement\":["
           << hip.displacement[0] << "," << hip.displacement[1] << "," << hip.displacement[2] << "],\"felt\":["
           << hip.felt[0] << "," << hip.felt[1] << "," << hip.felt[2] << "],\"static_stiffness_n_per_m\":"
-          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0) << ",\"flags\":" << hip.flags
+          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0)
+          << ",\"validity_force_n\":" << hip.validity_force << ",\"flags\":" << hip.flags
           << ",\"position\":[" << hip.position[0] << "," << hip.position[1] << "," << hip.position[2] << "]}";
       }
     j << "]}";

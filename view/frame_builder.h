@@ -57,7 +57,8 @@ namespace modalrt_view
   class FrameBuilder
   {
   public:
-    FrameBuilder(const modalrt_basis *basis, std::uint32_t hips);
+    // `validity_level` [%]: the kernel's, for each contact's validity force (MODALRT_HIP_BEYOND_VALIDITY).
+    FrameBuilder(const modalrt_basis *basis, std::uint32_t hips, std::uint32_t validity_level = 5);
 
     // After a snapshot was read: the HIPs' outputs of the haptic tick (`hips` of them).
     void update(const modalrt_snapshot *snapshot, const HapticTick &tick, const modalrt_hip_output *outputs);
@@ -74,11 +75,13 @@ namespace modalrt_view
       double        force[3] = {}, displacement[3] = {}, felt[3] = {};
       double        position[3] = {}; // [m] the output position: the felt point (a proxy's), else the HIP
       double        static_stiffness = 0.0; // [N/m] 1 / (n^T G n) along the normal (a proxy: at its point)
+      double        validity_force   = 0.0; // [N] the validity map's at the contact, the kernel's level (0: none)
     };
 
     const modalrt_basis       *basis_;
     const double              *vertices_, *normals_;
     std::uint32_t              hips_;
+    std::uint32_t              validity_level_;
     HapticTick                 tick_;
     modalrt_snapshot_info      info_{};
     std::vector<double>        q_;

@@ -69,7 +69,7 @@ namespace modalrt_view
     public:
       // `mouse` null: watch-only (the HIPs belong to the session file or the UDP device).
       RunView(const ViewContext &context, MouseDevice *mouse, const ServerOptions &options)
-        : context_(context), mouse_(mouse), ticks_(context.kernel), builder_(context.basis, context.hips),
+        : context_(context), mouse_(mouse), ticks_(context.kernel), builder_(context.basis, context.hips, context.validity_level),
           server_(context.basis, context.basis_path, *this, options)
       {
         // Until the first snapshot the page gets no frame, and /api/state says so.
@@ -129,7 +129,9 @@ namespace modalrt_view
       {
         return "{\"driver\":\"" + (mouse_ ? std::string("mouse") : context_.command) +
                "\",\"watch_only\":" + (mouse_ ? "false" : "true") + ",\"hips\":" + std::to_string(context_.hips) +
-               ",\"contact\":\"" + (context_.proxy ? "proxy" : "snap") + "\"}";
+               ",\"contact\":\"" + (context_.proxy ? "proxy" : "snap") +
+               "\",\"validity_level\":" + std::to_string(context_.validity_level) +
+               ",\"validity_clamp\":" + (context_.validity_clamp ? "true" : "false") + "}";
       }
 
     private:

@@ -25,6 +25,8 @@ namespace modalrt_view
       bool          proxy      = false;  // --contact proxy: sliding contacts, the mouse drags them (impedance)
       double        static_friction  = modalrt_kernel_default_def().static_friction;
       double        dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
+      std::uint32_t validity_level   = 5;     // --validity-level: the kernel's (MODALRT_HIP_BEYOND_VALIDITY)
+      bool          validity_clamp   = false; // --validity-clamp (impedance: --contact proxy)
       bool          help       = false;
     };
 
@@ -57,8 +59,14 @@ namespace modalrt_view
               o.help = true;
               return o;
             }
+          if (option == "--validity-clamp")
+            {
+              o.validity_clamp = true;
+              continue;
+            }
           if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
-              option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction")
+              option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction" &&
+              option != "--validity-level")
             throw UsageError{"unknown option '" + option + "'"};
           if (i + 1 >= argc)
             throw UsageError{option + " needs a value"};
@@ -79,6 +87,13 @@ namespace modalrt_view
                 throw UsageError{option + " '" + value + "' is not snap or proxy"};
               o.proxy = std::string(value) == "proxy";
             }
+          else if (option == "--validity-level")
+            {
+              const std::string text = value;
+              if (text != "1" && text != "5" && text != "10")
+                throw UsageError{option + " '" + text + "' is not 1, 5 or 10 (percent)"};
+              o.validity_level = std::uint32_t(std::stoul(text));
+            }
           else if (option == "--friction")
             {
               std::string error;
@@ -98,7 +113,7 @@ namespace modalrt_view
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
            "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
-           "                     [--friction MU_S,MU_D (0.3,0.2)] [--help]\n";
+           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp] [--help]\n";
   }
 
   int view_command(int argc, char **argv)
@@ -128,6 +143,8 @@ namespace modalrt_view
     session.proxy            = options.proxy;
     session.static_friction  = options.static_friction;
     session.dynamic_friction = options.dynamic_friction;
+    session.validity_level   = options.validity_level;
+    session.validity_clamp   = options.validity_clamp;
     session.make_device  = [&mouse, &options](const modalrt_basis *basis) {
       auto device = std::make_unique<MouseDevice>(basis, options.proxy);
       mouse       = device.get();

@@ -191,6 +191,7 @@ namespace modalrt_view
         << ",\"triangles\":" << info.display_triangle_count << ",\"mode_scalar_bytes\":" << info.mode_scalar_bytes
         << ",\"patch_radius_m\":" << json_number(info.patch_radius) << ",\"basis_bytes\":" << basis_bytes
         << ",\"felt_stiffness_map\":" << (modalrt_tool::has_felt_stiffness_map(basis) ? "true" : "false")
+        << ",\"validity_map\":" << (modalrt_tool::has_validity_map(basis) ? "true" : "false")
         << ",\"bounds_min\":[" << json_number(info.bounds_min[0]) << "," << json_number(info.bounds_min[1]) << ","
         << json_number(info.bounds_min[2]) << "],\"bounds_max\":[" << json_number(info.bounds_max[0]) << ","
         << json_number(info.bounds_max[1]) << "," << json_number(info.bounds_max[2]) << "],\"spaces\":[";

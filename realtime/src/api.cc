@@ -21,7 +21,7 @@ using namespace modalrt;
 
 namespace
 {
-  int invalid(const char *message)
+  int invalid(const std::string &message)
   {
     set_last_error(message);
     return MODALRT_ERROR_INVALID_ARGUMENT;
@@ -241,22 +241,55 @@ int modalrt_basis_contact_compliance(const modalrt_basis *basis, uint32_t space,
                             compliance, full_fe);
 }
 
+namespace
+{
+  // Barycentric weights of a point of a triangle: each in 0 .. 1, summing to 1 within 1e-9. The
+  // message names the function.
+  int check_point_weights(const char *function, const double weights[3])
+  {
+    double sum = 0.0;
+    for (int k = 0; k < 3; ++k)
+      {
+        if (!(weights[k] >= 0.0 && weights[k] <= 1.0))
+          return invalid(cat(function, ": a weight is negative, above 1 or not finite"));
+        sum += weights[k];
+      }
+    if (!(std::fabs(sum - 1.0) <= 1e-9))
+      return invalid(cat(function, ": the weights do not sum to 1"));
+    return MODALRT_OK;
+  }
+} // namespace
+
 int modalrt_basis_point_compliance(const modalrt_basis *basis, uint32_t space, uint32_t triangle, const double weights[3],
                                    double compliance[9], uint32_t *full_fe)
 {
   if (!basis || !weights || !compliance || space >= basis->space_count() || triangle >= basis->triangle_count)
     return invalid("modalrt_basis_point_compliance: null argument, space or triangle out of range");
-  double sum = 0.0;
-  for (int k = 0; k < 3; ++k)
-    {
-      if (!(weights[k] >= 0.0 && weights[k] <= 1.0))
-        return invalid("modalrt_basis_point_compliance: a weight is negative, above 1 or not finite");
-      sum += weights[k];
-    }
-  if (!(std::fabs(sum - 1.0) <= 1e-9))
-    return invalid("modalrt_basis_point_compliance: the weights do not sum to 1");
+  if (const int status = check_point_weights("modalrt_basis_point_compliance", weights))
+    return status;
   return blended_compliance("modalrt_basis_point_compliance", *basis, basis->spaces[space],
                             &basis->triangles[3 * std::size_t(triangle)], weights, 3, compliance, full_fe);
+}
+
+const double *modalrt_basis_validity_forces(const modalrt_basis *basis, uint32_t space)
+{
+  if (!basis || space >= basis->space_count() || basis->spaces[space].validity_force.empty())
+    return nullptr;
+  return basis->spaces[space].validity_force.data();
+}
+
+int modalrt_basis_point_validity_force(const modalrt_basis *basis, uint32_t space, uint32_t triangle,
+                                       const double weights[3], uint32_t level_percent, double *force)
+{
+  if (!basis || !weights || !force || space >= basis->space_count() || triangle >= basis->triangle_count)
+    return invalid("modalrt_basis_point_validity_force: null argument, space or triangle out of range");
+  const int level = validity_level_index(level_percent);
+  if (level < 0)
+    return invalid(cat("modalrt_basis_point_validity_force: level_percent = ", level_percent, ", expected 1, 5 or 10"));
+  if (const int status = check_point_weights("modalrt_basis_point_validity_force", weights))
+    return status;
+  *force = blended_validity_force(basis->spaces[space], &basis->triangles[3 * std::size_t(triangle)], weights, 3, level);
+  return MODALRT_OK;
 }
 
 int modalrt_basis_has_transfer(const modalrt_basis *basis, uint32_t to, uint32_t from)
@@ -342,13 +375,13 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.auto_release           = 1;
   d.snapshot_interval      = 1;
   d.enable_profile         = 0;
-  d.reserved               = 0;
+  d.validity_level         = 0; // the 5 % level
   d.release_drag_distance  = 0.01; // m: 1000 N/m x 0.01 m = the default device's 10 N
   d.fail_safe_hold         = 0.5; // s: twice the longest gap of a 1 kHz client measured here (docs/reliability.md)
   d.fail_safe_ramp         = 0.05; // s
   d.force_rate_limit       = 0.2;  // N per tick: the default device's 10 N in 50 ticks (the fail-safe ramp's slope)
   d.grasp                  = 0;    // a contact pushes, it does not pull
-  d.reserved2              = 0;
+  d.validity_clamp         = 0; // the force is not limited to the validity force
   d.contact_mode           = MODALRT_CONTACT_SNAP;
   d.reserved_proxy         = 0;
   d.static_friction        = 0.3; // a dry finger on a moulded plastic part, roughly

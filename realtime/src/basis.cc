@@ -160,4 +160,22 @@ namespace modalrt
     const std::uint32_t first = basis.patch_offsets[v];
     accumulate_patch(basis, space, first + entry_begin, first + entry_end, 0, space.mode_count, out);
   }
+
+  double blended_validity_force(const ModalSpace &space, const std::uint32_t *corners, const double *weights, int n,
+                                int level) noexcept
+  {
+    if (space.validity_force.empty() || level < 0 || level > 2)
+      return 0.0;
+    double sum = 0.0, weight = 0.0;
+    for (int k = 0; k < n; ++k)
+      {
+        const double F = space.validity_force[3 * std::size_t(corners[k]) + std::size_t(level)];
+        if (weights[k] > 0.0 && F > 0.0)
+          {
+            sum += weights[k] * F;
+            weight += weights[k];
+          }
+      }
+    return weight > 0.0 ? sum / weight : 0.0;
+  }
 } // namespace modalrt

@@ -43,6 +43,8 @@ namespace modalrt
     modalrt::Vector<std::uint32_t> cross_neighbours;
     modalrt::Vector<double>        cross_blocks;
     modalrt::Vector<double>        felt_stiffness;       // nv [N/m], or empty (not in the file)
+    modalrt::Vector<double>        validity_force;       // 3 nv [N]: F1, F5, F10 per vertex (0: no value,
+                                                         // 1e30: not reached), or empty (not in the file)
     modalrt::Vector<double>        participation;        // 6 r (empty: not stored)
     modalrt::Vector<std::uint32_t> validation_cases;     // 2 nval
     modalrt::Vector<double>        validation_response;  // 3 nval
@@ -152,6 +154,21 @@ namespace modalrt
   // the rows of the vertices ahead of its proxy this way, a bounded number of entries per tick.
   void add_patch_entries(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v,
                          std::uint32_t entry_begin, std::uint32_t entry_end, double *out);
+
+  // Index 0, 1, 2 of a departure level of 1, 5, 10 % in a vertex's VALIDITY_FORCE entries; -1 for any
+  // other level.
+  inline int validity_level_index(std::uint32_t percent)
+  {
+    return percent == 1 ? 0 : percent == 5 ? 1 : percent == 10 ? 2 : -1;
+  }
+
+  // The validity force [N] at level index `level` (0, 1, 2) of a load spread over display vertices
+  // `corners` with `weights` (a contact at a vertex: that vertex, weight 1; a proxy: its triangle's
+  // corners and barycentric weights): sum_k w_k F_k / sum_k w_k over the corners with a weight > 0
+  // and a value F_k > 0, so it is continuous as a proxy slides and the stored value at a vertex. 0
+  // where no such corner exists or the space has no map (no validity force: never beyond it).
+  double blended_validity_force(const ModalSpace &space, const std::uint32_t *corners, const double *weights, int n,
+                                int level) noexcept;
 
   // Row block of the display modes of vertex v in space s, converted to double: out[c r + i].
   void vertex_mode_block(const modalrt_basis &basis, const ModalSpace &space, std::uint32_t v, double *out);

@@ -510,6 +510,33 @@ namespace modalrt
         space.felt_stiffness = read_optional<double>(format::felt_stiffness, s,
                                                      find(format::felt_stiffness, s) ? basis_.vertex_count : 0, "nv");
         check_finite(space.felt_stiffness, format::felt_stiffness, s);
+        read_validity(s, space);
+      }
+
+      // Version 1.2's validity map: 3 nv forces, each finite and >= 0 (1e30, "not reached", is beyond
+      // check_finite's bound of absurdity, so it has its own check), the positive ones of a vertex
+      // non-decreasing (F1 <= F5 <= F10: a larger departure is reached at a larger force).
+      void read_validity(std::uint32_t s, modalrt::ModalSpace &space)
+      {
+        space.validity_force = read_optional<double>(format::validity_force, s,
+                                                     find(format::validity_force, s) ? 3 * std::uint64_t(basis_.vertex_count) : 0,
+                                                     "3 nv");
+        const std::string where = cat(basis_.source, ": section VALIDITY_FORCE of ", space_label(s));
+        for (std::size_t i = 0; i < space.validity_force.size(); ++i)
+          if (!std::isfinite(space.validity_force[i]) || space.validity_force[i] < 0.0)
+            fail(MODALRT_ERROR_VALUE, cat(where, ": value ", space.validity_force[i], " N at index ", i, " (vertex ", i / 3,
+                                          ") is ", std::isfinite(space.validity_force[i]) ? "negative" : "not finite",
+                                          " (expected a force >= 0: 0 no value, 1e30 not reached)"));
+        for (std::size_t v = 0; 3 * v < space.validity_force.size(); ++v)
+          {
+            const double *F = &space.validity_force[3 * v];
+            for (int a = 0; a < 3; ++a)
+              for (int b = a + 1; b < 3; ++b)
+                if (F[a] > 0.0 && F[b] > 0.0 && F[b] < F[a])
+                  fail(MODALRT_ERROR_VALUE, cat(where, ": vertex ", v, ": F", a == 0 ? 1 : 5, " = ", F[a], " N > F",
+                                                b == 1 ? 5 : 10, " = ", F[b],
+                                                " N (the forces of 1, 5, 10 % must not decrease)"));
+          }
       }
 
       // Version 1.0's dense CROSS_COMPLIANCE, kept as rows in which every other candidate is a

@@ -102,6 +102,8 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
   std::fill_n(c.force, 3, 0.0);
   std::fill_n(c.correction, 3, 0.0);
   std::fill_n(c.anchor, 3, 0.0);
+  c.validity_force = 0.0;
+  c.validity_limit = c.validity_unclamped = -1.0;
   if (offset)
     {
       const double normal_part = dot3(offset, c.normal);
@@ -126,6 +128,8 @@ void modalrt_kernel::end_contact(std::uint32_t hip) noexcept
   std::fill_n(c.correction, 3, 0.0);
   std::fill_n(c.anchor, 3, 0.0);
   c.proxy.clear();
+  c.validity_force = 0.0;
+  c.validity_limit = c.validity_unclamped = -1.0;
   contacts_changed_ = true;
   ramping_[hip]     = 1; // the device's force ramps to zero (no step of the kernel's own)
 }

@@ -93,7 +93,8 @@ namespace
             cat("snap_candidate_budget = ", d.snap_candidate_budget, ", expected 1 .. 256"));
     require(d.switch_rule <= MODALRT_SWITCH_NEVER, MODALRT_ERROR_INVALID_ARGUMENT, "unknown switch_rule");
     require(d.snapshot_interval >= 1, MODALRT_ERROR_INVALID_ARGUMENT, "snapshot_interval must be >= 1");
-    require(d.reserved == 0, MODALRT_ERROR_INVALID_ARGUMENT, cat("reserved = ", d.reserved, " must be 0"));
+    require(d.validity_level == 0 || validity_level_index(d.validity_level) >= 0, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("validity_level = ", d.validity_level, " %, expected 1, 5 or 10 (0: the default 5)"));
     require(std::isfinite(d.release_drag_distance) && d.release_drag_distance > 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
             cat("release_drag_distance = ", d.release_drag_distance, " m must be finite and > 0"));
     require(std::isfinite(d.fail_safe_hold) && d.fail_safe_hold >= 0.0 && d.fail_safe_hold <= 10.0,
@@ -107,7 +108,8 @@ namespace
             cat("force_rate_limit = ", d.force_rate_limit, " N per tick, expected > 0 and <= device.max_force (",
                 d.device.max_force, " N)"));
     require(d.grasp <= 1, MODALRT_ERROR_INVALID_ARGUMENT, cat("grasp = ", d.grasp, ", expected 0 or 1"));
-    require(d.reserved2 == 0, MODALRT_ERROR_INVALID_ARGUMENT, cat("reserved2 = ", d.reserved2, " must be 0"));
+    require(d.validity_clamp <= 1, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("validity_clamp = ", d.validity_clamp, ", expected 0 or 1"));
     require(d.contact_mode <= MODALRT_CONTACT_PROXY && d.reserved_proxy == 0, MODALRT_ERROR_INVALID_ARGUMENT,
             cat("contact_mode = ", d.contact_mode, " (expected MODALRT_CONTACT_SNAP or _PROXY), reserved_proxy = ",
                 d.reserved_proxy, " (must be 0)"));
@@ -170,6 +172,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   // lasts at least two ticks, so the force never steps to zero.
   hold_ticks_ = std::uint64_t(std::llround(def.fail_safe_hold / def.time_step));
   ramp_ticks_ = std::max<std::uint64_t>(2, std::uint64_t(std::llround(def.fail_safe_ramp / def.time_step)));
+  validity_level_ = validity_level_index(def.validity_level == 0 ? 5 : def.validity_level);
 }
 
 // =================================================================================================
@@ -245,6 +248,8 @@ int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) 
       for (int d = 0; d < 3; ++d)
         outputs[h].force[d] *= scale;
       outputs[h].flags = MODALRT_HIP_FAIL_SAFE;
+      if (outputs[h].in_contact && beyond_validity(contacts_[h], outputs[h].force))
+        outputs[h].flags |= MODALRT_HIP_BEYOND_VALIDITY; // the force held is still beyond it
       std::copy_n(outputs[h].force, 3, &commanded_[3 * std::size_t(h)]);
     }
   if (scale < 1.0 && held_force)
@@ -332,6 +337,8 @@ void modalrt_kernel::impedance_step() noexcept
           flags_[active_[a]] |= MODALRT_HIP_FORCE_CLAMPED;
           ++stats.clamped_forces;
         }
+      if (def.validity_clamp)
+        clamp_to_validity(contacts_[active_[a]], F);
       std::copy_n(F, 3, contacts_[active_[a]].force);
       if (!def.grasp && dot3(F, contacts_[active_[a]].normal) > 0.0)
         {
@@ -372,6 +379,49 @@ void modalrt_kernel::limit_contact_force(std::uint32_t hip) noexcept
   for (int d = 0; d < 3; ++d)
     target[d] = -target[d];
   rotate_back(frame_.rotation, target, F);
+}
+
+// The validity force of a contact in the active space at def.validity_level: its vertex's, a proxy's
+// blend over its triangle's corners (blended_validity_force); 0 where the map has no value.
+double modalrt_kernel::contact_validity_force(const Contact &c) const noexcept
+{
+  const ModalSpace &space = basis.spaces[space_];
+  if (space.validity_force.empty())
+    return 0.0;
+  if (c.proxy.active)
+    return blended_validity_force(space, &basis.triangles[3 * std::size_t(c.proxy.triangle)], c.proxy.weights, 3,
+                                  validity_level_);
+  const double one = 1.0;
+  return blended_validity_force(space, &c.vertex, &one, 1, validity_level_);
+}
+
+// validity_clamp: the force on the part (and so the one commanded) is limited in magnitude to the
+// contact's validity force. The limit follows that force at most force_rate_limit per tick (a proxy
+// entering a region of another value, a switch of space, the map ending), so the clamp itself never
+// makes a step of the kernel's own; where the map has no value the limit rises towards
+// device.max_force. It starts at the contact's value when the contact begins.
+void modalrt_kernel::clamp_to_validity(Contact &c, double F[3]) noexcept
+{
+  const double value  = contact_validity_force(c);
+  const double target = value > 0.0 ? std::min(value, def.device.max_force) : def.device.max_force;
+  if (c.validity_limit < 0.0)
+    c.validity_limit = target;
+  else
+    c.validity_limit += std::max(-def.force_rate_limit, std::min(def.force_rate_limit, target - c.validity_limit));
+  const double size = norm3(F);
+  if (size <= c.validity_limit)
+    return;
+  c.validity_unclamped = size;
+  for (int d = 0; d < 3; ++d)
+    F[d] *= c.validity_limit / size;
+}
+
+// Whether a contact's force is beyond its validity force (this tick's, c.validity_force): |force|, or
+// the force before validity_clamp when force is null (the clamp acted), above a value of the map.
+bool modalrt_kernel::beyond_validity(const Contact &c, const double force[3]) const noexcept
+{
+  const double size = force ? norm3(force) : c.validity_unclamped;
+  return c.validity_force > 0.0 && size > c.validity_force;
 }
 
 // Released HIPs (and HIPs absent from the tick): the commanded force ramps to zero.
@@ -457,6 +507,10 @@ void modalrt_kernel::write_outputs(std::uint32_t count, modalrt_hip_output *outp
           write_proxy_output(c, out);
           if (c.candidate >= 0 && def.use_static_correction)
             out.flags |= MODALRT_HIP_CORRECTED;
+          contacts_[h].validity_force = contact_validity_force(c);
+          if (beyond_validity(c, c.validity_unclamped >= 0.0 ? nullptr : out.force))
+            out.flags |= MODALRT_HIP_BEYOND_VALIDITY;
+          contacts_[h].validity_unclamped = -1.0;
         }
       else
         {

@@ -55,6 +55,11 @@ namespace modalrt
                                                  // contact starts without a lateral jerk
     double       *B          = nullptr;
     ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
+    // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).
+    double validity_force     = 0.0;  // [N] at def.validity_level, this tick's (0: no value here)
+    double validity_limit     = -1.0; // [N] validity_clamp's limit, following validity_force at most
+                                      // force_rate_limit per tick (-1: not set since the contact began)
+    double validity_unclamped = -1.0; // [N] |F| before validity_clamp this tick (-1: the clamp did not act)
   };
 
   struct SnapCandidate
@@ -110,6 +115,11 @@ private:
   void          limit_contact_force(std::uint32_t hip) noexcept;
   void          ramp_released_force(std::uint32_t hip, double force_world[3]) noexcept;
   void          release_pulling_contacts() noexcept;
+  // The validity map (modalrt.h, MODALRT_HIP_BEYOND_VALIDITY): the contact's validity force, the
+  // clamp of its force to it (impedance, validity_clamp), the flag of its output.
+  double        contact_validity_force(const Contact &contact) const noexcept;
+  void          clamp_to_validity(Contact &contact, double F[3]) noexcept;
+  bool          beyond_validity(const Contact &contact, const double force[3]) const noexcept;
 
   // Contacts.
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
@@ -182,4 +192,5 @@ private:
   bool                           contact_started_  = false;
   std::uint64_t                  ticks_since_publish_ = 0;
   std::uint64_t                  hold_ticks_ = 0, ramp_ticks_ = 2; // the fail-safe rule in ticks
+  int                            validity_level_ = 1; // index of def.validity_level among 1, 5, 10 %
 };

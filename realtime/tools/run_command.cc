@@ -4,6 +4,7 @@
 #include "run_loop.h"
 #include "run_outputs.h"
 #include "session.h"
+#include "stiffness_map.h"
 #include "udp_device.h"
 
 #include <modalrt/modalrt.h>
@@ -47,6 +48,8 @@ namespace modalrt_tool
       bool        proxy         = false; // serve: --contact proxy, an app's session (run: the session's `proxy` row)
       double      static_friction  = modalrt_kernel_default_def().static_friction;  // serve: --friction
       double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
+      std::uint32_t validity_level = 5;  // [%] --validity-level: MODALRT_HIP_BEYOND_VALIDITY's level
+      bool        validity_clamp = false; // --validity-clamp: the rendered force held at the validity force
       int         view_port     = -1;    // --view P: the browser view on loopback port P (0: any)
       WatchStarter watch        = nullptr; // what serves --view (null: built without the view)
       const DeviceSession *app  = nullptr; // an app's own device and view: no session file, no outputs
@@ -157,6 +160,15 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.snap_distance = number_option(n, v, 1e-6, 1.0, "m"); }},
       {"--spin-us", for_both, "US", "100",
        [](RunOptions &o, const std::string &n, const char *v) { o.spin_us = number_option(n, v, 0.0, 1e6, "us"); }},
+      {"--validity-level", for_both, "1|5|10", "5", // the validity map's departure level (modalrt_kernel_def)
+       [](RunOptions &o, const std::string &n, const char *v) {
+         const std::string text = v;
+         if (text != "1" && text != "5" && text != "10")
+           throw UsageError{n + " '" + text + "' is not 1, 5 or 10 (percent)"};
+         o.validity_level = std::uint32_t(std::stoul(text));
+       }},
+      {"--validity-clamp", for_both, nullptr, nullptr,
+       [](RunOptions &o, const std::string &, const char *) { o.validity_clamp = true; }},
       {"--view", for_both, "PORT", nullptr, // the browser view on loopback port PORT (0: any free port), view/README.md
        [](RunOptions &o, const std::string &n, const char *v) { o.view_port = int(integer_option(n, v, 0, 65535)); }},
       {"--no-plot", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.plot = false; }},
@@ -267,6 +279,8 @@ namespace modalrt_tool
           def.dynamic_friction = session.dynamic_friction;
         }
       def.fail_safe_ramp          = o.ramp;
+      def.validity_level          = o.validity_level;
+      def.validity_clamp          = o.validity_clamp ? 1 : 0;
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
       return def;
     }
@@ -301,8 +315,8 @@ namespace modalrt_tool
     bool write_outputs(const RunOptions &o, const RunReport &report, const HapticResult &haptic,
                        const DisplayResult &display, const modalrt_basis *basis, std::uint32_t hips, std::string &error)
     {
-      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, error) &&
-             write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, error) &&
+      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, report.validity_level, error) &&
+             write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, report.validity_level, error) &&
              write_slides(o.output_dir + "/slides.csv", haptic.slides, report.space_names, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
              write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
@@ -415,7 +429,8 @@ namespace modalrt_tool
     bool start_view(const RunOptions &o, Live &live, std::string &error)
     {
       const ViewContext context{live.basis, o.basis, live.kernel, live.device->hip_count(), o.command,
-                                live.def.contact_mode == MODALRT_CONTACT_PROXY};
+                                live.def.contact_mode == MODALRT_CONTACT_PROXY, live.def.validity_level,
+                                live.def.validity_clamp != 0};
       if (o.app)
         live.view = o.app->start_view(context, error);
       else if (o.view_port < 0)
@@ -450,6 +465,9 @@ namespace modalrt_tool
       report.snap_distance      = live.def.snap_distance;
       report.device_counters    = live.device->counters();
       report.space_names        = space_names(live.basis);
+      report.validity_level     = live.def.validity_level;
+      report.validity_clamp     = live.def.validity_clamp != 0;
+      report.validity_map       = has_validity_map(live.basis);
       return report;
     }
 
@@ -458,7 +476,7 @@ namespace modalrt_tool
                       const HapticResult &haptic, const DisplayResult &display)
     {
       RunReport report = make_report(o, session, duration, live, haptic, display);
-      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance);
+      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level);
       std::string error;
       if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))
         return fail(error);
@@ -587,6 +605,8 @@ namespace modalrt_tool
     o.proxy            = session.proxy;
     o.static_friction  = session.static_friction;
     o.dynamic_friction = session.dynamic_friction;
+    o.validity_level   = session.validity_level;
+    o.validity_clamp   = session.validity_clamp;
     o.frame_rate = 0.0;
     o.quiet      = true;
     return execute(o);

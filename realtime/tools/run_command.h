@@ -23,6 +23,8 @@ namespace modalrt_tool
     std::uint32_t        hips;
     std::string          command; // "run", "serve", or the app's command that plays its own device
     bool                 proxy = false; // the kernel's contacts are sliding proxies (MODALRT_CONTACT_PROXY)
+    std::uint32_t        validity_level = 5;     // [%] the kernel's validity_level (MODALRT_HIP_BEYOND_VALIDITY)
+    bool                 validity_clamp = false; // the kernel's validity_clamp
   };
 
   // Why --view and `modal-rt view` are refused by a tool built without the view.
@@ -58,6 +60,8 @@ namespace modalrt_tool
     bool        proxy        = false;  // sliding proxy contacts (MODALRT_CONTACT_PROXY), with these coefficients
     double      static_friction  = modalrt_kernel_default_def().static_friction;
     double      dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
+    std::uint32_t validity_level = 5;  // [%] the kernel's validity_level, and its validity_clamp
+    bool        validity_clamp   = false;
     double      display_rate = 60.0;   // [Hz] snapshots handed to the view
     std::function<std::unique_ptr<Device>(const modalrt_basis *)>                          make_device;
     std::function<std::unique_ptr<RunObserver>(const ViewContext &, std::string &error)> start_view;

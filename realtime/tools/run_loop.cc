@@ -63,6 +63,7 @@ namespace modalrt_tool
         : kernel_(kernel), device_(device), session_(session), settings_(settings), observer_(observer),
           result_(result), hips_(device.hip_count()), inputs_(hips_), outputs_(hips_)
       {
+        result_.beyond_validity_ticks.assign(hips_, 0);
         if (!settings.record)
           return;
         result_.latency_us.assign(settings.tick_limit, 0.0f);
@@ -170,6 +171,8 @@ namespace modalrt_tool
             device_.report_output(h, o);
             if (!finite_output(o))
               ++result_.non_finite_outputs;
+            if (o.flags & MODALRT_HIP_BEYOND_VALIDITY)
+              ++result_.beyond_validity_ticks[h];
           }
         device_.end_tick();
         if (!settings_.record)

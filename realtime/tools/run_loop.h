@@ -67,6 +67,7 @@ namespace modalrt_tool
     std::uint64_t failed_events   = 0; // press/release calls the kernel refused
     std::uint64_t events_applied  = 0;
     std::uint64_t allocations     = 0; // in the haptic thread, first tick to last
+    std::vector<std::uint64_t> beyond_validity_ticks; // per HIP: ticks flagged MODALRT_HIP_BEYOND_VALIDITY
     bool          interrupted     = false; // stopped by SIGINT/SIGTERM
     bool          realtime_priority = false; // SCHED_FIFO granted
     double        wall_seconds    = 0.0;

@@ -1,6 +1,7 @@
 #include "run_outputs.h"
 
 #include "allocation_counter.h"
+#include "stiffness_map.h"
 #include "vertex_info.h"
 
 #include <algorithm>
@@ -180,8 +181,15 @@ namespace modalrt_tool
     }
   } // namespace
 
+  double trace_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level)
+  {
+    const double force =
+      s.in_contact ? contact_validity_force(basis, s.space, s.active_vertex, s.proxy_triangle, s.proxy_weights, level) : 0.0;
+    return force > 0.0 ? force : std::nan("");
+  }
+
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
-                   const modalrt_basis *basis, bool impedance, std::string &error)
+                   const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error)
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
                        "(the felt point in contact: a proxy's position on the deformed surface; else the device), "
@@ -191,10 +199,13 @@ namespace modalrt_tool
                        "point, else the active vertex): fn the force pushing into the part [N], ft the friction "
                        "(tangential) force [N], static_stiffness 1 / (n^T G n) of the basis there [N/m], "
                        "felt_stiffness fn / the load point's displacement into the part [N/m] (nan: not in "
-                       "contact); then the origin of the part's frame [m]\ntime";
+                       "contact), beyond 1 when the output is flagged MODALRT_HIP_BEYOND_VALIDITY (256: |F| above "
+                       "validity_force), validity_force the validity map's force there at the kernel's level [N] "
+                       "(nan: no value); then the origin of the part's frame [m]\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
       for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags",
-                                 "triangle", "w0", "w1", "w2", "fn", "ft", "static_stiffness", "felt_stiffness"})
+                                 "triangle", "w0", "w1", "w2", "fn", "ft", "static_stiffness", "felt_stiffness",
+                                 "beyond", "validity_force"})
         text += ",hip" + std::to_string(h) + "_" + column;
     text += ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
@@ -216,6 +227,8 @@ namespace modalrt_tool
             for (double value : {s.proxy_weights[0], s.proxy_weights[1], s.proxy_weights[2], felt.normal_force,
                                  felt.tangential_force, felt.static_stiffness, felt.felt_stiffness})
               text += "," + format("%.9g", value);
+            text += (s.flags & MODALRT_HIP_BEYOND_VALIDITY) ? ",1," : ",0,";
+            text += format("%.9g", trace_validity_force(basis, s, validity_level));
           }
         const double *frame = result.trace[r * hip_count].frame;
         text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]) + '\n';
@@ -350,6 +363,22 @@ namespace modalrt_tool
     // terms: with every contact a candidate of the space and every pair's cross compliance stored
     // (modalrt_basis_pair_is_exact), that is the full
     // static FE answer W_a^T K^-1 sum_b W_b F_b; otherwise the modal part (and the corrections that exist).
+    // The press against its validity force: the largest |F|, the value at its point (its last row's
+    // contact), and the first row the kernel flagged MODALRT_HIP_BEYOND_VALIDITY (at the trace's rate).
+    void validity_of(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,
+                     std::uint32_t level)
+    {
+      for (std::size_t r = p.first_row; r <= p.last_row; ++r)
+        {
+          const TraceSample &s    = result.trace[r * hips + p.hip];
+          const double       size = std::sqrt(dot3(s.force, s.force));
+          p.max_force             = std::max(p.max_force, size);
+          if ((s.flags & MODALRT_HIP_BEYOND_VALIDITY) && !p.beyond)
+            p.beyond = true, p.beyond_time = s.time, p.beyond_force = size;
+        }
+      p.validity_force = trace_validity_force(basis, result.trace[p.last_row * hips + p.hip], level);
+    }
+
     void multi_contact_reference(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,
                                  modalrt_kernel *reference, double force_sign)
     {
@@ -469,7 +498,7 @@ namespace modalrt_tool
   } // namespace
 
   std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
-                                  bool impedance)
+                                  bool impedance, std::uint32_t validity_level)
   {
     std::vector<Press> presses;
     if (hip_count == 0)
@@ -495,13 +524,15 @@ namespace modalrt_tool
         static_reference(p, result.trace[p.last_row * hip_count + p.hip], basis);
         felt_response(p, result, hip_count, impedance ? 1.0 : -1.0);
         multi_contact_reference(p, result, hip_count, basis, reference, impedance ? 1.0 : -1.0);
+        validity_of(p, result, hip_count, basis, validity_level);
       }
     modalrt_kernel_destroy(reference);
     std::stable_sort(presses.begin(), presses.end(), [](const Press &a, const Press &b) { return a.start < b.start; });
     return presses;
   }
 
-  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance, std::string &error)
+  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance,
+                     std::uint32_t validity_level, std::string &error)
   {
     std::string text =
       "# modal-rt run presses: one row per contact period of a HIP (from trace.csv). Along the vertex's outward "
@@ -513,10 +544,14 @@ namespace modalrt_tool
       "felt_displacement [N/m]; ratio = felt / static stiffness. With several HIPs in contact at the felt time "
       "(felt_contacts > 1, other_vertices): multi_static_stiffness = felt_force / the static normal displacement "
       "under all their loads at once, multi_full_fe 1 when it is the full-FE answer (every contact a candidate, "
-      "cross compliance stored), multi_ratio = felt / multi_static_stiffness, multi_note why not full FE\n"
+      "cross compliance stored), multi_ratio = felt / multi_static_stiffness, multi_note why not full FE. "
+      "max_force_n the largest |F| of the press; validity_force_n the validity map's force at the press's point at "
+      "validity_level_pct (nan: no value); beyond_validity 1 when a row was flagged MODALRT_HIP_BEYOND_VALIDITY, "
+      "beyond_start_s its first row and beyond_force_n |F| there (nan: never)\n"
       "press,hip,space,space_name,vertex,start_s,end_s,nx,ny,nz,rest_x,rest_y,rest_z,compliance_m_per_n,full_fe,"
       "force_sign,max_contacts,felt_time_s,felt_force_n,felt_displacement_m,felt_stiffness_n_per_m,static_stiffness_n_per_m,"
-      "ratio,felt_contacts,other_vertices,multi_static_stiffness_n_per_m,multi_full_fe,multi_ratio,multi_note\n";
+      "ratio,felt_contacts,other_vertices,multi_static_stiffness_n_per_m,multi_full_fe,multi_ratio,multi_note,"
+      "max_force_n,validity_level_pct,validity_force_n,beyond_validity,beyond_start_s,beyond_force_n\n";
     char line[1024];
     for (std::size_t k = 0; k < presses.size(); ++k)
       {
@@ -533,6 +568,10 @@ namespace modalrt_tool
         std::snprintf(line, sizeof line, ",%u,%s,%.17g,%s,%.17g,%s\n", p.felt_contacts, p.other_vertices.c_str(),
                       p.multi_stiffness, p.felt_contacts > 1 ? (p.multi_full_fe ? "1" : "0") : "",
                       p.felt_stiffness / p.multi_stiffness, p.multi_note.c_str());
+        text += line;
+        text.pop_back(); // the validity columns
+        std::snprintf(line, sizeof line, ",%.9g,%u,%.9g,%d,%.9g,%.9g\n", p.max_force, validity_level,
+                      p.validity_force, p.beyond ? 1 : 0, p.beyond_time, p.beyond_force);
         text += line;
       }
     return write_file_atomically(path, text, error);
@@ -721,6 +760,18 @@ namespace modalrt_tool
                                  {"max_force_step_n", s.max_force_step},
                                  {"passivity_energy_j", s.energy}});
     o["slides_dropped"] = h.slides_dropped;
+    std::uint64_t beyond = 0;
+    for (std::uint64_t n : h.beyond_validity_ticks)
+      beyond += n;
+    std::uint64_t presses_beyond = 0;
+    for (const Press &p : r.presses)
+      presses_beyond += p.beyond;
+    o["validity"] = Json{{"map", r.validity_map},
+                         {"level_percent", r.validity_level},
+                         {"clamp", r.validity_clamp},
+                         {"beyond_ticks", beyond},
+                         {"beyond_ticks_per_hip", h.beyond_validity_ticks},
+                         {"presses_beyond", presses_beyond}};
     o["final"] = final_states(h);
     // Paths are bytes: invalid UTF-8 in one is replaced (U+FFFD), not an exception.
     return o.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -754,6 +805,27 @@ namespace modalrt_tool
         }
       if (presses.size() > shown)
         std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);
+    }
+
+    // Per press, against its validity force at the kernel's level (a map in the basis only).
+    void print_press_validity(const RunReport &r)
+    {
+      if (!r.validity_map)
+        return;
+      constexpr std::size_t shown = 12;
+      for (std::size_t k = 0; k < std::min(r.presses.size(), shown); ++k)
+        {
+          const Press &p = r.presses[k];
+          if (p.beyond)
+            std::printf("  validity %-4zu beyond its validity force: F%u = %.3g N, from %.2f s at %.3g N (up to %.3g N)%s\n",
+                        k, r.validity_level, p.validity_force, p.beyond_time, p.beyond_force, p.max_force,
+                        r.validity_clamp ? "; the rendered force held at it (--validity-clamp)" : "");
+          else if (std::isfinite(p.validity_force))
+            std::printf("  validity %-4zu within its validity force: up to %.3g N, F%u = %.3g N\n", k, p.max_force,
+                        r.validity_level, p.validity_force);
+          else
+            std::printf("  validity %-4zu no validity force at its point (up to %.3g N)\n", k, p.max_force);
+        }
     }
     // Per slide: how far the proxy went, the largest force change per tick, the passivity observer.
     void print_slides(const RunReport &r)
@@ -831,6 +903,7 @@ namespace modalrt_tool
                 (unsigned long long)d.reconstructions, d.max_reconstruct_ms, d.frames.size(),
                 d.error.empty() ? "" : "; ERROR: ", d.error.c_str());
     print_presses(r.presses);
+    print_press_validity(r);
     print_slides(r);
     for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
       {

@@ -39,8 +39,12 @@ namespace modalrt_tool
   // trace.csv: one row per decimated tick, the HIPs' columns side by side; along the normal of each
   // contact's load point, the normal and friction forces and the static and felt stiffness (from
   // `basis`; `impedance`: the trace's force is the one rendered on the device).
+  // `validity_level` [%]: the kernel's (its flag's) level, for the validity force at each contact.
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
-                   const modalrt_basis *basis, bool impedance, std::string &error);
+                   const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error);
+  // The validity force [N] at a trace row's contact at `level` [%] (stiffness_map.h's
+  // contact_validity_force); NaN out of contact or without one.
+  double trace_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level);
 
   // The name of every space of the basis, safe in a CSV field.
   std::vector<std::string> space_names(const modalrt_basis *basis);
@@ -81,15 +85,22 @@ namespace modalrt_tool
     double        multi_stiffness = std::nan(""); // [N/m] felt_force / u_n of that static answer; NaN if one contact
     bool          multi_full_fe   = false;     // every pair has its full-FE cross compliance
     std::string   multi_note;                  // why not full FE ("" when it is)
+    // The validity map at the kernel's level (MODALRT_HIP_BEYOND_VALIDITY), from the trace's rows.
+    double        max_force = 0.0;             // [N] largest |F| of the press's rows
+    double        validity_force = std::nan(""); // [N] at the press's point (its last row); NaN: no value
+    bool          beyond = false;              // a row of the press flagged MODALRT_HIP_BEYOND_VALIDITY
+    double        beyond_time  = std::nan("");  // [s] its first such row
+    double        beyond_force = std::nan("");  // [N] |F| there
   };
 
   // The presses of a run, in order of start time. `impedance`: the trace's force is the one
   // rendered on the device (it pushes the hand out: +n), else the one applied to the part (-n).
   std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
-                                  bool impedance);
+                                  bool impedance, std::uint32_t validity_level);
 
   // presses.csv: one row per press (the columns are documented in realtime/README.md).
-  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance, std::string &error);
+  bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance,
+                     std::uint32_t validity_level, std::string &error);
 
   // Runs scripts/`script` (plot_force_displacement.py, plot_slide_stiffness.py) on the output directory
   // with /usr/bin/python3. Returns true when it wrote `picture`; else `notice` says why and how to make it.
@@ -117,6 +128,9 @@ namespace modalrt_tool
     std::vector<std::string> space_names; // per space of the basis (the slides' spaces)
     bool                plot_written = false; // force_displacement.png
     bool                slide_plot_written = false; // slide_stiffness.png
+    std::uint32_t       validity_level = 5;     // [%] the kernel's (modalrt_kernel_def.validity_level)
+    bool                validity_clamp = false; // modalrt_kernel_def.validity_clamp
+    bool                validity_map   = false; // the basis has a validity map (has_validity_map)
   };
 
   RunReport   summarize(const HapticResult &haptic, double rate);

@@ -1,7 +1,8 @@
 // modal-rt: looks into a .mrt basis file, checks the kernel against it, and plays sessions.
 //
 //   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, the felt-stiffness
-//                                  map per space (range, softest spots: stiffness_map.cc), section sizes
+//                                  map per space (range, softest spots: stiffness_map.cc), the validity
+//                                  map's lowest forces per space, section sizes
 //   modal-rt info   --basis FILE --vertex N | --near X,Y,Z
 //                                  one display vertex (by index, or the closest to a point [m]): its
 //                                  position, normal, region, candidacy and felt stiffness (vertex_info.cc)
@@ -138,6 +139,7 @@ namespace
     for (uint32_t s = 0; s < info.space_count; ++s)
       print_space(basis, s, info.space_count);
     modalrt_tool::print_felt_stiffness_map(basis);
+    modalrt_tool::print_validity_map(basis);
     print_sections(basis, info.section_count);
     return 0;
   }

@@ -142,5 +142,6 @@ namespace modalrt_tool
                 "of: %s\n", info.space_count, candidate_of.empty() ? "none" : candidate_of.c_str());
     print_felt_stiffness(basis, vertex, region, info.space_count);
     print_vertex_felt_stiffness(basis, vertex);
+    print_vertex_validity(basis, vertex);
   }
 } // namespace modalrt_tool

@@ -115,6 +115,12 @@ int main(int argc, char **argv)
   newer.extra_sections.push_back({99, format::scene_wide, format::scene_wide, format::u8, 5, {1, 2, 3, 4, 5}});
   ok &= save(dir, "newer_minor_extra_section.mrt", mrt::write_basis(newer));
 
+  // Version 1.2's validity map (VALIDITY_FORCE) in both spaces, with 1e30 (not reached) entries.
+  modalrt::LatticeOptions validity = small_lattice();
+  validity.validity_force          = true;
+  const Bytes with_validity        = mrt::write_basis(modalrt::make_lattice_cantilever(validity));
+  ok &= save(dir, "lattice_validity_force.mrt", with_validity);
+
   // ----- corrupted variants of the two-space file --------------------------------------------------
   ok &= save(dir, "corrupt_header_only.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + format::header_bytes));
   ok &= save(dir, "corrupt_truncated.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + two_spaces.size() * 3 / 5));
@@ -180,6 +186,20 @@ int main(int argc, char **argv)
   put<std::uint64_t>(beyond, name + format::entry::count, 0xFFFFFFFFFAull);
   mrt::refresh_checksums(beyond);
   ok &= save(dir, "corrupt_section_offset.mrt", beyond);
+
+  // A validity map whose F5 falls below F1 at a vertex (the positive forces of a vertex must not
+  // decrease), checksums recomputed.
+  Bytes decreasing        = with_validity;
+  const std::size_t first = section_offset(decreasing, format::validity_force, 1);
+  const std::uint32_t nv  = get<std::uint32_t>(decreasing, format::header::n_display_vertices);
+  for (std::uint32_t v = 0; v < nv; ++v)
+    if (get<double>(decreasing, first + 24 * v) > 0.0)
+      {
+        put<double>(decreasing, first + 24 * v + 8, 0.5 * get<double>(decreasing, first + 24 * v));
+        break;
+      }
+  mrt::refresh_checksums(decreasing);
+  ok &= save(dir, "corrupt_validity_decreasing.mrt", decreasing);
 
   return ok ? 0 : 1;
 }

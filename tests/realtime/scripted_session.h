@@ -14,6 +14,7 @@ namespace test
     modalrt_basis  *basis  = nullptr;
     modalrt_kernel *kernel = nullptr;
     std::uint64_t   hash   = 1469598103934665603ull;
+    std::uint64_t   beyond = 0; // HIP outputs flagged MODALRT_HIP_BEYOND_VALIDITY
 
     void fold(const void *data, std::size_t size)
     {
@@ -33,11 +34,15 @@ namespace test
     return o;
   }
 
-  inline void open(Session &s, const modalrt::BasisContent &content)
+  // validity_level and validity_clamp as in modalrt_kernel_def (0, 0: the defaults).
+  inline void open(Session &s, const modalrt::BasisContent &content, std::uint32_t validity_level = 0,
+                   std::uint32_t validity_clamp = 0)
   {
     s.basis                  = load(content);
     modalrt_kernel_def def   = modalrt_kernel_default_def();
     def.hip_capacity         = 2;
+    def.validity_level       = validity_level;
+    def.validity_clamp       = validity_clamp;
     def.snap_distance        = 0.03; // the lattice display mesh is coarse (2.5 cm)
     s.kernel                 = create(s.basis, def);
   }
@@ -99,6 +104,7 @@ namespace test
             s.fold(o.velocity, sizeof o.velocity);
             s.fold(o.force, sizeof o.force);
             s.fold(&o.in_contact, 4 * sizeof(std::uint32_t));
+            s.beyond += (o.flags & MODALRT_HIP_BEYOND_VALIDITY) != 0;
           }
       }
   }

@@ -92,7 +92,7 @@ int main(int argc, char **argv)
   CHECK(def.time_step == 1e-3 && def.hip_capacity == 4 && def.coupling_stiffness == 1000.0 &&
         def.coupling_damping == 2.0 && def.snap_distance == 0.01 && def.release_distance == 1e-3 &&
         def.release_drag_distance == 0.01 && def.fail_safe_hold == 0.5 && def.fail_safe_ramp == 0.05 &&
-        def.max_input_velocity == 100.0 && def.workspace_radius == 10.0 && def.reserved == 0);
+        def.max_input_velocity == 100.0 && def.workspace_radius == 10.0 && def.validity_level == 0 && def.validity_clamp == 0);
   CHECK(device.max_force == 10.0 && device.max_stiffness == 3000.0 && device.max_damping == 10.0 &&
         def.device.max_force == device.max_force && frame.orientation[0] == 1.0);
   CHECK(strcmp(modalrt_status_name(MODALRT_ERROR_CHECKSUM), "MODALRT_ERROR_CHECKSUM") == 0);
@@ -130,8 +130,11 @@ int main(int argc, char **argv)
   def.time_step = 0.0;
   EXPECT_FAILURE(modalrt_kernel_create(basis, &def, &bad), MODALRT_ERROR_INVALID_ARGUMENT, "time_step");
   def           = modalrt_kernel_default_def();
-  def.reserved  = 1;
-  EXPECT_FAILURE(modalrt_kernel_create(basis, &def, &bad), MODALRT_ERROR_INVALID_ARGUMENT, "reserved");
+  def.validity_level = 3;
+  EXPECT_FAILURE(modalrt_kernel_create(basis, &def, &bad), MODALRT_ERROR_INVALID_ARGUMENT, "validity_level");
+  def                = modalrt_kernel_default_def();
+  def.validity_clamp = 2;
+  EXPECT_FAILURE(modalrt_kernel_create(basis, &def, &bad), MODALRT_ERROR_INVALID_ARGUMENT, "validity_clamp");
   def                    = modalrt_kernel_default_def();
   def.coupling_stiffness = 5000.0;
   EXPECT_FAILURE(modalrt_kernel_create(basis, &def, &bad), MODALRT_ERROR_DEVICE_LIMIT, "max_stiffness");

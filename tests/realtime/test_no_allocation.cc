@@ -3,6 +3,7 @@
 // the threads that switch counting on: here the tick thread and the display thread. Over 10^4
 // ticks of a scripted session (contacts, releases, switches, frame changes, both steps), with the
 // display thread reading snapshots and reconstructing the surface alongside, the count must not move.
+// The basis carries a validity map, and the kernel its 1 % level with validity_clamp on.
 #include "allocation_counter.h"
 #include "scripted_session.h"
 
@@ -22,7 +23,9 @@ int main()
   ENSURE(modalrt_tool::counted_allocations() >= 2);
 
   test::Session s;
-  test::open(s, modalrt::make_lattice_cantilever(test::session_lattice()));
+  modalrt::LatticeOptions options = test::session_lattice();
+  options.validity_force          = true;
+  test::open(s, modalrt::make_lattice_cantilever(options), 1, 1);
   modalrt_snapshot *snapshot = nullptr;
   modalrt_snapshot_create(s.kernel, &snapshot);
   modalrt_basis_info info;
@@ -58,9 +61,11 @@ int main()
 
   modalrt_kernel_stats stats;
   modalrt_kernel_get_stats(s.kernel, &stats);
-  std::printf("  %llu ticks, %llu switches, %ld display frames, %llu allocations\n", (unsigned long long)stats.tick_count,
-              (unsigned long long)stats.switch_count, frames.load(), (unsigned long long)allocations);
+  std::printf("  %llu ticks, %llu switches, %llu outputs beyond their validity force, %ld display frames, %llu allocations\n",
+              (unsigned long long)stats.tick_count, (unsigned long long)stats.switch_count,
+              (unsigned long long)s.beyond, frames.load(), (unsigned long long)allocations);
   ENSURE(allocations == 0);
+  ENSURE(s.beyond > 0);
   ENSURE(stats.switch_count >= 2 && frames.load() > 0);
   modalrt_snapshot_destroy(snapshot);
   test::close(s);

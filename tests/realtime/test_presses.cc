@@ -4,6 +4,7 @@
 #include "test_support.h"
 
 #include "run_outputs.h"
+#include "stiffness_map.h"
 
 namespace
 {
@@ -45,7 +46,7 @@ namespace
     const std::vector<double>  force  = {1, 2, 3, 4, 5, 4, 7, 7, 7, 6.5, 3, 2, 1};
     const std::uint32_t        held   = MODALRT_HIP_FAIL_SAFE, ramp = MODALRT_HIP_FORCE_RAMPING;
     const std::vector<std::uint32_t> flags = {0, 0, 0, 0, 0, 0, held, held, held, ramp, 0, 0, 0};
-    const auto presses = modalrt_tool::find_presses(press_trace(basis, vertex, force, flags), 1, basis, true);
+    const auto presses = modalrt_tool::find_presses(press_trace(basis, vertex, force, flags), 1, basis, true, 5);
     ENSURE(presses.size() == 1);
     if (presses.size() != 1)
       return;
@@ -56,15 +57,15 @@ namespace
     ENSURE_NEAR(presses[0].felt_stiffness, coupling, 1e-6);
     // The same trace without the flags picks the plateau: what the flags are there for.
     const auto unflagged = modalrt_tool::find_presses(
-      press_trace(basis, vertex, force, std::vector<std::uint32_t>(force.size(), 0)), 1, basis, true);
+      press_trace(basis, vertex, force, std::vector<std::uint32_t>(force.size(), 0)), 1, basis, true, 5);
     ENSURE(unflagged.size() == 1 && unflagged[0].felt_force == 7.0);
     // trace.csv shows which rows were left out: hip0_flags is 32 on the plateau, 64 on the ramp.
     std::string error;
-    ENSURE(modalrt_tool::write_trace("presses_trace.csv", press_trace(basis, vertex, force, flags), 1, basis, true, error));
+    ENSURE(modalrt_tool::write_trace("presses_trace.csv", press_trace(basis, vertex, force, flags), 1, basis, true, 5, error));
     std::ifstream     file("presses_trace.csv");
     std::stringstream text;
     text << file.rdbuf();
-    ENSURE(text.str().find("hip0_space,hip0_flags,hip0_triangle,hip0_w0,hip0_w1,hip0_w2,hip0_fn,hip0_ft,hip0_static_stiffness,hip0_felt_stiffness,frame_x") != std::string::npos);
+    ENSURE(text.str().find("hip0_space,hip0_flags,hip0_triangle,hip0_w0,hip0_w1,hip0_w2,hip0_fn,hip0_ft,hip0_static_stiffness,hip0_felt_stiffness,hip0_beyond,hip0_validity_force,frame_x") != std::string::npos);
     const std::string row = ",1," + std::to_string(vertex) + ",1,";
     ENSURE(text.str().find(row + "32,") != std::string::npos && text.str().find(row + "64,") != std::string::npos);
     std::remove("presses_trace.csv");
@@ -75,8 +76,51 @@ namespace
   {
     const std::vector<double>        force = {3, 3, 3};
     const std::vector<std::uint32_t> flags(3, MODALRT_HIP_FAIL_SAFE);
-    const auto presses = modalrt_tool::find_presses(press_trace(basis, 8, force, flags), 1, basis, true);
+    const auto presses = modalrt_tool::find_presses(press_trace(basis, 8, force, flags), 1, basis, true, 5);
     ENSURE(presses.size() == 1 && presses[0].felt_force == 3.0 && presses[0].felt_time == 0.02);
+  }
+  // A press flagged MODALRT_HIP_BEYOND_VALIDITY on some rows, on a basis with a validity map (vertex
+  // 15 of the tip space: F1, F5, F10 = 0.35, 1.75, 3.5 N): when it went beyond, at which force, and the
+  // value at its point at the level asked; trace.csv's beyond and validity_force columns.
+  void beyond_validity()
+  {
+    modalrt::LatticeOptions o;
+    o.validity_force = true;
+    const std::vector<unsigned char> bytes = modalrt::write_basis(modalrt::make_lattice_cantilever(o));
+    modalrt_basis                   *basis = nullptr;
+    ENSURE(modalrt_basis_load_memory(bytes.data(), bytes.size(), &basis) == MODALRT_OK);
+    if (!basis)
+      return;
+    ENSURE(modalrt_tool::has_validity_map(basis));
+    const std::vector<double>        force = {1, 1.5, 2, 2.5, 2, 1.5, 1};
+    const std::uint32_t              b     = MODALRT_HIP_BEYOND_VALIDITY;
+    const std::vector<std::uint32_t> flags = {0, 0, b, b, b, 0, 0};
+    const auto presses = modalrt_tool::find_presses(press_trace(basis, 15, force, flags), 1, basis, true, 5);
+    ENSURE(presses.size() == 1);
+    if (presses.size() == 1)
+      {
+        const modalrt_tool::Press &p = presses[0];
+        ENSURE(p.beyond && p.beyond_time == 0.02 && p.beyond_force == 2.0 && p.max_force == 2.5);
+        ENSURE_NEAR(p.validity_force, 1.75, 1e-15);
+      }
+    const auto at_one = modalrt_tool::find_presses(press_trace(basis, 15, force, {0, 0, 0, 0, 0, 0, 0}), 1, basis, true, 1);
+    ENSURE(at_one.size() == 1 && !at_one[0].beyond && std::isnan(at_one[0].beyond_time));
+    ENSURE_NEAR(at_one[0].validity_force, 0.35, 1e-15);
+    std::string error;
+    ENSURE(modalrt_tool::write_trace("validity_trace.csv", press_trace(basis, 15, force, flags), 1, basis, true, 10, error));
+    const std::string text = test::read_text("validity_trace.csv");
+    ENSURE(text.find(",1,3.5,0,0,0\n") != std::string::npos); // a flagged row: beyond 1, F10 3.5 N, the frame
+    ENSURE(text.find(",0,3.5,0,0,0\n") != std::string::npos);
+    std::remove("validity_trace.csv");
+    // Without a map: no value, never beyond.
+    const std::vector<unsigned char> plain = modalrt::write_basis(modalrt::make_lattice_cantilever());
+    modalrt_basis                   *other = nullptr;
+    ENSURE(modalrt_basis_load_memory(plain.data(), plain.size(), &other) == MODALRT_OK);
+    ENSURE(!modalrt_tool::has_validity_map(other));
+    const auto none = modalrt_tool::find_presses(press_trace(other, 15, force, std::vector<std::uint32_t>(7, 0)), 1, other, true, 5);
+    ENSURE(none.size() == 1 && std::isnan(none[0].validity_force) && !none[0].beyond);
+    modalrt_basis_destroy(other);
+    modalrt_basis_destroy(basis);
   }
 } // namespace
 
@@ -90,6 +134,7 @@ int main()
       fail_safe_plateau(basis);
       held_throughout(basis);
     }
+  beyond_validity();
   modalrt_basis_destroy(basis);
   return test::finish("test_presses");
 }

@@ -575,6 +575,83 @@ time,hip,event,x,y,z
       }
   }
 
+  // The validity map (.mrt 1.2): HIP 0 presses vertex 15 of the tip space (F1, F5, F10 = 0.35, 1.75,
+  // 3.5 N) with the hand about 2.9 N: beyond F5 (the default level), within F10; --validity-clamp holds
+  // the rendered force at F5. trace.csv's beyond and validity_force, presses.csv's columns, stats.json's
+  // counts and the summary's line per press.
+  const char *validity_session = R"(time,hip,event,x,y,z
+0.0,0,target,0.15,0.025,0.02
+0.3,0,target,0.15,0.025,-0.005
+1.0,0,target,0.15,0.025,-0.005
+1.3,0,target,0.15,0.025,0.02
+1.5,-,end
+)";
+
+  void validity()
+  {
+    modalrt::LatticeOptions o = lattice();
+    o.validity_force          = true;
+    ENSURE(modalrt::write_basis_file("run_validity.mrt", modalrt::make_lattice_cantilever(o)));
+    write_text("run_validity.csv", validity_session);
+    const std::string files = "--basis run_validity.mrt --session run_validity.csv --no-plot --trace-rate 1000";
+    const char *dirs[] = {"run_out_validity", "run_out_validity_clamp", "run_out_validity_10"};
+    int         which  = 0;
+    for (const char *variant : {"", " --validity-clamp", " --validity-level 10"})
+      {
+        const std::string dir = dirs[which++];
+        std::string       out;
+        ENSURE(run(files + " --output-dir " + dir + variant, out) == 0);
+        const std::string stats   = read_text(dir + "/stats.json");
+        const auto        trace   = read_csv(dir + "/trace.csv");
+        const auto        presses = read_csv(dir + "/presses.csv");
+        ENSURE(trace.size() > 1);
+        if (trace.size() < 2)
+          continue;
+        const bool        clamp = std::string(variant) == " --validity-clamp", ten = !clamp && variant[0];
+        const double      Fv    = ten ? 3.5 : 1.75;
+        std::size_t       flagged = 0, mismatches = 0;
+        double            largest = 0.0;
+        const std::size_t beyond = column(trace[0], "hip0_beyond"), force = column(trace[0], "hip0_validity_force");
+        const std::size_t fx = column(trace[0], "hip0_fx"), contact = column(trace[0], "hip0_contact");
+        for (std::size_t r = 1; r < trace.size(); ++r)
+          {
+            const double F = std::hypot(std::stod(trace[r][fx]), std::stod(trace[r][fx + 1]), std::stod(trace[r][fx + 2]));
+            flagged += trace[r][beyond] == "1";
+            if (trace[r][contact] == "1")
+              {
+                largest = std::max(largest, F);
+                mismatches += std::fabs(std::stod(trace[r][force]) - Fv) > 1e-9;
+                if (!clamp)
+                  mismatches += (trace[r][beyond] == "1") != (F > Fv);
+              }
+          }
+        std::printf("validity%s: %zu of %zu ticks beyond F%d = %.2f N, largest force %.17g N, stats.json "
+                    "beyond_ticks %g\n",
+                    variant, flagged, trace.size() - 1, ten ? 10 : 5, Fv, largest, json_number(stats, "beyond_ticks"));
+
+        ENSURE(mismatches == 0);
+        ENSURE(json_number(stats, "beyond_ticks") == double(flagged)); // every tick traced: the counts agree
+        ENSURE(json_number(stats, "level_percent") == (ten ? 10 : 5));
+        ENSURE(contains(stats, clamp ? "\"clamp\": true" : "\"clamp\": false") && contains(stats, "\"map\": true"));
+        ENSURE(presses.size() == 2);
+        if (presses.size() == 2)
+          ENSURE(presses[1][column(presses[0], "beyond_validity")] == (ten ? "0" : "1"));
+        if (ten)
+          {
+            ENSURE(flagged == 0 && largest > 2.5 && largest < 3.5);
+            ENSURE(contains(out, "within its validity force: up to ") && contains(out, "F10 = 3.5 N"));
+          }
+        else
+          {
+            ENSURE(flagged > 300);
+            ENSURE(contains(out, "beyond its validity force: F5 = 1.75 N, from "));
+            ENSURE(clamp ? largest <= 1.75 + 1e-8 : largest > 2.5); // the trace's 9 digits
+            ENSURE(!clamp || contains(out, "held at it (--validity-clamp)"));
+          }
+      }
+    expect_failure(files + " --output-dir x --validity-level 7", 2, {"--validity-level", "'7'", "1, 5 or 10"});
+  }
+
   void bad_command_lines()
   {
     const std::string files = "--basis " + basis_path + " --session run_two_hips.csv";
@@ -703,6 +780,7 @@ int main()
   stop_on_sigint();
   multi_contact_full_fe();
   slides();
+  validity();
   bad_command_lines();
   serve_writes_no_frames_by_default();
   bad_session_files();

@@ -19,6 +19,8 @@
 //      restarted at 0 without HELLO: accepted (slot free), its first command not in contact.
 //   6. A bridge with sliding contacts (--contact proxy): the command's position is the proxy's, its
 //      HIP flags say SLIDING while it slides, the friction force is mu_d times the normal one.
+//   7. A bridge on a basis with a validity map: the HIP flags say BEYOND_VALIDITY (256) exactly while
+//      the commanded force exceeds the contact's validity force.
 // The only timing asserted is the command rate, within a factor of 2, and the takeover's promptness.
 #include "test_support.h"
 
@@ -139,24 +141,25 @@ namespace
       }
   }
 
-  // The bridge on `port`; `proxy`: with sliding contacts (--contact proxy --friction 0.3,0.2), its
-  // outputs in serve_out_proxy.
-  pid_t start_bridge(int port, bool proxy = false)
+  // The bridge on `port` serving `basis`, its outputs in serve_out<suffix> and its log in
+  // serve_output<suffix>.txt, with the `extra` options.
+  pid_t start_bridge(int port, const std::string &suffix = "", const std::vector<std::string> &extra = {"--frame-rate", "2"},
+                     const std::string &basis = "serve_lattice.mrt")
   {
+    std::vector<std::string> arguments = {MODAL_RT_PROGRAM, "serve", "--basis", basis, "--output-dir",
+                                          "serve_out" + suffix, "--port", std::to_string(port), "--duration", "120"};
+    arguments.insert(arguments.end(), extra.begin(), extra.end());
     const pid_t child = fork();
     if (child == 0)
       {
-        const int out = open(proxy ? "serve_output_proxy.txt" : "serve_output.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int out = open(("serve_output" + suffix + ".txt").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(out, 1);
         dup2(out, 2);
-        const std::string p = std::to_string(port);
-        if (proxy)
-          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir",
-                "serve_out_proxy", "--port", p.c_str(), "--duration", "120", "--contact", "proxy", "--friction",
-                "0.3,0.2", "--no-plot", static_cast<char *>(nullptr));
-        else
-          execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", "serve_lattice.mrt", "--output-dir", "serve_out",
-                "--port", p.c_str(), "--duration", "120", "--frame-rate", "2", static_cast<char *>(nullptr));
+        std::vector<char *> argv;
+        for (std::string &a : arguments)
+          argv.push_back(a.data());
+        argv.push_back(nullptr);
+        execv(MODAL_RT_PROGRAM, argv.data());
         _exit(127);
       }
     return child;
@@ -166,6 +169,42 @@ namespace
   {
     std::this_thread::sleep_for(std::chrono::microseconds(microseconds));
     drain(s, replies, client);
+  }
+
+  // A client of the bridge on loopback `port`: HELLO at x (sequence numbers from `sequence` on) every
+  // 0.5 ms until the first command comes.
+  struct Greeted
+  {
+    sockaddr_in        server{};
+    int                socket = -1;
+    std::vector<Reply> replies;
+    std::uint32_t      sequence = 0;
+  };
+  Greeted greet(int port, std::uint32_t sequence, const double x[3])
+  {
+    Greeted g;
+    g.server.sin_family      = AF_INET;
+    g.server.sin_port        = htons(std::uint16_t(port));
+    g.server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    g.socket                 = udp_socket();
+    g.sequence               = sequence;
+    for (int k = 0; k < 20000 && g.replies.empty(); ++k)
+      {
+        send_to(g.socket, g.server, state_packet(++g.sequence, x, hello));
+        pause_and_drain(g.socket, g.replies, 500);
+      }
+    ENSURE(!g.replies.empty());
+    return g;
+  }
+
+  // The client says BYE at x; the bridge is stopped with SIGINT and must exit 0.
+  void leave_and_stop(Greeted &g, const double x[3], pid_t bridge)
+  {
+    send_to(g.socket, g.server, state_packet(++g.sequence, x, bye));
+    kill(bridge, SIGINT);
+    int status = 0;
+    waitpid(bridge, &status, 0);
+    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
   }
 
   // The largest change of force between consecutive commands of replies[from, to) (both in the
@@ -482,21 +521,13 @@ namespace
   void slide_through_the_bridge(int port, const std::vector<Reply> &snap_replies)
   {
     constexpr std::uint32_t sliding_flag = 128u;
-    const pid_t             bridge       = start_bridge(port, true);
-    sockaddr_in             server{};
-    server.sin_family      = AF_INET;
-    server.sin_port        = htons(std::uint16_t(port));
-    server.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const int          client = udp_socket();
-    std::vector<Reply> replies;
-    std::uint32_t      sequence = 7;
-    double             x[3]     = {0.05, 0.025, 0.015};
-    for (int k = 0; k < 20000 && replies.empty(); ++k)
-      {
-        send_to(client, server, state_packet(++sequence, x, hello));
-        pause_and_drain(client, replies, 500);
-      }
-    ENSURE(!replies.empty());
+    const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot"});
+    double      x[3]   = {0.05, 0.025, 0.015};
+    Greeted     g      = greet(port, 7, x);
+    const int   client = g.socket;
+    const sockaddr_in   server   = g.server;
+    std::vector<Reply> &replies  = g.replies;
+    std::uint32_t      &sequence = g.sequence;
     std::vector<std::array<double, 3>> sent; // the HIP position of each sequence number from the first
     const std::uint32_t                first = sequence + 1;
     const int                          press = 800, drag = 2000; // 0.5 ms each
@@ -511,11 +542,7 @@ namespace
         sent.push_back({x[0], x[1], x[2]});
         pause_and_drain(client, replies, 500);
       }
-    send_to(client, server, state_packet(++sequence, x, bye));
-    kill(bridge, SIGINT);
-    int status = 0;
-    waitpid(bridge, &status, 0);
-    ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    leave_and_stop(g, x, bridge);
     const double K = 1000.0, mu_d = 0.2; // [N/m] the default coupling, the bridge's --friction
     std::size_t  sliding = 0;
     double       worst_ratio = 0.0, worst_gap = 0.0, lag = 0.0;
@@ -544,6 +571,57 @@ namespace
     const std::string stats = read_text("serve_out_proxy/stats.json");
     ENSURE(json_number(stats, "length_m") > 0.03); // its slide, found by the loop as run's
     close(client);
+  }
+  // 7. The validity map through the bridge: on a basis with one (vertex 15 of the tip space: F5 =
+  // 1.75 N, the default level), a client presses 8 mm into it and lifts off; every command in contact
+  // carries BEYOND_VALIDITY (256) in its HIP flags exactly when its force exceeds 1.75 N; stats.json
+  // counts them. The first bridge's basis has no map: never flagged.
+  void validity_through_the_bridge(int port, const std::vector<Reply> &plain_replies)
+  {
+    constexpr std::uint32_t beyond_flag = 256u;
+    modalrt::LatticeOptions o;
+    o.patch_radius   = 0.03;
+    o.damping        = {0.7, 0.7};
+    o.validity_force = true;
+    ENSURE(modalrt::write_basis_file("serve_validity.mrt", modalrt::make_lattice_cantilever(o)));
+    const pid_t bridge = start_bridge(port, "_validity", {"--no-plot"}, "serve_validity.mrt");
+    double      x[3]   = {0.15, 0.025, 0.015};
+    Greeted     g      = greet(port, 3, x);
+    for (int k = 0; k < 3000; ++k) // 0.5 ms each: down 13 mm (8 mm below the top face) and back up
+      {
+        const double s = k < 1500 ? k / 1500.0 : (3000 - k) / 1500.0;
+        x[2]           = 0.015 - 0.013 * s * s * (3 - 2 * s);
+        send_to(g.socket, g.server, state_packet(++g.sequence, x));
+        pause_and_drain(g.socket, g.replies, 500);
+      }
+    leave_and_stop(g, x, bridge);
+    std::size_t flagged = 0, contact = 0, mismatches = 0, plain_flagged = 0;
+    double      largest = 0.0;
+    for (const Reply &r : g.replies)
+      {
+        if (r.hips != 1)
+          continue;
+        const bool beyond = (r.hip_flags & beyond_flag) != 0;
+        flagged += beyond;
+        if (r.in_contact)
+          {
+            ++contact;
+            largest = std::max(largest, norm(r.force));
+            mismatches += beyond != (norm(r.force) > 1.75);
+          }
+        else
+          mismatches += beyond;
+      }
+    for (const Reply &r : plain_replies)
+      plain_flagged += (r.hip_flags & beyond_flag) != 0;
+    const std::string stats = read_text("serve_out_validity/stats.json");
+    std::printf("  validity through the bridge: %zu of %zu commands in contact flagged BEYOND_VALIDITY (|F| > F5 = "
+                "1.75 N, up to %.3f N), %zu mismatches; stats.json beyond_ticks %g; the bridge without a map: %zu "
+                "flagged\n",
+                flagged, contact, largest, mismatches, json_number(stats, "beyond_ticks"), plain_flagged);
+    ENSURE(flagged > 100 && contact > flagged && mismatches == 0 && plain_flagged == 0);
+    ENSURE(json_number(stats, "beyond_ticks") >= double(flagged)); // every tick counted, commands sent or not
+    close(g.socket);
   }
 } // namespace
 
@@ -591,5 +669,6 @@ int main()
   close(c.restarted);
   close(c.stranger);
   slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
+  validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies);
   return test::finish("test_serve");
 }

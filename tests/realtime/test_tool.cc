@@ -3,6 +3,7 @@
 // corrupt file is reported with its name and a non-zero exit status. info --vertex / --near: a
 // vertex's felt stiffness equals 1 / (n^T (B Lambda^-1 B^T + C) n) from the basis content at a
 // candidate and says "modal only" elsewhere; --near finds the vertex at a point; bad values are named.
+// The validity map (VALIDITY_FORCE): info lists its lowest forces per space, --vertex the three forces.
 // The felt-stiffness map (FELT_STIFFNESS): info prints per space its range over the space's region and
 // its 5 softest spots, the numbers of the map written; --vertex prints the scene's map at the vertex,
 // which at a candidate equals the full-FE felt stiffness from B, Lambda and C.
@@ -236,6 +237,37 @@ namespace
     ENSURE(run("info --basis tool_map.mrt --vertex 3", out) == 0 && contains(out, "felt-stiffness map: none in this file"));
     std::remove("tool_map.mrt");
   }
+
+  // The validity map (VALIDITY_FORCE): info lists per space how many vertices of its region have an F5
+  // and the 5 lowest with F1, F5, F10 ("not reached" for 1e30); --vertex the three at a vertex.
+  void validity_map()
+  {
+    modalrt::LatticeOptions o;
+    o.validity_force              = true;
+    const modalrt::BasisContent c = modalrt::make_lattice_cantilever(o);
+    ENSURE(modalrt::write_basis_file("tool_validity.mrt", c));
+    std::string out;
+    ENSURE(run("info --basis tool_validity.mrt", out) == 0);
+    const std::size_t at = out.find("validity map (VALIDITY_FORCE");
+    ENSURE(at != std::string::npos);
+    if (at == std::string::npos)
+      return;
+    std::printf("%s", out.substr(at, out.find("\nsection") - at).c_str());
+    // Space 1 'tip' (x >= 0.12 m): its lowest F5 at x = 0.125 m, F_p = p 0.2 N (1 + x / 0.2 m).
+    ENSURE(contains(out, "space 1 'tip': F5 at 12 of its region's 12 vertices"));
+    ENSURE(contains(out, "lowest 1: vertex 5 at (125.000, 0.000, 10.000) mm: F1 0.325 N, F5 1.625 N, F10 3.25 N"));
+    ENSURE(contains(out, "space 0 'global': F5 at 12 of its region's 15 vertices")); // none on the clamped column
+    ENSURE(!contains(out, "lowest 6:"));
+    ENSURE(run("info --basis tool_validity.mrt --vertex 17", out) == 0);
+    ENSURE(contains(out, "validity map: F1 0.4 N, F5 2 N, F10 not reached (its region's space 1"));
+    ENSURE(run("info --basis tool_validity.mrt --vertex 0", out) == 0);
+    ENSURE(contains(out, "validity map: F1 -, F5 -, F10 - (its region's space 0"));
+    o.validity_force = false;
+    ENSURE(modalrt::write_basis_file("tool_validity.mrt", modalrt::make_lattice_cantilever(o)));
+    ENSURE(run("info --basis tool_validity.mrt", out) == 0 && contains(out, "validity map: none in this file"));
+    ENSURE(run("info --basis tool_validity.mrt --vertex 3", out) == 0 && contains(out, "validity map: none in its region's space 0"));
+    std::remove("tool_validity.mrt");
+  }
 } // namespace
 
 int main()
@@ -245,5 +277,6 @@ int main()
   corrupt_file();
   vertex_info();
   felt_stiffness_map();
+  validity_map();
   return test::finish("test_tool");
 }

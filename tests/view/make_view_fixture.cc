@@ -1,7 +1,8 @@
 // Writes a synthetic basis for the view's browser test and benchmark:
 //   make_view_fixture lattice FILE           the lattice cantilever (exact modes, candidates with
 //                                            static corrections, cross compliance, float64 modes, the
-//                                            felt-stiffness map at the candidates, 0 at the clamped edge)
+//                                            felt-stiffness map at the candidates, 0 at the clamped edge,
+//                                            the made-up validity map of synthetic_scene.h at the candidates)
 //   make_view_fixture plate FILE NX NY R     the analytic plate with NX x NY display vertices and R
 //                                            modes per space (float32 modes), for the 100k benchmark
 #include "synthetic_scene.h"
@@ -22,6 +23,7 @@ int main(int argc, char **argv)
       o.ny           = 4;
       o.patch_radius = 0.02; // [m] a patch of a few vertices at this spacing (16.7 mm)
       o.felt_stiffness = true;
+      o.validity_force = true;
       ok             = modalrt::write_basis_file(argv[2], modalrt::make_lattice_cantilever(o), &error);
     }
   else if (kind == "plate" && argc == 6)

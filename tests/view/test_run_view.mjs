@@ -34,7 +34,8 @@ function parseFrame(buffer) {
   if (dv.getUint32(0, true) !== 0x4654524d) return null;
   const r = dv.getUint32(44, true), hips = dv.getUint32(48, true), contacts = dv.getUint32(52, true);
   const frame = { tick: dv.getFloat64(56, true), hips: [] };
-  for (let h = 0, o = 120 + 8 * r + 32 * contacts; h < hips; ++h, o += 96)
+  const perHip = dv.getUint32(4, true) >= 2 ? 104 : 96; // version 2 added each HIP's validity force
+  for (let h = 0, o = 120 + 8 * r + 32 * contacts; h < hips; ++h, o += perHip)
     frame.hips.push({ inContact: dv.getUint32(o, true), force: [0, 1, 2].map((c) => dv.getFloat64(o + 16 + 8 * c, true)) });
   return frame;
 }

@@ -22,6 +22,9 @@
 //     the kernel reads from the .mrt (`modal-rt info --vertex V`, modalrt_basis_felt_stiffness) within
 //     float32's 1e-6; the legend's ends are the map's smallest and largest values (info's ranges per
 //     space); a vertex of the clamped edge says "not computed";
+//   - the validity map (the fixture has one): a light press is within its validity force, the full
+//     press beyond it; each time the page's flag, the HIP's colour (white beyond), the panel's validity
+//     force and the plot's dashed line equal the kernel's (GET /api/state: flags & 256, validity_force_n);
 //   - on Ctrl-C it exits 0 and its haptic thread (the run loop with the mouse device) allocated nothing.
 // Usage: node test_view_browser.mjs --modal-rt BIN --basis FILE [--screenshot PNG]
 import { execFileSync, spawn } from 'node:child_process';
@@ -95,7 +98,10 @@ try {
   const at = await page.evaluate((v) => window.viewDebug.project(v), vertex);
   await page.mouse.move(at.x, at.y);
   await page.mouse.down();
-  for (let k = 1; k <= 10; ++k) await page.mouse.move(at.x, at.y + 8 * k);
+  await page.mouse.move(at.x, at.y + 8);
+  await page.waitForTimeout(600); // a light press first: within its validity force (about 0.6 N < F5 = 1.92 N)
+  const light = await checkValidity(page, url, 'a light press');
+  for (let k = 2; k <= 10; ++k) await page.mouse.move(at.x, at.y + 8 * k);
   await page.waitForTimeout(2500); // hold: frames keep arriving while the part rings down
 
   const shown = await page.evaluate(() => {
@@ -127,6 +133,9 @@ try {
   check(formatted[0] === '0 mm' && formatted[1] === '0.1101 mm', `lengths: 2.2e-96 m prints as ${formatted[0]}, 1.100891e-4 m as ${formatted[1]} (4 digits)`);
   check(shown.receivedFps >= 30, `frames arriving per second ${shown.receivedFps.toFixed(1)} >= 30 (drawn: ${shown.fps.toFixed(1)})`);
   console.log(`figures: ${shown.bytes} bytes/frame, basis ${shown.basisBytes} bytes once, frame age tick->screen p50 ${shown.ageP50} ms p95 ${shown.ageP95} ms`);
+
+  const hard = await checkValidity(page, url, 'the press');
+  check(!light && hard, `the light press was within its validity force, the full press beyond it (the HIP white while beyond)`);
 
   // Not blank: the canvas has many colors and few background pixels dominate less than 99 %.
   const pixels = await page.evaluate(measureCanvas);
@@ -160,6 +169,27 @@ try {
   server.kill('SIGINT');
 }
 finish();
+
+// The validity map (the fixture's: F1, F5, F10 = 0.2, 1, 2 N x (1 + x / 0.2 m) at the candidates): the
+// page's HIP 0 against the kernel's output (GET /api/state): the BEYOND_VALIDITY flag (256), the sphere's
+// colour (white beyond, its own colour within), the panel's validity force and state, and the plot's
+// dashed line at the kernel's validity force. Returns whether the kernel said beyond.
+async function checkValidity(page, url, what) {
+  await page.waitForTimeout(200);
+  const shown = await page.evaluate(() => {
+    const s = window.viewState, cell = document.getElementById('hip0-validity');
+    return { hip: s.hips[0], line: s.plotValidity?.[0] ?? null, value: cell ? Number(cell.dataset.value) : NaN,
+      beyondShown: cell ? cell.dataset.beyond === '1' : null, text: cell?.textContent };
+  });
+  const kernel = (await (await fetch(`${url}api/state`)).json()).hips[0];
+  const beyond = (kernel.flags & 256) !== 0, F = Math.hypot(...kernel.force), Fv = kernel.validity_force_n;
+  check(Fv > 0 && shown.value === Fv && shown.hip.validityForce === Fv && shown.line === Fv,
+    `${what}: the kernel's validity force F5 ${Fv} N is the panel's (${shown.value}) and the plot's dashed line (${shown.line})`);
+  check(shown.hip.beyond === beyond && shown.beyondShown === beyond && beyond === F > Fv
+    && shown.hip.sphereColor === (beyond ? 0xffffff : 0xff4fd8),
+    `${what}: ${F.toFixed(4)} N ${beyond ? '>' : '<='} ${Fv.toFixed(4)} N: the kernel's flag ${beyond ? 'BEYOND' : 'within'}, the page's the same, sphere #${shown.hip.sphereColor.toString(16)} ("${shown.text}")`);
+  return beyond;
+}
 
 // After the release the force-displacement plot still holds the press's curve.
 async function checkPlotKept(page) {

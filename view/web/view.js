@@ -199,6 +199,11 @@ const voiBoxes = info.spaces.map((s, index) => {
 // HIPs: a sphere at the felt position (a sliding contact's proxy), the force arrow, the proxy's path.
 const PATH_POINTS = 20000;
 const hipColors = Array.from({ length: session.hips }, (_, h) => [0xff4fd8, 0x4fffe0, 0xffd24f, 0x8fff4f][h % 4]);
+// A HIP whose force is beyond its contact's validity force (MODALRT_HIP_BEYOND_VALIDITY, flag 256: the
+// linear model's stiffness no longer holds to the kernel's level there) is drawn white (the one colour
+// the live |u| scale never uses: the part under a hard press is dark red), its panel row in red.
+const BEYOND_VALIDITY = 256, beyondColor = 0xffffff, beyondText = '#ff5a3a';
+const validityLevel = session.validity_level ?? 5;
 const hips = hipColors.map((_, h) => {
   const sphere = new THREE.Mesh(new THREE.SphereGeometry(size * 0.006), new THREE.MeshBasicMaterial({ color: hipColors[h] }));
   const arrow = new THREE.ArrowHelper(new THREE.Vector3(0, 0, -1), new THREE.Vector3(), size * 0.1, hipColors[h]);
@@ -214,7 +219,7 @@ const hips = hipColors.map((_, h) => {
   const path = new THREE.Line(pathGeometry, new THREE.LineBasicMaterial({ color: hipColors[h], depthTest: false }));
   path.renderOrder = 1;
   scene.add(path);
-  return { sphere, arrow, label, history: [], vertex: null, path, pathPoints: 0 }; // vertex: of the press the history is of
+  return { sphere, arrow, label, history: [], vertex: null, path, pathPoints: 0, validityForce: 0 }; // vertex: of the press the history is of
 });
 
 // Validation points (offline side).
@@ -246,11 +251,11 @@ function parseFrame(buffer) {
   for (let k = 0; k < contactCount; ++k, o += 32)
     f.contacts.push({ vertex: dv.getUint32(o, true), c: [dv.getFloat64(o + 8, true), dv.getFloat64(o + 16, true), dv.getFloat64(o + 24, true)] });
   f.hips = [];
-  for (let h = 0; h < hipCount; ++h, o += 96) {
+  for (let h = 0; h < hipCount; ++h, o += 104) {
     const v3 = (p) => [dv.getFloat64(p, true), dv.getFloat64(p + 8, true), dv.getFloat64(p + 16, true)];
     f.hips.push({ inContact: dv.getUint32(o, true), vertex: dv.getUint32(o + 4, true), fullFe: dv.getUint32(o + 8, true),
       flags: dv.getUint32(o + 12, true), force: v3(o + 16), kernelDisplacement: v3(o + 40), felt: v3(o + 64),
-      staticStiffness: dv.getFloat64(o + 88, true) });
+      staticStiffness: dv.getFloat64(o + 88, true), validityForce: dv.getFloat64(o + 96, true) });
   }
   f.bytes = buffer.byteLength;
   return f;
@@ -353,6 +358,7 @@ function trackPresses(f) {
     } else if (view.vertex !== hip.vertex) { view.history = []; view.vertex = hip.vertex; newPress = true; }
     hip.js = vertexDisplacement(f, hip.vertex);
     view.history.push([Math.max(0, alongNormal(hip.felt, hip.vertex)), Math.hypot(...hip.force)]);
+    view.validityForce = hip.validityForce; // the plot's validity line: the press's, kept after the release
     if (view.history.length > 2000) view.history.shift();
   });
   if (newPress) live.scaleMax = SCALE_FLOOR;
@@ -449,7 +455,16 @@ function hipPanel(h, hip, space) {
     <div class="row"><span>|u| (magnitude)</span><span class="num" id="hip${h}-u" data-value="${hip.js.join(',')}">${formatMm(Math.hypot(...hip.js), live.scaleMax)}</span></div>
     <div class="row"><span>u·n (along the surface normal)</span><span class="num" id="hip${h}-un">${formatMm(along, live.scaleMax)}</span></div>
     <div class="row"><span>felt stiffness (live) F/(u·n)</span><span class="num">${fmt(felt)} N/mm</span></div>
-    <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>${state.sliding ? proxyRows(h, hip) : ''}`;
+    <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>${validityRow(h, hip, F)}${state.sliding ? proxyRows(h, hip) : ''}`;
+}
+
+// The contact's validity force at the kernel's level, and whether the force is beyond it (the kernel's flag).
+function validityRow(h, hip, F) {
+  if (!info.validity_map) return '';
+  const beyond = (hip.flags & BEYOND_VALIDITY) !== 0;
+  const text = !(hip.validityForce > 0) ? 'no value here' : hip.validityForce >= 1e29 ? 'not reached'
+    : `${fmt(hip.validityForce)} N: ${beyond ? 'BEYOND (linear stiffness off by more than ' + validityLevel + ' %)' : `within (${F.toFixed(3)} N)`}`;
+  return `<div class="row"><span>validity force F${validityLevel}</span><span class="num" id="hip${h}-validity" data-value="${hip.validityForce}" data-beyond="${beyond ? 1 : 0}"${beyond ? ` style="color:${beyondText}"` : ''}>${text}</span></div>`;
 }
 
 // A sliding contact: whether its proxy slides, the force across the normal (friction) and along it.
@@ -466,6 +481,9 @@ function drawPlot(pressing) {
   g.clearRect(0, 0, canvas.width, canvas.height);
   let maxU = 1e-6, maxF = 1e-3;
   for (const hip of hips) for (const [u, f] of hip.history) { maxU = Math.max(maxU, u); maxF = Math.max(maxF, f); }
+  // A press's validity force as a dashed line, when within five times the largest force shown (the scale grows to it).
+  const lines = hips.map((hip) => (hip.history.length && hip.validityForce > 0 && hip.validityForce <= 5 * maxF ? hip.validityForce : null));
+  for (const line of lines) if (line !== null) maxF = Math.max(maxF, 1.05 * line);
   g.strokeStyle = '#555'; g.strokeRect(40, 10, canvas.width - 50, canvas.height - 40);
   g.fillStyle = '#aaa'; g.font = '20px sans-serif';
   g.fillText(`u·n [mm], along the surface normal (max ${(maxU * 1000).toPrecision(3)})`, 50, canvas.height - 5);
@@ -478,8 +496,13 @@ function drawPlot(pressing) {
       if (i) g.lineTo(x, y); else g.moveTo(x, y);
     });
     g.stroke();
+    if (lines[h] === null) return;
+    const y = canvas.height - 30 - (lines[h] / maxF) * (canvas.height - 40);
+    g.setLineDash([10, 8]); g.beginPath(); g.moveTo(40, y); g.lineTo(canvas.width - 10, y); g.stroke(); g.setLineDash([]);
+    g.fillText(`F${validityLevel} validity ${lines[h].toPrecision(3)} N`, canvas.width - 260, y - 6);
   });
   state.plotPoints = hips.map((hip) => hip.history.length);
+  state.plotValidity = lines;
 }
 
 // Live amplification: automatic (the largest |u| drawn as 6 % of the part's size, at least ×1) until
@@ -541,6 +564,9 @@ function showHip(hip, h, e, tick) {
   view.label.style.display = show ? 'block' : 'none';
   if (!show) return { inContact: 0 };
   const F = Math.hypot(...hip.force);
+  const beyond = (hip.flags & BEYOND_VALIDITY) !== 0, color = beyond ? beyondColor : hipColors[h];
+  view.sphere.material.color.setHex(color); view.arrow.setColor(color);
+  view.label.style.color = `#${color.toString(16).padStart(6, '0')}`;
   // At the felt point; a proxy's offset from its vertex is not amplified, the part's displacement is.
   const at = state.sliding ? new THREE.Vector3(...hip.position).add(new THREE.Vector3(...hip.js).multiplyScalar(e - 1))
     : restPosition(hip.vertex).add(new THREE.Vector3(...hip.js).multiplyScalar(e));
@@ -553,9 +579,10 @@ function showHip(hip, h, e, tick) {
   const p = at.clone().project(camera);
   view.label.style.left = `${(p.x * 0.5 + 0.5) * container.clientWidth + 8}px`;
   view.label.style.top = `${(-p.y * 0.5 + 0.5) * container.clientHeight - 24}px`;
-  view.label.textContent = `${F.toFixed(3)} N`;
+  view.label.textContent = `${F.toFixed(3)} N${beyond ? ` beyond F${validityLevel}` : ''}`;
   return { inContact: 1, vertex: hip.vertex, tick, force: hip.force, forceN: F, displacement: hip.js, kernelDisplacement: hip.kernelDisplacement, felt: hip.felt,
-    position: hip.position, flags: hip.flags, sliding: (hip.flags & 128) !== 0, pathPoints: view.pathPoints, staticStiffness: hip.staticStiffness };
+    position: hip.position, flags: hip.flags, sliding: (hip.flags & 128) !== 0, pathPoints: view.pathPoints, staticStiffness: hip.staticStiffness,
+    beyond, validityForce: hip.validityForce, sphereColor: view.sphere.material.color.getHex() };
 }
 
 // The haptic loop's figures: each over the server's last closed one-second window.

@@ -100,6 +100,20 @@
  *     another region during the slide (the state carried by TRANSFER as at a contact start).
  *   - modalrt_kernel_contact_begin puts the proxy exactly at the vertex.
  *
+ * Validity (a .mrt 1.2 file's validity map, VALIDITY_FORCE; API 3.2)
+ *   - Each display vertex of a space may carry the contact force magnitudes F1, F5, F10 [N] up to
+ *     which the linear felt compliance stays within 1, 5, 10 % of a geometrically nonlinear full-FE
+ *     solve (0: no value there). The kernel compares each contact's force with its validity force at
+ *     validity_level (default 5 %) in the active space: a snap contact's vertex's, a proxy's blend of
+ *     its triangle's corners that have a value (modalrt_basis_point_validity_force), and sets
+ *     MODALRT_HIP_BEYOND_VALIDITY on the HIP's output while |F| exceeds it: F the force commanded
+ *     (impedance) or applied to the part (admittance). Where no value exists the flag is never set.
+ *   - validity_clamp = 1 (impedance) limits the force's magnitude to the validity force, so the part
+ *     is never pressed beyond it; the limit moves at most force_rate_limit per tick (no step of the
+ *     kernel's own when the value under a sliding proxy or a switch of space changes it), and rises
+ *     towards device.max_force where the map has no value. The flag then says the force before the
+ *     clamp is beyond. Fail-safe ticks keep the flag while the force held is beyond the last value.
+ *
  * Units are SI everywhere: m, N, kg, s, rad. Every struct field names its unit.
  */
 #ifndef MODALRT_MODALRT_H
@@ -138,9 +152,13 @@ extern "C" {
  * modalrt_kernel_stats's passivity_energy, MODALRT_HIP_SLIDING.
  * 3.1: modalrt_basis_point_compliance (the static compliance where a proxy sits),
  * modalrt_basis_felt_stiffness (the felt-stiffness map), modalrt_basis_pair_is_exact; reads .mrt 1.1 (the cross compliance
- * between neighbouring candidates only, as compressed rows). */
+ * between neighbouring candidates only, as compressed rows).
+ * 3.2: reads .mrt 1.2 (the validity map, VALIDITY_FORCE); modalrt_basis_validity_forces and
+ * modalrt_basis_point_validity_force; MODALRT_HIP_BEYOND_VALIDITY; modalrt_kernel_def's former
+ * `reserved` is validity_level and its former `reserved2` is validity_clamp (both 0 by default: the
+ * 5 % level, no clamp; a 3.1 application that left them 0 gets the flag and nothing else). */
 #define MODALRT_VERSION_MAJOR 3
-#define MODALRT_VERSION_MINOR 1
+#define MODALRT_VERSION_MINOR 2
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
@@ -287,6 +305,24 @@ MODALRT_API const double   *modalrt_basis_display_normals(const modalrt_basis *b
  * along the normal would feel there with the full FE model, 1 / (n^T W^T K^-1 W n) [N/m] (0 where the
  * space did not compute it); NULL if the file has no map (a .mrt 1.0) or space is out of range. */
 MODALRT_API const double   *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space);
+/* The validity map of a space (.mrt 1.2, section VALIDITY_FORCE): at display vertex v, entries 3 v + 0,
+ * 1, 2 are the contact force magnitudes F1, F5, F10 [N] up to which the linear felt compliance stays
+ * within 1 %, 5 %, 10 % of a geometrically nonlinear full-FE solve; 0 where the space has no value,
+ * 1e30 where the departure is not reached (up to the precompute's force limit); positive entries are
+ * non-decreasing within a vertex (the loader refuses a file that breaks this). NULL if the file has no
+ * map (a .mrt 1.0 or 1.1, or a space the analysis left out) or space is out of range. */
+MODALRT_API const double   *modalrt_basis_validity_forces(const modalrt_basis *basis, uint32_t space);
+/* The validity force [N] at a point of display triangle `triangle` with barycentric weights `weights`
+ * (>= 0, sum 1; a vertex: that corner's weight 1) for departure level `level_percent` (1, 5 or 10):
+ * sum_k w_k F_k / sum_k w_k over the corners k whose F_k at that level is > 0 (a corner without a
+ * value is left out, so the value is continuous as a proxy slides, and equals the stored one at a
+ * vertex). *force is 0 where no corner with a weight has a value (or the space has no map): no
+ * validity force there, never beyond it. What the kernel compares a contact's force with
+ * (MODALRT_HIP_BEYOND_VALIDITY). No allocation.
+ * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, space or triangle out of range, a level other
+ * than 1, 5, 10, weights negative, non-finite or not summing to 1 within 1e-9). */
+MODALRT_API int modalrt_basis_point_validity_force(const modalrt_basis *basis, uint32_t space, uint32_t triangle,
+                                                   const double weights[3], uint32_t level_percent, double *force);
 /* 1 when two HIPs at display vertices a and b of a space feel the full FE answer together: both are
  * candidates and their residual cross compliance is stored (neighbours closer than the precompute's
  * cross compliance radius, or sharing a display triangle), or a == b is a candidate; else 0 (also
@@ -422,7 +458,9 @@ typedef struct modalrt_kernel_def
   uint32_t auto_release;          /* 1: apply the release rules; 0: only modalrt_kernel_release_hip [1] */
   uint32_t snapshot_interval;     /* [ticks] publish a display snapshot every this many ticks, >= 1 [1] */
   uint32_t enable_profile;        /* 1: time every tick (two clock reads) into modalrt_kernel_stats [0] */
-  uint32_t reserved;              /* must be 0 [0] */
+  uint32_t validity_level;        /* [%] departure level of MODALRT_HIP_BEYOND_VALIDITY and validity_clamp: 1, 5
+                                     or 10 (the validity map's F1, F5, F10); 0 means 5 [0: 5 %, below the ~8 %
+                                     stiffness difference a person tells apart] (API 3.2; before: reserved, 0) */
   double   release_drag_distance; /* [m] impedance release: HIP this far from its contact across the normal, > 0 [0.01] */
   double   fail_safe_hold;        /* [s] fail-safe: the last safe force is held this long, 0 .. 10 [0.5] */
   double   fail_safe_ramp;        /* [s] fail-safe: then ramped to zero over this time (at least 2 ticks), > 0 .. 10 [0.05] */
@@ -431,7 +469,10 @@ typedef struct modalrt_kernel_def
                                      device.max_force [0.2] */
   uint32_t grasp;                 /* impedance: 0 releases a contact whose force would pull; 1 lets it pull (a
                                      grasp) until release_distance or release_drag_distance releases it [0] */
-  uint32_t reserved2;             /* must be 0 [0] */
+  uint32_t validity_clamp;        /* impedance: 1 limits the magnitude of the force rendered at a contact to its
+                                     validity force at validity_level (where the map has a value; the limit
+                                     follows the contact at most force_rate_limit per tick, so it never steps);
+                                     0: no such limit [0] (API 3.2; before: reserved2, 0) */
   uint32_t contact_mode;          /* MODALRT_CONTACT_SNAP or MODALRT_CONTACT_PROXY [SNAP] */
   uint32_t reserved_proxy;        /* must be 0 [0] */
   double   static_friction;       /* [-] proxy: Coulomb static coefficient mu_s, 0 .. 10, >= dynamic_friction [0.3] */
@@ -477,7 +518,14 @@ enum
                                             or ramping down (the fail-safe rule above) */
   MODALRT_HIP_FORCE_RAMPING   = 1u << 6, /* impedance: the force is rate-limited to force_rate_limit this
                                             tick (recovery after a fault, or a release ramping to zero) */
-  MODALRT_HIP_SLIDING         = 1u << 7  /* proxy contact: the proxy is sliding (dynamic friction) */
+  MODALRT_HIP_SLIDING         = 1u << 7, /* proxy contact: the proxy is sliding (dynamic friction) */
+  MODALRT_HIP_BEYOND_VALIDITY = 1u << 8  /* in contact, the contact force is beyond its validity force:
+                                            |F| > the validity map's force at validity_level where the
+                                            contact is (a proxy: its corners' blend, as
+                                            modalrt_basis_point_validity_force), F the force commanded
+                                            (impedance; with validity_clamp the force before that clamp)
+                                            or applied (admittance). Never set where the map has no
+                                            value, nor with a file without a map (.mrt 1.0, 1.1) */
 };
 
 typedef struct modalrt_hip_output

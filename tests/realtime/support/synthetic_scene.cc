@@ -320,6 +320,18 @@ namespace modalrt
               sp.felt_stiffness[v] = 1.0 / nGn;
             }
         }
+      if (o.validity_force)
+        {
+          sp.validity_force.assign(3 * std::size_t(nv), 0.0);
+          for (std::uint32_t v : sp.candidates)
+            {
+              const double x = c.vertices[3 * std::size_t(v)];
+              for (int p = 0; p < 3; ++p)
+                sp.validity_force[3 * std::size_t(v) + p] = (p == 0 ? 1 : 5 * p) * o.validity_unit * (1.0 + x / o.length);
+              if (v % o.nx == o.nx - 1)
+                sp.validity_force[3 * std::size_t(v) + 2] = 1e30;
+            }
+        }
       const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
       if (o.cross && nc > 0)
         {

@@ -54,6 +54,11 @@ namespace modalrt
     std::uint32_t validation_vertices = 3;  // per space, x 3 directions
     bool          felt_stiffness   = false; // store FELT_STIFFNESS: at each candidate of a space the exact
                                             // 1 / (n^T W^T K^-1 W n) [N/m] (n: mrt's area-weighted normal), 0 elsewhere
+    bool          validity_force   = false; // store VALIDITY_FORCE (.mrt 1.2), a made-up map with simple numbers: at
+                                            // each candidate of a space F_p = p validity_unit (1 + x / length) for
+                                            // p = 1, 5, 10 % (x its rest x), except F10 = 1e30 (not reached) in the
+                                            // last column (x = length); 0 elsewhere (no value)
+    double        validity_unit    = 0.2;   // [N]
   };
 
   BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());
