@@ -138,6 +138,7 @@ private:
   void  slide_proxy(Contact &contact, const modalrt::BodyInput &in) noexcept;
   void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
   bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
+  bool  creased(Contact &contact, int corner, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
   int   acquire_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *keep) noexcept;
   std::uint32_t add_row_entries(modalrt::ProxyRow &row, std::uint32_t budget) const noexcept;

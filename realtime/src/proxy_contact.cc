@@ -622,24 +622,118 @@ void modalrt_kernel::face_normal(const Contact &c, double n[3]) const noexcept
     n[d] = length > 0.0 ? sign * face[d] / length : outward[d];
 }
 
+// Whether the proxy, on the edge of its triangle opposite `corner`, cannot cross it with `step`: a
+// boundary edge, or a crease, where the neighbour across it, as deformed, has the step point back
+// across the edge (its corner off the edge would lose weight): each face hands the step to the
+// other, and a walk that crossed would come straight back. A crease is not reported where that is
+// not known without building a row (the neighbour's corner row not ready in a slot): the walk then
+// crosses, and its entry rule catches it.
+bool modalrt_kernel::creased(Contact &c, int corner, const double step[3]) noexcept
+{
+  ProxyState         &proxy = c.proxy;
+  const std::uint32_t next  = basis.adjacency.neighbour(proxy.triangle, corner);
+  if (next == MODALRT_NONE)
+    return true;
+  const std::uint32_t *from = &basis.triangles[3 * std::size_t(proxy.triangle)];
+  const std::uint32_t *to   = &basis.triangles[3 * std::size_t(next)];
+  double               Y[3][3], dw[3];
+  int                  off = -1;
+  for (int j = 0; j < 3; ++j)
+    {
+      const double *u = nullptr;
+      for (int k = 0; k < 3; ++k)
+        if (to[j] == from[k])
+          u = proxy.corner(k).u;
+      if (!u)
+        {
+          const int slot = find_slot(proxy, to[j]);
+          if (slot < 0 || !proxy.rows[slot].ready)
+            return false;
+          ProxyRow &row = proxy.rows[slot];
+          if (row.u_stamp != state_stamp_)
+            dot_rows3(row.B, q_.data(), mode_count(), row.u), row.u_stamp = state_stamp_;
+          u = row.u, off = j;
+        }
+      for (int d = 0; d < 3; ++d)
+        Y[j][d] = basis.vertices[3 * std::size_t(to[j]) + d] + u[d];
+    }
+  return off >= 0 && barycentric_step(triangle_system(Y), step, dw) && dw[off] < 0.0;
+}
+
 // Moves the proxy by `step` (body frame, tangential) over the deformed surface: within a triangle
 // by its barycentric weights, across an edge into the neighbouring triangle with what is left of
-// the step, at most proxy_edge_budget edges; it stops at a boundary edge. True if it moved.
+// the step, at most proxy_edge_budget edges; at a boundary edge it goes along it. True if it moved.
+//
+// On an edge or a vertex (weights exactly 0, as a walk leaves them) a step that leaves the triangle
+// at once is resolved so that the walk makes progress instead of handing the proxy back and forth
+// (a slide along a row of mesh edges stalled so: 15 crossings a tick, handed between the two
+// triangles of an edge, until released):
+// - across a boundary edge or into a crease (creased; or the edge this walk just came in through,
+//   whose triangle pointed the step here): the step's part along the edge, the proxy stays on the
+//   edge (the line both faces lead to) until it reaches a vertex;
+// - at a vertex, leaving through both edges: never back through the edge it came in through, else
+//   away from the corner the step turns from most (the smaller cosine with its edge), so that the
+//   walk goes round the vertex's fan one way until the triangle that holds the step.
 bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
 {
   ProxyState &proxy = c.proxy;
   double      remaining[3] = {step[0], step[1], step[2]};
   bool        moved        = false;
+  int         entry        = -1; // the corner opposite the edge this walk entered the triangle through
   for (std::uint32_t crossing = 0; crossing <= proxy_edge_budget; ++crossing)
     {
-      double dw[3];
-      if (!barycentric_step(deformed_triangle(basis, proxy, state_stamp_).system, remaining, dw))
+      const DeformedTriangle &Y = deformed_triangle(basis, proxy, state_stamp_);
+      double                  dw[3];
+      if (!barycentric_step(Y.system, remaining, dw))
         break;
-      int          exit;
-      const double s = advance(proxy.weights, dw, exit);
-      moved          = moved || s > 0.0;
+      int leaving[2], count = 0; // corners at 0 that the step would make negative
+      for (int k = 0; k < 3; ++k)
+        if (proxy.weights[k] == 0.0 && dw[k] < 0.0)
+          leaving[count++] = k;
+      int exit = -1;
+      if (count == 2) // at a vertex
+        {
+          const int v = 3 - leaving[0] - leaving[1];
+          auto      turn = [&](int k) {
+            double e[3];
+            for (int d = 0; d < 3; ++d)
+              e[d] = Y.Y[k][d] - Y.Y[v][d];
+            return dot3(remaining, e) / norm3(e);
+          };
+          exit = leaving[0] == entry ? leaving[1]
+                 : leaving[1] == entry ? leaving[0]
+                 : turn(leaving[0]) <= turn(leaving[1]) ? leaving[0] : leaving[1];
+        }
+      else if (count == 1 && (leaving[0] == entry || creased(c, leaving[0], remaining)))
+        {
+          // Along the edge: its ends a, b, the corner off it stays at 0.
+          const int k = leaving[0], a = (k + 1) % 3, b = (k + 2) % 3;
+          double    e[3];
+          for (int d = 0; d < 3; ++d)
+            e[d] = Y.Y[b][d] - Y.Y[a][d];
+          const double t = dot3(remaining, e) / dot3(e, e);
+          dw[k] = 0.0, dw[a] = -t, dw[b] = t;
+          if ((proxy.weights[a] == 0.0 && t > 0.0) || (proxy.weights[b] == 0.0 && t < 0.0))
+            break; // at a vertex, the edge leads away: nowhere to go from here this time
+          int          end;
+          const double s = advance(proxy.weights, dw, end);
+          moved          = moved || s > 0.0;
+          if (end < 0)
+            break;
+          for (double &r : remaining) // at the vertex: the next pass of the loop leaves it
+            r *= 1.0 - s;
+          continue;
+        }
+      else if (count == 1)
+        exit = leaving[0];
+      double s = 0.0;
       if (exit < 0)
-        break;
+        {
+          s     = advance(proxy.weights, dw, exit);
+          moved = moved || s > 0.0;
+          if (exit < 0)
+            break;
+        }
       const std::uint32_t next = basis.adjacency.neighbour(proxy.triangle, exit);
       if (next == MODALRT_NONE)
         break;
@@ -656,7 +750,8 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
       ++proxy.crossings;
       proxy.packed_triangle = MODALRT_NONE;
       for (int j = 0; j < 3; ++j) // the new corner: its row from the look-ahead (or built now)
-        slot[j] = slot[j] >= 0 ? slot[j] : corner_row(c, to[j], to);
+        if (slot[j] < 0)
+          slot[j] = corner_row(c, to[j], to), entry = j;
       for (int j = 0; j < 3; ++j)
         proxy.corner_slot[j] = std::uint8_t(slot[j]), proxy.rows[slot[j]].stamp = proxy.crossings;
       proxy.triangle = next;

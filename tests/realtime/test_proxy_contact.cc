@@ -43,13 +43,13 @@ namespace
   // A HIP's path: position and velocity at time t.
   using Path = std::function<void(double t, double x[3], double v[3])>;
 
-  // Along x at `speed` from x0 to x1 (velocity eased in and out over 50 ms), after 0.3 s pressing in
-  // to `depth` below the top at x0 and 0.2 s holding there.
-  Path slide_path(double x0, double x1, double y, double z_top, double depth, double speed)
+  // Along a straight line at `speed` from (x0, y0) to (x1, y1) (velocity eased in and out over 50
+  // ms), after 0.3 s pressing in to `depth` below the top at (x0, y0) and 0.2 s holding there.
+  Path line_path(double x0, double y0, double x1, double y1, double z_top, double depth, double speed)
   {
     return [=](double t, double x[3], double v[3]) {
       const double press = std::min(1.0, t / 0.3), ease = press * press * (3 - 2 * press);
-      const double travel = std::fabs(x1 - x0), ramp = 0.05, cruise = travel / speed - ramp;
+      const double travel = std::hypot(x1 - x0, y1 - y0), ramp = 0.05, cruise = travel / speed - ramp;
       const double s = std::max(0.0, t - 0.5);
       double       along, rate;
       if (s < ramp) // velocity speed (3 tau^2 - 2 tau^3): distance speed ramp (tau^3 - tau^4 / 2)
@@ -64,10 +64,16 @@ namespace
           const double tau = std::min(1.0, (s - ramp - cruise) / ramp), u = 1 - tau;
           along = travel - speed * ramp * (u * u * u - 0.5 * u * u * u * u), rate = speed * u * u * (3 - 2 * u);
         }
-      const double sign = x1 >= x0 ? 1.0 : -1.0;
-      x[0] = x0 + sign * along, x[1] = y, x[2] = z_top + 0.001 - (0.001 + depth) * ease;
-      v[0] = sign * rate, v[1] = 0.0, v[2] = t < 0.3 ? -(0.001 + depth) * 6 * press * (1 - press) / 0.3 : 0.0;
+      const double ex = travel > 0.0 ? (x1 - x0) / travel : 0.0, ey = travel > 0.0 ? (y1 - y0) / travel : 0.0;
+      x[0] = x0 + ex * along, x[1] = y0 + ey * along, x[2] = z_top + 0.001 - (0.001 + depth) * ease;
+      v[0] = ex * rate, v[1] = ey * rate, v[2] = t < 0.3 ? -(0.001 + depth) * 6 * press * (1 - press) / 0.3 : 0.0;
     };
+  }
+
+  // Along x from x0 to x1 at y.
+  Path slide_path(double x0, double x1, double y, double z_top, double depth, double speed)
+  {
+    return line_path(x0, y, x1, y, z_top, depth, speed);
   }
 
   double path_duration(double x0, double x1, double speed) { return 0.5 + std::fabs(x1 - x0) / speed + 0.05; }
@@ -154,6 +160,73 @@ namespace
     // K v T = 0.1 N per tick and the snap contact steps by the device's 10 N at its release.
     ENSURE(sliding[0] > 0.0 && sliding[0] < 0.01 && sliding[1] > 0.0 && sliding[1] < 0.01);
     ENSURE(snap > 100 * std::max(sliding[0], sliding[1]));
+    modalrt_basis_destroy(b);
+  }
+
+  // 1b. Slides exactly along mesh edges and through vertices, 6 mm deep (1.7 to 6 N) at 0.05 m/s with
+  // friction: along the middle row of edges (y = 25 mm; from between vertices, and from a vertex to a
+  // vertex), along a column of edges (x = 100 mm, from the plate's side to the other through a
+  // vertex), along a line of cell diagonals (through 3 vertices) and along the plate's side (a
+  // boundary edge), against the same slide between the rows (y = 12.5 mm). Each must slide as
+  // anywhere else: the proxy reaches the end of the path (within the friction cone's offset, mu_s F_n
+  // / K), never enters again the triangle it left before the last one (no hand-back) and changes
+  // triangle at most twice per vertex passed (plus 2), stays in contact, with the force continuity
+  // of a slide (< 0.01 N per tick, as force_continuity; past the slide's first 0.1 s: leaving a
+  // vertex at the plate's side near the clamp at 4 to 5 N, static to dynamic friction steps by up
+  // to 0.017 N, as it did before) and its passivity. (Before the walk's edge and vertex rules, the
+  // slides along the middle row stalled at x = 166 mm, handed between two triangles every tick,
+  // 199 triangle changes, and were released.)
+  void along_edges_and_through_vertices()
+  {
+    const LatticeOptions o  = plate_options();
+    modalrt_basis       *b  = test::load(modalrt::make_lattice_cantilever(o));
+    const double         dx = o.length / (o.nx - 1), dy = o.width / (o.ny - 1), mu_s = 0.3, mu_d = 0.2;
+    const double         K = modalrt_kernel_default_def().coupling_stiffness;
+    struct Line
+    {
+      const char *name;
+      double      x0, y0, x1, y1;
+    } lines[] = {
+      {"between rows of edges (reference)", 0.19, 0.5 * dy, 0.03, 0.5 * dy},
+      {"along the middle row of edges", 0.19, dy, 0.03, dy},
+      {"along the row, vertex to vertex", 11 * dx, dy, 2 * dx, dy},
+      {"along a column of edges", 6 * dx, 0.0, 6 * dx, 2 * dy},
+      {"along cell diagonals", 4 * dx, 0.0, 6 * dx, 2 * dy},
+      {"along the side (boundary edges)", 0.19, 0.0, 0.03, 0.0},
+    };
+    for (const Line &line : lines)
+      {
+        modalrt_kernel   *k = test::create(b, proxy_def(mu_s, mu_d));
+        const double      speed = 0.05, travel = std::hypot(line.x1 - line.x0, line.y1 - line.y0);
+        const Path        path = line_path(line.x0, line.y0, line.x1, line.y1, top(o), 0.006, speed);
+        std::uint32_t     before[2] = {MODALRT_NONE, MODALRT_NONE}, returns = 0, changes = 0;
+        double            sliding_step = 0.0; // past the slide's first 0.1 s
+        modalrt_hip_output last{};
+        const SlideRecord rec = run_slide(k, {path}, 0.5 + travel / speed + 0.3, [&](int tick, const modalrt_hip_output *out) {
+          if (tick >= 600 && out[0].flags & last.flags & MODALRT_HIP_SLIDING)
+            sliding_step = std::max(sliding_step, test::distance(out[0].force, last.force));
+          if (out[0].in_contact && out[0].proxy_triangle != before[0])
+            {
+              returns += out[0].proxy_triangle == before[1];
+              ++changes;
+              before[1] = before[0], before[0] = out[0].proxy_triangle;
+            }
+          last = out[0];
+        });
+        const double normal = last.force[2], offset = std::hypot(last.position[0] - line.x1, last.position[1] - line.y1);
+        std::printf("  %s, (%.1f, %.1f) -> (%.1f, %.1f) mm: proxy %.2f mm from the end (friction cone %.2f mm), %u "
+                    "triangle changes (%u back to the one before), %zu vertices passed; largest force change per tick "
+                    "%.3e N sliding past the first 0.1 s (%.3e N from the start); passivity observer lowest %.1e J; in "
+                    "contact throughout: %d\n",
+                    line.name, 1e3 * line.x0, 1e3 * line.y0, 1e3 * line.x1, 1e3 * line.y1, 1e3 * offset,
+                    1e3 * mu_s * normal / K, changes, returns, rec.heaviest.size(), sliding_step, rec.sliding_step,
+                    rec.min_energy, int(rec.stayed_in_contact));
+        ENSURE(rec.stayed_in_contact && normal > 1.0);
+        ENSURE(offset <= mu_s * normal / K + 5e-4);
+        ENSURE(returns == 0 && changes <= 2 * rec.heaviest.size() + 2);
+        ENSURE(sliding_step < 0.01 && rec.min_energy >= -1e-4);
+        modalrt_kernel_destroy(k);
+      }
     modalrt_basis_destroy(b);
   }
 
@@ -520,6 +593,7 @@ namespace
 int main()
 {
   force_continuity();
+  along_edges_and_through_vertices();
   friction();
   stiffness_along_a_slide();
   stiffness_over_patch_rows();
