@@ -328,6 +328,19 @@ namespace modal_haptics
                       "The validity analysis' first load increment is 'Force limit' divided by this; an "
                       "increment is halved where Newton fails and grows where it converges fast. "
                       "Units: none.");
+    prm.declare_entry("Validity estimate", text(c.validity_estimate), Patterns::Bool(),
+                      "At every corrected contact (every display vertex with a felt stiffness), the validity "
+                      "forces [N] from the second-order term of the felt force-displacement curve, the cubic "
+                      "term of the stored energy ('Validity material') evaluated on the contact's linear "
+                      "response projected on the space's modes (docs/accuracy.md): the validity map of the "
+                      ".mrt, .h5 and validity.vtu. Serial runs; a space with free rigid motions gets none. "
+                      "Units: none.");
+    prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
+                      Patterns::Selection("preconditioned CG|factorization"),
+                      "How the validity analysis solves each Newton step's tangent system: 'preconditioned "
+                      "CG' (conjugate gradients preconditioned by the space's factorization of K, the tangent "
+                      "factorized only where CG stalls) or 'factorization' (every tangent factorized). "
+                      "Units: none.");
     prm.leave_subsection();
   }
 
@@ -358,6 +371,8 @@ namespace modal_haptics
         validity_direction = meshing::Point3{{d[0] / norm, d[1] / norm, d[2] / norm}};
       }
     validity_load_steps  = prm.get_integer("Validity load steps");
+    validity_estimate    = prm.get_bool("Validity estimate");
+    validity_cg          = prm.get("Validity tangent solver") == "preconditioned CG";
     prm.leave_subsection();
   }
 

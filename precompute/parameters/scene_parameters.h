@@ -130,6 +130,8 @@ namespace modal_haptics
     bool         validity_neo_hookean = true; // else St. Venant-Kirchhoff
     std::optional<meshing::Point3> validity_direction; // unit; empty: the surface's inward normal
     unsigned int validity_load_steps = 10;   // first load increment = force_limit / this
+    bool         validity_estimate   = true; // the second-order estimate at every corrected contact (the map)
+    bool         validity_cg         = true; // Newton's tangent systems by CG preconditioned by K's factor
 
     static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Contact"
     void        parse_parameters(dealii::ParameterHandler &prm);
