@@ -72,17 +72,39 @@ namespace modal_haptics
         const Tensor<2, 3> &stress() const { return P; }
         double              energy() const { return W; } // stored energy per reference volume
 
-        Tensor<2, 3> derivative(const Tensor<2, 3> &G) const
+        // The tangent's lower triangle K_ij += JxW (A : G_j) : G_i (j <= i) for the shape functions'
+        // gradients G = e_c (x) g (component c, gradient g): written out for rank-one G, so that a
+        // pair costs a few products. St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
+        //   dP_j = G_j S + F (lambda tr dE I + 2 mu dE), dE = sym(F^T G_j) = sym(f_j (x) g_j), so
+        //   K_ij = delta_cicj g_i.S g_j + lambda (f_i.g_i)(f_j.g_j) + mu ((F F^T)_cicj g_i.g_j + (F g_j)_ci (F g_i)_cj).
+        // Neo-Hookean, with A = F^-T (d(F^-T) = -A dF^T A, d ln J = A : dF):
+        //   dP_j = mu G_j + (mu - lambda ln J) A G_j^T A + lambda (A : G_j) A, so
+        //   K_ij = mu delta_cicj g_i.g_j + (mu - lambda ln J)(A g_j)_ci (A g_i)_cj + lambda (A g_j)_cj (A g_i)_ci.
+        void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<unsigned int> &c, const double JxW,
+                         std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
         {
-          if (law == HyperelasticLaw::saint_venant_kirchhoff)
+          const unsigned int n   = g.size();
+          const bool         svk = law == HyperelasticLaw::saint_venant_kirchhoff;
+          const Tensor<2, 3> B   = svk ? Tensor<2, 3>(F * transpose(F)) : F_inverse_T; // F F^T, or A
+          for (unsigned int i = 0; i < n; ++i)
+            work[i] = svk ? Tensor<1, 3>(F * g[i]) : Tensor<1, 3>(F_inverse_T * g[i]); // F g_i, or A g_i
+          const double shear = svk ? mu : mu - lambda * log_J;
+          for (unsigned int i = 0; i < n; ++i)
             {
-              const Tensor<2, 3> FtG = transpose(F) * G;
-              const Tensor<2, 3> dE  = 0.5 * (FtG + transpose(FtG));
-              return G * S + F * (lambda * trace(dE) * identity + 2. * mu * dE);
+              const unsigned int  ci = c[i];
+              const Tensor<1, 3> &wi = work[i];
+              const Tensor<1, 3>  Sg = svk ? Tensor<1, 3>(S * g[i]) : Tensor<1, 3>(mu * g[i]);
+              for (unsigned int j = 0; j <= i; ++j)
+                {
+                  const unsigned int cj = c[j];
+                  double k = shear * work[j][ci] * wi[cj] + lambda * work[j][cj] * wi[ci];
+                  if (svk)
+                    k += mu * B[ci][cj] * (g[i] * g[j]);
+                  if (ci == cj)
+                    k += Sg * g[j];
+                  K(i, j) += k * JxW;
+                }
             }
-          // d(F^-T) = -F^-T dF^T F^-T, d ln J = tr(F^-1 dF) = F^-T : dF.
-          return mu * G + (mu - lambda * log_J) * (F_inverse_T * transpose(G) * F_inverse_T) +
-                 lambda * scalar_product(F_inverse_T, G) * F_inverse_T;
         }
 
       private:
@@ -274,7 +296,7 @@ namespace modal_haptics
       FEValues<3>        fe_values(space.mapping, fe, space.quadrature, update_gradients | update_JxW_values);
       const FEValuesExtractors::Vector displacement(0);
       std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
-      std::vector<Tensor<2, 3>>        shape_gradient(dofs_per_cell), shape_dP(dofs_per_cell);
+      std::vector<Tensor<1, 3>>        shape_gradient(dofs_per_cell), work(dofs_per_cell);
       FullMatrix<double>               cell_K(dofs_per_cell, dofs_per_cell);
       Vector<double>                   cell_rhs(dofs_per_cell), cell_u(dofs_per_cell);
       std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
@@ -301,19 +323,16 @@ namespace modal_haptics
               energy += stress.energy() * JxW;
               for (unsigned int i = 0; i < dofs_per_cell; ++i)
                 {
-                  shape_gradient[i]               = Tensor<2, 3>();
-                  shape_gradient[i][component[i]] = fe_values.shape_grad(i, q);
-                  cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i][component[i]] * JxW;
+                  shape_gradient[i] = fe_values.shape_grad(i, q);
+                  cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i] * JxW;
                 }
               if (with_tangent)
-                {
-                  for (unsigned int j = 0; j < dofs_per_cell; ++j)
-                    shape_dP[j] = stress.derivative(shape_gradient[j]);
-                  for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                    for (unsigned int j = 0; j < dofs_per_cell; ++j)
-                      cell_K(i, j) += shape_dP[j][component[i]] * shape_gradient[i][component[i]] * JxW;
-                }
+                stress.add_tangent(shape_gradient, component, JxW, work, cell_K);
             }
+          if (with_tangent) // the tangent of a stored energy is symmetric
+            for (unsigned int i = 0; i < dofs_per_cell; ++i)
+              for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+                cell_K(i, j) = cell_K(j, i);
           cell->get_dof_indices(dof_indices);
           if (with_tangent)
             space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
@@ -559,7 +578,8 @@ namespace modal_haptics
       const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
       double       force = 0., increment = first_increment;
       // The secant predictor: the last two converged states extrapolated to the new level (the
-      // linear response at the first level).
+      // linear response at the first level). (A quadratic through the unloaded state and the last
+      // two, tried, overshoots on the elastica into states whose tangent is indefinite.)
       Vector<double> u_before(u.size()), predictor(u.size());
       double         force_before = 0.;
       while (force < ramp.force_limit)
