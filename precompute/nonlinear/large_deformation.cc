@@ -176,6 +176,9 @@ namespace modal_haptics
       : r(modes.size())
     {
       Timer timer;
+      // Small GEMMs (r x 3328 x r(r+1)/2), one thread: with OpenBLAS' threads on a busy machine the
+      // default scene's global tensor took 40 s in one run, 1.7 s in another.
+      BlasThreads one_thread(1);
       const auto [mu, lambda] = lame_constants(material);
       const bool         neo_hookean = law == HyperelasticLaw::neo_hookean;
       const unsigned int width = neo_hookean ? 13 : 6, n_pairs = r * (r + 1) / 2, n_q = space.quadrature.size();

@@ -416,7 +416,7 @@ namespace modal_haptics
                               {"seconds", c.seconds},
                               {"second_order_exact", estimate_json(c.estimate_exact, c)},
                               {"second_order_modal", estimate_json(c.estimate_modal, c)},
-                              {"estimate_seconds", c.estimate_seconds},
+                              {"estimate_s", c.estimate_seconds},
                               {"cubic_term_check", c.cubic_term_check},
                               {"modal_cubic_check", c.modal_cubic_check}});
         }
@@ -521,8 +521,8 @@ namespace modal_haptics
           region.push_back(v);
       Json map = {{"n_contacts", region.size()},
                   {"n_estimated_contacts", s.validity_estimated_contacts},
-                  {"tensor_seconds", s.validity_tensor_seconds},
-                  {"seconds_per_contact", s.validity_seconds_per_contact}};
+                  {"tensor_s", s.validity_tensor_seconds},
+                  {"per_contact_s", s.validity_seconds_per_contact}};
       if (region.empty())
         return map;
       for (unsigned int k = 0; k < validity_departures.size(); ++k)

@@ -21,7 +21,7 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mrt_reader  # noqa: E402
@@ -60,10 +60,8 @@ def check_map(checks, folder, name, report):
 
 def main():
     args = binary_and_fresh_workdir()
-    here = os.path.dirname(os.path.abspath(__file__))
     checks = Checks()
-    with open(os.path.join(here, "validity_block.prm")) as f:
-        prm = f.read().replace("block.geo", os.path.join(here, "block.geo"))
+    prm = test_prm("validity_block.prm", "block.geo")
     first, compared = None, []
     for material in ("neo-Hookean", "St. Venant-Kirchhoff"):
         name = material.split()[-1].lower()
