@@ -4,8 +4,11 @@
 // functions' reference gradients; its derivative is the tangent, symmetric for a stored energy.
 #include "nonlinear/large_deformation.h"
 
+#include "solvers/blas_lapack.h"
 #include "solvers/factorization.h"
 #include "space/modal_space.h"
+
+#include <mrt/surface_normals.h>
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/point.h>
@@ -69,17 +72,39 @@ namespace modal_haptics
         const Tensor<2, 3> &stress() const { return P; }
         double              energy() const { return W; } // stored energy per reference volume
 
-        Tensor<2, 3> derivative(const Tensor<2, 3> &G) const
+        // The tangent's lower triangle K_ij += JxW (A : G_j) : G_i (j <= i) for the shape functions'
+        // gradients G = e_c (x) g (component c, gradient g): written out for rank-one G, so that a
+        // pair costs a few products. St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
+        //   dP_j = G_j S + F (lambda tr dE I + 2 mu dE), dE = sym(F^T G_j) = sym(f_j (x) g_j), so
+        //   K_ij = delta_cicj g_i.S g_j + lambda (f_i.g_i)(f_j.g_j) + mu ((F F^T)_cicj g_i.g_j + (F g_j)_ci (F g_i)_cj).
+        // Neo-Hookean, with A = F^-T (d(F^-T) = -A dF^T A, d ln J = A : dF):
+        //   dP_j = mu G_j + (mu - lambda ln J) A G_j^T A + lambda (A : G_j) A, so
+        //   K_ij = mu delta_cicj g_i.g_j + (mu - lambda ln J)(A g_j)_ci (A g_i)_cj + lambda (A g_j)_cj (A g_i)_ci.
+        void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<unsigned int> &c, const double JxW,
+                         std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
         {
-          if (law == HyperelasticLaw::saint_venant_kirchhoff)
+          const unsigned int n   = g.size();
+          const bool         svk = law == HyperelasticLaw::saint_venant_kirchhoff;
+          const Tensor<2, 3> B   = svk ? Tensor<2, 3>(F * transpose(F)) : F_inverse_T; // F F^T, or A
+          for (unsigned int i = 0; i < n; ++i)
+            work[i] = svk ? Tensor<1, 3>(F * g[i]) : Tensor<1, 3>(F_inverse_T * g[i]); // F g_i, or A g_i
+          const double shear = svk ? mu : mu - lambda * log_J;
+          for (unsigned int i = 0; i < n; ++i)
             {
-              const Tensor<2, 3> FtG = transpose(F) * G;
-              const Tensor<2, 3> dE  = 0.5 * (FtG + transpose(FtG));
-              return G * S + F * (lambda * trace(dE) * identity + 2. * mu * dE);
+              const unsigned int  ci = c[i];
+              const Tensor<1, 3> &wi = work[i];
+              const Tensor<1, 3>  Sg = svk ? Tensor<1, 3>(S * g[i]) : Tensor<1, 3>(mu * g[i]);
+              for (unsigned int j = 0; j <= i; ++j)
+                {
+                  const unsigned int cj = c[j];
+                  double k = shear * work[j][ci] * wi[cj] + lambda * work[j][cj] * wi[ci];
+                  if (svk)
+                    k += mu * B[ci][cj] * (g[i] * g[j]);
+                  if (ci == cj)
+                    k += Sg * g[j];
+                  K(i, j) += k * JxW;
+                }
             }
-          // d(F^-T) = -F^-T dF^T F^-T, d ln J = tr(F^-1 dF) = F^-T : dF.
-          return mu * G + (mu - lambda * log_J) * (F_inverse_T * transpose(G) * F_inverse_T) +
-                 lambda * scalar_product(F_inverse_T, G) * F_inverse_T;
         }
 
       private:
@@ -89,14 +114,168 @@ namespace modal_haptics
         Tensor<2, 3>          S, P, F_inverse_T;
         double                log_J = 0., W = 0.;
       };
+
+      // The cubic term of the stored energy per reference volume at H = grad u (cubic_energy).
+      double cubic_density(const HyperelasticLaw law, const double mu, const double lambda, const Tensor<2, 3> &H)
+      {
+        const Tensor<2, 3> eps   = 0.5 * (H + transpose(H));
+        const Tensor<2, 3> sigma = lambda * trace(eps) * identity + 2. * mu * eps;
+        double             psi   = 0.5 * scalar_product(sigma, transpose(H) * H);
+        if (law == HyperelasticLaw::neo_hookean)
+          psi += -lambda * trace(eps) * scalar_product(eps, eps) - 4. / 3. * mu * trace(eps * eps * eps);
+        return psi;
+      }
+
+      // A symmetric 3 x 3 tensor as 6 numbers such that A : B = sum of the products of
+      // as_row(A, 2) and as_row(B, 1): the off-diagonal entries weighted once by 2.
+      void as_row(const Tensor<2, 3> &A, const double off_diagonal, double *row)
+      {
+        row[0] = A[0][0], row[1] = A[1][1], row[2] = A[2][2];
+        row[3] = off_diagonal * 0.5 * (A[0][1] + A[1][0]);
+        row[4] = off_diagonal * 0.5 * (A[0][2] + A[2][0]);
+        row[5] = off_diagonal * 0.5 * (A[1][2] + A[2][1]);
+      }
     } // namespace
+
+    std::array<double, 2> lame_constants(const MaterialParameters &material)
+    {
+      const double E = material.youngs_modulus, nu = material.poissons_ratio;
+      return {{E / (2. * (1. + nu)), E * nu / ((1. + nu) * (1. - 2. * nu))}};
+    }
+
+    HyperelasticLaw validity_law(const SceneParameters &scene)
+    {
+      return scene.contact.validity_neo_hookean ? HyperelasticLaw::neo_hookean : HyperelasticLaw::saint_venant_kirchhoff;
+    }
+
+    double cubic_energy(const SpaceView &space, const MaterialParameters &material, const HyperelasticLaw law,
+                        const Vector<double> &u)
+    {
+      const auto [mu, lambda] = lame_constants(material);
+      FEValues<3> fe_values(space.mapping, space.dof_handler.get_fe(), space.quadrature,
+                            update_gradients | update_JxW_values);
+      const FEValuesExtractors::Vector displacement(0);
+      std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
+      double                           psi3 = 0.;
+      for (const auto &cell : space.dof_handler.active_cell_iterators())
+        {
+          fe_values.reinit(cell);
+          fe_values[displacement].get_function_gradients(u, grad_u);
+          for (unsigned int q = 0; q < grad_u.size(); ++q)
+            psi3 += cubic_density(law, mu, lambda, grad_u[q]) * fe_values.JxW(q);
+        }
+      return psi3;
+    }
+
+    // Psi3 is the integral of a trilinear form c(H, H, H) with c(H_i, H_j, H_k) = X(H_i) . Y(H_j, H_k),
+    // Y symmetric in j, k: St. Venant-Kirchhoff X = sigma_i, Y = 1/2 sym(H_j^T H_k); the neo-Hookean law
+    // appends X = (tr eps_i, eps_i), Y = (-lambda eps_j : eps_k, -4/3 mu sym(eps_j eps_k)) (tr(ABC) of
+    // symmetric tensors is A : sym(BC)). Over the quadrature points t = X^T Y is one GEMM per batch.
+    ModalCubicTerm::ModalCubicTerm(const SpaceView &space, const MaterialParameters &material,
+                                   const HyperelasticLaw law, const std::vector<Vector<double>> &modes)
+      : r(modes.size())
+    {
+      Timer timer;
+      // Small GEMMs (r x 3328 x r(r+1)/2), one thread: with OpenBLAS' threads on a busy machine the
+      // default scene's global tensor took 40 s in one run, 1.7 s in another.
+      BlasThreads one_thread(1);
+      const auto [mu, lambda] = lame_constants(material);
+      const bool         neo_hookean = law == HyperelasticLaw::neo_hookean;
+      const unsigned int width = neo_hookean ? 13 : 6, n_pairs = r * (r + 1) / 2, n_q = space.quadrature.size();
+      const unsigned int batch = 256; // quadrature points per GEMM
+      FEValues<3> fe_values(space.mapping, space.dof_handler.get_fe(), space.quadrature,
+                            update_gradients | update_JxW_values);
+      const FEValuesExtractors::Vector       displacement(0);
+      std::vector<std::vector<Tensor<2, 3>>> H(r, std::vector<Tensor<2, 3>>(n_q));
+      std::vector<Tensor<2, 3>>              eps(r);
+      const int                              rows = int(width * batch);
+      std::vector<double>                    X(std::size_t(rows) * r, 0.), Y(std::size_t(rows) * n_pairs, 0.);
+      t.assign(std::size_t(r) * n_pairs, 0.);
+      unsigned int filled = 0; // quadrature points in the batch
+      const auto   flush  = [&] {
+        const int    m = r, n = n_pairs;
+        const double one = 1.;
+        if (filled > 0)
+          dgemm_("T", "N", &m, &n, &rows, &one, X.data(), &rows, Y.data(), &rows, &one, t.data(), &m);
+        std::fill(X.begin(), X.end(), 0.);
+        std::fill(Y.begin(), Y.end(), 0.);
+        filled = 0;
+      };
+      for (const auto &cell : space.dof_handler.active_cell_iterators())
+        {
+          fe_values.reinit(cell);
+          for (unsigned int i = 0; i < r; ++i)
+            fe_values[displacement].get_function_gradients(modes[i], H[i]);
+          for (unsigned int q = 0; q < n_q; ++q)
+            {
+              const double JxW = fe_values.JxW(q);
+              const std::size_t row = std::size_t(width) * filled;
+              for (unsigned int i = 0; i < r; ++i)
+                {
+                  eps[i] = 0.5 * (H[i][q] + transpose(H[i][q]));
+                  as_row(lambda * trace(eps[i]) * identity + 2. * mu * eps[i], 2., &X[i * std::size_t(rows) + row]);
+                  if (neo_hookean)
+                    {
+                      X[i * std::size_t(rows) + row + 6] = trace(eps[i]);
+                      as_row(eps[i], 2., &X[i * std::size_t(rows) + row + 7]);
+                    }
+                  for (unsigned int c = 0; c < width; ++c)
+                    X[i * std::size_t(rows) + row + c] *= JxW;
+                }
+              unsigned int pair = 0;
+              for (unsigned int j = 0; j < r; ++j)
+                for (unsigned int k = j; k < r; ++k, ++pair)
+                  {
+                    double *y = &Y[pair * std::size_t(rows) + row];
+                    as_row(0.5 * transpose(H[j][q]) * H[k][q], 1., y);
+                    if (neo_hookean)
+                      {
+                        y[6] = -lambda * scalar_product(eps[j], eps[k]);
+                        as_row(-4. / 3. * mu * eps[j] * eps[k], 1., y + 7);
+                      }
+                  }
+              if (++filled == batch)
+                flush();
+            }
+        }
+      flush();
+      seconds = timer.wall_time();
+    }
+
+    double ModalCubicTerm::value(const std::vector<double> &q) const
+    {
+      AssertDimension(q.size(), r);
+      double       psi3 = 0.;
+      unsigned int pair = 0;
+      for (unsigned int j = 0; j < r; ++j)
+        for (unsigned int k = j; k < r; ++k, ++pair)
+          {
+            double row = 0.;
+            for (unsigned int i = 0; i < r; ++i)
+              row += t[std::size_t(pair) * r + i] * q[i];
+            psi3 += (j == k ? 1. : 2.) * q[j] * q[k] * row;
+          }
+      return psi3;
+    }
+
+    std::array<double, 3> second_order_validity_forces(const double c1, const double c2)
+    {
+      std::array<double, 3> forces;
+      for (unsigned int k = 0; k < validity_departures.size(); ++k)
+        {
+          const double delta = validity_departures[k];
+          forces[k]          = c2 == 0. ? std::numeric_limits<double>::infinity() :
+                                          delta * c1 / (std::abs(c2) * (c2 > 0. ? 1. - delta : 1. + delta));
+        }
+      return forces;
+    }
 
     LargeDeformationSolve::LargeDeformationSolve(const SpaceView &space, const MaterialParameters &material,
                                                  const HyperelasticLaw law)
       : space(space)
-      , mu(material.youngs_modulus / (2. * (1. + material.poissons_ratio)))
-      , lambda(material.youngs_modulus * material.poissons_ratio /
-               ((1. + material.poissons_ratio) * (1. - 2. * material.poissons_ratio)))
+      , material(material)
+      , mu(lame_constants(material)[0])
+      , lambda(lame_constants(material)[1])
       , law(law)
     {
       tangent.reinit(space.sparsity);
@@ -106,12 +285,21 @@ namespace modal_haptics
     bool LargeDeformationSolve::assemble(const Vector<double> &u, const double force, const Vector<double> &load,
                                          const bool with_tangent)
     {
+      Timer timer;
+      const bool valid = assemble_at(u, force, load, with_tangent);
+      counts.assembly_seconds += timer.wall_time();
+      return valid;
+    }
+
+    bool LargeDeformationSolve::assemble_at(const Vector<double> &u, const double force, const Vector<double> &load,
+                                            const bool with_tangent)
+    {
       const auto        &fe            = space.dof_handler.get_fe();
       const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
       FEValues<3>        fe_values(space.mapping, fe, space.quadrature, update_gradients | update_JxW_values);
       const FEValuesExtractors::Vector displacement(0);
       std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
-      std::vector<Tensor<2, 3>>        shape_gradient(dofs_per_cell), shape_dP(dofs_per_cell);
+      std::vector<Tensor<1, 3>>        shape_gradient(dofs_per_cell), work(dofs_per_cell);
       FullMatrix<double>               cell_K(dofs_per_cell, dofs_per_cell);
       Vector<double>                   cell_rhs(dofs_per_cell), cell_u(dofs_per_cell);
       std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
@@ -138,19 +326,16 @@ namespace modal_haptics
               energy += stress.energy() * JxW;
               for (unsigned int i = 0; i < dofs_per_cell; ++i)
                 {
-                  shape_gradient[i]               = Tensor<2, 3>();
-                  shape_gradient[i][component[i]] = fe_values.shape_grad(i, q);
-                  cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i][component[i]] * JxW;
+                  shape_gradient[i] = fe_values.shape_grad(i, q);
+                  cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i] * JxW;
                 }
               if (with_tangent)
-                {
-                  for (unsigned int j = 0; j < dofs_per_cell; ++j)
-                    shape_dP[j] = stress.derivative(shape_gradient[j]);
-                  for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                    for (unsigned int j = 0; j < dofs_per_cell; ++j)
-                      cell_K(i, j) += shape_dP[j][component[i]] * shape_gradient[i][component[i]] * JxW;
-                }
+                stress.add_tangent(shape_gradient, component, JxW, work, cell_K);
             }
+          if (with_tangent) // the tangent of a stored energy is symmetric
+            for (unsigned int i = 0; i < dofs_per_cell; ++i)
+              for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+                cell_K(i, j) = cell_K(j, i);
           cell->get_dof_indices(dof_indices);
           if (with_tangent)
             space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
@@ -177,27 +362,112 @@ namespace modal_haptics
       return true;
     }
 
-    bool LargeDeformationSolve::solve_tangent(Vector<double> &du, std::string &failure)
+    // CG on the tangent, preconditioned by the last factorization: while the part is near its linear
+    // state the tangent is close to K, so a few iterations reach the tolerance. False where it stalls
+    // (more than 40 iterations, or still above 1e-3 after 10) or meets a direction of non-positive
+    // curvature (the caller factorizes, which tells a tangent that is not positive definite).
+    bool LargeDeformationSolve::preconditioned_cg(Vector<double> &du, const double tolerance)
     {
-      std::unique_ptr<Factorization> factor;
+      Factorization *preconditioner = tangent_factor ? tangent_factor.get() : space.linear_factorization;
+      if (!space.use_cg || preconditioner == nullptr)
+        return false;
+      ++counts.cg_solves;
+      Vector<double> r(rhs), z(rhs.size()), p(rhs.size()), Ap(rhs.size());
+      du                    = 0.;
+      const double b_norm   = rhs.l2_norm();
+      const auto   precondition = [&] {
+        z = r;
+        preconditioner->solve_block(z.data(), 1);
+      };
+      precondition();
+      p         = z;
+      double rz = r * z;
+      for (unsigned int iteration = 1; iteration <= 40; ++iteration)
+        {
+          ++counts.cg_iterations;
+          tangent.vmult(Ap, p);
+          const double pAp = p * Ap;
+          if (!(pAp > 0.))
+            return false;
+          const double alpha = rz / pAp;
+          du.add(alpha, p);
+          r.add(-alpha, Ap);
+          const double relative = r.l2_norm() / b_norm;
+          if (relative <= tolerance)
+            return true;
+          if (iteration >= 10 && relative > 1e-3)
+            return false;
+          precondition();
+          const double rz_next = r * z;
+          p.sadd(rz_next / rz, z);
+          rz = rz_next;
+        }
+      return false;
+    }
+
+    bool LargeDeformationSolve::solve_tangent(Vector<double> &du, std::string &failure, const double tolerance)
+    {
+      Timer      timer;
+      const bool solved = solve_tangent_system(du, failure, tolerance);
+      counts.solve_seconds += timer.wall_time();
+      return solved;
+    }
+
+    bool LargeDeformationSolve::solve_tangent_system(Vector<double> &du, std::string &failure, const double tolerance)
+    {
+      if (preconditioned_cg(du, tolerance))
+        {
+          space.constraints.distribute(du);
+          return true;
+        }
       try
         {
-          factor = space.factorization == FactorizationKind::umfpack ?
-                     make_umfpack_factorization(tangent, nullptr, 0.) :
-                     make_cholmod_factorization(tangent, nullptr, 0.);
+          ++counts.factorizations;
+          tangent_factor = space.factorization == FactorizationKind::umfpack ?
+                             make_umfpack_factorization(tangent, nullptr, 0.) :
+                             make_cholmod_factorization(tangent, nullptr, 0.);
         }
       catch (const ExceptionBase &e)
         {
           if (std::string(e.what()).find("not positive definite") == std::string::npos)
             throw;
+          tangent_factor.reset();
           failure = "the tangent stiffness is not positive definite (a limit point: buckling, snap-through "
                     "or a material instability)";
           return false;
         }
       du = rhs;
-      factor->solve_block(du.data(), 1);
+      tangent_factor->solve_block(du.data(), 1);
       space.constraints.distribute(du);
       return true;
+    }
+
+    void LargeDeformationSolve::estimate_second_order(const Vector<double> &u1, ValidityCurve &curve)
+    {
+      Timer        timer;
+      const double psi3       = cubic_energy(space, material, law, u1);
+      curve.estimate_seconds += timer.wall_time();
+      curve.estimate_exact.c2 = -3. * psi3;
+      curve.estimate_exact.validity_force = second_order_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
+
+      // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
+      // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
+      const double h   = curve.force_limit / 100.;
+      const auto   odd = [&](const double t) {
+        Vector<double> u(u1);
+        u *= t;
+        double half = 0.;
+        for (const double sign : {1., -1.})
+          {
+            Vector<double> signed_u(u);
+            signed_u *= sign;
+            AssertThrow(assemble(signed_u, 0., u1, false), ExcInternalError());
+            half += sign * 0.5 * energy;
+          }
+        return half;
+      };
+      const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
+      curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
     }
 
     LargeDeformationSolve::LevelOutcome LargeDeformationSolve::solve_level(Vector<double> &u, const double force,
@@ -209,9 +479,11 @@ namespace modal_haptics
       LevelOutcome   outcome;
       const double   load_norm = force * load.l2_norm();
       Vector<double> trial(predictor), du(u.size());
+      ++counts.tangent_assemblies;
       if (!assemble(trial, force, load, true)) // the predictor inverts an element: from the last level
         {
           trial = u;
+          ++counts.tangent_assemblies;
           AssertThrow(assemble(trial, force, load, true), ExcInternalError()); // a converged state is valid
         }
       double residual = rhs.l2_norm() / load_norm;
@@ -229,7 +501,9 @@ namespace modal_haptics
               outcome.failure = "no convergence in " + std::to_string(ramp.max_iterations) + " Newton iterations";
               return outcome;
             }
-          if (!solve_tangent(du, outcome.failure))
+          // An inexact Newton step, solved to a hundredth of the residual: the error it leaves is
+          // smaller than the quadratic term's from r ~ 1e-2 down (and 1e-12 at most, the rounding floor).
+          if (!solve_tangent(du, outcome.failure, std::clamp(1e-2 * residual, 1e-12, 1e-4)))
             return outcome;
           // Backtracking: halve the step until every element keeps det F > 0 and the potential energy
           // has decreased enough along Newton's direction (Armijo, c = 1e-4; the direction descends
@@ -240,12 +514,12 @@ namespace modal_haptics
           const Vector<double> start(trial);
           const double         start_energy = energy, slope = -(rhs * du);
           bool                 accepted = false, inverted = false;
-          double               step_taken = 0.;
           for (double step = 1.; step >= 1. / 1024.; step /= 2.)
             {
               trial = start;
               trial.add(step, du);
-              if (!assemble(trial, force, load, step == 1.)) // the full step is the one usually taken
+              ++counts.residual_assemblies;
+              if (!assemble(trial, force, load, false))
                 {
                   inverted = true;
                   continue;
@@ -253,14 +527,17 @@ namespace modal_haptics
               const double trial_residual = rhs.l2_norm() / load_norm;
               if (energy <= start_energy + 1e-4 * step * slope || trial_residual < (1. - 1e-4 * step) * residual)
                 {
-                  residual   = trial_residual;
-                  accepted   = true;
-                  step_taken = step;
+                  residual = trial_residual;
+                  accepted = true;
                   break;
                 }
             }
-          if (accepted && step_taken < 1.)
-            assemble(trial, force, load, true); // the tangent at the new iterate
+          // The tangent at the new iterate, unless it is the solution.
+          if (accepted && residual > ramp.tolerance)
+            {
+              ++counts.tangent_assemblies;
+              assemble(trial, force, load, true);
+            }
           if (log)
             {
               std::ostringstream line;
@@ -284,20 +561,28 @@ namespace modal_haptics
       Timer          timer;
       ValidityCurve  curve;
       Vector<double> u(space.dof_handler.n_dofs()), du(u.size());
+      tangent_factor.reset(); // another contact's tangent: K's factorization preconditions better
       curve.material    = law_name(law);
       curve.force_limit = ramp.force_limit;
 
-      // The linear felt compliance from the tangent at the reference state (linear elasticity).
+      // The linear felt compliance from the tangent at the reference state (linear elasticity), and
+      // the exact second-order estimate from the same response.
+      // The estimate's cost is this solve's and Psi3's integral (K's factorization would give u1 as well).
       std::string failure;
+      ++counts.tangent_assemblies;
       assemble(u, 1., load, true);
+      Timer solve_timer;
       AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
+      curve.estimate_seconds  = solve_timer.wall_time();
       curve.linear_compliance = load * du;
+      estimate_second_order(du, curve);
 
       const double first_increment = ramp.force_limit / ramp.load_steps;
       const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
       double       force = 0., increment = first_increment;
       // The secant predictor: the last two converged states extrapolated to the new level (the
-      // linear response at the first level).
+      // linear response at the first level). (A quadratic through the unloaded state and the last
+      // two, tried, overshoots on the elastica into states whose tangent is indefinite.)
       Vector<double> u_before(u.size()), predictor(u.size());
       double         force_before = 0.;
       while (force < ramp.force_limit)
@@ -406,11 +691,96 @@ namespace modal_haptics
       return {{sign * normal[0], sign * normal[1], sign * normal[2]}};
     }
 
+    double modal_second_order(const ModalView &modal, const ModalSpaceResult &result, const unsigned int vertex,
+                              const std::array<double, 3> &direction, std::vector<double> *q_out)
+    {
+      std::vector<double> q = modal.load(vertex, direction);
+      for (unsigned int i = 0; i < q.size(); ++i)
+        q[i] *= static_gain(result.eigenvalues[i]);
+      const double c2 = -3. * modal.cubic.value(q);
+      if (q_out)
+        *q_out = std::move(q);
+      return c2;
+    }
+
+    namespace
+    {
+      // The map's entries of a vertex: infinity (not reached) as validity_not_reached.
+      void set_map_entry(ModalSpaceResult &result, const unsigned int vertex, const std::array<double, 3> &forces)
+      {
+        for (unsigned int k = 0; k < 3; ++k)
+          result.validity_force[3 * std::size_t(vertex) + k] = std::isfinite(forces[k]) ? forces[k] : validity_not_reached;
+      }
+
+      // "1.2 / 5.9 / 11 N" for forces where infinity reads "not reached".
+      std::string forces_text(const std::array<double, 3> &forces)
+      {
+        std::ostringstream out;
+        out << std::setprecision(3);
+        for (unsigned int k = 0; k < 3; ++k)
+          {
+            if (std::isfinite(forces[k]))
+              out << forces[k];
+            else
+              out << "not reached";
+            out << (k < 2 ? " / " : " N");
+          }
+        return out.str();
+      }
+    } // namespace
+
+    void estimate_validity_map(const ContactSurface &display, const std::function<ModalView()> &make_modal,
+                               ModalSpaceResult &result, const std::function<void(std::string)> &summarize)
+    {
+      const unsigned int nv = display.n_vertices();
+      result.validity_force.assign(3 * std::size_t(nv), 0.);
+      if (result.n_rigid_body_modes > 0)
+        {
+          result.validity_left_out = "the supports leave rigid motions free (" + result.free_motions +
+                                     "), which a dead load would accelerate without bound";
+          summarize("validity map left out: " + result.validity_left_out);
+          return;
+        }
+      const ModalView     modal = make_modal();
+      Timer               timer;
+      std::vector<double> positions(3 * std::size_t(nv)), normals(3 * std::size_t(nv));
+      std::vector<unsigned int> triangles;
+      for (unsigned int v = 0; v < nv; ++v)
+        std::copy(display.vertices[v].begin(), display.vertices[v].end(), &positions[3 * std::size_t(v)]);
+      for (const auto &triangle : display.triangles)
+        triangles.insert(triangles.end(), triangle.begin(), triangle.end());
+      mrt::area_weighted_normals(positions.data(), nv, triangles.data(), display.triangles.size(), normals.data());
+      unsigned int count = 0, lowest = 0;
+      for (unsigned int v = 0; v < nv; ++v)
+        if (result.felt_stiffness[v] > 0.)
+          {
+            const std::array<double, 3> inward = {{-normals[3 * v], -normals[3 * v + 1], -normals[3 * v + 2]}};
+            const double                c1     = 1. / result.felt_stiffness[v];
+            set_map_entry(result, v, second_order_validity_forces(c1, modal_second_order(modal, result, v, inward)));
+            ++count;
+            if (display.region[v] == result.index &&
+                (display.region[lowest] != result.index || result.validity_force[3 * v] < result.validity_force[3 * lowest]))
+              lowest = v;
+          }
+      result.validity_estimated_contacts  = count;
+      result.validity_tensor_seconds      = modal.cubic.seconds;
+      result.validity_seconds_per_contact = count ? timer.wall_time() / count : 0.;
+      std::ostringstream line;
+      line << "validity map: the second-order estimate at " << count << " contacts (" << result.eigenvalues.size()
+           << "-mode cubic term in " << std::setprecision(3) << modal.cubic.seconds << " s, then "
+           << 1e6 * result.validity_seconds_per_contact << " us per contact)";
+      if (display.region[lowest] == result.index && result.validity_force[3 * lowest] > 0.)
+        line << "; the lowest 1 % validity force of its region " << result.validity_force[3 * lowest]
+             << " N at display vertex " << lowest << " (" << display.vertices[lowest][0] << ", "
+             << display.vertices[lowest][1] << ", " << display.vertices[lowest][2] << ") m";
+      summarize(line.str());
+    }
+
     void analyse_validity(const SpaceView &space, const SceneParameters &scene, const SpaceTask &task,
                           const ContactSurface &display,
                           const std::function<Vector<double>(unsigned int, const std::array<double, 3> &)> &patch_load,
-                          const std::function<double(const meshing::Point3 &)> &outside, ModalSpaceResult &result,
-                          const std::function<void(std::string)> &log,
+                          const std::function<double(const meshing::Point3 &)> &outside,
+                          const std::function<std::optional<ModalView>()> &make_modal, ModalSpaceResult &result, const std::function<void(std::string)> &log,
                           const std::function<void(std::string)> &summarize)
     {
       if (result.n_rigid_body_modes > 0)
@@ -423,8 +793,9 @@ namespace modal_haptics
       LoadRamp    ramp;
       ramp.force_limit = contact.force_limit;
       ramp.load_steps  = contact.validity_load_steps;
-      const auto law = contact.validity_neo_hookean ? HyperelasticLaw::neo_hookean : HyperelasticLaw::saint_venant_kirchhoff;
+      const auto            law = validity_law(scene);
       LargeDeformationSolve solve(space, scene.material, law);
+      const auto            modal = make_modal();
       for (const unsigned int vertex : task.validity_vertices)
         {
           const auto direction =
@@ -434,17 +805,43 @@ namespace modal_haptics
                   << direction[0] << ", " << direction[1] << ", " << direction[2] << ") up to " << ramp.force_limit
                   << " N ('Contact/Force limit'), " << law_name(law);
           log(heading.str());
+          const auto before = solve.counts;
           auto curve      = solve.ramp_load(patch_load(vertex, direction), ramp, log);
           curve.vertex    = vertex;
           curve.direction = direction;
           std::ostringstream summary;
           summary << "validity: display vertex " << vertex << ": " << curve.forces.size() << " load levels in "
-                  << std::fixed << std::setprecision(1) << curve.seconds << " s; linear felt compliance holds to 1/5/10 % up to "
-                  << std::setprecision(3) << std::defaultfloat << curve.validity_force[0] << " / "
-                  << curve.validity_force[1] << " / " << curve.validity_force[2] << " N";
+                  << std::fixed << std::setprecision(1) << curve.seconds << " s ("
+                  << solve.counts.tangent_assemblies - before.tangent_assemblies << " tangent and "
+                  << solve.counts.residual_assemblies - before.residual_assemblies << " residual assemblies, "
+                  << solve.counts.factorizations - before.factorizations << " factorizations, "
+                  << solve.counts.cg_iterations - before.cg_iterations << " CG iterations in "
+                  << solve.counts.cg_solves - before.cg_solves << " solves; assemblies "
+                  << solve.counts.assembly_seconds - before.assembly_seconds << " s, solves "
+                  << solve.counts.solve_seconds - before.solve_seconds << " s); linear felt compliance holds to 1/5/10 % up to "
+                  << std::defaultfloat << forces_text(curve.validity_force);
           if (!curve.stop_reason.empty())
             summary << "; the solve stopped at " << curve.force_reached << " N of " << ramp.force_limit
                     << " N: " << curve.stop_reason;
+          summary << "; second-order estimate " << forces_text(curve.estimate_exact.validity_force) << " (exact, "
+                  << std::setprecision(2) << curve.estimate_seconds << " s)";
+          if (modal)
+            {
+              std::vector<double> q;
+              curve.estimate_modal.c2 = modal_second_order(*modal, result, vertex, direction, &q);
+              curve.estimate_modal.validity_force =
+                second_order_validity_forces(curve.linear_compliance, curve.estimate_modal.c2);
+              // The tensor against Psi3 of the field it stands for.
+              Vector<double> field(space.dof_handler.n_dofs());
+              for (unsigned int i = 0; i < q.size(); ++i)
+                field.add(q[i], modal->modes[i]);
+              const double direct     = cubic_energy(space, scene.material, law, field);
+              curve.modal_cubic_check = std::abs(modal->cubic.value(q) - direct) / std::max(std::abs(direct), 1e-300);
+              summary << ", " << std::setprecision(3) << forces_text(curve.estimate_modal.validity_force) << " (modal)";
+              // The map holds the full solve's forces where it pressed along the map's normal.
+              if (!result.validity_force.empty() && !contact.validity_direction)
+                set_map_entry(result, vertex, curve.validity_force);
+            }
           summarize(summary.str());
           result.validity.push_back(std::move(curve));
         }

@@ -19,11 +19,15 @@
 
 #include <array>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace modal_haptics
 {
+  class Factorization; // solvers/factorization.h
+
   namespace nonlinear
   {
     // The stored energies, both with the part's Lame constants and both equal to linear elasticity
@@ -48,7 +52,8 @@ namespace modal_haptics
     };
 
     // What the solve reads of a space: its FE space, its supports (constraints, homogeneous, and the
-    // elastic faces' springs) and the sparsity pattern of its K.
+    // elastic faces' springs), the sparsity pattern of its K, and its factorization of K (null: none,
+    // or not a direct one), which preconditions CG on the tangent systems when use_cg.
     struct SpaceView
     {
       const dealii::DoFHandler<3>             &dof_handler;
@@ -58,7 +63,40 @@ namespace modal_haptics
       const dealii::SparsityPattern           &sparsity;
       const std::vector<ElasticFace>          &elastic_faces;
       FactorizationKind                        factorization;
+      Factorization                           *linear_factorization = nullptr;
+      bool                                     use_cg               = false;
     };
+
+    // The Lame constants of the part's material: {mu, lambda} [Pa].
+    std::array<double, 2> lame_constants(const MaterialParameters &material);
+
+    // Psi3(u) [J], the cubic term of the stored energy's expansion in u about the reference state
+    // (the elastic supports are quadratic: none), by the space's quadrature. With H = grad u,
+    // eps = sym H, sigma = lambda tr(eps) I + 2 mu eps: St. Venant-Kirchhoff
+    // psi3 = 1/2 sigma : (H^T H); the neo-Hookean law adds -lambda tr(eps) tr(eps^2) - 4/3 mu tr(eps^3)
+    // (W = lambda/2 (tr E)^2 + mu tr E^2 - lambda tr E tr E^2 - 4/3 mu tr E^3 + O(E^4)).
+    double cubic_energy(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
+                        const dealii::Vector<double> &u);
+
+    // The cubic term on the span of r fields (the modes): Psi3(sum_i q_i phi_i) = sum_ijk t_i,jk q_i q_j q_k
+    // with t symmetric in j, k (stored for j <= k), assembled once over the quadrature points.
+    class ModalCubicTerm
+    {
+    public:
+      ModalCubicTerm(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
+                     const std::vector<dealii::Vector<double>> &modes);
+      double value(const std::vector<double> &q) const; // [J]
+      double seconds = 0.;                               // the assembly's wall time
+
+    private:
+      unsigned int        r;
+      std::vector<double> t; // r x r(r+1)/2, row i, pairs (j <= k) in order
+    };
+
+    // The forces [N] where the secant compliance c1 + c2 F of a second-order curve departs by 1, 5,
+    // 10 % from c1: delta c1 / (|c2| (1 - delta)) softening (c2 > 0), delta c1 / (|c2| (1 + delta))
+    // stiffening; infinity where c2 = 0.
+    std::array<double, 3> second_order_validity_forces(double c1, double c2);
 
     class LargeDeformationSolve
     {
@@ -67,6 +105,9 @@ namespace modal_haptics
 
       // The dead load F * load ramped from 0 to ramp.force_limit: 'load' is a condensed unit patch
       // load W_v d (zero on constrained DoFs), which also reads the felt displacement d^T W_v^T u.
+      // The curve's exact second-order estimate from the linear response u1 (curve.estimate_exact,
+      // estimate_seconds) and Psi3's check against finite differences of the stored energy along
+      // t u1 (curve.cubic_term_check).
       // Each level starts from the last converged one; a level Newton cannot reach (an inverted
       // element at every step length of the line search, a tangent that is not positive definite,
       // no convergence) is retried with half the increment, up to ramp.max_halvings; then the curve
@@ -81,6 +122,8 @@ namespace modal_haptics
       // (nothing is assembled then).
       bool assemble(const dealii::Vector<double> &u, double force, const dealii::Vector<double> &load,
                     bool with_tangent);
+      bool assemble_at(const dealii::Vector<double> &u, double force, const dealii::Vector<double> &load,
+                       bool with_tangent); // assemble without its timer
       struct LevelOutcome
       {
         bool                converged = false;
@@ -93,14 +136,31 @@ namespace modal_haptics
                                const dealii::Vector<double> &predictor, const LoadRamp &ramp,
                                const std::function<void(std::string)> &log);
       // tangent^-1 rhs into du; false (and 'failure') when the tangent is not positive definite.
-      bool solve_tangent(dealii::Vector<double> &du, std::string &failure);
+      // With space.use_cg, CG preconditioned by the last factorization (K's, the space's, until a
+      // tangent is factorized) to |rhs - tangent du| <= tolerance |rhs|; the tangent is factorized
+      // (and preconditions from then on) only where CG stalls or meets negative curvature.
+      bool solve_tangent(dealii::Vector<double> &du, std::string &failure, double tolerance = 1e-12);
+      bool solve_tangent_system(dealii::Vector<double> &du, std::string &failure, double tolerance); // untimed
+      bool preconditioned_cg(dealii::Vector<double> &du, double tolerance);
+      // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load.
+      void estimate_second_order(const dealii::Vector<double> &u1, ValidityCurve &curve);
 
-      const SpaceView       space;
-      const double          mu, lambda;
+      const SpaceView          space;
+      const MaterialParameters material;
+      const double             mu, lambda;
       const HyperelasticLaw law;
       dealii::SparseMatrix<double> tangent;
       dealii::Vector<double>       rhs;
       double                       energy = 0.; // [J]
+      std::unique_ptr<Factorization> tangent_factor; // the last factorized tangent
+    public:
+      // What the solves cost: factorizations, CG iterations, assemblies (with the tangent and without).
+      struct Counts
+      {
+        unsigned int factorizations = 0, cg_solves = 0, cg_iterations = 0, tangent_assemblies = 0,
+                     residual_assemblies = 0;
+        double assembly_seconds = 0., solve_seconds = 0.; // [s] assemblies; factorizations and CG
+      } counts;
     };
 
     // The forces where the linear felt compliance departs by validity_departures from the secant
@@ -116,11 +176,36 @@ namespace modal_haptics
     // The phase: the validity curve of each of task.validity_vertices into result.validity, on a
     // space held against every rigid motion (otherwise logged and left out). patch_load(v, d) gives
     // W_v d condensed. Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
+    // The modal side of the estimate: the kept modes, their cubic term, and load(v, d) = B_v^T d =
+    // Phi^T W_v d (r values).
+    struct ModalView
+    {
+      const std::vector<dealii::Vector<double>> &modes;
+      const ModalCubicTerm                      &cubic;
+      std::function<std::vector<double>(unsigned int, const std::array<double, 3> &)> load;
+    };
+    // The modal estimate at a contact: c2 = -3 Psi3(Phi q), q_i = (B_v^T d)_i / lambda_i.
+    double modal_second_order(const ModalView &modal, const ModalSpaceResult &result, unsigned int vertex,
+                              const std::array<double, 3> &direction, std::vector<double> *q = nullptr);
+
+    // At each validity contact also both estimates (exact and modal) and their self-checks; the
+    // validity map (when estimated) takes the full solve's forces at these contacts.
     void analyse_validity(const SpaceView &space, const SceneParameters &scene, const SpaceTask &task,
                           const ContactSurface &display,
                           const std::function<dealii::Vector<double>(unsigned int, const std::array<double, 3> &)> &patch_load,
-                          const std::function<double(const meshing::Point3 &)> &outside, ModalSpaceResult &result,
-                          const std::function<void(std::string)> &log,
+                          const std::function<double(const meshing::Point3 &)> &outside,
+                          const std::function<std::optional<ModalView>()> &modal,
+                          ModalSpaceResult &result, const std::function<void(std::string)> &log,
                           const std::function<void(std::string)> &summarize);
+
+    // The phase before it: the validity map, at every display vertex where result.felt_stiffness > 0,
+    // from the modal second-order estimate along the inward normal (minus the display surface's
+    // outward normal, the felt-stiffness map's), c1 = 1 / felt_stiffness the exact corrected
+    // compliance. A space with free rigid motions gets none (logged, validity_left_out).
+    // make_modal is called only where the map is estimated (it assembles the cubic term).
+    void estimate_validity_map(const ContactSurface &display, const std::function<ModalView()> &make_modal,
+                               ModalSpaceResult &result, const std::function<void(std::string)> &summarize);
+    // The law 'Contact/Validity material' names.
+    HyperelasticLaw validity_law(const SceneParameters &scene);
   } // namespace nonlinear
 } // namespace modal_haptics

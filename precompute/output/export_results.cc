@@ -128,6 +128,13 @@ namespace modal_haptics
           write_array(c, "newton_iterations", curve.newton_iterations, {m}, w);
           write_array(c, "validity_force_n", std::vector<double>(curve.validity_force.begin(), curve.validity_force.end()),
                       {3}, w);
+          for (const auto &[name, estimate] : {std::make_pair("second_order_exact", &curve.estimate_exact),
+                                               std::make_pair("second_order_modal", &curve.estimate_modal)})
+            {
+              c.set_attribute(std::string(name) + "_c2_m_per_n2", estimate->c2);
+              write_array(c, std::string(name) + "_validity_force_n",
+                          std::vector<double>(estimate->validity_force.begin(), estimate->validity_force.end()), {3}, w);
+            }
         }
     }
 
@@ -157,6 +164,8 @@ namespace modal_haptics
       write_array(g, "cross_blocks", s.cross_blocks, {s.cross_neighbours.size(), 3, 3}, w);
       write_array(g, "felt_stiffness", s.felt_stiffness, {s.felt_stiffness.size()}, w);
       write_array(g, "modal_only_stiffness", s.modal_only_stiffness, {s.modal_only_stiffness.size()}, w);
+      if (!s.validity_force.empty())
+        write_array(g, "validity_force", s.validity_force, {nv, 3}, w);
       write_array(g, "participation", s.participation, {r, 6}, w);
       write_array(g, "centre_of_mass", std::vector<double>(s.centre_of_mass.begin(), s.centre_of_mass.end()), {3}, w);
       write_array(g, "inertia", std::vector<double>(s.inertia.begin(), s.inertia.end()), {3, 3}, w);
@@ -300,6 +309,7 @@ namespace modal_haptics
           space.cross_neighbours.assign(s.cross_neighbours.begin(), s.cross_neighbours.end());
           space.cross_blocks         = s.cross_blocks;
           space.felt_stiffness       = s.felt_stiffness;
+          space.validity_force       = s.validity_force;
           space.participation        = s.participation;
           for (const auto &vc : s.validation)
             {
@@ -358,15 +368,39 @@ namespace modal_haptics
       return validation;
     }
 
+    // {"1_percent": F1, "5_percent": F5, "10_percent": F10}; infinity (not reached) is null.
+    Json forces_json(const std::array<double, 3> &forces)
+    {
+      Json json = Json::object();
+      for (unsigned int k = 0; k < validity_departures.size(); ++k)
+        json[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = forces[k];
+      return json;
+    }
+
+    // An estimate at a validity contact and its relative error against the full solve's forces
+    // (null where either is not reached: the full one beyond the force limit or where it stopped).
+    Json estimate_json(const ValidityCurve::SecondOrderEstimate &estimate, const ValidityCurve &curve)
+    {
+      Json error = Json::object();
+      for (unsigned int k = 0; k < validity_departures.size(); ++k)
+        {
+          const double full = curve.validity_force[k], e = estimate.validity_force[k];
+          const bool   reached = std::isfinite(full) && (curve.stop_reason.empty() || full < curve.force_reached);
+          error[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] =
+            reached && std::isfinite(e) ? Json(e / full - 1.) : Json();
+        }
+      return {{"c2_m_per_n2", estimate.c2},
+              {"validity_force_n", forces_json(estimate.validity_force)},
+              {"rel_error", error}};
+    }
+
     // The nonlinear solves at the validity contacts (docs/report-schema.md, "validity").
     Json validity_json(const std::vector<ValidityCurve> &curves)
     {
       Json validity = Json::array();
       for (const auto &c : curves)
         {
-          Json forces = Json::object();
-          for (unsigned int k = 0; k < validity_departures.size(); ++k)
-            forces[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = c.validity_force[k];
+          const Json forces = forces_json(c.validity_force);
           validity.push_back({{"vertex", c.vertex},
                               {"direction", c.direction},
                               {"material", c.material},
@@ -379,7 +413,12 @@ namespace modal_haptics
                               {"displacement_m", c.displacements},
                               {"newton_iterations", c.newton_iterations},
                               {"newton_residuals", c.newton_residuals},
-                              {"seconds", c.seconds}});
+                              {"seconds", c.seconds},
+                              {"second_order_exact", estimate_json(c.estimate_exact, c)},
+                              {"second_order_modal", estimate_json(c.estimate_modal, c)},
+                              {"estimate_s", c.estimate_seconds},
+                              {"cubic_term_check", c.cubic_term_check},
+                              {"modal_cubic_check", c.modal_cubic_check}});
         }
       return validity;
     }
@@ -470,6 +509,49 @@ namespace modal_haptics
               {"stiffest", stiffest}};
     }
 
+    // The validity map over the space's region: its distribution (quantiles of each force, not
+    // reached counted apart) and the lowest 1 % forces with their positions.
+    Json validity_map_json(const ModalSpaceResult &s, const ContactSurface &display)
+    {
+      if (s.validity_force.empty())
+        return s.validity_left_out.empty() ? Json() : Json({{"left_out", s.validity_left_out}});
+      std::vector<unsigned int> region;
+      for (unsigned int v = 0; v < display.n_vertices(); ++v)
+        if (display.region[v] == s.index && s.validity_force[3 * v] > 0.)
+          region.push_back(v);
+      Json map = {{"n_contacts", region.size()},
+                  {"n_estimated_contacts", s.validity_estimated_contacts},
+                  {"tensor_s", s.validity_tensor_seconds},
+                  {"per_contact_s", s.validity_seconds_per_contact}};
+      if (region.empty())
+        return map;
+      for (unsigned int k = 0; k < validity_departures.size(); ++k)
+        {
+          std::vector<double> forces;
+          for (const unsigned int v : region)
+            forces.push_back(s.validity_force[3 * v + k]);
+          std::sort(forces.begin(), forces.end());
+          const auto at = [&](const double q) { return forces[std::size_t(q * (forces.size() - 1))]; };
+          map[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = {
+            {"min_n", at(0.)},       {"q05_n", at(0.05)}, {"q25_n", at(0.25)}, {"median_n", at(0.5)},
+            {"q75_n", at(0.75)},     {"max_n", at(1.)},
+            {"not_reached", std::count(forces.begin(), forces.end(), validity_not_reached)}};
+        }
+      std::sort(region.begin(), region.end(), [&](const unsigned int a, const unsigned int b) {
+        return s.validity_force[3 * a] < s.validity_force[3 * b];
+      });
+      Json lowest = Json::array();
+      for (std::size_t k = 0; k < std::min<std::size_t>(5, region.size()); ++k)
+        {
+          const unsigned int v = region[k];
+          lowest.push_back({{"vertex", v},
+                            {"position_m", display.vertices[v]},
+                            {"validity_force_n", {s.validity_force[3 * v], s.validity_force[3 * v + 1], s.validity_force[3 * v + 2]}}});
+        }
+      map["lowest"] = lowest;
+      return map;
+    }
+
     // The modes and how they were chosen: from "n_modes" to "rigid_body_modes" in the schema.
     void add_modes(Json &space, const ModalSpaceResult &s)
     {
@@ -508,6 +590,8 @@ namespace modal_haptics
       space["validation"]        = validation_json(s.validation);
       if (!s.validity.empty())
         space["validity"] = validity_json(s.validity);
+      if (const Json map = validity_map_json(s, display); !map.is_null())
+        space["validity_map"] = map;
       if (s.two_contact_rel_error_corrected >= 0.)
         space["two_contact_rel_error_corrected"] = s.two_contact_rel_error_corrected;
       Json &pairs = space["two_contact_checks"] = Json::array();
@@ -565,8 +649,13 @@ namespace modal_haptics
     }
   } // namespace
 
-  void write_felt_stiffness_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged)
+  namespace
   {
+    // The display surface with point arrays (name, one value per vertex) and each vertex's region.
+    void write_display_surface_vtu(const std::string &filename, const PrecomputeResults &results,
+                                   const std::vector<std::pair<std::string, std::vector<double>>> &arrays,
+                                   StagedFiles &staged)
+    {
     const auto &d = results.display;
     staged.write(filename, [&](std::ostream &out) {
       out << std::setprecision(9);
@@ -588,17 +677,50 @@ namespace modal_haptics
       for (const unsigned int region : d.region)
         out << region << '\n';
       out << "</DataArray>\n";
-      for (const auto &s : results.spaces)
-        for (const auto &[label, map] : {std::make_pair("felt stiffness ", &s.felt_stiffness),
-                                         std::make_pair("modal-only stiffness ", &s.modal_only_stiffness)})
-          {
-            out << "<DataArray type=\"Float64\" Name=\"" << label << s.name << " [N/mm]\" format=\"ascii\">\n";
-            for (const double k : *map)
-              out << k * 1e-3 << '\n';
-            out << "</DataArray>\n";
-          }
+      for (const auto &[name, values] : arrays)
+        {
+          out << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">\n";
+          for (const double x : values)
+            out << x << '\n';
+          out << "</DataArray>\n";
+        }
       out << "</PointData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
     });
+    }
+  } // namespace
+
+  void write_felt_stiffness_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged)
+  {
+    std::vector<std::pair<std::string, std::vector<double>>> arrays;
+    for (const auto &s : results.spaces)
+      for (const auto &[label, map] : {std::make_pair("felt stiffness ", &s.felt_stiffness),
+                                       std::make_pair("modal-only stiffness ", &s.modal_only_stiffness)})
+        {
+          arrays.emplace_back(label + s.name + " [N/mm]", *map);
+          for (double &k : arrays.back().second)
+            k *= 1e-3;
+        }
+    write_display_surface_vtu(filename, results, arrays, staged);
+  }
+
+  void write_validity_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged)
+  {
+    std::vector<std::pair<std::string, std::vector<double>>> arrays;
+    for (const auto &s : results.spaces)
+      if (!s.validity_force.empty())
+        for (unsigned int k = 0; k < validity_departures.size(); ++k)
+          {
+            arrays.emplace_back("validity force " + std::to_string(int(std::lround(100. * validity_departures[k]))) +
+                                  " % " + s.name + " [N]",
+                                std::vector<double>());
+            for (std::size_t v = 0; v < results.display.n_vertices(); ++v)
+              {
+                const double f = s.validity_force[3 * v + k];
+                arrays.back().second.push_back(f == validity_not_reached ? -1. : f);
+              }
+          }
+    if (!arrays.empty())
+      write_display_surface_vtu(filename, results, arrays, staged);
   }
 
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,

@@ -52,6 +52,9 @@ namespace modal_haptics
   // The felt-stiffness map on the display surface for ParaView: per space, the felt and the modal-only
   // normal stiffness [N/mm] at every display vertex, and each vertex's region (the space whose VOI holds it).
   void write_felt_stiffness_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged);
+  // The validity map on the display surface for ParaView, when some space has one: per space, the
+  // 1, 5 and 10 % validity forces [N] at every display vertex (0: no value, -1: not reached).
+  void write_validity_vtu(const std::string &filename, const PrecomputeResults &results, StagedFiles &staged);
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                     StagedFiles &staged);
 } // namespace modal_haptics

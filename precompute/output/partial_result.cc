@@ -45,10 +45,17 @@ namespace boost::serialization
   }
 
   template <class Archive>
+  void serialize(Archive &ar, modal_haptics::ValidityCurve::SecondOrderEstimate &e, const unsigned int)
+  {
+    ar &e.c2 &e.validity_force;
+  }
+
+  template <class Archive>
   void serialize(Archive &ar, modal_haptics::ValidityCurve &c, const unsigned int)
   {
     ar &c.vertex &c.direction &c.material &c.linear_compliance &c.forces &c.displacements &c.newton_iterations;
     ar &c.newton_residuals &c.force_limit &c.force_reached &c.stop_reason &c.validity_force &c.seconds;
+    ar &c.estimate_exact &c.estimate_modal &c.estimate_seconds &c.cubic_term_check &c.modal_cubic_check;
   }
 
   template <class Archive>

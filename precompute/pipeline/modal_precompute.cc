@@ -480,6 +480,7 @@ namespace modal_haptics
       return;
     write_basis_file(base + ".mrt", scene, results, staged);
     write_felt_stiffness_vtu(scene.output_directory + "/felt_stiffness.vtu", results, staged);
+    write_validity_vtu(scene.output_directory + "/validity.vtu", results, staged);
     staged.write(scene.output_directory + "/used_parameters.prm",
                  [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
     for (const auto &task : results.tasks)

@@ -123,6 +123,9 @@ namespace modal_haptics
       }
       void solve_eigenproblem() override;
       void analyse_validity() override;
+      void estimate_validity() override;
+      nonlinear::SpaceView validity_space();
+      nonlinear::ModalView modal_view();
       void finish() override;
 
       void read_mesh();
@@ -153,6 +156,7 @@ namespace modal_haptics
       // The rigid-body motions the supports leave free, M-orthonormal, and M times each.
       std::vector<Vector<double>> rigid_modes, mass_times_rigid;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
+      std::unique_ptr<nonlinear::ModalCubicTerm>          cubic_term;    // the validity estimate's, on first use
     };
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
@@ -334,21 +338,57 @@ namespace modal_haptics
       select_modes();
     }
 
-    // The nonlinear solves on this space's mesh, FE space, supports and sparsity (large_deformation.h).
+    // The nonlinear solves on this space's mesh, FE space, supports and sparsity (large_deformation.h);
+    // its factorization of K (a direct one, with no shift) preconditions their tangent systems.
+    nonlinear::SpaceView SerialSpace::validity_space()
+    {
+      Factorization *factor_of_K = (amg_inverse() == nullptr && shift == 0.) ? factorization.get() : nullptr;
+      return {dof_handler,           mapping,          quadrature,
+              constraints,           sparsity_pattern, supports.elastic_faces,
+              scene.modes.factorization_kind, factor_of_K, scene.contact.validity_cg};
+    }
+
+    // The modes, their cubic term (assembled once) and B_v^T d from the patch loads.
+    nonlinear::ModalView SerialSpace::modal_view()
+    {
+      const auto &modes = eigen.eigenvectors;
+      if (!cubic_term)
+        cubic_term = std::make_unique<nonlinear::ModalCubicTerm>(validity_space(), scene.material,
+                                                                 nonlinear::validity_law(scene), modes);
+      return {modes, *cubic_term, [this, &modes](const unsigned int v, const std::array<double, 3> &d) {
+                std::vector<double> b(modes.size());
+                for (unsigned int i = 0; i < modes.size(); ++i)
+                  {
+                    const auto average = surface.local_patch_average(v, modes[i]);
+                    b[i]               = d[0] * average[0] + d[1] * average[1] + d[2] * average[2];
+                  }
+                return b;
+              }};
+    }
+
+    void SerialSpace::estimate_validity()
+    {
+      nonlinear::estimate_validity_map(
+        display, [this] { return modal_view(); }, result, [this](const std::string &line) { summarize(line); });
+    }
+
     void SerialSpace::analyse_validity()
     {
-      const nonlinear::SpaceView space{dof_handler,      mapping,
-                                       quadrature,       constraints,
-                                       sparsity_pattern, supports.elastic_faces,
-                                       scene.modes.factorization_kind};
       nonlinear::analyse_validity(
-        space, scene, task, display, [this](const unsigned int v, const std::array<double, 3> &d) { return patch_load(v, d); },
+        validity_space(), scene, task, display,
+        [this](const unsigned int v, const std::array<double, 3> &d) { return patch_load(v, d); },
         [this](const meshing::Point3 &x) {
           double outside = 0.;
           evaluation_points({x}, &outside);
           return outside;
         },
-        result, [this](const std::string &line) { log(line); }, [this](const std::string &line) { summarize(line); });
+        [this]() -> std::optional<nonlinear::ModalView> {
+          if (scene.contact.validity_estimate)
+            return modal_view();
+          return std::nullopt;
+        },
+        result, [this](const std::string &line) { log(line); },
+        [this](const std::string &line) { summarize(line); });
     }
 
     void SerialSpace::finish()

@@ -114,6 +114,8 @@ namespace modal_haptics
       phase("interpolation", [&] { interpolate(); });
       phase("static_correction", [&] { compute_static_correction(); });
       phase("validation", [&] { validate(); });
+      if (scene.contact.validity_estimate)
+        phase("validity_estimate", [&] { estimate_validity(); });
       if (scene.contact.validity_analysis && !task.validity_vertices.empty())
         phase("validity", [&] { analyse_validity(); });
       phase("vtu_output", [&] { output_results(); });

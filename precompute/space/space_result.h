@@ -68,8 +68,25 @@ namespace modal_haptics
     // force limit; force_reached when the solve stopped before (the part does not carry more).
     std::array<double, 3> validity_force{};
     double seconds = 0.; // wall time of the solve
+    // The second-order estimate at this contact (docs/accuracy.md): the felt displacement
+    // d(F) = c1 F + c2 F^2 + ..., c2 = -3 Psi3(u1), Psi3 the cubic term of the stored energy and u1
+    // the linear response to the unit load, once exact (u1 = K^-1 W_v d: one solve) and once
+    // projected on the modes (u1 ~ Phi Lambda^-1 B_v^T d: what the validity map holds elsewhere).
+    struct SecondOrderEstimate
+    {
+      double                c2 = 0.;          // [m/N^2]
+      std::array<double, 3> validity_force{}; // [N] where c1 / (c1 + c2 F) departs by 1, 5, 10 %
+    };
+    SecondOrderEstimate estimate_exact, estimate_modal;
+    double estimate_seconds = 0.; // the exact estimate: a solve and an integral over the mesh
+    // Self-checks of the cubic term (negative: not computed): Psi3(u1) by quadrature against the odd
+    // part of the stored energy along t u1 (finite differences), and sum P_ijk q_i q_j q_k against
+    // Psi3(Phi q) by quadrature; relative differences.
+    double cubic_term_check = -1., modal_cubic_check = -1.;
   };
   constexpr std::array<double, 3> validity_departures = {{0.01, 0.05, 0.10}};
+  // The validity map's value where a departure is not reached (docs/basis-format.md, VALIDITY_FORCE).
+  constexpr double validity_not_reached = 1e30;
 
   // A space's result is read by three readers, one struct each: the basis (what the .mrt and .h5
   // files hold), its diagnostics (report.json) and the rows this process holds (MPI bookkeeping,
@@ -110,6 +127,10 @@ namespace modal_haptics
     // scene's map takes each vertex from the space whose region holds it), and what the modes alone
     // would give there, 1 / (n^T B_v Lambda^-1 B_v^T n).
     std::vector<double> felt_stiffness, modal_only_stiffness;
+    // The validity map: F1, F5, F10 [N] per display vertex (3 v + 0, 1, 2) where felt_stiffness > 0:
+    // the full nonlinear solve's at the validity contacts, the modal second-order estimate elsewhere;
+    // 0 = no value, validity_not_reached = not reached. Empty when not computed.
+    std::vector<double> validity_force;
 
     std::vector<double>         participation; // r x 6
     double                      mass = 0.;     // [kg]
@@ -130,7 +151,8 @@ namespace modal_haptics
       field("candidate_modes", b.candidate_modes), field("candidate_compliance", b.candidate_compliance);
       field("cross_offsets", b.cross_offsets), field("cross_neighbours", b.cross_neighbours);
       field("cross_blocks", b.cross_blocks), field("felt_stiffness", b.felt_stiffness);
-      field("modal_only_stiffness", b.modal_only_stiffness), field("participation", b.participation);
+      field("modal_only_stiffness", b.modal_only_stiffness), field("validity_force", b.validity_force);
+      field("participation", b.participation);
       field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
       field("validation", b.validation), field("validity", b.validity);
     }
@@ -168,6 +190,11 @@ namespace modal_haptics
     double                  orthogonalization_seconds = 0.; // block Krylov: Gram-Schmidt, in the iteration
     double                  correction_seconds_per_candidate = 0.;
     std::map<std::string, double> timings_s;     // assembly, eigensolve, static_correction, validation
+    // The validity map's estimate: the modal cubic tensor's assembly, the contacts it covers and the
+    // time per contact after it; why it was left out (empty: it was not).
+    double       validity_tensor_seconds = 0., validity_seconds_per_contact = 0.;
+    unsigned int validity_estimated_contacts = 0;
+    std::string  validity_left_out;
 
     template <typename Self, typename Visitor>
     static void for_each_field(Self &d, Visitor &&field)
@@ -187,6 +214,10 @@ namespace modal_haptics
       field("mass_product_seconds", d.mass_product_seconds);
       field("orthogonalization_seconds", d.orthogonalization_seconds);
       field("correction_seconds_per_candidate", d.correction_seconds_per_candidate), field("timings_s", d.timings_s);
+      field("validity_tensor_seconds", d.validity_tensor_seconds);
+      field("validity_seconds_per_contact", d.validity_seconds_per_contact);
+      field("validity_estimated_contacts", d.validity_estimated_contacts);
+      field("validity_left_out", d.validity_left_out);
     }
   };
 

@@ -37,6 +37,14 @@ def run_precompute(binary, folder, prm_text, prm_name="scene.prm", meshes_from=N
         return json.load(f), done.stderr
 
 
+def test_prm(prm_name, geometry):
+    """A .prm beside the tests, with its geometry file named by its path (the run writes the .prm
+    into its own folder)."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    with open(os.path.join(here, prm_name)) as f:
+        return f.read().replace(geometry, os.path.join(here, geometry))
+
+
 class Checks:
     """Each check prints its value against its limit; ok is False once one fails."""
 

@@ -59,6 +59,8 @@ def main():
             same(f"{name}: cross neighbours", s[(29, k, SW)], g["cross_neighbours"])
             same(f"{name}: cross blocks", s[(30, k, SW)], g["cross_blocks"])
         same(f"{name}: felt stiffness", s[(31, k, SW)], g["felt_stiffness"])
+        if (33, k, SW) in s or "validity_force" in g:
+            same(f"{name}: validity map", s.get((33, k, SW), []), g["validity_force"] if "validity_force" in g else [])
         if nval:
             same(f"{name}: validation cases", s[(26, k, SW)], g["validation_cases"])
             same(f"{name}: validation response", s[(27, k, SW)], g["validation_response"])

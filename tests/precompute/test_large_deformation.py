@@ -24,7 +24,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
 L = 0.2
 BISSHOPP_DRUCKER_ALPHA_1 = 0.30172  # tip deflection / L at P L^2 / (E I) = 1
@@ -73,8 +73,7 @@ def main():
     args = binary_and_fresh_workdir()
     here = os.path.dirname(os.path.abspath(__file__))
     checks = Checks()
-    with open(os.path.join(here, "elastica.prm")) as f:
-        elastica = f.read().replace("cantilever.geo", os.path.join(here, "cantilever.geo"))
+    elastica = test_prm("elastica.prm", "cantilever.geo")
 
     reference = elastica_tip_deflection(1.0)
     print(f"elastica at alpha = 1: delta / L = {reference:.5f} (Bisshopp & Drucker: {BISSHOPP_DRUCKER_ALPHA_1})")
