@@ -223,6 +223,7 @@ namespace modal_haptics
     // The force axis: the reference alone solves the nonlinear problem at the contacts.
     const bool force_axis = point.mesh == "reference" && !study.force_levels.empty();
     set_entry(prm, "Contact", "Validity analysis", force_axis ? "true" : "false");
+    set_entry(prm, "Contact", "Validity estimate", "false"); // the map is not what a study point measures
     if (force_axis)
       {
         const auto &d = study.push_direction;
