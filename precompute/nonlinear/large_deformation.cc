@@ -173,7 +173,7 @@ namespace modal_haptics
     // symmetric tensors is A : sym(BC)). Over the quadrature points t = X^T Y is one GEMM per batch.
     ModalCubicTerm::ModalCubicTerm(const SpaceView &space, const MaterialParameters &material,
                                    const HyperelasticLaw law, const std::vector<Vector<double>> &modes)
-      : r(modes.size())
+      : r(std::min<unsigned int>(modes.size(), max_estimate_modes))
     {
       Timer timer;
       // Small GEMMs (r x 3328 x r(r+1)/2), one thread: with OpenBLAS' threads on a busy machine the

@@ -78,14 +78,20 @@ namespace modal_haptics
     double cubic_energy(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
                         const dealii::Vector<double> &u);
 
-    // The cubic term on the span of r fields (the modes): Psi3(sum_i q_i phi_i) = sum_ijk t_i,jk q_i q_j q_k
-    // with t symmetric in j, k (stored for j <= k), assembled once over the quadrature points.
+    // The modes the estimate projects on: the lowest ones, at most this many. The tensor grows as r^3
+    // (r = 1000 would be 5e8 numbers and hours of GEMMs) while a mode's share of u1 falls as 1/lambda.
+    constexpr unsigned int max_estimate_modes = 30;
+
+    // The cubic term on the span of the lowest r = min(modes, max_estimate_modes) fields (the modes):
+    // Psi3(sum_i q_i phi_i) = sum_ijk t_i,jk q_i q_j q_k with t symmetric in j, k (stored for j <= k),
+    // assembled once over the quadrature points.
     class ModalCubicTerm
     {
     public:
       ModalCubicTerm(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
                      const std::vector<dealii::Vector<double>> &modes);
-      double value(const std::vector<double> &q) const; // [J]
+      unsigned int size() const { return r; }          // the modes it spans
+      double value(const std::vector<double> &q) const; // [J], q of size()
       double seconds = 0.;                               // the assembly's wall time
 
     private:
@@ -177,7 +183,7 @@ namespace modal_haptics
     // space held against every rigid motion (otherwise logged and left out). patch_load(v, d) gives
     // W_v d condensed. Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
     // The modal side of the estimate: the kept modes, their cubic term, and load(v, d) = B_v^T d =
-    // Phi^T W_v d (r values).
+    // Phi^T W_v d (the cubic term's size() values: the lowest modes).
     struct ModalView
     {
       const std::vector<dealii::Vector<double>> &modes;

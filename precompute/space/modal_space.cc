@@ -356,8 +356,8 @@ namespace modal_haptics
         cubic_term = std::make_unique<nonlinear::ModalCubicTerm>(validity_space(), scene.material,
                                                                  nonlinear::validity_law(scene), modes);
       return {modes, *cubic_term, [this, &modes](const unsigned int v, const std::array<double, 3> &d) {
-                std::vector<double> b(modes.size());
-                for (unsigned int i = 0; i < modes.size(); ++i)
+                std::vector<double> b(cubic_term->size()); // the lowest modes the estimate projects on
+                for (unsigned int i = 0; i < b.size(); ++i)
                   {
                     const auto average = surface.local_patch_average(v, modes[i]);
                     b[i]               = d[0] * average[0] + d[1] * average[1] + d[2] * average[2];
