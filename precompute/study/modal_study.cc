@@ -370,9 +370,9 @@ namespace modal_haptics
     }
 
     // The reference's nonlinear solve at each contact (its validity analysis), in the contacts' order.
-    std::vector<NonlinearCurve> nonlinear_curves(const ModalSpaceResult &space, const std::vector<Contact> &contacts) const
+    std::vector<ValidityCurve> nonlinear_curves(const ModalSpaceResult &space, const std::vector<Contact> &contacts) const
     {
-      std::vector<NonlinearCurve> curves;
+      std::vector<ValidityCurve> curves;
       for (const auto &contact : contacts)
         {
           const auto solved = std::find_if(space.validity.begin(), space.validity.end(),
@@ -381,13 +381,7 @@ namespace modal_haptics
                       ExcMessage(study.study_file + ": the reference has no nonlinear solve at display vertex " +
                                  std::to_string(contact.vertex) + " ('Study/Force levels' needs a part held "
                                  "against every rigid motion)."));
-          NonlinearCurve curve;
-          curve.linear_compliance = solved->linear_compliance;
-          curve.forces            = solved->forces;
-          curve.displacements     = solved->displacements;
-          curve.force_reached     = solved->force_reached;
-          curve.stop_reason       = solved->stop_reason;
-          curve.validity_force    = solved->validity_force;
+          const ValidityCurve &curve = *solved;
           std::cout << "[study] reference: nonlinear at vertex " << contact.vertex << ": " << curve.forces.size()
                     << " load levels up to " << curve.force_reached << " N"
                     << (curve.stop_reason.empty() ? "" : " (" + curve.stop_reason + ")") << std::endl;
@@ -404,12 +398,10 @@ namespace modal_haptics
       for (const double force : study.force_levels)
         {
           double worst = 0.;
-          for (std::size_t k = 0; k < felt.size(); ++k)
+          for (std::size_t k = 0; k < felt.size() && !std::isnan(worst); ++k)
             {
-              const double nonlinear = reference.curves[k].secant_compliance(force);
+              const double nonlinear = secant_compliance(reference.curves[k], force);
               worst = std::isnan(nonlinear) ? nonlinear : std::max(worst, std::abs(felt[k] / nonlinear - 1.));
-              if (std::isnan(worst))
-                break;
             }
           errors.push_back(worst);
         }

@@ -6,6 +6,8 @@
 // sweep itself, which needs the precompute, is modal_study.cc.
 #pragma once
 
+#include "space/space_result.h"
+
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -74,33 +76,23 @@ namespace modal_haptics
     unsigned int display_vertices = 0;
   };
 
-  // The reference's geometrically nonlinear felt response at one contact (the force axis): the
-  // felt displacement d^T W^T u at each converged load level of a dead load pushing along d.
-  struct NonlinearCurve
+  // The secant compliance delta(F) / F [m/N] a nonlinear curve gives at `force`, interpolated linearly
+  // in F between its levels (it equals the linear compliance at F = 0); NaN beyond force_reached (the
+  // part did not carry it). The force axis of a study.
+  inline double secant_compliance(const ValidityCurve &curve, const double force)
   {
-    double              linear_compliance = 0.; // [m/N] the reference's linear d^T W^T K^-1 W d
-    std::vector<double> forces, displacements;  // [N], [m] converged levels, ascending (0 left out)
-    double              force_reached = 0.;     // [N] the last converged level
-    std::string         stop_reason;            // empty when the solve reached its force limit
-    std::array<double, 3> validity_force{};     // [N] 1, 5, 10 % departure (infinity: not reached)
-
-    // The secant compliance delta(F) / F felt at `force` [m/N], interpolated linearly in F between the
-    // levels (it equals linear_compliance at F = 0); NaN beyond force_reached (the part did not carry it).
-    double secant_compliance(const double force) const
-    {
-      if (forces.empty() || force > force_reached * (1. + 1e-12))
-        return std::nan("");
-      double previous_force = 0., previous_secant = linear_compliance;
-      for (std::size_t k = 0; k < forces.size(); ++k)
-        {
-          const double secant = displacements[k] / forces[k];
-          if (force <= forces[k])
-            return previous_secant + (secant - previous_secant) * (force - previous_force) / (forces[k] - previous_force);
-          previous_force = forces[k], previous_secant = secant;
-        }
-      return previous_secant;
-    }
-  };
+    if (curve.forces.empty() || force > curve.force_reached * (1. + 1e-12))
+      return std::nan("");
+    double previous_force = 0., previous_secant = curve.linear_compliance;
+    for (std::size_t k = 0; k < curve.forces.size(); ++k)
+      {
+        const double secant = curve.displacements[k] / curve.forces[k];
+        if (force <= curve.forces[k])
+          return previous_secant + (secant - previous_secant) * (force - previous_force) / (curve.forces[k] - previous_force);
+        previous_force = curve.forces[k], previous_secant = secant;
+      }
+    return previous_secant;
+  }
 
   struct ReferenceSolution
   {
@@ -108,7 +100,7 @@ namespace modal_haptics
     unsigned int            n_dofs = 0;
     double                  seconds = 0.;
     std::vector<Contact>    contacts;
-    std::vector<NonlinearCurve> curves; // per contact, when the study has 'Force levels'
+    std::vector<ValidityCurve> curves; // the nonlinear solve per contact, when the study has 'Force levels'
     std::vector<double>     frequencies_hz;
   };
 

@@ -147,7 +147,7 @@ namespace modalrt_tool
     if (!has_validity_map(basis))
       {
         std::printf("\nvalidity map: none in this file (VALIDITY_FORCE: .mrt 1.2 from a precompute with "
-                    "'Contact/Validity analysis')\n");
+                    "'Contact/Validity estimate' or 'Validity analysis')\n");
         return;
       }
     std::printf("\nvalidity map (VALIDITY_FORCE: the contact force up to which the linear felt stiffness holds to "
