@@ -5,8 +5,12 @@
 // force is never zero. Asserted:
 //   - zero dropouts: no tick past the hold window with a held force (the kernel's dropout_ticks),
 //     and no command to the client with zero force while in contact;
-//   - no drift of tick time: the bridge's ticks counted by the client over its session match its own
-//     clock within 0.2 %, and the bridge's simulated time matches its wall time within 0.2 %;
+//   - no drift of tick time: the bridge's wall time less its simulated time is the periods it
+//     reports lost (missed periods, plus at most one period per late tick that restarted the
+//     schedule), and the tick rate the client counts on its own clock equals the bridge's ticks over
+//     its wall time within 0.1 %. How many periods a loaded machine takes from the bridge is not the
+//     bridge's to decide: it is printed, and asserted only below 1 % (an hour at load 10 on 2 cores
+//     lost 0.22 %, docs/reliability.md);
 //   - RSS flat: the bridge's resident memory, sampled every second from /proc, grows by less than
 //     1 MB after the first 5 s;
 //   - nothing allocated in the haptic thread, no non-finite output.
@@ -253,8 +257,13 @@ int main(int argc, char **argv)
       ENSURE(dropouts == 0);
       ENSURE(result.zero_force_in_contact == 0);
       ENSURE(result.contact_commands > 0.9 * result.commands);
-      ENSURE(std::fabs(client_rate - 1000.0) < 2.0);      // 0.2 %
-      ENSURE(std::fabs(wall - simulated) < 0.002 * wall); // 0.2 %
+      const double period = 1e-3, missed = json_number(stats, "missed_periods"),
+                   overruns = json_number(stats, "overruns");
+      const double lost = wall - simulated; // the schedule's lost time [s]
+      ENSURE(lost > missed * period - 2.0 * period);
+      ENSURE(lost < (missed + overruns + 2.0) * period);
+      ENSURE(std::fabs(client_rate - ticks / wall) < 1e-3 * ticks / wall); // 0.1 %
+      ENSURE(lost < 0.01 * wall);
       ENSURE(rss.size() > 5 && rss_end - rss_after_warmup < 1024.0);
     }
   ENSURE(result.commands > 0);
