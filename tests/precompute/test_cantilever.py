@@ -24,7 +24,8 @@ import subprocess
 import sys
 
 import numpy as np
-import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
 
 from precompute_run import binary_and_fresh_workdir
 
@@ -45,25 +46,32 @@ def shear_coefficient(nu):
 
 def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2, clamped=True):
     """Timoshenko beam, clamped at x = 0 or free-free (its two rigid-body modes skipped), linear
-    elements with one-point (reduced) shear integration."""
+    elements with one-point (reduced) shear integration. K and M are banded (4002 DoFs): they are
+    assembled sparse and the lowest eigenvalues found by shift-invert Lanczos (ARPACK) about a shift
+    below them all, in 0.1-0.5 s. The dense generalized eigh of the same matrices, used before, took
+    17-70 s a call on the 2-core machine; the two agree within 8e-7 relative (the dense solve's
+    rounding, about eps lambda_max / lambda_1 on this stiff 1D problem; other shifts move the sparse
+    one by 2e-8), far inside the 1-3 % the tests ask of the 3D models against it."""
     G, KAPPA = shear_modulus(nu), shear_coefficient(nu)
     h = L / n_elements
     n = 2 * (n_elements + 1)
-    K = np.zeros((n, n))
-    M = np.zeros((n, n))
     bending = E * I / h * np.array([[0, 0, 0, 0], [0, 1, 0, -1], [0, 0, 0, 0], [0, -1, 0, 1]])
     shear_strain = np.array([-1 / h, -0.5, 1 / h, -0.5])  # w' - theta at the element centre
     shear = KAPPA * G * AREA * h * np.outer(shear_strain, shear_strain)
     lumped = np.array([[2, 1], [1, 2]]) * h / 6
-    for e in range(n_elements):
-        dofs = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
-        K[np.ix_(dofs, dofs)] += bending + shear
-        M[np.ix_(dofs[0::2], dofs[0::2])] += RHO * AREA * lumped
-        M[np.ix_(dofs[1::2], dofs[1::2])] += RHO * I * lumped
+    element_mass = np.zeros((4, 4))  # element DoFs w0, theta0, w1, theta1
+    element_mass[0::2, 0::2] = RHO * AREA * lumped
+    element_mass[1::2, 1::2] = RHO * I * lumped
+    dofs = 2 * np.arange(n_elements)[:, None] + np.arange(4)[None, :]
+    rows = np.repeat(dofs, 4, axis=1).ravel()
+    cols = np.tile(dofs, (1, 4)).ravel()
+    K = scipy.sparse.coo_matrix((np.tile((bending + shear).ravel(), n_elements), (rows, cols)), shape=(n, n)).tocsc()
+    M = scipy.sparse.coo_matrix((np.tile(element_mass.ravel(), n_elements), (rows, cols)), shape=(n, n)).tocsc()
     free = slice(2, n) if clamped else slice(0, n)  # clamped: w and theta fixed at x = 0
     first = 0 if clamped else 2
-    lam = scipy.linalg.eigh(K[free, free], M[free, free], eigvals_only=True,
-                            subset_by_index=[first, first + n_modes - 1])
+    shift = -(2 * math.pi * 10.0) ** 2  # below every eigenvalue (the rigid ones: 0)
+    lam = np.sort(scipy.sparse.linalg.eigsh(K[free, free], k=first + n_modes, M=M[free, free], sigma=shift,
+                                            which="LM", return_eigenvectors=False))[first:]
     return np.sqrt(lam) / (2 * math.pi)
 
 
