@@ -138,16 +138,12 @@ namespace modal_haptics
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
       virtual void validate() = 0;
-      // The nonlinear solves at the validity contacts and the validity map's estimate at every
-      // corrected contact (precompute/nonlinear/): serial only.
+      // The validity map's estimate at every corrected contact (serial and distributed), and the
+      // nonlinear solves at the validity contacts (precompute/nonlinear/: serial only).
+      virtual void estimate_validity() = 0;
       virtual void analyse_validity()
       {
         summarize("validity analysis left out: the distributed backend has no nonlinear solve (serial runs only)");
-      }
-      virtual void estimate_validity()
-      {
-        result.validity_left_out = "the distributed backend has no validity estimate (serial runs only)";
-        summarize("validity map left out: " + result.validity_left_out);
       }
       virtual void output_results() const = 0;
       virtual void finish() {}
