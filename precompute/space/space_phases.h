@@ -51,6 +51,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <unordered_map>
 
 namespace modal_haptics
 {
@@ -110,13 +111,14 @@ namespace modal_haptics
       const auto            evaluated   = b.evaluation_points(display.vertices, &max_outside);
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
         if (evaluated[v].cell.state() == dealii::IteratorState::valid)
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              b.surface.display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
-              space_parts::add_shape_values(evaluated[v].cell, evaluated[v].unit, c, 1.,
-                                            b.surface.display_rows.back().second);
-              b.condense(b.surface.display_rows.back().second);
-            }
+          {
+            auto row = space_parts::shape_row(evaluated[v]);
+            for (unsigned int c = 0; c < 3; ++c)
+              {
+                b.condense(row[c]);
+                b.surface.display_rows.emplace_back(3 * v + c, std::move(row[c]));
+              }
+          }
 
       const auto        &modes = b.kept_modes();
       const unsigned int r     = modes.size();
@@ -156,13 +158,22 @@ namespace modal_haptics
     }
 
     // Neighbouring patches share their triangles' quadrature points, bit for bit (a triangle is
-    // split the same way in every patch that covers it), so each point is located once: with every
+    // split the same way in every patch that covers it), so each point is located and its shape
+    // values evaluated once (space_parts::shape_row): with every
     // display vertex a load, a point lies in a dozen patches. The points missing from the cache go
     // to the backend in one call per patch (the same list on every process: the call is collective).
     template <typename Backend>
     void build_patch_loads(Backend &b, const PhaseInputs &in, const std::vector<unsigned int> &vertices)
     {
-      std::map<meshing::Point3, space_parts::EvaluationPoint> located;
+      // Keyed by the points' bits (equal points are bitwise equal): a hash, not an ordered map, since
+      // every patch looks each of its points up.
+      const auto bits_hash = [](const meshing::Point3 &x) {
+        std::size_t h = 0;
+        for (const double c : x)
+          h = h * 0x9e3779b97f4a7c15ull + std::hash<double>()(c);
+        return h;
+      };
+      std::unordered_map<meshing::Point3, space_parts::ShapeRow, decltype(bits_hash)> located(0, bits_hash);
       const auto evaluate_once = [&](const std::vector<meshing::Point3> &points) {
         std::vector<meshing::Point3> missing;
         for (const auto &x : points)
@@ -172,10 +183,10 @@ namespace modal_haptics
         missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
         const auto evaluated = b.evaluation_points(missing, nullptr);
         for (std::size_t k = 0; k < missing.size(); ++k)
-          located.emplace(missing[k], evaluated[k]);
-        std::vector<space_parts::EvaluationPoint> answer;
+          located.emplace(missing[k], space_parts::shape_row(evaluated[k]));
+        std::vector<const space_parts::ShapeRow *> answer;
         for (const auto &x : points)
-          answer.push_back(located.at(x));
+          answer.push_back(&located.at(x));
         return answer;
       };
       for (const unsigned int v : vertices)
