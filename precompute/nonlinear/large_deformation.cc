@@ -18,6 +18,7 @@
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/fe_values_extractors.h>
 #include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/trilinos_vector.h>
 
 #include <algorithm>
 #include <cmath>
@@ -171,8 +172,11 @@ namespace modal_haptics
     // Y symmetric in j, k: St. Venant-Kirchhoff X = sigma_i, Y = 1/2 sym(H_j^T H_k); the neo-Hookean law
     // appends X = (tr eps_i, eps_i), Y = (-lambda eps_j : eps_k, -4/3 mu sym(eps_j eps_k)) (tr(ABC) of
     // symmetric tensors is A : sym(BC)). Over the quadrature points t = X^T Y is one GEMM per batch.
-    ModalCubicTerm::ModalCubicTerm(const SpaceView &space, const MaterialParameters &material,
-                                   const HyperelasticLaw law, const std::vector<Vector<double>> &modes)
+    template <typename VectorType>
+    ModalCubicTerm::ModalCubicTerm(const DoFHandler<3> &dof_handler, const Mapping<3> &mapping,
+                                   const Quadrature<3> &quadrature, const MaterialParameters &material,
+                                   const HyperelasticLaw law, const std::vector<VectorType> &modes,
+                                   const std::function<void(std::vector<double> &)> &sum_over_processes)
       : r(std::min<unsigned int>(modes.size(), max_estimate_modes))
     {
       Timer timer;
@@ -181,10 +185,9 @@ namespace modal_haptics
       BlasThreads one_thread(1);
       const auto [mu, lambda] = lame_constants(material);
       const bool         neo_hookean = law == HyperelasticLaw::neo_hookean;
-      const unsigned int width = neo_hookean ? 13 : 6, n_pairs = r * (r + 1) / 2, n_q = space.quadrature.size();
+      const unsigned int width = neo_hookean ? 13 : 6, n_pairs = r * (r + 1) / 2, n_q = quadrature.size();
       const unsigned int batch = 256; // quadrature points per GEMM
-      FEValues<3> fe_values(space.mapping, space.dof_handler.get_fe(), space.quadrature,
-                            update_gradients | update_JxW_values);
+      FEValues<3> fe_values(mapping, dof_handler.get_fe(), quadrature, update_gradients | update_JxW_values);
       const FEValuesExtractors::Vector       displacement(0);
       std::vector<std::vector<Tensor<2, 3>>> H(r, std::vector<Tensor<2, 3>>(n_q));
       std::vector<Tensor<2, 3>>              eps(r);
@@ -201,8 +204,10 @@ namespace modal_haptics
         std::fill(Y.begin(), Y.end(), 0.);
         filled = 0;
       };
-      for (const auto &cell : space.dof_handler.active_cell_iterators())
+      for (const auto &cell : dof_handler.active_cell_iterators())
         {
+          if (!cell->is_locally_owned())
+            continue;
           fe_values.reinit(cell);
           for (unsigned int i = 0; i < r; ++i)
             fe_values[displacement].get_function_gradients(modes[i], H[i]);
@@ -239,8 +244,18 @@ namespace modal_haptics
             }
         }
       flush();
+      sum_over_processes(t);
       seconds = timer.wall_time();
     }
+
+    template ModalCubicTerm::ModalCubicTerm(const DoFHandler<3> &, const Mapping<3> &, const Quadrature<3> &,
+                                            const MaterialParameters &, HyperelasticLaw,
+                                            const std::vector<Vector<double>> &,
+                                            const std::function<void(std::vector<double> &)> &);
+    template ModalCubicTerm::ModalCubicTerm(const DoFHandler<3> &, const Mapping<3> &, const Quadrature<3> &,
+                                            const MaterialParameters &, HyperelasticLaw,
+                                            const std::vector<TrilinosWrappers::MPI::Vector> &,
+                                            const std::function<void(std::vector<double> &)> &);
 
     double ModalCubicTerm::value(const std::vector<double> &q) const
     {
@@ -831,12 +846,14 @@ namespace modal_haptics
               curve.estimate_modal.c2 = modal_second_order(*modal, result, vertex, direction, &q);
               curve.estimate_modal.validity_force =
                 second_order_validity_forces(curve.linear_compliance, curve.estimate_modal.c2);
-              // The tensor against Psi3 of the field it stands for.
-              Vector<double> field(space.dof_handler.n_dofs());
-              for (unsigned int i = 0; i < q.size(); ++i)
-                field.add(q[i], modal->modes[i]);
-              const double direct     = cubic_energy(space, scene.material, law, field);
-              curve.modal_cubic_check = std::abs(modal->cubic.value(q) - direct) / std::max(std::abs(direct), 1e-300);
+              if (modal->serial_modes) // the tensor against Psi3 of the field it stands for
+                {
+                  Vector<double> field(space.dof_handler.n_dofs());
+                  for (unsigned int i = 0; i < q.size(); ++i)
+                    field.add(q[i], (*modal->serial_modes)[i]);
+                  const double direct = cubic_energy(space, scene.material, law, field);
+                  curve.modal_cubic_check = std::abs(modal->cubic.value(q) - direct) / std::max(std::abs(direct), 1e-300);
+                }
               summary << ", " << std::setprecision(3) << forces_text(curve.estimate_modal.validity_force) << " (modal)";
               // The map holds the full solve's forces where it pressed along the map's normal.
               if (!result.validity_force.empty() && !contact.validity_direction)

@@ -84,12 +84,18 @@ namespace modal_haptics
 
     // The cubic term on the span of the lowest r = min(modes, max_estimate_modes) fields (the modes):
     // Psi3(sum_i q_i phi_i) = sum_ijk t_i,jk q_i q_j q_k with t symmetric in j, k (stored for j <= k),
-    // assembled once over the quadrature points.
+    // assembled once over the quadrature points. Each process integrates over its own cells (the
+    // modes readable there: ghosted in a distributed run) and sum_over_processes adds up the parts
+    // (nothing to do in a serial run). VectorType: dealii::Vector<double> or
+    // TrilinosWrappers::MPI::Vector.
     class ModalCubicTerm
     {
     public:
-      ModalCubicTerm(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
-                     const std::vector<dealii::Vector<double>> &modes);
+      template <typename VectorType>
+      ModalCubicTerm(const dealii::DoFHandler<3> &dof_handler, const dealii::Mapping<3> &mapping,
+                     const dealii::Quadrature<3> &quadrature, const MaterialParameters &material,
+                     HyperelasticLaw law, const std::vector<VectorType> &modes,
+                     const std::function<void(std::vector<double> &)> &sum_over_processes);
       unsigned int size() const { return r; }          // the modes it spans
       double value(const std::vector<double> &q) const; // [J], q of size()
       double seconds = 0.;                               // the assembly's wall time
@@ -186,7 +192,8 @@ namespace modal_haptics
     // Phi^T W_v d (the cubic term's size() values: the lowest modes).
     struct ModalView
     {
-      const std::vector<dealii::Vector<double>> &modes;
+      const std::vector<dealii::Vector<double>> *serial_modes; // the modes themselves in a serial run
+                                                               // (the full solves' check of the tensor), else null
       const ModalCubicTerm                      &cubic;
       std::function<std::vector<double>(unsigned int, const std::array<double, 3> &)> load;
     };

@@ -109,8 +109,8 @@ namespace modal_haptics
         std::vector<DistributedVector> columns; // loads, then (solve_static) the ghosted solutions
       };
       const std::vector<Field> &kept_modes() const { return modes; }
+      const std::vector<Field> &ghosted_kept_modes() const { return ghosted_modes; }
       Field ghosted(const Field &owned) const;
-      const Field &ghosted_mode(const unsigned int i) const { return ghosted_modes[i]; }
       Field zero_field() const { return owned_layout; }
       // Collective: every point is evaluated by one process, the one whose own cells hold it best (the
       // serial locator's rule, space_parts::PointLocator, ties to the lowest rank); the others get an

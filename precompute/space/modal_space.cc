@@ -67,8 +67,8 @@ namespace modal_haptics
         std::size_t         n;
       };
       const std::vector<Field> &kept_modes() const { return eigen.eigenvectors; }
+      const std::vector<Field> &ghosted_kept_modes() const { return eigen.eigenvectors; }
       const Field &ghosted(const Field &u) const { return u; }
-      const Field &ghosted_mode(const unsigned int i) const { return eigen.eigenvectors[i]; }
       Field zero_field() const { return Field(dof_handler.n_dofs()); }
       std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
                                                                   double *max_outside) const;
@@ -123,9 +123,7 @@ namespace modal_haptics
       }
       void solve_eigenproblem() override;
       void analyse_validity() override;
-      void estimate_validity() override;
       nonlinear::SpaceView validity_space();
-      nonlinear::ModalView modal_view();
       void finish() override;
 
       void read_mesh();
@@ -156,7 +154,6 @@ namespace modal_haptics
       // The rigid-body motions the supports leave free, M-orthonormal, and M times each.
       std::vector<Vector<double>> rigid_modes, mass_times_rigid;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
-      std::unique_ptr<nonlinear::ModalCubicTerm>          cubic_term;    // the validity estimate's, on first use
     };
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
@@ -346,30 +343,6 @@ namespace modal_haptics
       return {dof_handler,           mapping,          quadrature,
               constraints,           sparsity_pattern, supports.elastic_faces,
               scene.modes.factorization_kind, factor_of_K, scene.contact.validity_cg};
-    }
-
-    // The modes, their cubic term (assembled once) and B_v^T d from the patch loads.
-    nonlinear::ModalView SerialSpace::modal_view()
-    {
-      const auto &modes = eigen.eigenvectors;
-      if (!cubic_term)
-        cubic_term = std::make_unique<nonlinear::ModalCubicTerm>(validity_space(), scene.material,
-                                                                 nonlinear::validity_law(scene), modes);
-      return {modes, *cubic_term, [this, &modes](const unsigned int v, const std::array<double, 3> &d) {
-                std::vector<double> b(cubic_term->size()); // the lowest modes the estimate projects on
-                for (unsigned int i = 0; i < b.size(); ++i)
-                  {
-                    const auto average = surface.local_patch_average(v, modes[i]);
-                    b[i]               = d[0] * average[0] + d[1] * average[1] + d[2] * average[2];
-                  }
-                return b;
-              }};
-    }
-
-    void SerialSpace::estimate_validity()
-    {
-      nonlinear::estimate_validity_map(
-        display, [this] { return modal_view(); }, result, [this](const std::string &line) { summarize(line); });
     }
 
     void SerialSpace::analyse_validity()

@@ -138,16 +138,12 @@ namespace modal_haptics
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
       virtual void validate() = 0;
-      // The nonlinear solves at the validity contacts and the validity map's estimate at every
-      // corrected contact (precompute/nonlinear/): serial only.
+      // The validity map's estimate at every corrected contact (serial and distributed), and the
+      // nonlinear solves at the validity contacts (precompute/nonlinear/: serial only).
+      virtual void estimate_validity() = 0;
       virtual void analyse_validity()
       {
         summarize("validity analysis left out: the distributed backend has no nonlinear solve (serial runs only)");
-      }
-      virtual void estimate_validity()
-      {
-        result.validity_left_out = "the distributed backend has no validity estimate (serial runs only)";
-        summarize("validity map left out: " + result.validity_left_out);
       }
       virtual void output_results() const = 0;
       virtual void finish() {}
@@ -254,18 +250,22 @@ namespace modal_haptics
       dealii::GridTools::Cache<3> cache;
     };
 
-    // Appends factor * N_i(unit) for the nonzero shape functions of one displacement component of a cell.
-    void add_shape_values(const dealii::DoFHandler<3>::active_cell_iterator &cell, const dealii::Point<3> &unit,
-                          unsigned int component, double factor, DofWeights &out);
-
     // Where a point is evaluated: its DoF cell and its coordinates in the reference tet; an invalid
-    // cell when another process evaluates it. A PointEvaluator places a list of points.
+    // cell when another process evaluates it.
     struct EvaluationPoint
     {
       dealii::DoFHandler<3>::active_cell_iterator cell;
       dealii::Point<3>                            unit;
     };
-    using PointEvaluator = std::function<std::vector<EvaluationPoint>(const std::vector<meshing::Point3> &)>;
+
+    // The FE basis at a point, per displacement component: the DoFs whose shape function is of that
+    // component and their nonzero values N_i there (all three empty at a point another process
+    // evaluates). The scalar element's values are computed once for the three components.
+    using ShapeRow = std::array<DofWeights, 3>;
+    ShapeRow shape_row(const EvaluationPoint &point);
+
+    // The shape rows of a list of points (each row kept by the evaluator: a point lies in a dozen patches).
+    using PointEvaluator = std::function<std::vector<const ShapeRow *>(const std::vector<meshing::Point3> &)>;
 
     // W_v from the patch quadrature; points another process evaluates add nothing here.
     PatchLoad make_patch_load(const ContactSurface &display, unsigned int vertex, const PointEvaluator &evaluate);

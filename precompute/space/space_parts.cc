@@ -525,44 +525,41 @@ namespace modal_haptics
       return {best_cell, Point<3>(best_bary[1], best_bary[2], best_bary[3]), -best_min};
     }
 
-    void add_shape_values(const DoFHandler<3>::active_cell_iterator &cell, const Point<3> &unit,
-                          const unsigned int component, const double factor, DofWeights &out)
+    ShapeRow shape_row(const EvaluationPoint &point)
     {
-      const auto                          &fe = cell->get_fe();
+      ShapeRow row;
+      if (point.cell.state() != IteratorState::valid)
+        return row;
+      const auto &fe = point.cell->get_fe();
+      AssertThrow(fe.n_base_elements() == 1, ExcMessage("shape_row: one scalar element for the three components"));
+      const auto         &scalar = fe.base_element(0);
+      std::vector<double> value(scalar.n_dofs_per_cell());
+      for (unsigned int j = 0; j < value.size(); ++j)
+        value[j] = scalar.shape_value(j, point.unit);
       std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
-      cell->get_dof_indices(dof_indices);
+      point.cell->get_dof_indices(dof_indices);
       for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
-        if (fe.system_to_component_index(i).first == component)
-          {
-            const double w = fe.shape_value(i, unit);
-            if (w != 0.)
-              out.emplace_back(dof_indices[i], factor * w);
-          }
+        {
+          const auto [component, j] = fe.system_to_component_index(i);
+          if (value[j] != 0.)
+            row[component].emplace_back(dof_indices[i], value[j]);
+        }
+      return row;
     }
 
     // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
     PatchLoad make_patch_load(const ContactSurface &display, const unsigned int vertex, const PointEvaluator &evaluate)
     {
       std::array<std::map<types::global_dof_index, double>, 3> columns;
-      DofWeights                                               values;
       const auto                                               quadrature = patch_quadrature(display, vertex);
       std::vector<meshing::Point3>                             points;
       for (const auto &point : quadrature)
         points.push_back(point.x);
-      const auto evaluated = evaluate(points);
+      const auto rows = evaluate(points);
       for (std::size_t k = 0; k < quadrature.size(); ++k)
-        {
-          const auto &[cell, unit] = evaluated[k];
-          if (cell.state() != IteratorState::valid)
-            continue;
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              values.clear();
-              add_shape_values(cell, unit, c, quadrature[k].weight, values);
-              for (const auto &[dof, w] : values)
-                columns[c][dof] += w;
-            }
-        }
+        for (unsigned int c = 0; c < 3; ++c)
+          for (const auto &[dof, N] : (*rows[k])[c])
+            columns[c][dof] += quadrature[k].weight * N;
       PatchLoad load;
       for (unsigned int c = 0; c < 3; ++c)
         load[c].assign(columns[c].begin(), columns[c].end());

@@ -1,6 +1,6 @@
 // The phases of a modal space after its eigensolve, written once against a small linear-algebra
 // backend: display interpolation, participation factors, static correction, validation, the
-// two-contact check and the VTU output. The serial space (modal_space.cc: CHOLMOD or UMFPACK,
+// two-contact check, the validity map and the VTU output. The serial space (modal_space.cc: CHOLMOD or UMFPACK,
 // deal.II vectors) and the distributed one (distributed_space.cc: Trilinos matrices, MUMPS,
 // PARPACK) are the two backends, as ASPECT separates its assembly from its solver backends; both
 // compute every quantity by the same code, so serial and distributed agree by construction.
@@ -9,9 +9,10 @@
 // share, summed over the processes by sum_over_processes, an identity when serial):
 //   Field, Block                      a DoF vector; a block of DoF vectors solved together
 //   stiffness_matrix, mass_matrix     K and M (vmult, matrix_norm_square)
+//   dof_handler                       the FE space's (a process's own cells marked as such)
 //   const std::vector<Field> &kept_modes() const     M-orthonormal, ascending
 //   ghosted(const Field &) const      readable at every DoF of the owned cells (a copy or a reference)
-//   const auto &ghosted_mode(unsigned i) const       ghosted(kept_modes()[i]), kept
+//   const std::vector<Field> &ghosted_kept_modes() const   ghosted(kept_modes()[i]) each, kept
 //   Field zero_field() const
 //   std::vector<EvaluationPoint> evaluation_points(points, double *max_outside) const  (collective)
 //   Field patch_load(unsigned vertex, const std::array<double, 3> &factor) const   sum_d factor_d W_v e_d
@@ -40,6 +41,7 @@
 // as the full fields they stand for; only the output fills the constrained entries in.
 #pragma once
 
+#include "nonlinear/large_deformation.h"
 #include "space/modal_space.h"
 
 #include <deal.II/base/timer.h>
@@ -49,6 +51,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <unordered_map>
 
 namespace modal_haptics
 {
@@ -108,20 +111,21 @@ namespace modal_haptics
       const auto            evaluated   = b.evaluation_points(display.vertices, &max_outside);
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
         if (evaluated[v].cell.state() == dealii::IteratorState::valid)
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              b.surface.display_rows.emplace_back(3 * v + c, space_parts::DofWeights());
-              space_parts::add_shape_values(evaluated[v].cell, evaluated[v].unit, c, 1.,
-                                            b.surface.display_rows.back().second);
-              b.condense(b.surface.display_rows.back().second);
-            }
+          {
+            auto row = space_parts::shape_row(evaluated[v]);
+            for (unsigned int c = 0; c < 3; ++c)
+              {
+                b.condense(row[c]);
+                b.surface.display_rows.emplace_back(3 * v + c, std::move(row[c]));
+              }
+          }
 
       const auto        &modes = b.kept_modes();
       const unsigned int r     = modes.size();
       const unsigned int nv    = display.n_vertices();
       std::vector<double> by_mode; // r blocks of 3 nv
       for (unsigned int i = 0; i < r; ++i)
-        b.surface.append_local_display_values(b.ghosted_mode(i), nv, by_mode);
+        b.surface.append_local_display_values(b.ghosted_kept_modes()[i], nv, by_mode);
       b.sum_over_processes(by_mode);
       result.display_modes.resize(std::size_t(3) * nv * r);
       for (unsigned int row = 0; row < 3 * nv; ++row)
@@ -154,13 +158,22 @@ namespace modal_haptics
     }
 
     // Neighbouring patches share their triangles' quadrature points, bit for bit (a triangle is
-    // split the same way in every patch that covers it), so each point is located once: with every
+    // split the same way in every patch that covers it), so each point is located and its shape
+    // values evaluated once (space_parts::shape_row): with every
     // display vertex a load, a point lies in a dozen patches. The points missing from the cache go
     // to the backend in one call per patch (the same list on every process: the call is collective).
     template <typename Backend>
     void build_patch_loads(Backend &b, const PhaseInputs &in, const std::vector<unsigned int> &vertices)
     {
-      std::map<meshing::Point3, space_parts::EvaluationPoint> located;
+      // Keyed by the points' bits (equal points are bitwise equal): a hash, not an ordered map, since
+      // every patch looks each of its points up.
+      const auto bits_hash = [](const meshing::Point3 &x) {
+        std::size_t h = 0;
+        for (const double c : x)
+          h = h * 0x9e3779b97f4a7c15ull + std::hash<double>()(c);
+        return h;
+      };
+      std::unordered_map<meshing::Point3, space_parts::ShapeRow, decltype(bits_hash)> located(0, bits_hash);
       const auto evaluate_once = [&](const std::vector<meshing::Point3> &points) {
         std::vector<meshing::Point3> missing;
         for (const auto &x : points)
@@ -170,10 +183,10 @@ namespace modal_haptics
         missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
         const auto evaluated = b.evaluation_points(missing, nullptr);
         for (std::size_t k = 0; k < missing.size(); ++k)
-          located.emplace(missing[k], evaluated[k]);
-        std::vector<space_parts::EvaluationPoint> answer;
+          located.emplace(missing[k], space_parts::shape_row(evaluated[k]));
+        std::vector<const space_parts::ShapeRow *> answer;
         for (const auto &x : points)
-          answer.push_back(located.at(x));
+          answer.push_back(&located.at(x));
         return answer;
       };
       for (const unsigned int v : vertices)
@@ -293,7 +306,7 @@ namespace modal_haptics
       for (unsigned int k = 0; k < plan.loads.size(); ++k)
         for (unsigned int i = 0; i < r; ++i)
           {
-            const auto average = b.surface.local_patch_average(plan.loads[k], b.ghosted_mode(i));
+            const auto average = b.surface.local_patch_average(plan.loads[k], b.ghosted_kept_modes()[i]);
             for (unsigned int c = 0; c < 3; ++c)
               plan.load_modes[(3 * std::size_t(k) + c) * r + i] = average[c];
           }
@@ -481,9 +494,55 @@ namespace modal_haptics
       {
         space_phases::output_results(static_cast<const Backend &>(*this), inputs(), result);
       }
+      void estimate_validity() override
+      {
+        nonlinear::estimate_validity_map(
+          display, [this] { return modal_view(); }, result, [this](const std::string &line) { summarize(line); });
+      }
+
+      // The validity estimate's modal side (large_deformation.h), built on first use: the cubic term
+      // on the lowest modes, and B_v^T on them at every vertex with a patch load (the corrected
+      // contacts and shared vertices), each process's part summed over the processes at once.
+      nonlinear::ModalView modal_view()
+      {
+        Backend &b = backend();
+        if (!cubic_term)
+          {
+            const auto sum = [&b](std::vector<double> &values) { b.sum_over_processes(values); };
+            cubic_term     = std::make_unique<nonlinear::ModalCubicTerm>(b.dof_handler, mapping, quadrature,
+                                                                     scene.material, nonlinear::validity_law(scene),
+                                                                     b.ghosted_kept_modes(), sum);
+            const unsigned int r = cubic_term->size();
+            for (const auto &[vertex, load] : b.surface.patch_loads)
+              {
+                modal_load_row[vertex] = modal_loads.size() / (3 * std::size_t(r));
+                for (unsigned int i = 0; i < r; ++i)
+                  {
+                    const auto average = b.surface.local_patch_average(vertex, b.ghosted_kept_modes()[i]);
+                    modal_loads.insert(modal_loads.end(), average.begin(), average.end());
+                  }
+              }
+            sum(modal_loads);
+          }
+        const std::vector<dealii::Vector<double>> *serial_modes = nullptr;
+        if constexpr (std::is_same_v<typename Backend::Field, dealii::Vector<double>>)
+          serial_modes = &b.kept_modes();
+        return {serial_modes, *cubic_term, [this](const unsigned int vertex, const std::array<double, 3> &d) {
+                  const unsigned int r   = cubic_term->size();
+                  const double      *row = &modal_loads[3 * std::size_t(r) * modal_load_row.at(vertex)];
+                  std::vector<double> b(r);
+                  for (unsigned int i = 0; i < r; ++i)
+                    b[i] = d[0] * row[3 * i] + d[1] * row[3 * i + 1] + d[2] * row[3 * i + 2];
+                  return b;
+                }};
+      }
 
     private:
       Backend &backend() { return static_cast<Backend &>(*this); }
+
+      std::unique_ptr<nonlinear::ModalCubicTerm> cubic_term;
+      std::vector<double>                        modal_loads; // per vertex with a patch load: r x 3, B_v^T
+      std::map<unsigned int, std::size_t>        modal_load_row;
     };
   } // namespace space_phases
 } // namespace modal_haptics
