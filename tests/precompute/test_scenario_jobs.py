@@ -8,7 +8,7 @@ be those of the one run:
   other floating-point dataset (modes, compliances, transfer matrices, validation) to `tolerance` of
   its largest entry, integer datasets equal;
 * the .mrt: the same sections, the same tolerances (the validity forces through their rates 1/F,
-  see validity_rates);
+  see precompute_run.validity_rates);
 * report.json: equal (numbers to `tolerance`) but for times, memory and process counts; the .vtu
   files in the output folder are the jobs' ones.
 
@@ -42,7 +42,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mrt_reader  # noqa: E402
-from precompute_run import binary_and_fresh_workdir, copy_meshes  # noqa: E402
+from precompute_run import binary_and_fresh_workdir, copy_meshes, validity_rates  # noqa: E402
 from test_mpi_np1_vs_np2 import mpi_command, mpi_environment  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -97,15 +97,6 @@ def close(a, b, relative):
     scale = float(np.max(np.abs(b)))
     difference = float(np.max(np.abs(a - b)))
     return difference <= relative * scale, f"{difference:.1e} of {scale:.1e}"
-
-
-def validity_rates(forces):
-    """A validity force is F = delta c / |c2|: where c2 is a sum that nearly cancels, F is huge and
-    carries c2's round-off magnified (at np = 2, 2e-8 of the largest force, 2.8e10 N). Compared
-    through its rate 1/F (0 where there is no value; 1e30, not reached, is 1e-30), whose error is
-    c2's own: to `tolerance` of the largest rate, like every other dataset."""
-    f = np.asarray(forces, dtype=float)
-    return np.where(f > 0, 1.0 / np.where(f > 0, f, 1.0), 0.0)
 
 
 def validity_map_forces(report):
