@@ -9,6 +9,7 @@
 #include "space/distributed_space.h"
 #include "space/space_phases.h"
 
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/timer.h>
@@ -550,20 +551,29 @@ namespace modal_haptics
       return *point_locator;
     }
 
-    // Every cell is this process's: each point is located in the whole mesh.
+    // Every cell is this process's: each point is located in the whole mesh, the points split between
+    // deal.II's threads (the locator only reads once its search tree is built: by the first point).
     std::vector<space_parts::EvaluationPoint>
     SerialSpace::evaluation_points(const std::vector<meshing::Point3> &points, double *max_outside) const
     {
-      std::vector<space_parts::EvaluationPoint> evaluated;
-      for (const auto &x : points)
-        {
-          const auto located = locator().locate(x);
-          if (max_outside)
-            *max_outside = std::max(*max_outside, located.distance_outside);
-          evaluated.push_back({DoFHandler<3>::active_cell_iterator(&triangulation, located.cell->level(),
-                                                                   located.cell->index(), &dof_handler),
-                               located.unit});
-        }
+      std::vector<space_parts::EvaluationPoint> evaluated(points.size());
+      std::vector<double>                       outside(points.size(), 0.);
+      const auto locate = [&](const std::size_t first, const std::size_t last) {
+        for (std::size_t k = first; k < last; ++k)
+          {
+            const auto located = locator().locate(points[k]);
+            outside[k]         = located.distance_outside;
+            evaluated[k]       = {DoFHandler<3>::active_cell_iterator(&triangulation, located.cell->level(),
+                                                                 located.cell->index(), &dof_handler),
+                            located.unit};
+          }
+      };
+      if (points.empty())
+        return evaluated;
+      locate(0, 1);
+      parallel::apply_to_subranges(std::size_t(1), points.size(), locate, 256);
+      if (max_outside)
+        *max_outside = std::max(*max_outside, *std::max_element(outside.begin(), outside.end()));
       return evaluated;
     }
 

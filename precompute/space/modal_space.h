@@ -264,11 +264,9 @@ namespace modal_haptics
     using ShapeRow = std::array<DofWeights, 3>;
     ShapeRow shape_row(const EvaluationPoint &point);
 
-    // The shape rows of a list of points (each row kept by the evaluator: a point lies in a dozen patches).
-    using PointEvaluator = std::function<std::vector<const ShapeRow *>(const std::vector<meshing::Point3> &)>;
-
-    // W_v from the patch quadrature; points another process evaluates add nothing here.
-    PatchLoad make_patch_load(const ContactSurface &display, unsigned int vertex, const PointEvaluator &evaluate);
+    // W_v from its patch quadrature (patch_quadrature) and the shape rows of its points, in the same
+    // order; points another process evaluates add nothing here.
+    PatchLoad make_patch_load(const std::vector<SurfacePoint> &quadrature, const std::vector<const ShapeRow *> &rows);
 
     // B_v Lambda^-1 B_v^T e_direction at a candidate.
     std::array<double, 3> modal_patch_response(const ModalSpaceResult &result, unsigned int candidate,

@@ -548,14 +548,9 @@ namespace modal_haptics
     }
 
     // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
-    PatchLoad make_patch_load(const ContactSurface &display, const unsigned int vertex, const PointEvaluator &evaluate)
+    PatchLoad make_patch_load(const std::vector<SurfacePoint> &quadrature, const std::vector<const ShapeRow *> &rows)
     {
       std::array<std::map<types::global_dof_index, double>, 3> columns;
-      const auto                                               quadrature = patch_quadrature(display, vertex);
-      std::vector<meshing::Point3>                             points;
-      for (const auto &point : quadrature)
-        points.push_back(point.x);
-      const auto rows = evaluate(points);
       for (std::size_t k = 0; k < quadrature.size(); ++k)
         for (unsigned int c = 0; c < 3; ++c)
           for (const auto &[dof, N] : (*rows[k])[c])

@@ -44,6 +44,7 @@
 #include "nonlinear/large_deformation.h"
 #include "space/modal_space.h"
 
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/timer.h>
 #include <deal.II/numerics/data_out.h>
 
@@ -51,7 +52,6 @@
 #include <cmath>
 #include <map>
 #include <sstream>
-#include <unordered_map>
 
 namespace modal_haptics
 {
@@ -158,45 +158,48 @@ namespace modal_haptics
     }
 
     // Neighbouring patches share their triangles' quadrature points, bit for bit (a triangle is
-    // split the same way in every patch that covers it), so each point is located and its shape
-    // values evaluated once (space_parts::shape_row): with every
-    // display vertex a load, a point lies in a dozen patches. The points missing from the cache go
-    // to the backend in one call per patch (the same list on every process: the call is collective).
+    // split the same way in every patch that covers it): with every display vertex a load, a point
+    // lies in a dozen patches. So the points of all the new patches are gathered, each is located
+    // and its shape values evaluated once (space_parts::shape_row), in one call to the backend (the
+    // same list on every process: the call is collective), and each patch reads its points' rows.
     template <typename Backend>
     void build_patch_loads(Backend &b, const PhaseInputs &in, const std::vector<unsigned int> &vertices)
     {
-      // Keyed by the points' bits (equal points are bitwise equal): a hash, not an ordered map, since
-      // every patch looks each of its points up.
-      const auto bits_hash = [](const meshing::Point3 &x) {
-        std::size_t h = 0;
-        for (const double c : x)
-          h = h * 0x9e3779b97f4a7c15ull + std::hash<double>()(c);
-        return h;
-      };
-      std::unordered_map<meshing::Point3, space_parts::ShapeRow, decltype(bits_hash)> located(0, bits_hash);
-      const auto evaluate_once = [&](const std::vector<meshing::Point3> &points) {
-        std::vector<meshing::Point3> missing;
-        for (const auto &x : points)
-          if (!located.count(x))
-            missing.push_back(x);
-        std::sort(missing.begin(), missing.end());
-        missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
-        const auto evaluated = b.evaluation_points(missing, nullptr);
-        for (std::size_t k = 0; k < missing.size(); ++k)
-          located.emplace(missing[k], space_parts::shape_row(evaluated[k]));
-        std::vector<const space_parts::ShapeRow *> answer;
-        for (const auto &x : points)
-          answer.push_back(&located.at(x));
-        return answer;
-      };
+      std::vector<unsigned int> new_loads;
       for (const unsigned int v : vertices)
         if (!b.surface.patch_loads.count(v))
-          {
-            auto &load = b.surface.patch_loads[v];
-            load       = space_parts::make_patch_load(in.display, v, evaluate_once);
-            for (auto &direction : load)
-              b.condense(direction);
-          }
+          new_loads.push_back(v);
+      std::sort(new_loads.begin(), new_loads.end());
+      new_loads.erase(std::unique(new_loads.begin(), new_loads.end()), new_loads.end());
+      std::vector<std::vector<SurfacePoint>> quadratures;
+      std::vector<meshing::Point3>           points;
+      for (const unsigned int v : new_loads)
+        {
+          quadratures.push_back(patch_quadrature(in.display, v));
+          for (const auto &point : quadratures.back())
+            points.push_back(point.x);
+        }
+      std::sort(points.begin(), points.end());
+      points.erase(std::unique(points.begin(), points.end()), points.end());
+      const auto                           evaluated = b.evaluation_points(points, nullptr);
+      std::vector<space_parts::ShapeRow>   rows(points.size());
+      dealii::parallel::apply_to_subranges(
+        std::size_t(0), points.size(),
+        [&](const std::size_t first, const std::size_t last) {
+          for (std::size_t k = first; k < last; ++k)
+            rows[k] = space_parts::shape_row(evaluated[k]);
+        },
+        1024);
+      for (std::size_t n = 0; n < new_loads.size(); ++n)
+        {
+          std::vector<const space_parts::ShapeRow *> rows_of_points;
+          for (const auto &point : quadratures[n])
+            rows_of_points.push_back(&rows[std::lower_bound(points.begin(), points.end(), point.x) - points.begin()]);
+          auto &load = b.surface.patch_loads[new_loads[n]];
+          load       = space_parts::make_patch_load(quadratures[n], rows_of_points);
+          for (auto &direction : load)
+            b.condense(direction);
+        }
     }
 
     // The loads' responses from the Gram matrices of their groups (the backend's group_grams): in

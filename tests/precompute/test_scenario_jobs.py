@@ -7,7 +7,8 @@ be those of the one run:
 * the .h5: the same groups, datasets, shapes and attributes; eigenvalues to 1e-12 relative, every
   other floating-point dataset (modes, compliances, transfer matrices, validation) to `tolerance` of
   its largest entry, integer datasets equal;
-* the .mrt: the same sections, the same tolerances;
+* the .mrt: the same sections, the same tolerances (the validity forces through their rates 1/F,
+  see precompute_run.validity_rates);
 * report.json: equal (numbers to `tolerance`) but for times, memory and process counts; the .vtu
   files in the output folder are the jobs' ones.
 
@@ -41,7 +42,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mrt_reader  # noqa: E402
-from precompute_run import binary_and_fresh_workdir, copy_meshes  # noqa: E402
+from precompute_run import binary_and_fresh_workdir, copy_meshes, validity_rates  # noqa: E402
 from test_mpi_np1_vs_np2 import mpi_command, mpi_environment  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -98,6 +99,30 @@ def close(a, b, relative):
     return difference <= relative * scale, f"{difference:.1e} of {scale:.1e}"
 
 
+def validity_map_forces(report):
+    """Every force [N] of each space's validity_map in report.json, in order (one array per space),
+    and the report without them (they are compared as rates)."""
+    forces = []
+    for space in report["spaces"]:
+        numbers = []
+        def collect(node):
+            if isinstance(node, dict):
+                for key in sorted(node):
+                    if key.endswith("_n"):
+                        numbers.extend(np.ravel(node[key]).tolist())
+                    else:
+                        collect(node[key])
+            elif isinstance(node, list):
+                for item in node:
+                    collect(item)
+        collect(space.get("validity_map", {}))
+        forces.append(np.array(numbers))
+        if "validity_map" in space:
+            space["validity_map"] = {k: v for k, v in space["validity_map"].items()
+                                     if k in ("n_contacts", "n_estimated_contacts")}
+    return forces
+
+
 def compare_h5(merged, whole, label, tolerance):
     with h5py.File(merged, "r") as m, h5py.File(whole, "r") as w:
         names = {}
@@ -120,6 +145,9 @@ def compare_h5(merged, whole, label, tolerance):
             if name.endswith("/eigenvalues"):  # every eigenvalue to 1e-12 relative
                 ok = a.shape == b.shape and bool(np.all(np.abs(a - b) <= EIGENVALUES_RELATIVE * np.abs(b)))
                 detail = f"max relative {np.max(np.abs(a - b) / np.abs(b)):.1e}" if a.shape == b.shape else "shapes"
+            elif name.endswith("/validity_force"):
+                ok, detail = close(validity_rates(a), validity_rates(b), tolerance)
+                detail = "rates " + detail
             else:
                 ok, detail = close(a, b, tolerance)
             if not ok:
@@ -149,6 +177,8 @@ def compare_mrt(merged, whole, label, tolerance):
                 ok = bool(np.all(np.abs(sections_m[key] - sections_w[key]) <= EIGENVALUES_RELATIVE *
                                  np.abs(sections_w[key])))
                 detail = "eigenvalues"
+            elif kind == "VALIDITY_FORCE":
+                ok, detail = close(validity_rates(sections_m[key]), validity_rates(sections_w[key]), tolerance)
             elif sections_w[key].dtype == np.float32:  # float32 modes: the doubles' difference, rounded
                 ok, detail = close(sections_m[key], sections_w[key], max(tolerance, 2 * np.finfo(np.float32).eps))
             else:
@@ -191,6 +221,9 @@ def compare_reports(merged, whole, label, tolerance, bit_reproducible):
     if not bit_reproducible:
         m, w = without_workspace_relaxation(m), without_workspace_relaxation(w)
     ignored = RUN_DEPENDENT | (set() if bit_reproducible else ITERATION_COUNTS)
+    for space, (a, b) in zip(w["spaces"], zip(validity_map_forces(m), validity_map_forces(w))):
+        ok, detail = close(validity_rates(a), validity_rates(b), tolerance)
+        expect(ok, f"{label} report.json: {space['name']}'s validity_map forces as rates {detail} <= {tolerance:g}")
     differences = report_differences(m, w, tolerance, ignored)
     expect(not differences, f"{label} report.json: equal but for times, memory, process counts"
            f"{'' if bit_reproducible else ', solved vectors'} (numbers to {tolerance:g}) {differences[:5] or ''}")
