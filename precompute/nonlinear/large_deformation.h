@@ -185,11 +185,8 @@ namespace modal_haptics
     std::array<double, 3> inward_normal(const ContactSurface &display, unsigned int vertex,
                                         const std::function<double(const meshing::Point3 &)> &outside);
 
-    // The phase: the validity curve of each of task.validity_vertices into result.validity, on a
-    // space held against every rigid motion (otherwise logged and left out). patch_load(v, d) gives
-    // W_v d condensed. Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
-    // The modal side of the estimate: the kept modes, their cubic term, and load(v, d) = B_v^T d =
-    // Phi^T W_v d (the cubic term's size() values: the lowest modes).
+    // The modal side of the estimate: the cubic term on the lowest modes, and load(v, d) = B_v^T d =
+    // Phi^T W_v d on them (the cubic term's size() values).
     struct ModalView
     {
       const std::vector<dealii::Vector<double>> *serial_modes; // the modes themselves in a serial run
@@ -201,6 +198,9 @@ namespace modal_haptics
     double modal_second_order(const ModalView &modal, const ModalSpaceResult &result, unsigned int vertex,
                               const std::array<double, 3> &direction, std::vector<double> *q = nullptr);
 
+    // The phase: the validity curve of each of task.validity_vertices into result.validity, on a
+    // space held against every rigid motion (otherwise logged and left out). patch_load(v, d) gives
+    // W_v d condensed. Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
     // At each validity contact also both estimates (exact and modal) and their self-checks; the
     // validity map (when estimated) takes the full solve's forces at these contacts.
     void analyse_validity(const SpaceView &space, const SceneParameters &scene, const SpaceTask &task,

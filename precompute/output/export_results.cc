@@ -368,12 +368,15 @@ namespace modal_haptics
       return validation;
     }
 
+    // A validity departure (validity_departures[k]) in percent: 1, 5, 10.
+    int departure_percent(const std::size_t k) { return int(std::lround(100. * validity_departures[k])); }
+
     // {"1_percent": F1, "5_percent": F5, "10_percent": F10}; infinity (not reached) is null.
     Json forces_json(const std::array<double, 3> &forces)
     {
       Json json = Json::object();
       for (unsigned int k = 0; k < validity_departures.size(); ++k)
-        json[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = forces[k];
+        json[std::to_string(departure_percent(k)) + "_percent"] = forces[k];
       return json;
     }
 
@@ -386,7 +389,7 @@ namespace modal_haptics
         {
           const double full = curve.validity_force[k], e = estimate.validity_force[k];
           const bool   reached = std::isfinite(full) && (curve.stop_reason.empty() || full < curve.force_reached);
-          error[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] =
+          error[std::to_string(departure_percent(k)) + "_percent"] =
             reached && std::isfinite(e) ? Json(e / full - 1.) : Json();
         }
       return {{"c2_m_per_n2", estimate.c2},
@@ -532,7 +535,7 @@ namespace modal_haptics
             forces.push_back(s.validity_force[3 * v + k]);
           std::sort(forces.begin(), forces.end());
           const auto at = [&](const double q) { return forces[std::size_t(q * (forces.size() - 1))]; };
-          map[std::to_string(int(std::lround(100. * validity_departures[k]))) + "_percent"] = {
+          map[std::to_string(departure_percent(k)) + "_percent"] = {
             {"min_n", at(0.)},       {"q05_n", at(0.05)}, {"q25_n", at(0.25)}, {"median_n", at(0.5)},
             {"q75_n", at(0.75)},     {"max_n", at(1.)},
             {"not_reached", std::count(forces.begin(), forces.end(), validity_not_reached)}};
@@ -710,7 +713,7 @@ namespace modal_haptics
       if (!s.validity_force.empty())
         for (unsigned int k = 0; k < validity_departures.size(); ++k)
           {
-            arrays.emplace_back("validity force " + std::to_string(int(std::lround(100. * validity_departures[k]))) +
+            arrays.emplace_back("validity force " + std::to_string(departure_percent(k)) +
                                   " % " + s.name + " [N]",
                                 std::vector<double>());
             for (std::size_t v = 0; v < results.display.n_vertices(); ++v)

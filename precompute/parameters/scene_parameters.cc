@@ -336,8 +336,8 @@ namespace modal_haptics
                       "term of the stored energy ('Validity material') evaluated on the contact's linear "
                       "response projected on the space's modes (docs/accuracy.md): the validity map of the "
                       ".mrt, .h5 and validity.vtu. About 9 s on the default scene (a cubic tensor per space, "
-                      "then microseconds per contact). Serial runs; a space with free rigid motions gets none. "
-                      "Units: none.");
+                      "then microseconds per contact), serial and under MPI; a space with free rigid motions "
+                      "gets none. Units: none.");
     prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
                       Patterns::Selection("preconditioned CG|factorization"),
                       "How the validity analysis solves each Newton step's tangent system: 'preconditioned "
