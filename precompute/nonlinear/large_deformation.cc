@@ -2,15 +2,19 @@
 // Total Lagrangian: the unknown is the displacement u on the reference mesh, F = I + grad u, and
 // the internal force is the integral of the first Piola-Kirchhoff stress P(F) against the shape
 // functions' reference gradients; its derivative is the tangent, symmetric for a stored energy.
+// One implementation for both backends: each process integrates over its own cells, the matrices
+// and vectors exchange what crosses the partition (compress), and energies are summed.
 #include "nonlinear/large_deformation.h"
 
 #include "solvers/blas_lapack.h"
 #include "solvers/factorization.h"
+#include "solvers/mumps_inverse.h"
 #include "space/modal_space.h"
 
 #include <mrt/surface_normals.h>
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/mpi.h>
 #include <deal.II/base/point.h>
 #include <deal.II/base/symmetric_tensor.h>
 #include <deal.II/base/tensor.h>
@@ -18,6 +22,7 @@
 #include <deal.II/fe/fe_values.h>
 #include <deal.II/fe/fe_values_extractors.h>
 #include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <algorithm>
@@ -25,6 +30,7 @@
 #include <iomanip>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 namespace modal_haptics
 {
@@ -149,24 +155,49 @@ namespace modal_haptics
       return scene.contact.validity_neo_hookean ? HyperelasticLaw::neo_hookean : HyperelasticLaw::saint_venant_kirchhoff;
     }
 
-    double cubic_energy(const SpaceView &space, const MaterialParameters &material, const HyperelasticLaw law,
-                        const Vector<double> &u)
+    namespace
     {
-      const auto [mu, lambda] = lame_constants(material);
-      FEValues<3> fe_values(space.mapping, space.dof_handler.get_fe(), space.quadrature,
-                            update_gradients | update_JxW_values);
-      const FEValuesExtractors::Vector displacement(0);
-      std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
-      double                           psi3 = 0.;
-      for (const auto &cell : space.dof_handler.active_cell_iterators())
-        {
-          fe_values.reinit(cell);
-          fe_values[displacement].get_function_gradients(u, grad_u);
-          for (unsigned int q = 0; q < grad_u.size(); ++q)
-            psi3 += cubic_density(law, mu, lambda, grad_u[q]) * fe_values.JxW(q);
-        }
-      return psi3;
-    }
+      MPI_Comm communicator(const DoFHandler<3> &dof_handler)
+      {
+        return dof_handler.get_triangulation().get_communicator();
+      }
+
+      // u readable at every DoF of this process's cells: a ghosted copy (serially a plain one).
+      template <typename Algebra>
+      typename Algebra::Vector readable(const SpaceView<Algebra> &space, const typename Algebra::Vector &u)
+      {
+        typename Algebra::Vector copy = space.ghosted_layout;
+        copy                          = u;
+        return copy;
+      }
+
+      // Psi3(u) [J], the cubic term of the stored energy's expansion in u about the reference state
+      // (the elastic supports are quadratic: none), by the space's quadrature on every process's
+      // cells. With H = grad u, eps = sym H, sigma = lambda tr(eps) I + 2 mu eps: St. Venant-Kirchhoff
+      // psi3 = 1/2 sigma : (H^T H); the neo-Hookean law adds -lambda tr(eps) tr(eps^2) - 4/3 mu tr(eps^3)
+      // (W = lambda/2 (tr E)^2 + mu tr E^2 - lambda tr E tr E^2 - 4/3 mu tr E^3 + O(E^4)).
+      template <typename Algebra>
+      double cubic_energy(const SpaceView<Algebra> &space, const MaterialParameters &material,
+                          const HyperelasticLaw law, const typename Algebra::Vector &u)
+      {
+        const auto [mu, lambda] = lame_constants(material);
+        const auto  u_read      = readable(space, u);
+        FEValues<3> fe_values(space.mapping, space.dof_handler.get_fe(), space.quadrature,
+                              update_gradients | update_JxW_values);
+        const FEValuesExtractors::Vector displacement(0);
+        std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
+        double                           psi3 = 0.;
+        for (const auto &cell : space.dof_handler.active_cell_iterators())
+          if (cell->is_locally_owned())
+            {
+              fe_values.reinit(cell);
+              fe_values[displacement].get_function_gradients(u_read, grad_u);
+              for (unsigned int q = 0; q < grad_u.size(); ++q)
+                psi3 += cubic_density(law, mu, lambda, grad_u[q]) * fe_values.JxW(q);
+            }
+        return Utilities::MPI::sum(psi3, communicator(space.dof_handler));
+      }
+    } // namespace
 
     // Psi3 is the integral of a trilinear form c(H, H, H) with c(H_i, H_j, H_k) = X(H_i) . Y(H_j, H_k),
     // Y symmetric in j, k: St. Venant-Kirchhoff X = sigma_i, Y = 1/2 sym(H_j^T H_k); the neo-Hookean law
@@ -285,370 +316,493 @@ namespace modal_haptics
       return forces;
     }
 
-    LargeDeformationSolve::LargeDeformationSolve(const SpaceView &space, const MaterialParameters &material,
-                                                 const HyperelasticLaw law)
-      : space(space)
-      , material(material)
-      , mu(lame_constants(material)[0])
-      , lambda(lame_constants(material)[1])
-      , law(law)
+    namespace
     {
-      tangent.reinit(space.sparsity);
-      rhs.reinit(space.dof_handler.n_dofs());
-    }
-
-    bool LargeDeformationSolve::assemble(const Vector<double> &u, const double force, const Vector<double> &load,
-                                         const bool with_tangent)
-    {
-      Timer timer;
-      const bool valid = assemble_at(u, force, load, with_tangent);
-      counts.assembly_seconds += timer.wall_time();
-      return valid;
-    }
-
-    bool LargeDeformationSolve::assemble_at(const Vector<double> &u, const double force, const Vector<double> &load,
-                                            const bool with_tangent)
-    {
-      const auto        &fe            = space.dof_handler.get_fe();
-      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-      FEValues<3>        fe_values(space.mapping, fe, space.quadrature, update_gradients | update_JxW_values);
-      const FEValuesExtractors::Vector displacement(0);
-      std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
-      std::vector<Tensor<1, 3>>        shape_gradient(dofs_per_cell), work(dofs_per_cell);
-      FullMatrix<double>               cell_K(dofs_per_cell, dofs_per_cell);
-      Vector<double>                   cell_rhs(dofs_per_cell), cell_u(dofs_per_cell);
-      std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
-      std::vector<unsigned int>            component(dofs_per_cell);
-      for (unsigned int i = 0; i < dofs_per_cell; ++i)
-        component[i] = fe.system_to_component_index(i).first;
-
-      rhs    = 0.;
-      energy = 0.;
-      if (with_tangent)
-        tangent = 0.;
-      for (const auto &cell : space.dof_handler.active_cell_iterators())
-        {
-          fe_values.reinit(cell);
-          fe_values[displacement].get_function_gradients(u, grad_u);
-          cell_K   = 0.;
-          cell_rhs = 0.;
-          for (unsigned int q = 0; q < space.quadrature.size(); ++q)
-            {
-              if (!(determinant(identity + grad_u[q]) > 0.))
-                return false; // an inverted (or degenerate) element: no stress is defined
-              const StressAtPoint stress(law, mu, lambda, grad_u[q]);
-              const double        JxW = fe_values.JxW(q);
-              energy += stress.energy() * JxW;
-              for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                {
-                  shape_gradient[i] = fe_values.shape_grad(i, q);
-                  cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i] * JxW;
-                }
-              if (with_tangent)
-                stress.add_tangent(shape_gradient, component, JxW, work, cell_K);
-            }
-          if (with_tangent) // the tangent of a stored energy is symmetric
-            for (unsigned int i = 0; i < dofs_per_cell; ++i)
-              for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
-                cell_K(i, j) = cell_K(j, i);
-          cell->get_dof_indices(dof_indices);
-          if (with_tangent)
-            space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
-          else
-            space.constraints.distribute_local_to_global(cell_rhs, dof_indices, rhs);
-        }
-      // Elastic supports are linear springs on the reference faces: force k u, stiffness k.
-      for (const auto &face : space.elastic_faces)
-        {
-          space_parts::elastic_face_matrix(space.mapping, fe, face, cell_K);
-          face.cell->get_dof_indices(dof_indices);
-          for (unsigned int i = 0; i < dofs_per_cell; ++i)
-            cell_u(i) = u(dof_indices[i]);
-          cell_K.vmult(cell_rhs, cell_u);
-          energy += 0.5 * (cell_u * cell_rhs);
-          cell_rhs *= -1.;
-          if (with_tangent)
-            space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
-          else
-            space.constraints.distribute_local_to_global(cell_rhs, dof_indices, rhs);
-        }
-      rhs.add(force, load);
-      energy -= force * (load * u);
-      return true;
-    }
-
-    // CG on the tangent, preconditioned by the last factorization: while the part is near its linear
-    // state the tangent is close to K, so a few iterations reach the tolerance. False where it stalls
-    // (more than 40 iterations, or still above 1e-3 after 10) or meets a direction of non-positive
-    // curvature (the caller factorizes, which tells a tangent that is not positive definite).
-    bool LargeDeformationSolve::preconditioned_cg(Vector<double> &du, const double tolerance)
-    {
-      Factorization *preconditioner = tangent_factor ? tangent_factor.get() : space.linear_factorization;
-      if (!space.use_cg || preconditioner == nullptr)
-        return false;
-      ++counts.cg_solves;
-      Vector<double> r(rhs), z(rhs.size()), p(rhs.size()), Ap(rhs.size());
-      du                    = 0.;
-      const double b_norm   = rhs.l2_norm();
-      const auto   precondition = [&] {
-        z = r;
-        preconditioner->solve_block(z.data(), 1);
-      };
-      precondition();
-      p         = z;
-      double rz = r * z;
-      for (unsigned int iteration = 1; iteration <= 40; ++iteration)
-        {
-          ++counts.cg_iterations;
-          tangent.vmult(Ap, p);
-          const double pAp = p * Ap;
-          if (!(pAp > 0.))
-            return false;
-          const double alpha = rz / pAp;
-          du.add(alpha, p);
-          r.add(-alpha, Ap);
-          const double relative = r.l2_norm() / b_norm;
-          if (relative <= tolerance)
-            return true;
-          if (iteration >= 10 && relative > 1e-3)
-            return false;
-          precondition();
-          const double rz_next = r * z;
-          p.sadd(rz_next / rz, z);
-          rz = rz_next;
-        }
-      return false;
-    }
-
-    bool LargeDeformationSolve::solve_tangent(Vector<double> &du, std::string &failure, const double tolerance)
-    {
-      Timer      timer;
-      const bool solved = solve_tangent_system(du, failure, tolerance);
-      counts.solve_seconds += timer.wall_time();
-      return solved;
-    }
-
-    bool LargeDeformationSolve::solve_tangent_system(Vector<double> &du, std::string &failure, const double tolerance)
-    {
-      if (preconditioned_cg(du, tolerance))
-        {
-          space.constraints.distribute(du);
-          return true;
-        }
-      try
-        {
-          ++counts.factorizations;
-          tangent_factor = space.factorization == FactorizationKind::umfpack ?
-                             make_umfpack_factorization(tangent, nullptr, 0.) :
-                             make_cholmod_factorization(tangent, nullptr, 0.);
-        }
-      catch (const ExceptionBase &e)
-        {
-          if (std::string(e.what()).find("not positive definite") == std::string::npos)
-            throw;
-          tangent_factor.reset();
-          failure = "the tangent stiffness is not positive definite (a limit point: buckling, snap-through "
-                    "or a material instability)";
-          return false;
-        }
-      du = rhs;
-      tangent_factor->solve_block(du.data(), 1);
-      space.constraints.distribute(du);
-      return true;
-    }
-
-    void LargeDeformationSolve::estimate_second_order(const Vector<double> &u1, ValidityCurve &curve)
-    {
-      Timer        timer;
-      const double psi3       = cubic_energy(space, material, law, u1);
-      curve.estimate_seconds += timer.wall_time();
-      curve.estimate_exact.c2 = -3. * psi3;
-      curve.estimate_exact.validity_force = second_order_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
-
-      // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
-      // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
-      const double h   = curve.force_limit / 100.;
-      const auto   odd = [&](const double t) {
-        Vector<double> u(u1);
-        u *= t;
-        double half = 0.;
-        for (const double sign : {1., -1.})
+      // The factorization of a tangent by the space's own direct solver, or null where the tangent
+      // is not positive definite: CHOLMOD's Cholesky refuses it, MUMPS's L D L^T (with pivoting, for
+      // an indefinite tangent factorizes too) counts its negative eigenvalues (Sylvester's inertia).
+      // UMFPACK's and Amesos' LU do not tell: Newton then meets the limit point as a failed line search.
+      std::unique_ptr<Factorization> factorize_tangent(const SparseMatrix<double> &tangent, const ModeParameters &modes)
+      {
+        try
           {
-            Vector<double> signed_u(u);
-            signed_u *= sign;
-            AssertThrow(assemble(signed_u, 0., u1, false), ExcInternalError());
-            half += sign * 0.5 * energy;
+            return modes.factorization_kind == FactorizationKind::umfpack ? make_umfpack_factorization(tangent, nullptr, 0.) :
+                                                                             make_cholmod_factorization(tangent, nullptr, 0.);
           }
-        return half;
+        catch (const ExceptionBase &e)
+          {
+            if (std::string(e.what()).find("not positive definite") == std::string::npos)
+              throw;
+            return nullptr;
+          }
+      }
+
+      std::unique_ptr<DistributedInverse> factorize_tangent(const TrilinosWrappers::SparseMatrix &tangent,
+                                                            const ModeParameters                 &modes)
+      {
+        FactorizationStatistics statistics;
+        auto inverse = make_mumps_inverse(tangent, modes.distributed_factorization, /*positive_definite*/ false,
+                                          modes.factor_directory, statistics,
+                                          [](const solver_choice::MumpsPrediction &) { return solver_choice::Placement::memory; });
+        if (inverse->negative_eigenvalues() > 0)
+          return nullptr;
+        return inverse;
+      }
+
+      template <typename Algebra>
+      class LargeDeformationSolve
+      {
+      public:
+        using VectorType = typename Algebra::Vector;
+
+        LargeDeformationSolve(const SpaceView<Algebra> &space, const MaterialParameters &material,
+                              const ModeParameters &modes, HyperelasticLaw law);
+
+        // The dead load F * load ramped from 0 to ramp.force_limit: 'load' is a condensed unit patch
+        // load W_v d (zero on constrained DoFs), which also reads the felt displacement d^T W_v^T u.
+        // The curve's exact second-order estimate from the linear response u1 (curve.estimate_exact,
+        // estimate_seconds) and Psi3's check against finite differences of the stored energy along
+        // t u1 (curve.cubic_term_check).
+        // Each level starts from the last converged one; a level Newton cannot reach (an inverted
+        // element at every step length of the line search, a tangent that is not positive definite,
+        // no convergence) is retried with half the increment, up to ramp.max_halvings; then the curve
+        // stops with stop_reason and force_reached. Newton's relative residuals go to 'log', one line
+        // per level.
+        ValidityCurve ramp_load(const VectorType &load, const LoadRamp &ramp, const std::function<void(std::string)> &log);
+
+        // What the solves cost: factorizations, CG iterations, assemblies (with the tangent and without).
+        struct Counts
+        {
+          unsigned int factorizations = 0, cg_solves = 0, cg_iterations = 0, tangent_assemblies = 0,
+                       residual_assemblies = 0;
+          double assembly_seconds = 0., solve_seconds = 0.; // [s] assemblies; factorizations and CG
+        } counts;
+
+      private:
+        // rhs = force * load - f_int(u) on the free DoFs, the potential energy (stored minus the load's
+        // work); the tangent too when with_tangent. False when some quadrature point has det F <= 0
+        // on any process (nothing is assembled then).
+        bool assemble(const VectorType &u, double force, const VectorType &load, bool with_tangent);
+        bool assemble_at(const VectorType &u, double force, const VectorType &load,
+                         bool with_tangent); // assemble without its timer
+        // This process's cells' share of assemble_at (before the exchange); false at det F <= 0.
+        bool assemble_cells(const VectorType &u_read, bool with_tangent, double &local_energy);
+        struct LevelOutcome
+        {
+          bool                converged = false;
+          std::vector<double> residuals; // |R| / |f| per iteration
+          std::string         failure;
+        };
+        // Newton from the predictor (from u, the last converged state, where it inverts an element) to
+        // the level 'force'; u is updated only when converged.
+        LevelOutcome solve_level(VectorType &u, double force, const VectorType &load, const VectorType &predictor,
+                                 const LoadRamp &ramp, const std::function<void(std::string)> &log);
+        // tangent^-1 rhs into du; false (and 'failure') when the tangent is not positive definite.
+        // With space.use_cg, CG preconditioned by the last factorization (K's, the space's, until a
+        // tangent is factorized) to |rhs - tangent du| <= tolerance |rhs|; the tangent is factorized
+        // (and preconditions from then on) only where CG stalls or meets negative curvature.
+        bool solve_tangent(VectorType &du, std::string &failure, double tolerance = 1e-12);
+        bool solve_tangent_system(VectorType &du, std::string &failure, double tolerance); // untimed
+        bool preconditioned_cg(VectorType &du, double tolerance);
+        // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load.
+        void estimate_second_order(const VectorType &u1, ValidityCurve &curve);
+
+        const SpaceView<Algebra>                   space;
+        const MaterialParameters                   material;
+        const ModeParameters                       modes;
+        const double                               mu, lambda;
+        const HyperelasticLaw                      law;
+        typename Algebra::Matrix                   tangent;
+        VectorType                                 rhs;
+        double                                     energy = 0.; // [J]
+        std::unique_ptr<typename Algebra::Inverse> tangent_factor; // the last factorized tangent
       };
-      const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
-      curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
-    }
 
-    LargeDeformationSolve::LevelOutcome LargeDeformationSolve::solve_level(Vector<double> &u, const double force,
-                                                                           const Vector<double> &load,
-                                                                           const Vector<double> &predictor,
-                                                                           const LoadRamp &ramp,
-                                                                           const std::function<void(std::string)> &log)
-    {
-      LevelOutcome   outcome;
-      const double   load_norm = force * load.l2_norm();
-      Vector<double> trial(predictor), du(u.size());
-      ++counts.tangent_assemblies;
-      if (!assemble(trial, force, load, true)) // the predictor inverts an element: from the last level
-        {
-          trial = u;
-          ++counts.tangent_assemblies;
-          AssertThrow(assemble(trial, force, load, true), ExcInternalError()); // a converged state is valid
-        }
-      double residual = rhs.l2_norm() / load_norm;
-      for (unsigned int iteration = 0;; ++iteration)
-        {
-          outcome.residuals.push_back(residual);
-          if (residual <= ramp.tolerance)
-            {
-              u                 = trial;
-              outcome.converged = true;
-              return outcome;
-            }
-          if (iteration == ramp.max_iterations)
-            {
-              outcome.failure = "no convergence in " + std::to_string(ramp.max_iterations) + " Newton iterations";
-              return outcome;
-            }
-          // An inexact Newton step, solved to a hundredth of the residual: the error it leaves is
-          // smaller than the quadratic term's from r ~ 1e-2 down (and 1e-12 at most, the rounding floor).
-          if (!solve_tangent(du, outcome.failure, std::clamp(1e-2 * residual, 1e-12, 1e-4)))
-            return outcome;
-          // Backtracking: halve the step until every element keeps det F > 0 and the potential energy
-          // has decreased enough along Newton's direction (Armijo, c = 1e-4; the direction descends
-          // it while the tangent is positive definite), or the residual has (near the solution, where
-          // the energy's change drowns in rounding). The residual alone is a poor guide far from the
-          // solution: a slender part's linear predictor stretches it, and the axial force that
-          // follows dwarfs the load, though the energy has gone down.
-          const Vector<double> start(trial);
-          const double         start_energy = energy, slope = -(rhs * du);
-          bool                 accepted = false, inverted = false;
-          for (double step = 1.; step >= 1. / 1024.; step /= 2.)
-            {
-              trial = start;
-              trial.add(step, du);
-              ++counts.residual_assemblies;
-              if (!assemble(trial, force, load, false))
-                {
-                  inverted = true;
-                  continue;
-                }
-              const double trial_residual = rhs.l2_norm() / load_norm;
-              if (energy <= start_energy + 1e-4 * step * slope || trial_residual < (1. - 1e-4 * step) * residual)
-                {
-                  residual = trial_residual;
-                  accepted = true;
-                  break;
-                }
-            }
-          // The tangent at the new iterate, unless it is the solution.
-          if (accepted && residual > ramp.tolerance)
-            {
-              ++counts.tangent_assemblies;
-              assemble(trial, force, load, true);
-            }
-          if (log)
-            {
-              std::ostringstream line;
-              line << "validity:   F = " << std::setprecision(4) << force << " N, Newton iteration " << iteration + 1
-                   << ": |R|/|f| = " << std::scientific << std::setprecision(2) << residual
-                   << (accepted ? "" : " (line search failed)");
-              log(line.str());
-            }
-          if (!accepted)
-            {
-              outcome.failure = inverted ? "an element inverts (det F <= 0) at every step length of the line search" :
-                                           "the line search found no step that lowers the residual";
-              return outcome;
-            }
-        }
-    }
+      template <typename Algebra>
+      LargeDeformationSolve<Algebra>::LargeDeformationSolve(const SpaceView<Algebra> &space, const MaterialParameters &material,
+                                                            const ModeParameters &modes, const HyperelasticLaw law)
+        : space(space)
+        , material(material)
+        , modes(modes)
+        , mu(lame_constants(material)[0])
+        , lambda(lame_constants(material)[1])
+        , law(law)
+      {
+        tangent.reinit(space.sparsity);
+        rhs = space.owned_layout;
+      }
 
-    ValidityCurve LargeDeformationSolve::ramp_load(const Vector<double> &load, const LoadRamp &ramp,
-                                                   const std::function<void(std::string)> &log)
-    {
-      Timer          timer;
-      ValidityCurve  curve;
-      Vector<double> u(space.dof_handler.n_dofs()), du(u.size());
-      tangent_factor.reset(); // another contact's tangent: K's factorization preconditions better
-      curve.material    = law_name(law);
-      curve.force_limit = ramp.force_limit;
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::assemble(const VectorType &u, const double force, const VectorType &load,
+                                           const bool with_tangent)
+      {
+        Timer timer;
+        const bool valid = assemble_at(u, force, load, with_tangent);
+        counts.assembly_seconds += timer.wall_time();
+        return valid;
+      }
 
-      // The linear felt compliance from the tangent at the reference state (linear elasticity), and
-      // the exact second-order estimate from the same response.
-      // The estimate's cost is this solve's and Psi3's integral (K's factorization would give u1 as well).
-      std::string failure;
-      ++counts.tangent_assemblies;
-      assemble(u, 1., load, true);
-      Timer solve_timer;
-      AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
-      curve.estimate_seconds  = solve_timer.wall_time();
-      curve.linear_compliance = load * du;
-      estimate_second_order(du, curve);
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::assemble_at(const VectorType &u, const double force, const VectorType &load,
+                                                       const bool with_tangent)
+      {
+        rhs = 0.;
+        if (with_tangent)
+          tangent = 0.;
+        double     local_energy = 0.;
+        const bool valid        = assemble_cells(readable(space, u), with_tangent, local_energy);
+        // Every process exchanges what it added to others' rows, valid or not: a collective step.
+        if (with_tangent)
+          tangent.compress(VectorOperation::add);
+        rhs.compress(VectorOperation::add);
+        const MPI_Comm comm = communicator(space.dof_handler);
+        if (Utilities::MPI::min(int(valid), comm) == 0)
+          return false;
+        energy = Utilities::MPI::sum(local_energy, comm);
+        rhs.add(force, load);
+        energy -= force * (load * u);
+        return true;
+      }
 
-      const double first_increment = ramp.force_limit / ramp.load_steps;
-      const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
-      double       force = 0., increment = first_increment;
-      // The secant predictor: the last two converged states extrapolated to the new level (the
-      // linear response at the first level). (A quadratic through the unloaded state and the last
-      // two, tried, overshoots on the elastica into states whose tangent is indefinite.)
-      Vector<double> u_before(u.size()), predictor(u.size());
-      double         force_before = 0.;
-      while (force < ramp.force_limit)
-        {
-          const double target = std::min(force + increment, ramp.force_limit);
-          predictor           = u;
-          if (force == 0.)
-            predictor.add(target, du);
-          else
-            predictor.sadd(1. + (target - force) / (force - force_before), -(target - force) / (force - force_before),
-                           u_before);
-          const Vector<double> u_last(u);
-          const auto           outcome = solve_level(u, target, load, predictor, ramp, log);
-          std::ostringstream line;
-          line << "validity: F = " << std::setprecision(4) << target << " N, Newton |R|/|f|:" << std::scientific
-               << std::setprecision(2);
-          for (const double r : outcome.residuals)
-            line << ' ' << r;
-          if (outcome.converged)
-            {
-              u_before     = u_last;
-              force_before = force;
-              force        = target;
-              curve.forces.push_back(force);
-              curve.displacements.push_back(load * u);
-              curve.newton_iterations.push_back(outcome.residuals.size() - 1);
-              curve.newton_residuals.push_back(outcome.residuals);
-              line << " (" << outcome.residuals.size() - 1 << " iterations)";
-              log(line.str());
-              // Back up to the first increment once Newton converges fast again after a cut.
-              if (outcome.residuals.size() <= 5)
-                increment = std::min(2. * increment, first_increment);
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::assemble_cells(const VectorType &u_read, const bool with_tangent,
+                                                          double &local_energy)
+      {
+        const auto        &fe            = space.dof_handler.get_fe();
+        const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
+        FEValues<3>        fe_values(space.mapping, fe, space.quadrature, update_gradients | update_JxW_values);
+        const FEValuesExtractors::Vector displacement(0);
+        std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
+        std::vector<Tensor<1, 3>>        shape_gradient(dofs_per_cell), work(dofs_per_cell);
+        FullMatrix<double>               cell_K(dofs_per_cell, dofs_per_cell);
+        Vector<double>                   cell_rhs(dofs_per_cell), cell_u(dofs_per_cell);
+        std::vector<types::global_dof_index> dof_indices(dofs_per_cell);
+        std::vector<unsigned int>            component(dofs_per_cell);
+        for (unsigned int i = 0; i < dofs_per_cell; ++i)
+          component[i] = fe.system_to_component_index(i).first;
+
+        for (const auto &cell : space.dof_handler.active_cell_iterators())
+          {
+            if (!cell->is_locally_owned())
               continue;
-            }
-          line << ": " << outcome.failure;
-          log(line.str());
-          increment /= 2.;
-          if (increment < least_increment)
+            fe_values.reinit(cell);
+            fe_values[displacement].get_function_gradients(u_read, grad_u);
+            cell_K   = 0.;
+            cell_rhs = 0.;
+            for (unsigned int q = 0; q < space.quadrature.size(); ++q)
+              {
+                if (!(determinant(identity + grad_u[q]) > 0.))
+                  return false; // an inverted (or degenerate) element: no stress is defined
+                const StressAtPoint stress(law, mu, lambda, grad_u[q]);
+                const double        JxW = fe_values.JxW(q);
+                local_energy += stress.energy() * JxW;
+                for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                  {
+                    shape_gradient[i] = fe_values.shape_grad(i, q);
+                    cell_rhs(i) -= stress.stress()[component[i]] * shape_gradient[i] * JxW;
+                  }
+                if (with_tangent)
+                  stress.add_tangent(shape_gradient, component, JxW, work, cell_K);
+              }
+            if (with_tangent) // the tangent of a stored energy is symmetric
+              for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
+                  cell_K(i, j) = cell_K(j, i);
+            cell->get_dof_indices(dof_indices);
+            if (with_tangent)
+              space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
+            else
+              space.constraints.distribute_local_to_global(cell_rhs, dof_indices, rhs);
+          }
+        // Elastic supports are linear springs on the reference faces: force k u, stiffness k.
+        for (const auto &face : space.elastic_faces)
+          {
+            space_parts::elastic_face_matrix(space.mapping, fe, face, cell_K);
+            face.cell->get_dof_indices(dof_indices);
+            for (unsigned int i = 0; i < dofs_per_cell; ++i)
+              cell_u(i) = u_read(dof_indices[i]);
+            cell_K.vmult(cell_rhs, cell_u);
+            local_energy += 0.5 * (cell_u * cell_rhs);
+            cell_rhs *= -1.;
+            if (with_tangent)
+              space.constraints.distribute_local_to_global(cell_K, cell_rhs, dof_indices, tangent, rhs);
+            else
+              space.constraints.distribute_local_to_global(cell_rhs, dof_indices, rhs);
+          }
+        return true;
+      }
+
+      // CG on the tangent, preconditioned by the last factorization: while the part is near its linear
+      // state the tangent is close to K, so a few iterations reach the tolerance. False where it stalls
+      // (more than 40 iterations, or still above 1e-3 after 10) or meets a direction of non-positive
+      // curvature (the caller factorizes, which tells a tangent that is not positive definite).
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::preconditioned_cg(VectorType &du, const double tolerance)
+      {
+        typename Algebra::Inverse *preconditioner = tangent_factor ? tangent_factor.get() : space.linear_factorization;
+        if (!space.use_cg || preconditioner == nullptr)
+          return false;
+        ++counts.cg_solves;
+        VectorType r(rhs), z(rhs), p(rhs), Ap(rhs);
+        du                    = 0.;
+        const double b_norm   = rhs.l2_norm();
+        const auto   precondition = [&] {
+          z = r;
+          preconditioner->solve_block(z.begin(), 1);
+        };
+        precondition();
+        p         = z;
+        double rz = r * z;
+        for (unsigned int iteration = 1; iteration <= 40; ++iteration)
+          {
+            ++counts.cg_iterations;
+            tangent.vmult(Ap, p);
+            const double pAp = p * Ap;
+            if (!(pAp > 0.))
+              return false;
+            const double alpha = rz / pAp;
+            du.add(alpha, p);
+            r.add(-alpha, Ap);
+            const double relative = r.l2_norm() / b_norm;
+            if (relative <= tolerance)
+              return true;
+            if (iteration >= 10 && relative > 1e-3)
+              return false;
+            precondition();
+            const double rz_next = r * z;
+            p.sadd(rz_next / rz, z);
+            rz = rz_next;
+          }
+        return false;
+      }
+
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::solve_tangent(VectorType &du, std::string &failure, const double tolerance)
+      {
+        Timer      timer;
+        const bool solved = solve_tangent_system(du, failure, tolerance);
+        counts.solve_seconds += timer.wall_time();
+        return solved;
+      }
+
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::solve_tangent_system(VectorType &du, std::string &failure, const double tolerance)
+      {
+        if (preconditioned_cg(du, tolerance))
+          {
+            space.constraints.distribute(du);
+            return true;
+          }
+        ++counts.factorizations;
+        tangent_factor = factorize_tangent(tangent, modes);
+        if (!tangent_factor)
+          {
+            failure = "the tangent stiffness is not positive definite (a limit point: buckling, snap-through "
+                      "or a material instability)";
+            return false;
+          }
+        du = rhs;
+        tangent_factor->solve_block(du.begin(), 1);
+        space.constraints.distribute(du);
+        return true;
+      }
+
+      template <typename Algebra>
+      void LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve)
+      {
+        Timer        timer;
+        const double psi3       = cubic_energy(space, material, law, u1);
+        curve.estimate_seconds += timer.wall_time();
+        curve.estimate_exact.c2 = -3. * psi3;
+        curve.estimate_exact.validity_force = second_order_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
+
+        // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
+        // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
+        const double h   = curve.force_limit / 100.;
+        const auto   odd = [&](const double t) {
+          VectorType u(u1);
+          u *= t;
+          double half = 0.;
+          for (const double sign : {1., -1.})
             {
-              std::ostringstream reason;
-              reason << outcome.failure << ", with the load increment cut to " << std::setprecision(3)
-                     << 2. * increment << " N beyond " << force << " N";
-              curve.stop_reason = reason.str();
-              break;
+              VectorType signed_u(u);
+              signed_u *= sign;
+              AssertThrow(assemble(signed_u, 0., u1, false), ExcInternalError());
+              half += sign * 0.5 * energy;
             }
-        }
-      curve.force_reached = force;
-      curve.seconds       = timer.wall_time();
-      set_validity_forces(curve);
-      return curve;
-    }
+          return half;
+        };
+        const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
+        curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
+      }
+
+      template <typename Algebra>
+      typename LargeDeformationSolve<Algebra>::LevelOutcome LargeDeformationSolve<Algebra>::solve_level(VectorType &u, const double force,
+                                                                             const VectorType &load,
+                                                                             const VectorType &predictor,
+                                                                             const LoadRamp &ramp,
+                                                                             const std::function<void(std::string)> &log)
+      {
+        LevelOutcome   outcome;
+        const double   load_norm = force * load.l2_norm();
+        VectorType trial(predictor), du(u);
+        ++counts.tangent_assemblies;
+        if (!assemble(trial, force, load, true)) // the predictor inverts an element: from the last level
+          {
+            trial = u;
+            ++counts.tangent_assemblies;
+            AssertThrow(assemble(trial, force, load, true), ExcInternalError()); // a converged state is valid
+          }
+        double residual = rhs.l2_norm() / load_norm;
+        for (unsigned int iteration = 0;; ++iteration)
+          {
+            outcome.residuals.push_back(residual);
+            if (residual <= ramp.tolerance)
+              {
+                u                 = trial;
+                outcome.converged = true;
+                return outcome;
+              }
+            if (iteration == ramp.max_iterations)
+              {
+                outcome.failure = "no convergence in " + std::to_string(ramp.max_iterations) + " Newton iterations";
+                return outcome;
+              }
+            // An inexact Newton step, solved to a hundredth of the residual: the error it leaves is
+            // smaller than the quadratic term's from r ~ 1e-2 down (and 1e-12 at most, the rounding floor).
+            if (!solve_tangent(du, outcome.failure, std::clamp(1e-2 * residual, 1e-12, 1e-4)))
+              return outcome;
+            // Backtracking: halve the step until every element keeps det F > 0 and the potential energy
+            // has decreased enough along Newton's direction (Armijo, c = 1e-4; the direction descends
+            // it while the tangent is positive definite), or the residual has (near the solution, where
+            // the energy's change drowns in rounding). The residual alone is a poor guide far from the
+            // solution: a slender part's linear predictor stretches it, and the axial force that
+            // follows dwarfs the load, though the energy has gone down.
+            const VectorType start(trial);
+            const double         start_energy = energy, slope = -(rhs * du);
+            bool                 accepted = false, inverted = false;
+            for (double step = 1.; step >= 1. / 1024.; step /= 2.)
+              {
+                trial = start;
+                trial.add(step, du);
+                ++counts.residual_assemblies;
+                if (!assemble(trial, force, load, false))
+                  {
+                    inverted = true;
+                    continue;
+                  }
+                const double trial_residual = rhs.l2_norm() / load_norm;
+                if (energy <= start_energy + 1e-4 * step * slope || trial_residual < (1. - 1e-4 * step) * residual)
+                  {
+                    residual = trial_residual;
+                    accepted = true;
+                    break;
+                  }
+              }
+            // The tangent at the new iterate, unless it is the solution.
+            if (accepted && residual > ramp.tolerance)
+              {
+                ++counts.tangent_assemblies;
+                assemble(trial, force, load, true);
+              }
+            if (log)
+              {
+                std::ostringstream line;
+                line << "validity:   F = " << std::setprecision(4) << force << " N, Newton iteration " << iteration + 1
+                     << ": |R|/|f| = " << std::scientific << std::setprecision(2) << residual
+                     << (accepted ? "" : " (line search failed)");
+                log(line.str());
+              }
+            if (!accepted)
+              {
+                outcome.failure = inverted ? "an element inverts (det F <= 0) at every step length of the line search" :
+                                             "the line search found no step that lowers the residual";
+                return outcome;
+              }
+          }
+      }
+
+      template <typename Algebra>
+      ValidityCurve LargeDeformationSolve<Algebra>::ramp_load(const VectorType &load, const LoadRamp &ramp,
+                                                     const std::function<void(std::string)> &log)
+      {
+        Timer          timer;
+        ValidityCurve  curve;
+        VectorType u(space.owned_layout), du(u);
+        tangent_factor.reset(); // another contact's tangent: K's factorization preconditions better
+        curve.material    = law_name(law);
+        curve.force_limit = ramp.force_limit;
+
+        // The linear felt compliance from the tangent at the reference state (linear elasticity), and
+        // the exact second-order estimate from the same response.
+        // The estimate's cost is this solve's and Psi3's integral (K's factorization would give u1 as well).
+        std::string failure;
+        ++counts.tangent_assemblies;
+        assemble(u, 1., load, true);
+        Timer solve_timer;
+        AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
+        curve.estimate_seconds  = solve_timer.wall_time();
+        curve.linear_compliance = load * du;
+        estimate_second_order(du, curve);
+
+        const double first_increment = ramp.force_limit / ramp.load_steps;
+        const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
+        double       force = 0., increment = first_increment;
+        // The secant predictor: the last two converged states extrapolated to the new level (the
+        // linear response at the first level). (A quadratic through the unloaded state and the last
+        // two, tried, overshoots on the elastica into states whose tangent is indefinite.)
+        VectorType u_before(u), predictor(u);
+        double         force_before = 0.;
+        while (force < ramp.force_limit)
+          {
+            const double target = std::min(force + increment, ramp.force_limit);
+            predictor           = u;
+            if (force == 0.)
+              predictor.add(target, du);
+            else
+              predictor.sadd(1. + (target - force) / (force - force_before), -(target - force) / (force - force_before),
+                             u_before);
+            const VectorType u_last(u);
+            const auto           outcome = solve_level(u, target, load, predictor, ramp, log);
+            std::ostringstream line;
+            line << "validity: F = " << std::setprecision(4) << target << " N, Newton |R|/|f|:" << std::scientific
+                 << std::setprecision(2);
+            for (const double r : outcome.residuals)
+              line << ' ' << r;
+            if (outcome.converged)
+              {
+                u_before     = u_last;
+                force_before = force;
+                force        = target;
+                curve.forces.push_back(force);
+                curve.displacements.push_back(load * u);
+                curve.newton_iterations.push_back(outcome.residuals.size() - 1);
+                curve.newton_residuals.push_back(outcome.residuals);
+                line << " (" << outcome.residuals.size() - 1 << " iterations)";
+                log(line.str());
+                // Back up to the first increment once Newton converges fast again after a cut.
+                if (outcome.residuals.size() <= 5)
+                  increment = std::min(2. * increment, first_increment);
+                continue;
+              }
+            line << ": " << outcome.failure;
+            log(line.str());
+            increment /= 2.;
+            if (increment < least_increment)
+              {
+                std::ostringstream reason;
+                reason << outcome.failure << ", with the load increment cut to " << std::setprecision(3)
+                       << 2. * increment << " N beyond " << force << " N";
+                curve.stop_reason = reason.str();
+                break;
+              }
+          }
+        curve.force_reached = force;
+        curve.seconds       = timer.wall_time();
+        set_validity_forces(curve);
+        return curve;
+      }
+    } // namespace
 
     void set_validity_forces(ValidityCurve &curve)
     {
@@ -791,9 +945,10 @@ namespace modal_haptics
       summarize(line.str());
     }
 
-    void analyse_validity(const SpaceView &space, const SceneParameters &scene, const SpaceTask &task,
+    template <typename Algebra>
+    void analyse_validity(const SpaceView<Algebra> &space, const SceneParameters &scene, const SpaceTask &task,
                           const ContactSurface &display,
-                          const std::function<Vector<double>(unsigned int, const std::array<double, 3> &)> &patch_load,
+                          const std::function<typename Algebra::Vector(unsigned int, const std::array<double, 3> &)> &patch_load,
                           const std::function<double(const meshing::Point3 &)> &outside,
                           const std::function<std::optional<ModalView>()> &make_modal, ModalSpaceResult &result, const std::function<void(std::string)> &log,
                           const std::function<void(std::string)> &summarize)
@@ -809,7 +964,7 @@ namespace modal_haptics
       ramp.force_limit = contact.force_limit;
       ramp.load_steps  = contact.validity_load_steps;
       const auto            law = validity_law(scene);
-      LargeDeformationSolve solve(space, scene.material, law);
+      LargeDeformationSolve<Algebra> solve(space, scene.material, scene.modes, law);
       const auto            modal = make_modal();
       for (const unsigned int vertex : task.validity_vertices)
         {
@@ -846,14 +1001,17 @@ namespace modal_haptics
               curve.estimate_modal.c2 = modal_second_order(*modal, result, vertex, direction, &q);
               curve.estimate_modal.validity_force =
                 second_order_validity_forces(curve.linear_compliance, curve.estimate_modal.c2);
-              if (modal->serial_modes) // the tensor against Psi3 of the field it stands for
-                {
-                  Vector<double> field(space.dof_handler.n_dofs());
-                  for (unsigned int i = 0; i < q.size(); ++i)
-                    field.add(q[i], (*modal->serial_modes)[i]);
-                  const double direct = cubic_energy(space, scene.material, law, field);
-                  curve.modal_cubic_check = std::abs(modal->cubic.value(q) - direct) / std::max(std::abs(direct), 1e-300);
-                }
+              // The tensor against Psi3 of the field it stands for (serial runs: the modes as serial vectors).
+              if constexpr (std::is_same_v<Algebra, SerialAlgebra>)
+                if (modal->serial_modes)
+                  {
+                    Vector<double> field(space.dof_handler.n_dofs());
+                    for (unsigned int i = 0; i < q.size(); ++i)
+                      field.add(q[i], (*modal->serial_modes)[i]);
+                    const double direct = cubic_energy(space, scene.material, law, field);
+                    curve.modal_cubic_check =
+                      std::abs(modal->cubic.value(q) - direct) / std::max(std::abs(direct), 1e-300);
+                  }
               summary << ", " << std::setprecision(3) << forces_text(curve.estimate_modal.validity_force) << " (modal)";
               // The map holds the full solve's forces where it pressed along the map's normal.
               if (!result.validity_force.empty() && !contact.validity_direction)
@@ -863,5 +1021,18 @@ namespace modal_haptics
           result.validity.push_back(std::move(curve));
         }
     }
+
+    template void analyse_validity(const SpaceView<SerialAlgebra> &, const SceneParameters &, const SpaceTask &,
+                                   const ContactSurface &,
+                                   const std::function<Vector<double>(unsigned int, const std::array<double, 3> &)> &,
+                                   const std::function<double(const meshing::Point3 &)> &,
+                                   const std::function<std::optional<ModalView>()> &, ModalSpaceResult &,
+                                   const std::function<void(std::string)> &, const std::function<void(std::string)> &);
+    template void analyse_validity(const SpaceView<DistributedAlgebra> &, const SceneParameters &, const SpaceTask &,
+                                   const ContactSurface &,
+                                   const std::function<TrilinosWrappers::MPI::Vector(unsigned int, const std::array<double, 3> &)> &,
+                                   const std::function<double(const meshing::Point3 &)> &,
+                                   const std::function<std::optional<ModalView>()> &, ModalSpaceResult &,
+                                   const std::function<void(std::string)> &, const std::function<void(std::string)> &);
   } // namespace nonlinear
 } // namespace modal_haptics

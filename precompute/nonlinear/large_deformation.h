@@ -1,7 +1,9 @@
 // Where linear stops being true: a geometrically nonlinear static solve on a modal space's own mesh,
 // element degree and supports (total Lagrangian, hyperelastic), which ramps a contact's patch load
 // up to 'Contact/Force limit' with Newton's method, and the validity forces read off its curve.
-// Serial: it factorizes each tangent with the space's own factorization (CHOLMOD or UMFPACK).
+// Serial and distributed alike (SerialAlgebra, DistributedAlgebra): each process assembles its own
+// cells, and the tangent systems go through the space's own direct solver (CHOLMOD or UMFPACK
+// serially, MUMPS under MPI).
 #pragma once
 
 #include "parameters/scene_parameters.h"
@@ -24,9 +26,22 @@
 #include <string>
 #include <vector>
 
+namespace dealii
+{
+  namespace TrilinosWrappers
+  {
+    class SparseMatrix;
+    namespace MPI
+    {
+      class Vector;
+    }
+  } // namespace TrilinosWrappers
+} // namespace dealii
+
 namespace modal_haptics
 {
-  class Factorization; // solvers/factorization.h
+  class Factorization;      // solvers/factorization.h
+  class DistributedInverse; // solvers/mumps_inverse.h
 
   namespace nonlinear
   {
@@ -51,32 +66,44 @@ namespace modal_haptics
                                           // floor on a slender steel beam: 2.5e-10)
     };
 
-    // What the solve reads of a space: its FE space, its supports (constraints, homogeneous, and the
-    // elastic faces' springs), the sparsity pattern of its K, and its factorization of K (null: none,
-    // or not a direct one), which preconditions CG on the tangent systems when use_cg.
+    // The linear algebra of a space's backend as the nonlinear solve uses it: its vectors and
+    // matrices, the pattern a tangent is built on, and the direct solver that factorizes one.
+    struct SerialAlgebra
+    {
+      using Vector  = dealii::Vector<double>;
+      using Matrix  = dealii::SparseMatrix<double>;
+      using Pattern = dealii::SparsityPattern; // K's
+      using Inverse = Factorization;           // CHOLMOD or UMFPACK, as 'Modes/Factorization' says
+    };
+    struct DistributedAlgebra
+    {
+      using Vector  = dealii::TrilinosWrappers::MPI::Vector;
+      using Matrix  = dealii::TrilinosWrappers::SparseMatrix;
+      using Pattern = dealii::TrilinosWrappers::SparseMatrix; // K itself: a tangent copies its pattern
+      using Inverse = DistributedInverse; // MUMPS, as 'Modes/Distributed factorization' says
+    };
+
+    // What the solve reads of a space: its FE space (the triangulation's communicator: the
+    // processes, one in a serial run), its supports (constraints, homogeneous, and this process's
+    // elastic faces), the pattern of its K, the layouts of its vectors, and its factorization of K
+    // (null: none, or not a direct one), which preconditions CG on the tangent systems when use_cg.
+    template <typename Algebra>
     struct SpaceView
     {
       const dealii::DoFHandler<3>             &dof_handler;
       const dealii::Mapping<3>                &mapping;
       const dealii::Quadrature<3>             &quadrature;
       const dealii::AffineConstraints<double> &constraints;
-      const dealii::SparsityPattern           &sparsity;
+      const typename Algebra::Pattern         &sparsity;
       const std::vector<ElasticFace>          &elastic_faces;
-      FactorizationKind                        factorization;
-      Factorization                           *linear_factorization = nullptr;
+      typename Algebra::Vector                 owned_layout;   // zero, this process's rows
+      typename Algebra::Vector                 ghosted_layout; // zero, readable at its cells' DoFs
+      typename Algebra::Inverse               *linear_factorization = nullptr;
       bool                                     use_cg               = false;
     };
 
     // The Lame constants of the part's material: {mu, lambda} [Pa].
     std::array<double, 2> lame_constants(const MaterialParameters &material);
-
-    // Psi3(u) [J], the cubic term of the stored energy's expansion in u about the reference state
-    // (the elastic supports are quadratic: none), by the space's quadrature. With H = grad u,
-    // eps = sym H, sigma = lambda tr(eps) I + 2 mu eps: St. Venant-Kirchhoff
-    // psi3 = 1/2 sigma : (H^T H); the neo-Hookean law adds -lambda tr(eps) tr(eps^2) - 4/3 mu tr(eps^3)
-    // (W = lambda/2 (tr E)^2 + mu tr E^2 - lambda tr E tr E^2 - 4/3 mu tr E^3 + O(E^4)).
-    double cubic_energy(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law,
-                        const dealii::Vector<double> &u);
 
     // The modes the estimate projects on: the lowest ones, at most this many. The tensor grows as r^3
     // (r = 1000 would be 5e8 numbers and hours of GEMMs) while a mode's share of u1 falls as 1/lambda.
@@ -110,71 +137,6 @@ namespace modal_haptics
     // stiffening; infinity where c2 = 0.
     std::array<double, 3> second_order_validity_forces(double c1, double c2);
 
-    class LargeDeformationSolve
-    {
-    public:
-      LargeDeformationSolve(const SpaceView &space, const MaterialParameters &material, HyperelasticLaw law);
-
-      // The dead load F * load ramped from 0 to ramp.force_limit: 'load' is a condensed unit patch
-      // load W_v d (zero on constrained DoFs), which also reads the felt displacement d^T W_v^T u.
-      // The curve's exact second-order estimate from the linear response u1 (curve.estimate_exact,
-      // estimate_seconds) and Psi3's check against finite differences of the stored energy along
-      // t u1 (curve.cubic_term_check).
-      // Each level starts from the last converged one; a level Newton cannot reach (an inverted
-      // element at every step length of the line search, a tangent that is not positive definite,
-      // no convergence) is retried with half the increment, up to ramp.max_halvings; then the curve
-      // stops with stop_reason and force_reached. Newton's relative residuals go to 'log', one line
-      // per level.
-      ValidityCurve ramp_load(const dealii::Vector<double> &load, const LoadRamp &ramp,
-                              const std::function<void(std::string)> &log);
-
-    private:
-      // rhs = force * load - f_int(u) on the free DoFs, the potential energy (stored minus the load's
-      // work); the tangent too when with_tangent. False when some quadrature point has det F <= 0
-      // (nothing is assembled then).
-      bool assemble(const dealii::Vector<double> &u, double force, const dealii::Vector<double> &load,
-                    bool with_tangent);
-      bool assemble_at(const dealii::Vector<double> &u, double force, const dealii::Vector<double> &load,
-                       bool with_tangent); // assemble without its timer
-      struct LevelOutcome
-      {
-        bool                converged = false;
-        std::vector<double> residuals; // |R| / |f| per iteration
-        std::string         failure;
-      };
-      // Newton from the predictor (from u, the last converged state, where it inverts an element) to
-      // the level 'force'; u is updated only when converged.
-      LevelOutcome solve_level(dealii::Vector<double> &u, double force, const dealii::Vector<double> &load,
-                               const dealii::Vector<double> &predictor, const LoadRamp &ramp,
-                               const std::function<void(std::string)> &log);
-      // tangent^-1 rhs into du; false (and 'failure') when the tangent is not positive definite.
-      // With space.use_cg, CG preconditioned by the last factorization (K's, the space's, until a
-      // tangent is factorized) to |rhs - tangent du| <= tolerance |rhs|; the tangent is factorized
-      // (and preconditions from then on) only where CG stalls or meets negative curvature.
-      bool solve_tangent(dealii::Vector<double> &du, std::string &failure, double tolerance = 1e-12);
-      bool solve_tangent_system(dealii::Vector<double> &du, std::string &failure, double tolerance); // untimed
-      bool preconditioned_cg(dealii::Vector<double> &du, double tolerance);
-      // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load.
-      void estimate_second_order(const dealii::Vector<double> &u1, ValidityCurve &curve);
-
-      const SpaceView          space;
-      const MaterialParameters material;
-      const double             mu, lambda;
-      const HyperelasticLaw law;
-      dealii::SparseMatrix<double> tangent;
-      dealii::Vector<double>       rhs;
-      double                       energy = 0.; // [J]
-      std::unique_ptr<Factorization> tangent_factor; // the last factorized tangent
-    public:
-      // What the solves cost: factorizations, CG iterations, assemblies (with the tangent and without).
-      struct Counts
-      {
-        unsigned int factorizations = 0, cg_solves = 0, cg_iterations = 0, tangent_assemblies = 0,
-                     residual_assemblies = 0;
-        double assembly_seconds = 0., solve_seconds = 0.; // [s] assemblies; factorizations and CG
-      } counts;
-    };
-
     // The forces where the linear felt compliance departs by validity_departures from the secant
     // compliance of the curve (ValidityCurve::validity_force).
     void set_validity_forces(ValidityCurve &curve);
@@ -200,12 +162,14 @@ namespace modal_haptics
 
     // The phase: the validity curve of each of task.validity_vertices into result.validity, on a
     // space held against every rigid motion (otherwise logged and left out). patch_load(v, d) gives
-    // W_v d condensed. Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
+    // W_v d condensed. Collective in a distributed run (every process calls it alike, and so
+    // patch_load and outside). Newton's residuals go to 'log' (progress), each contact's outcome to 'summarize'.
     // At each validity contact also both estimates (exact and modal) and their self-checks; the
     // validity map (when estimated) takes the full solve's forces at these contacts.
-    void analyse_validity(const SpaceView &space, const SceneParameters &scene, const SpaceTask &task,
+    template <typename Algebra>
+    void analyse_validity(const SpaceView<Algebra> &space, const SceneParameters &scene, const SpaceTask &task,
                           const ContactSurface &display,
-                          const std::function<dealii::Vector<double>(unsigned int, const std::array<double, 3> &)> &patch_load,
+                          const std::function<typename Algebra::Vector(unsigned int, const std::array<double, 3> &)> &patch_load,
                           const std::function<double(const meshing::Point3 &)> &outside,
                           const std::function<std::optional<ModalView>()> &modal,
                           ModalSpaceResult &result, const std::function<void(std::string)> &log,

@@ -119,6 +119,15 @@ namespace modal_haptics
                                                                   double *max_outside) const;
       // sum_d factor_d W_v e_d as a distributed vector; each process adds its cells' part.
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
+      // The nonlinear solves on this space's own cells and supports (large_deformation.h); MUMPS's
+      // factorization of K (with no shift) preconditions their tangent systems.
+      nonlinear::SpaceView<nonlinear::DistributedAlgebra> validity_space()
+      {
+        DistributedInverse *factor_of_K = (amg == nullptr && shift == 0.) ? inverse.get() : nullptr;
+        return {dof_handler,  mapping,        quadrature,  constraints,
+                stiffness_matrix, supports.elastic_faces, owned_layout, ghosted_layout,
+                factor_of_K,  scene.contact.validity_cg};
+      }
       // A free-floating part is refused before assembly (setup_system): no load needs relief.
       void relieve_load(Field &) const {}
       Block new_block(unsigned int) const { return {}; }

@@ -74,6 +74,7 @@ namespace modal_haptics
       std::vector<space_parts::EvaluationPoint> evaluation_points(const std::vector<meshing::Point3> &points,
                                                                   double *max_outside) const;
       Field patch_load(unsigned int vertex, const std::array<double, 3> &factor) const;
+      nonlinear::SpaceView<nonlinear::SerialAlgebra> validity_space();
       void relieve_load(Field &load) const { relieve_load(load.begin()); }
       void solve_static(std::vector<Field> &fields);
       Block new_block(const unsigned int n_columns) const
@@ -123,8 +124,6 @@ namespace modal_haptics
           export_matrices();
       }
       void solve_eigenproblem() override;
-      void analyse_validity() override;
-      nonlinear::SpaceView validity_space();
       void finish() override;
 
       void read_mesh();
@@ -338,31 +337,11 @@ namespace modal_haptics
 
     // The nonlinear solves on this space's mesh, FE space, supports and sparsity (large_deformation.h);
     // its factorization of K (a direct one, with no shift) preconditions their tangent systems.
-    nonlinear::SpaceView SerialSpace::validity_space()
+    nonlinear::SpaceView<nonlinear::SerialAlgebra> SerialSpace::validity_space()
     {
       Factorization *factor_of_K = (amg_inverse() == nullptr && shift == 0.) ? factorization.get() : nullptr;
-      return {dof_handler,           mapping,          quadrature,
-              constraints,           sparsity_pattern, supports.elastic_faces,
-              scene.modes.factorization_kind, factor_of_K, scene.contact.validity_cg};
-    }
-
-    void SerialSpace::analyse_validity()
-    {
-      nonlinear::analyse_validity(
-        validity_space(), scene, task, display,
-        [this](const unsigned int v, const std::array<double, 3> &d) { return patch_load(v, d); },
-        [this](const meshing::Point3 &x) {
-          double outside = 0.;
-          evaluation_points({x}, &outside);
-          return outside;
-        },
-        [this]() -> std::optional<nonlinear::ModalView> {
-          if (scene.contact.validity_estimate)
-            return modal_view();
-          return std::nullopt;
-        },
-        result, [this](const std::string &line) { log(line); },
-        [this](const std::string &line) { summarize(line); });
+      return {dof_handler, mapping,           quadrature,   constraints, sparsity_pattern, supports.elastic_faces,
+              zero_field(), zero_field(), factor_of_K, scene.contact.validity_cg};
     }
 
     void SerialSpace::finish()

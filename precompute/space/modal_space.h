@@ -138,13 +138,10 @@ namespace modal_haptics
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
       virtual void validate() = 0;
-      // The validity map's estimate at every corrected contact (serial and distributed), and the
-      // nonlinear solves at the validity contacts (precompute/nonlinear/: serial only).
+      // The validity map's estimate at every corrected contact, and the nonlinear solves at the
+      // validity contacts (precompute/nonlinear/), serial and distributed.
       virtual void estimate_validity() = 0;
-      virtual void analyse_validity()
-      {
-        summarize("validity analysis left out: the distributed backend has no nonlinear solve (serial runs only)");
-      }
+      virtual void analyse_validity()  = 0;
       virtual void output_results() const = 0;
       virtual void finish() {}
       void log(const std::string &message) const;       // a progress line: not printed with --quiet

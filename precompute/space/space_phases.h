@@ -16,6 +16,7 @@
 //   Field zero_field() const
 //   std::vector<EvaluationPoint> evaluation_points(points, double *max_outside) const  (collective)
 //   Field patch_load(unsigned vertex, const std::array<double, 3> &factor) const   sum_d factor_d W_v e_d
+//   nonlinear::SpaceView<Algebra> validity_space()   what the nonlinear solves read (large_deformation.h)
 //   void relieve_load(Field &) const  inertia relief of a free part's load (identity when clamped)
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
@@ -501,6 +502,25 @@ namespace modal_haptics
       {
         nonlinear::estimate_validity_map(
           display, [this] { return modal_view(); }, result, [this](const std::string &line) { summarize(line); });
+      }
+
+      void analyse_validity() override
+      {
+        Backend &b = backend();
+        nonlinear::analyse_validity(
+          b.validity_space(), scene, task, display,
+          [&b](const unsigned int v, const std::array<double, 3> &d) { return b.patch_load(v, d); },
+          [&b](const meshing::Point3 &x) {
+            double outside = 0.;
+            b.evaluation_points({x}, &outside);
+            return outside;
+          },
+          [this]() -> std::optional<nonlinear::ModalView> {
+            if (scene.contact.validity_estimate)
+              return modal_view();
+            return std::nullopt;
+          },
+          result, [this](const std::string &line) { log(line); }, [this](const std::string &line) { summarize(line); });
       }
 
       // The validity estimate's modal side (large_deformation.h), built on first use: the cubic term

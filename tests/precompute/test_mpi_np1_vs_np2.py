@@ -34,6 +34,12 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   the same .h5 and the method says so; under that
   limit the block Krylov method recomputes M V instead of storing it (np = 1, and serially with blocks
   of 16 at a tolerance of 1e-12, whose thick restarts then run without M V): the same .h5 as above;
+* the validity analysis (the geometrically nonlinear solve, issue 38) under mpirun: the soft block of
+  validity_block.prm pressed with St. Venant-Kirchhoff up to 300 N, past its limit point (~213 N), at
+  np = 2 and serially on the same meshes: the same load levels, Newton iterations, factorizations (of
+  the tangents where CG on them stalls: MUMPS's L D L^T at np = 2, CHOLMOD serially) and stop reason
+  (the limit point, told at np = 2 by the inertia of MUMPS's factor); displacements, the linear
+  compliance, the validity forces and the exact second-order estimate to 1e-8;
 * a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
   under mpirun -np 2 exit non-zero with the message, no hang (the shift refused by the inertia of
   MUMPS's L D L^T, before PARPACK);
@@ -164,6 +170,56 @@ def compare_h5(ours, theirs, label, expect):
         expect(True, f"h5 {label}, worst over the spaces: " + ", ".join(f"{k} {v}" for k, v in sorted(worst.items())))
 
 
+def validity_summary(log_text):
+    """The counts of a validity contact's summary line: (tangent and residual assemblies, factorizations,
+    CG iterations)."""
+    import re
+    line = next(l for l in log_text.splitlines() if "load levels in" in l)
+    found = re.search(r"\((\d+) tangent and (\d+) residual assemblies, (\d+) factorizations, (\d+) CG iterations", line)
+    return tuple(int(x) for x in found.groups())
+
+
+def compare_validity_analysis(args, expect):
+    """The nonlinear solve at np = 2 against the serial one on the same meshes (module docstring)."""
+    prm = open(os.path.join(HERE, "validity_block.prm")).read().replace("block.geo", os.path.join(HERE, "block.geo"))
+    prm += ("subsection Contact\n  set Force limit = 300\n"
+            "  set Validity material = St. Venant-Kirchhoff\nend\n")  # past the limit point
+    runs, logs = {}, {}
+    for label, command in [("serial", [args.binary]), ("np2", mpi_command(args.mpirun, 2) + [args.binary])]:
+        folder = os.path.join(args.workdir, "validity_" + label)
+        os.makedirs(folder, exist_ok=True)
+        if label == "np2":
+            copy_meshes(os.path.join(args.workdir, "validity_serial"), folder)
+        open(os.path.join(folder, "scene.prm"), "w").write(prm)
+        done = subprocess.run(command + [os.path.join(folder, "scene.prm"), "--output-dir", folder],
+                              capture_output=True, text=True, env=mpi_environment(), timeout=300)
+        expect(done.returncode == 0, f"validity analysis, {label}: exit {done.returncode}"
+                                     + ("" if done.returncode == 0 else " " + done.stderr[-300:]))
+        runs[label] = json.load(open(os.path.join(folder, "report.json")))["spaces"][0]["validity"]
+        logs[label] = done.stdout
+    for x, y in zip(runs["np2"], runs["serial"]):
+        case = f"validity contact {x['vertex']}"
+        expect(len(runs["np2"]) == len(runs["serial"]) >= 1 and x["vertex"] == y["vertex"]
+               and x["direction"] == y["direction"], f"{case}: the same contacts and directions at np=2 and serially")
+        expect(x["force_n"] == y["force_n"] and x["newton_iterations"] == y["newton_iterations"],
+               f"{case}: the same {len(x['force_n'])} load levels and Newton iterations {x['newton_iterations']}")
+        expect(x["stop_reason"] == y["stop_reason"] and "not positive definite" in x["stop_reason"]
+               and x["force_reached_n"] == y["force_reached_n"],
+               f"{case}: stopped alike at {x['force_reached_n']:.6g} N of {x['force_limit_n']:g} N: {x['stop_reason'][:60]}")
+        pairs = [("displacements", x["displacement_m"], y["displacement_m"]),
+                 ("linear compliance", [x["linear_compliance_m_per_n"]], [y["linear_compliance_m_per_n"]]),
+                 ("validity forces", list(x["validity_force_n"].values()), list(y["validity_force_n"].values())),
+                 ("second-order estimate", list(x["second_order_exact"]["validity_force_n"].values()),
+                  list(y["second_order_exact"]["validity_force_n"].values()))]
+        for what, a, b in pairs:
+            d = relative(np.array(a, dtype=float), np.array(b, dtype=float))
+            expect(d <= 1e-8, f"{case}: {what} np=2 vs serial {d:.1e} <= 1e-8")
+    counts = {label: validity_summary(text) for label, text in logs.items()}
+    expect(counts["np2"] == counts["serial"] and counts["np2"][2] > 0 and counts["np2"][3] > 0,
+           f"validity analysis: assemblies, factorizations and CG iterations alike at np=2 and serially "
+           f"{counts['np2']} (tangents factorized where CG stalls)")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--binary", required=True)
@@ -284,6 +340,8 @@ def main():
                f"{name}, shifted: validation errors np=2 vs serial within {worst:.1e} <= 1e-8, "
                f"full responses {worst_response:.1e} <= 1e-8")
         expect(worst_residual <= 1e-9, f"{name}, shifted: solve residuals {worst_residual:.1e} <= 1e-9")
+
+    compare_validity_analysis(args, expect)
 
     # Errors under mpirun: a parse error (every process) and run-time errors (inside the space; MUMPS's
     # symmetric indefinite mode factorizes K - shift M above the first eigenvalue, which the serial
