@@ -659,6 +659,7 @@ time,hip,event,x,y,z
         ENSURE(json_number(stats, "beyond_ticks", entry) == double(ticks)); // the slide's, before the run's
         ENSURE_RELATIVE(json_number(stats, "lowest_margin", entry), margin, 1e-8);
         ENSURE(json_number(stats, "slides_beyond") == (level == 1 ? 1 : 0));
+        ENSURE(json_number(stats, "allocations_after_start") == 0); // the tracker's count in the haptic thread
         if (level == 1)
           {
             ENSURE(ticks > 100 && margin < 1.0);
