@@ -317,7 +317,8 @@ namespace modalrt_tool
     {
       return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, report.validity_level, error) &&
              write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, report.validity_level, error) &&
-             write_slides(o.output_dir + "/slides.csv", haptic.slides, report.space_names, error) &&
+             write_slides(o.output_dir + "/slides.csv", haptic.slides, report.slide_margins, report.validity_level,
+                          report.space_names, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
              write_file_atomically(o.output_dir + "/stats.json", stats_json(report), error);
     }
@@ -477,6 +478,7 @@ namespace modalrt_tool
     {
       RunReport report = make_report(o, session, duration, live, haptic, display);
       report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level);
+      report.slide_margins = find_slide_margins(haptic, session.hip_count, live.basis, live.def.validity_level);
       std::string error;
       if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))
         return fail(error);

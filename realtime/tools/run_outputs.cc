@@ -31,6 +31,9 @@ namespace modalrt_tool
       return text;
     }
 
+    // A vertex or triangle index for a CSV field or stats.json: -1 for MODALRT_NONE.
+    long long index_or_minus_one(std::uint32_t index) { return index == MODALRT_NONE ? -1ll : (long long)index; }
+
     void rotate(const double q[4], const double v[3], double out[3])
     {
       // v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z) of the unit quaternion.
@@ -219,9 +222,8 @@ namespace modalrt_tool
             for (const double *v : {s.hip, s.contact, s.force})
               for (int d = 0; d < 3; ++d)
                 text += "," + format("%.9g", v[d]);
-            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u,%lld", s.in_contact,
-                          s.active_vertex == MODALRT_NONE ? -1ll : (long long)s.active_vertex, s.space, s.flags,
-                          s.proxy_triangle == MODALRT_NONE ? -1ll : (long long)s.proxy_triangle);
+            std::snprintf(field, sizeof field, ",%u,%lld,%u,%u,%lld", s.in_contact, index_or_minus_one(s.active_vertex),
+                          s.space, s.flags, index_or_minus_one(s.proxy_triangle));
             text += field;
             const FeltAlongNormal felt = felt_along_normal(basis, s, impedance ? 1.0 : -1.0);
             for (double value : {s.proxy_weights[0], s.proxy_weights[1], s.proxy_weights[2], felt.normal_force,
@@ -612,25 +614,77 @@ namespace modalrt_tool
     return names;
   }
 
-  bool write_slides(const std::string &path, const std::vector<Slide> &slides,
-                    const std::vector<std::string> &space_names, std::string &error)
+  std::vector<SlideMargin> find_slide_margins(const HapticResult &result, std::uint32_t hip_count,
+                                              const modalrt_basis *basis, std::uint32_t validity_level)
+  {
+    std::vector<SlideMargin> margins(result.slides.size());
+    if (hip_count == 0)
+      return margins;
+    const std::size_t rows = result.trace.size() / hip_count;
+    for (std::size_t k = 0; k < result.slides.size(); ++k)
+      {
+        const Slide &slide = result.slides[k];
+        SlideMargin &m     = margins[k];
+        // The trace's rows are in time order: the slide's are those from its start to its end.
+        std::size_t r = 0, past = rows;
+        while (r < past)
+          {
+            const std::size_t middle = r + (past - r) / 2;
+            if (result.trace[middle * hip_count].time < slide.start)
+              r = middle + 1;
+            else
+              past = middle;
+          }
+        for (; r < rows && result.trace[r * hip_count].time <= slide.end; ++r)
+          {
+            const TraceSample &s     = result.trace[r * hip_count + slide.hip];
+            const double       force = std::sqrt(dot3(s.force, s.force));
+            const double       limit = trace_validity_force(basis, s, validity_level); // NaN out of contact
+            if (!std::isfinite(limit) || !(force > 0.0) || limit / force >= m.margin)
+              continue;
+            m.margin         = limit / force;
+            m.time           = s.time;
+            m.vertex         = s.active_vertex;
+            m.triangle       = s.proxy_triangle;
+            m.force          = force;
+            m.validity_force = limit;
+          }
+      }
+    return margins;
+  }
+
+  bool write_slides(const std::string &path, const std::vector<Slide> &slides, const std::vector<SlideMargin> &margins,
+                    std::uint32_t validity_level, const std::vector<std::string> &space_names, std::string &error)
   {
     std::string text =
       "# modal-rt run slides: one row per slide of a HIP's proxy, from the first tick it slid to the last in one "
       "contact (every tick, not the trace's rows): length_m the proxy's path over the part (body frame) [m], "
       "max_force_step_n the largest |F_n - F_(n-1)| between consecutive ticks [N], max_force_n the largest |F| [N], "
       "passivity_energy_j the work the hand did on the kernel over it, sum of -F_(n-1) . (x_n - x_(n-1)) [J] "
-      "(never far below 0 for a passive coupling)\n"
+      "(never far below 0 for a passive coupling); against the validity map at validity_level_pct: beyond_ticks "
+      "the ticks flagged MODALRT_HIP_BEYOND_VALIDITY (every tick), lowest_margin the smallest validity_force / |F| "
+      "over the slide's trace rows in contact (at the trace's rate; below 1: beyond; nan: no validity force "
+      "along its path or no validity map), lowest_margin_s its row's time [s], lowest_margin_vertex and "
+      "lowest_margin_triangle the proxy's active vertex and triangle there (-1: none), lowest_margin_force_n "
+      "|F| there [N] and lowest_margin_validity_force_n the validity force there [N] (trace.csv's validity_force)\n"
       "slide,hip,start_s,end_s,space_start,space_start_name,space_end,space_end_name,ticks,sliding_ticks,length_m,"
-      "max_force_step_n,max_force_n,passivity_energy_j\n";
+      "max_force_step_n,max_force_n,passivity_energy_j,validity_level_pct,beyond_ticks,lowest_margin,"
+      "lowest_margin_s,lowest_margin_vertex,lowest_margin_triangle,lowest_margin_force_n,"
+      "lowest_margin_validity_force_n\n";
     char line[512];
     for (std::size_t k = 0; k < slides.size(); ++k)
       {
-        const Slide &s = slides[k];
+        const Slide       &s = slides[k];
+        const SlideMargin &m = margins.at(k);
         std::snprintf(line, sizeof line, "%zu,%u,%.9g,%.9g,%u,%s,%u,%s,%llu,%llu,%.9g,%.9g,%.9g,%.9g\n", k, s.hip, s.start,
                       s.end, s.space_start, space_names.at(s.space_start).c_str(), s.space_end,
                       space_names.at(s.space_end).c_str(), (unsigned long long)s.ticks,
                       (unsigned long long)s.sliding_ticks, s.length, s.max_force_step, s.max_force, s.energy);
+        text += line;
+        text.pop_back(); // the validity columns
+        std::snprintf(line, sizeof line, ",%u,%llu,%.9g,%.9g,%lld,%lld,%.9g,%.9g\n", validity_level,
+                      (unsigned long long)s.beyond_ticks, m.margin, m.time, index_or_minus_one(m.vertex),
+                      index_or_minus_one(m.triangle), m.force, m.validity_force);
         text += line;
       }
     return write_file_atomically(path, text, error);
@@ -686,7 +740,7 @@ namespace modalrt_tool
           const modalrt_hip_input  &in  = h.last_inputs[k];
           hips.push_back(Json{{"hip", k},
                               {"in_contact", out.in_contact},
-                              {"active_vertex", out.active_vertex == MODALRT_NONE ? -1ll : (long long)out.active_vertex},
+                              {"active_vertex", index_or_minus_one(out.active_vertex)},
                               {"space", out.space},
                               {"device_position", vector3(in.position)},
                               {"input_force", vector3(in.force)},
@@ -750,15 +804,28 @@ namespace modalrt_tool
       o["device_counters"][name] = count;
     o["passivity_energy_j"] = r.kernel.passivity_energy;
     o["slides"]             = Json::array();
-    for (const Slide &s : h.slides)
-      o["slides"].push_back(Json{{"hip", s.hip},
-                                 {"start_s", s.start},
-                                 {"end_s", s.end},
-                                 {"space_start", s.space_start},
-                                 {"space_end", s.space_end},
-                                 {"length_m", s.length},
-                                 {"max_force_step_n", s.max_force_step},
-                                 {"passivity_energy_j", s.energy}});
+    std::uint64_t slides_beyond = 0;
+    for (std::size_t k = 0; k < h.slides.size(); ++k)
+      {
+        const Slide       &s = h.slides[k];
+        const SlideMargin &m = r.slide_margins.at(k);
+        o["slides"].push_back(Json{{"hip", s.hip},
+                                   {"start_s", s.start},
+                                   {"end_s", s.end},
+                                   {"space_start", s.space_start},
+                                   {"space_end", s.space_end},
+                                   {"length_m", s.length},
+                                   {"max_force_step_n", s.max_force_step},
+                                   {"passivity_energy_j", s.energy},
+                                   {"beyond_ticks", s.beyond_ticks},
+                                   {"lowest_margin", m.margin},
+                                   {"lowest_margin_s", m.time},
+                                   {"lowest_margin_vertex", index_or_minus_one(m.vertex)},
+                                   {"lowest_margin_triangle", index_or_minus_one(m.triangle)},
+                                   {"lowest_margin_force_n", m.force},
+                                   {"lowest_margin_validity_force_n", m.validity_force}});
+        slides_beyond += s.beyond_ticks > 0;
+      }
     o["slides_dropped"] = h.slides_dropped;
     std::uint64_t beyond = 0;
     for (std::uint64_t n : h.beyond_validity_ticks)
@@ -771,7 +838,8 @@ namespace modalrt_tool
                          {"clamp", r.validity_clamp},
                          {"beyond_ticks", beyond},
                          {"beyond_ticks_per_hip", h.beyond_validity_ticks},
-                         {"presses_beyond", presses_beyond}};
+                         {"presses_beyond", presses_beyond},
+                         {"slides_beyond", slides_beyond}};
     o["final"] = final_states(h);
     // Paths are bytes: invalid UTF-8 in one is replaced (U+FFFD), not an exception.
     return o.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -807,6 +875,9 @@ namespace modalrt_tool
         std::printf("  ...           %zu more presses in presses.csv\n", presses.size() - shown);
     }
 
+    // After a press's or slide's line beyond its validity force, with --validity-clamp.
+    constexpr const char *clamp_note = "; the rendered force held at it (--validity-clamp)";
+
     // Per press, against its validity force at the kernel's level (a map in the basis only).
     void print_press_validity(const RunReport &r)
     {
@@ -819,7 +890,7 @@ namespace modalrt_tool
           if (p.beyond)
             std::printf("  validity %-4zu beyond its validity force: F%u = %.3g N, from %.2f s at %.3g N (up to %.3g N)%s\n",
                         k, r.validity_level, p.validity_force, p.beyond_time, p.beyond_force, p.max_force,
-                        r.validity_clamp ? "; the rendered force held at it (--validity-clamp)" : "");
+                        r.validity_clamp ? clamp_note : "");
           else if (std::isfinite(p.validity_force))
             std::printf("  validity %-4zu within its validity force: up to %.3g N, F%u = %.3g N\n", k, p.max_force,
                         r.validity_level, p.validity_force);
@@ -827,7 +898,35 @@ namespace modalrt_tool
             std::printf("  validity %-4zu no validity force at its point (up to %.3g N)\n", k, p.max_force);
         }
     }
-    // Per slide: how far the proxy went, the largest force change per tick, the passivity observer.
+    // Under a slide's line, the slide against its validity force at the kernel's level: the ticks
+    // beyond it and the lowest margin along the path (validity force / |F|), as the presses' lines.
+    void print_slide_validity(const RunReport &r, const Slide &s, const SlideMargin &m)
+    {
+      if (!r.validity_map)
+        {
+          std::printf("  %-13s no validity map\n", "");
+          return;
+        }
+      char lowest[256];
+      if (std::isfinite(m.margin))
+        std::snprintf(lowest, sizeof lowest,
+                      "lowest F%u / |F| = %.3g at %.2f s, vertex %lld (triangle %lld): F%u = %.3g N at %.3g N (up to %.3g N)",
+                      r.validity_level, m.margin, m.time, index_or_minus_one(m.vertex), index_or_minus_one(m.triangle),
+                      r.validity_level, m.validity_force, m.force, s.max_force);
+      else
+        std::snprintf(lowest, sizeof lowest, "no validity force on its trace rows (up to %.3g N)", s.max_force);
+      if (s.beyond_ticks > 0)
+        std::printf("  %-13s beyond its validity force on %llu of %llu ticks: %s%s\n", "",
+                    (unsigned long long)s.beyond_ticks, (unsigned long long)s.ticks, lowest,
+                    r.validity_clamp ? clamp_note : "");
+      else if (std::isfinite(m.margin))
+        std::printf("  %-13s within its validity force: %s\n", "", lowest);
+      else
+        std::printf("  %-13s no validity force along its path (up to %.3g N)\n", "", s.max_force);
+    }
+
+    // Per slide: how far the proxy went, the largest force change per tick, the passivity observer,
+    // and the validity force.
     void print_slides(const RunReport &r)
     {
       const std::vector<Slide> &slides = r.haptic->slides;
@@ -844,6 +943,7 @@ namespace modalrt_tool
                       k, s.hip, r.space_names.at(s.space_start).c_str(), r.space_names.at(s.space_end).c_str(), s.start,
                       s.end, 1e3 * s.length, (unsigned long long)s.sliding_ticks, (unsigned long long)s.ticks,
                       s.max_force_step, s.max_force, s.energy);
+          print_slide_validity(r, s, r.slide_margins.at(k));
         }
       if (slides.size() > shown)
         std::printf("  ...           %zu more slides in slides.csv\n", slides.size() - shown);

@@ -1,5 +1,5 @@
 // The files `modal-rt run` writes into --output-dir, each to a temporary file then renamed (a
-// reader never sees half a file): stats.json, trace.csv, presses.csv, frames.pvd and
+// reader never sees half a file): stats.json, trace.csv, presses.csv, slides.csv, frames.pvd and
 // frames/frame_*.vtu; and force_displacement.png, drawn by scripts/plot_force_displacement.py.
 #pragma once
 
@@ -49,9 +49,28 @@ namespace modalrt_tool
   // The name of every space of the basis, safe in a CSV field.
   std::vector<std::string> space_names(const modalrt_basis *basis);
 
-  // slides.csv: one row per slide (slides.h), the space names from `space_names`.
-  bool write_slides(const std::string &path, const std::vector<Slide> &slides,
-                    const std::vector<std::string> &space_names, std::string &error);
+  // A slide against the validity map at the kernel's level: its lowest margin, the smallest ratio
+  // validity force / |F| over the slide's trace rows in contact (below 1: beyond), and where. Taken
+  // after the run from the trace (at its rate), as the presses' validity: the haptic thread's
+  // SlideTracker counts the slide's ticks flagged MODALRT_HIP_BEYOND_VALIDITY (Slide::beyond_ticks).
+  struct SlideMargin
+  {
+    double        margin         = std::nan(""); // [-] validity_force / |F|; NaN: no row with a value and a force
+    double        time           = std::nan(""); // [s] its trace row
+    std::uint32_t vertex         = MODALRT_NONE; // the active vertex there (the heaviest corner of the proxy's triangle)
+    std::uint32_t triangle       = MODALRT_NONE; // the proxy's triangle there
+    double        force          = std::nan(""); // [N] |F| there
+    double        validity_force = std::nan(""); // [N] trace_validity_force there
+  };
+
+  // Per slide of result.slides (in their order), its lowest margin at the kernel's `validity_level`.
+  std::vector<SlideMargin> find_slide_margins(const HapticResult &result, std::uint32_t hip_count,
+                                              const modalrt_basis *basis, std::uint32_t validity_level);
+
+  // slides.csv: one row per slide (slides.h) and its margin (`margins`, one per slide), the space
+  // names from `space_names`.
+  bool write_slides(const std::string &path, const std::vector<Slide> &slides, const std::vector<SlideMargin> &margins,
+                    std::uint32_t validity_level, const std::vector<std::string> &space_names, std::string &error);
 
   // One press: a contact period of one HIP (consecutive trace rows in contact at the same active
   // vertex, outside its slides), what it felt like, and the static stiffness of that contact (a proxy
@@ -125,6 +144,7 @@ namespace modalrt_tool
     double              coupling_stiffness = 0.0, coupling_damping = 0.0, snap_distance = 0.0;
     std::vector<std::pair<std::string, std::uint64_t>> device_counters; // packets, ... (serve)
     std::vector<Press>  presses;
+    std::vector<SlideMargin> slide_margins; // per slide of haptic->slides
     std::vector<std::string> space_names; // per space of the basis (the slides' spaces)
     bool                plot_written = false; // force_displacement.png
     bool                slide_plot_written = false; // slide_stiffness.png

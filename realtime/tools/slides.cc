@@ -55,8 +55,10 @@ namespace modalrt_tool
             k.pending_step = std::max(k.pending_step, std::sqrt(step2));
             k.pending_energy += observed ? work : 0.0;
           }
-        k.pending_force = std::max(k.pending_force, std::sqrt(force2));
+        const bool beyond = (o.flags & MODALRT_HIP_BEYOND_VALIDITY) != 0;
+        k.pending_force   = std::max(k.pending_force, std::sqrt(force2));
         ++k.pending_ticks;
+        k.pending_beyond += beyond;
         k.have_previous = true;
         std::copy_n(point, 3, k.point);
         std::copy_n(o.force, 3, k.force);
@@ -72,19 +74,21 @@ namespace modalrt_tool
             k.slide.space_start = o.space;
             k.pending_length = k.pending_step = k.pending_energy = 0.0;
             k.pending_force = std::sqrt(force2);
-            k.pending_ticks = 1;
+            k.pending_ticks  = 1;
+            k.pending_beyond = beyond;
           }
         Slide &s = k.slide;
         s.end       = t;
         s.space_end = o.space;
         s.ticks += k.pending_ticks;
+        s.beyond_ticks += k.pending_beyond;
         ++s.sliding_ticks;
         s.length += k.pending_length;
         s.max_force_step = std::max(s.max_force_step, k.pending_step);
         s.max_force      = std::max(s.max_force, k.pending_force);
         s.energy += k.pending_energy;
         k.pending_length = k.pending_step = k.pending_force = k.pending_energy = 0.0;
-        k.pending_ticks = 0;
+        k.pending_ticks = k.pending_beyond = 0;
       }
   }
 

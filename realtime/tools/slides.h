@@ -2,7 +2,9 @@
 // the first tick a HIP's proxy slides (MODALRT_HIP_SLIDING) to the last one it slides in the same
 // contact; sticking ticks between two sliding ones belong to it. The tracker sees every tick in the
 // haptic thread (no allocation: the records are sized before the first tick), so the length, the
-// largest force change per tick and the energy are per tick, not per trace row.
+// largest force change per tick, the energy and the ticks beyond the validity force are per tick,
+// not per trace row. (The lowest validity margin along the path needs the basis' validity map: it is
+// taken after the run from the trace, run_outputs.h's find_slide_margins.)
 #pragma once
 
 #include <modalrt/modalrt.h>
@@ -22,6 +24,7 @@ namespace modalrt_tool
     double        length      = 0.0; // [m] path of the proxy over the part (body frame: minus the frame's origin)
     double        max_force_step = 0.0; // [N] largest |F_n - F_(n-1)| between consecutive ticks of the slide
     double        max_force   = 0.0; // [N] largest |F|
+    std::uint64_t beyond_ticks = 0; // of `ticks`, flagged MODALRT_HIP_BEYOND_VALIDITY (a basis with a validity map)
     // [J] the passivity observer of realtime/README.md for this HIP over the slide's ticks: the work the
     // hand did on the kernel, sum of -F_(n-1) . (x_n - x_(n-1)) (F the force on the device, x the HIP);
     // impedance ticks without the fail-safe rule only, as the kernel's.
@@ -47,7 +50,7 @@ namespace modalrt_tool
       bool   open = false;
       Slide  slide;
       double pending_length = 0.0, pending_step = 0.0, pending_force = 0.0, pending_energy = 0.0;
-      std::uint64_t pending_ticks = 0;
+      std::uint64_t pending_ticks = 0, pending_beyond = 0;
       bool   have_previous = false; // the previous tick was observed in contact
       double point[3] = {0, 0, 0}, force[3] = {0, 0, 0}, hip[3] = {0, 0, 0};
     };

@@ -500,6 +500,11 @@ time,hip,event,x,y,z
     const std::string stats = read_text("run_out_slide/stats.json");
     ENSURE(json_number(stats, "switches") >= 1 && json_number(stats, "allocations_after_start") == 0);
     ENSURE(contains(stats, "\"passivity_energy_j\": "));
+    // Without a validity map: no tick beyond, no margin, and the summary says so.
+    ENSURE(slides[1][column(h, "beyond_ticks")] == "0" && slides[1][column(h, "lowest_margin")] == "nan");
+    ENSURE(slides[1][column(h, "lowest_margin_vertex")] == "-1");
+    ENSURE(contains(stats, "\"lowest_margin\": null") && contains(stats, "\"slides_beyond\": 0"));
+    ENSURE(contains(out, "passivity") && contains(out.substr(out.find("  slide 0 ")), "no validity map"));
 
     // The trace's static stiffness is 1 / (n^T G n) of modalrt_basis_point_compliance at the proxy's
     // point, n the corners' blended normal.
@@ -575,6 +580,100 @@ time,hip,event,x,y,z
       }
   }
 
+  // run_validity.mrt: the lattice with the made-up validity map (LatticeOptions::validity_force).
+  void write_validity_basis()
+  {
+    modalrt::LatticeOptions o = lattice();
+    o.validity_force          = true;
+    ENSURE(modalrt::write_basis_file("run_validity.mrt", modalrt::make_lattice_cantilever(o)));
+  }
+
+  // A slide against the validity map: the slide session on the lattice with the made-up map (F_p =
+  // p x 0.2 N x (1 + x / 0.2 m) at the candidates), at the 1 % level (F1 about 0.26-0.37 N, below the
+  // slide's 0.47 N: beyond) and at 5 % (F5 five times that: within). Every tick traced: slides.csv's
+  // beyond_ticks equals the slide's trace rows flagged beyond, and its lowest margin equals
+  // min(validity_force / |F|) recomputed from the slide's trace rows in contact, at the row it names.
+  void slides_against_validity()
+  {
+    write_validity_basis();
+    write_text("run_slide.csv", slide_session);
+    for (const int level : {1, 5})
+      {
+        const std::string dir = "run_out_slide_validity_" + std::to_string(level);
+        std::string       out;
+        ENSURE(run("--basis run_validity.mrt --session run_slide.csv --no-plot --trace-rate 1000 --output-dir " +
+                     dir + " --validity-level " + std::to_string(level),
+                   out) == 0);
+        const auto slides = read_csv(dir + "/slides.csv");
+        const auto trace  = read_csv(dir + "/trace.csv");
+        ENSURE(slides.size() == 2 && trace.size() > 1);
+        if (slides.size() != 2 || trace.size() < 2)
+          continue;
+        const auto   &h = slides[0], &t = trace[0];
+        const auto   &slide = slides[1];
+        const double  start = std::stod(slide[column(h, "start_s")]), end = std::stod(slide[column(h, "end_s")]);
+        const std::size_t beyond = column(t, "hip0_beyond"), force = column(t, "hip0_validity_force");
+        const std::size_t fx = column(t, "hip0_fx"), contact = column(t, "hip0_contact");
+        std::size_t       flagged = 0, rows = 0, lowest_row = 0;
+        double            lowest  = INFINITY;
+        for (std::size_t r = 1; r < trace.size(); ++r)
+          {
+            const double time = std::stod(trace[r][0]);
+            if (time < start || time > end)
+              continue;
+            ++rows;
+            flagged += trace[r][beyond] == "1";
+            const double F = std::hypot(std::stod(trace[r][fx]), std::stod(trace[r][fx + 1]), std::stod(trace[r][fx + 2]));
+            const double Fv = std::stod(trace[r][force]);
+            if (trace[r][contact] == "1" && std::isfinite(Fv) && F > 0.0 && Fv / F < lowest)
+              lowest = Fv / F, lowest_row = r;
+          }
+        const double margin = std::stod(slide[column(h, "lowest_margin")]);
+        const double at     = std::stod(slide[column(h, "lowest_margin_s")]);
+        const auto   ticks  = std::stoull(slide[column(h, "beyond_ticks")]);
+        std::printf("  slide at the %d %% level: %llu of %zu ticks beyond, lowest margin %.9g at %.3f s (from the "
+                    "trace: %zu flagged, lowest %.9g)\n",
+                    level, (unsigned long long)ticks, rows, margin, at, flagged, lowest);
+        ENSURE(slide[column(h, "validity_level_pct")] == std::to_string(level));
+        ENSURE(rows == std::stoull(slide[column(h, "ticks")])); // every tick traced
+        ENSURE(ticks == flagged);
+        ENSURE(std::isfinite(lowest) && lowest_row > 0);
+        if (lowest_row == 0)
+          continue;
+        ENSURE_RELATIVE(margin, lowest, 1e-7); // the trace's 9 digits
+        // The row it names is one with that margin, and its columns are that row's.
+        std::size_t named = 0;
+        for (std::size_t r = 1; r < trace.size() && named == 0; ++r)
+          named = trace[r][0] == slide[column(h, "lowest_margin_s")] ? r : 0;
+        ENSURE(named > 0);
+        if (named == 0)
+          continue;
+        const auto &row = trace[named];
+        ENSURE(row[contact] == "1");
+        ENSURE(row[column(t, "hip0_vertex")] == slide[column(h, "lowest_margin_vertex")]);
+        ENSURE(row[column(t, "hip0_triangle")] == slide[column(h, "lowest_margin_triangle")]);
+        ENSURE_RELATIVE(std::stod(row[force]), std::stod(slide[column(h, "lowest_margin_validity_force_n")]), 1e-8);
+        ENSURE_RELATIVE(std::stod(row[force]) / std::stod(slide[column(h, "lowest_margin_force_n")]), lowest, 1e-7);
+        const std::string stats = read_text(dir + "/stats.json");
+        const std::size_t entry = stats.find("\"slides\": [");
+        ENSURE(json_number(stats, "beyond_ticks", entry) == double(ticks)); // the slide's, before the run's
+        ENSURE_RELATIVE(json_number(stats, "lowest_margin", entry), margin, 1e-8);
+        ENSURE(json_number(stats, "slides_beyond") == (level == 1 ? 1 : 0));
+        ENSURE(json_number(stats, "allocations_after_start") == 0); // the tracker's count in the haptic thread
+        if (level == 1)
+          {
+            ENSURE(ticks > 100 && margin < 1.0);
+            ENSURE(contains(out, "beyond its validity force on " + std::to_string(ticks) + " of " +
+                                   slide[column(h, "ticks")] + " ticks: lowest F1 / |F| = "));
+          }
+        else
+          {
+            ENSURE(ticks == 0 && margin > 1.0);
+            ENSURE(contains(out, "within its validity force: lowest F5 / |F| = "));
+          }
+      }
+  }
+
   // The validity map (.mrt 1.2): HIP 0 presses vertex 15 of the tip space (F1, F5, F10 = 0.35, 1.75,
   // 3.5 N) with the hand about 2.9 N: beyond F5 (the default level), within F10; --validity-clamp holds
   // the rendered force at F5. trace.csv's beyond and validity_force, presses.csv's columns, stats.json's
@@ -589,9 +688,7 @@ time,hip,event,x,y,z
 
   void validity()
   {
-    modalrt::LatticeOptions o = lattice();
-    o.validity_force          = true;
-    ENSURE(modalrt::write_basis_file("run_validity.mrt", modalrt::make_lattice_cantilever(o)));
+    write_validity_basis();
     write_text("run_validity.csv", validity_session);
     const std::string files = "--basis run_validity.mrt --session run_validity.csv --no-plot --trace-rate 1000";
     const char *dirs[] = {"run_out_validity", "run_out_validity_clamp", "run_out_validity_10"};
@@ -780,6 +877,7 @@ int main()
   stop_on_sigint();
   multi_contact_full_fe();
   slides();
+  slides_against_validity();
   validity();
   bad_command_lines();
   serve_writes_no_frames_by_default();
