@@ -676,12 +676,11 @@ namespace modalrt_tool
       {
         const Slide       &s = slides[k];
         const SlideMargin &m = margins.at(k);
-        std::snprintf(line, sizeof line, "%zu,%u,%.9g,%.9g,%u,%s,%u,%s,%llu,%llu,%.9g,%.9g,%.9g,%.9g\n", k, s.hip, s.start,
+        std::snprintf(line, sizeof line, "%zu,%u,%.9g,%.9g,%u,%s,%u,%s,%llu,%llu,%.9g,%.9g,%.9g,%.9g", k, s.hip, s.start,
                       s.end, s.space_start, space_names.at(s.space_start).c_str(), s.space_end,
                       space_names.at(s.space_end).c_str(), (unsigned long long)s.ticks,
                       (unsigned long long)s.sliding_ticks, s.length, s.max_force_step, s.max_force, s.energy);
         text += line;
-        text.pop_back(); // the validity columns
         std::snprintf(line, sizeof line, ",%u,%llu,%.9g,%.9g,%lld,%lld,%.9g,%.9g\n", validity_level,
                       (unsigned long long)s.beyond_ticks, m.margin, m.time, index_or_minus_one(m.vertex),
                       index_or_minus_one(m.triangle), m.force, m.validity_force);
@@ -816,6 +815,7 @@ namespace modalrt_tool
                                    {"space_end", s.space_end},
                                    {"length_m", s.length},
                                    {"max_force_step_n", s.max_force_step},
+                                   {"max_force_n", s.max_force},
                                    {"passivity_energy_j", s.energy},
                                    {"beyond_ticks", s.beyond_ticks},
                                    {"lowest_margin", m.margin},
