@@ -333,9 +333,9 @@ namespace modal_haptics
 
     void DistributedSpace::assemble_system()
     {
-      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells,
-                                                              supports.elastic_faces, constraints, stiffness_matrix,
-                                                              mass_matrix);
+      const auto moments = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells,
+                                                            supports.elastic_faces, constraints, stiffness_matrix,
+                                                            mass_matrix);
       stiffness_matrix.compress(VectorOperation::add);
       mass_matrix.compress(VectorOperation::add);
 
@@ -346,7 +346,7 @@ namespace modal_haptics
           mass_matrix.set(i, i, 0.);
       mass_matrix.compress(VectorOperation::insert);
       result.n_spurious_rows = result.n_clamped_dofs;
-      assembler.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
+      moments.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
     // The solver choice (solver_choice.h) carried out: MUMPS factorizes K - shift M for the eigensolver

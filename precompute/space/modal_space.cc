@@ -197,10 +197,11 @@ namespace modal_haptics
     // same quadrature.
     void SerialSpace::assemble_system()
     {
-      const auto assembler = space_parts::assemble_elasticity(scene, mapping, fe, quadrature,
-                                                              dof_handler.active_cell_iterators(),
-                                                              supports.elastic_faces, constraints, stiffness_matrix,
-                                                              mass_matrix);
+      std::vector<DoFHandler<3>::active_cell_iterator> cells;
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        cells.push_back(cell);
+      const auto moments = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, cells, supports.elastic_faces,
+                                                            constraints, stiffness_matrix, mass_matrix);
 
       // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
       // which would be spurious eigenvalues K_ii / M_ii. With M_ii = 0 they move to infinity, where
@@ -208,7 +209,7 @@ namespace modal_haptics
       for (const auto i : result.clamped_dofs)
         mass_matrix.set(i, i, 0.);
       result.n_spurious_rows = result.clamped_dofs.size();
-      assembler.set_mass_properties(result);
+      moments.set_mass_properties(result);
     }
 
     // The solver choice (solver_choice.h) carried out: once the supports are known, CHOLMOD's analysis

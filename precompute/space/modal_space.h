@@ -84,17 +84,27 @@ namespace modal_haptics
                                     const dealii::DoFHandler<3> &dof_handler, dealii::AffineConstraints<double> &constraints,
                                     const std::function<void(std::string)> &log, MPI_Comm comm = MPI_COMM_SELF);
 
-    // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), accumulating the
-    // rigid-body mass moments of the cells it sees.
+    // The rigid-body mass moments of some cells: their mass, first moment and second moment
+    // (the integral of rho x x^T), added up cell by cell.
+    struct MassMoments
+    {
+      double               mass = 0.;
+      dealii::Tensor<1, 3> first;
+      dealii::Tensor<2, 3> second;
+      MassMoments &operator+=(const MassMoments &other);
+      // Mass, centre of mass and inertia into 'result', each moment summed over 'reduce' (identity
+      // when serial).
+      void set_mass_properties(ModalSpaceResult &result,
+                               const std::function<double(double)> &reduce = [](double x) { return x; }) const;
+    };
+
+    // Cell matrices of isotropic linear elasticity (K) and consistent mass (M), and the cell's mass moments.
     class CellAssembler
     {
     public:
       CellAssembler(const MaterialParameters &material, unsigned int dofs_per_cell);
       void assemble(const dealii::FEValues<3> &fe_values, dealii::FullMatrix<double> &cell_K,
-                    dealii::FullMatrix<double> &cell_M);
-      // Mass, centre of mass and inertia from the moments, summed over 'reduce' (identity when serial).
-      void set_mass_properties(ModalSpaceResult &result,
-                               const std::function<double(double)> &reduce = [](double x) { return x; }) const;
+                    dealii::FullMatrix<double> &cell_M, MassMoments &moments);
 
     private:
       const MaterialParameters          material;
@@ -102,9 +112,6 @@ namespace modal_haptics
       std::vector<unsigned int>         component;  // of each shape function (each has one nonzero)
       std::vector<dealii::Tensor<1, 3>> gradient;   // of that component, at one quadrature point
       std::vector<double>               value;
-      double                                    mass = 0.;
-      dealii::Tensor<1, 3>                      first_moment;
-      dealii::Tensor<2, 3>                      second_moment; // integral of rho x x^T
     };
 
     // Everything a phase of space_phases.h reads besides its backend and the result.
@@ -170,37 +177,15 @@ namespace modal_haptics
     void elastic_face_matrix(const dealii::Mapping<3> &mapping, const dealii::FiniteElement<3> &fe,
                              const ElasticFace &face, dealii::FullMatrix<double> &face_K);
 
-    // K and M from the given DoF cells and K's share of the elastic supports on the given faces;
-    // returns the assembler with the cells' mass moments.
-    template <typename CellRange, typename MatrixType>
-    CellAssembler assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
-                                      const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
-                                      const CellRange &cells, const std::vector<ElasticFace> &elastic_faces,
-                                      const dealii::AffineConstraints<double> &constraints, MatrixType &K, MatrixType &M)
-    {
-      dealii::FEValues<3> fe_values(mapping, fe, quadrature,
-                                    dealii::update_values | dealii::update_gradients |
-                                      dealii::update_quadrature_points | dealii::update_JxW_values);
-      const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-      dealii::FullMatrix<double> cell_K(dofs_per_cell, dofs_per_cell), cell_M(dofs_per_cell, dofs_per_cell);
-      std::vector<dealii::types::global_dof_index> dof_indices(dofs_per_cell);
-      CellAssembler                                 assembler(scene.material, dofs_per_cell);
-      for (const auto &cell : cells)
-        {
-          fe_values.reinit(cell);
-          assembler.assemble(fe_values, cell_K, cell_M);
-          cell->get_dof_indices(dof_indices);
-          constraints.distribute_local_to_global(cell_K, dof_indices, K);
-          constraints.distribute_local_to_global(cell_M, dof_indices, M);
-        }
-      for (const auto &face : elastic_faces)
-        {
-          elastic_face_matrix(mapping, fe, face, cell_K);
-          face.cell->get_dof_indices(dof_indices);
-          constraints.distribute_local_to_global(cell_K, dof_indices, K);
-        }
-      return assembler;
-    }
+    // K and M from the given DoF cells (on deal.II's threads; each cell added in the cells' order)
+    // and K's share of the elastic supports on the given faces; returns the cells' mass moments.
+    // MatrixType: dealii::SparseMatrix<double> or TrilinosWrappers::SparseMatrix (compressed by the caller).
+    template <typename MatrixType>
+    MassMoments assemble_elasticity(const SceneParameters &scene, const dealii::Mapping<3> &mapping,
+                                    const dealii::FiniteElement<3> &fe, const dealii::Quadrature<3> &quadrature,
+                                    const std::vector<dealii::DoFHandler<3>::active_cell_iterator> &cells,
+                                    const std::vector<ElasticFace> &elastic_faces,
+                                    const dealii::AffineConstraints<double> &constraints, MatrixType &K, MatrixType &M);
 
     // Applies the cut-off rule to the ascending computed eigenvalues: fills the result's computed and
     // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.

@@ -6,6 +6,7 @@
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/quadrature_lib.h>
 #include <deal.II/base/timer.h>
+#include <deal.II/base/work_stream.h>
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/dofs/dof_tools.h>
 #include <deal.II/fe/fe_simplex_p.h>
@@ -20,6 +21,7 @@
 #include <deal.II/lac/dynamic_sparsity_pattern.h>
 #include <deal.II/lac/sparse_matrix.h>
 #include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/trilinos_sparse_matrix.h>
 #include <deal.II/lac/vector.h>
 #include <deal.II/numerics/data_out.h>
 #include <deal.II/numerics/vector_tools.h>
@@ -240,7 +242,8 @@ namespace modal_haptics
     //   K_ij = int lambda d_c N_i d_d N_j + mu (delta_cd grad N_i . grad N_j + d_d N_i d_c N_j),
     //   M_ij = int rho delta_cd N_i N_j,
     // the strain tensors' inner products written out: a fraction of their cost per pair.
-    void CellAssembler::assemble(const FEValues<3> &fe_values, FullMatrix<double> &cell_K, FullMatrix<double> &cell_M)
+    void CellAssembler::assemble(const FEValues<3> &fe_values, FullMatrix<double> &cell_K, FullMatrix<double> &cell_M,
+                                 MassMoments &moments)
     {
       const unsigned int dofs_per_cell = component.size();
       const auto        &fe            = fe_values.get_fe();
@@ -274,9 +277,9 @@ namespace modal_haptics
                 }
             }
           const Point<3> &x = fe_values.quadrature_point(q);
-          mass += material.density * JxW;
-          first_moment += material.density * JxW * x;
-          second_moment += material.density * JxW * outer_product(x, x);
+          moments.mass += material.density * JxW;
+          moments.first += material.density * JxW * x;
+          moments.second += material.density * JxW * outer_product(x, x);
         }
       for (unsigned int i = 0; i < dofs_per_cell; ++i)
         for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
@@ -286,26 +289,111 @@ namespace modal_haptics
           }
     }
 
-    void CellAssembler::set_mass_properties(ModalSpaceResult &result, const std::function<double(double)> &reduce) const
+    MassMoments &MassMoments::operator+=(const MassMoments &other)
     {
-      Tensor<1, 3> first;
-      Tensor<2, 3> second;
+      mass += other.mass;
+      first += other.first;
+      second += other.second;
+      return *this;
+    }
+
+    void MassMoments::set_mass_properties(ModalSpaceResult &result, const std::function<double(double)> &reduce) const
+    {
+      Tensor<1, 3> first_sum;
+      Tensor<2, 3> second_sum;
       for (unsigned int a = 0; a < 3; ++a)
         {
-          first[a] = reduce(first_moment[a]);
+          first_sum[a] = reduce(first[a]);
           for (unsigned int b = 0; b < 3; ++b)
-            second[a][b] = reduce(second_moment[a][b]);
+            second_sum[a][b] = reduce(second[a][b]);
         }
       result.mass = reduce(mass);
-      const Tensor<1, 3> c = first / result.mass;
+      const Tensor<1, 3> c = first_sum / result.mass;
       for (unsigned int d = 0; d < 3; ++d)
         result.centre_of_mass[d] = c[d];
       // I = integral rho (|x - c|^2 1 - (x - c)(x - c)^T) = (tr S - ...) with S the second moment about c.
-      const Tensor<2, 3> S = second - result.mass * outer_product(c, c);
+      const Tensor<2, 3> S = second_sum - result.mass * outer_product(c, c);
       for (unsigned int a = 0; a < 3; ++a)
         for (unsigned int b = 0; b < 3; ++b)
           result.inertia[3 * a + b] = (a == b ? trace(S) : 0.) - S[a][b];
     }
+
+    namespace
+    {
+      // What a thread needs to assemble a cell (WorkStream's scratch: copied once per thread).
+      struct AssemblyScratch
+      {
+        AssemblyScratch(const Mapping<3> &mapping, const FiniteElement<3> &fe, const Quadrature<3> &quadrature,
+                        const MaterialParameters &material)
+          : fe_values(mapping, fe, quadrature,
+                      update_values | update_gradients | update_quadrature_points | update_JxW_values)
+          , assembler(material, fe.n_dofs_per_cell())
+        {}
+        AssemblyScratch(const AssemblyScratch &other)
+          : fe_values(other.fe_values.get_mapping(), other.fe_values.get_fe(), other.fe_values.get_quadrature(),
+                      other.fe_values.get_update_flags())
+          , assembler(other.assembler)
+        {}
+        FEValues<3>   fe_values;
+        CellAssembler assembler;
+      };
+
+      // A cell's part, added by one thread at a time in the cells' order.
+      struct CellContribution
+      {
+        explicit CellContribution(const unsigned int dofs_per_cell)
+          : K(dofs_per_cell, dofs_per_cell)
+          , M(dofs_per_cell, dofs_per_cell)
+          , dof_indices(dofs_per_cell)
+        {}
+        FullMatrix<double>                   K, M;
+        std::vector<types::global_dof_index> dof_indices;
+        MassMoments                          moments;
+      };
+    } // namespace
+
+    template <typename MatrixType>
+    MassMoments assemble_elasticity(const SceneParameters &scene, const Mapping<3> &mapping, const FiniteElement<3> &fe,
+                                    const Quadrature<3> &quadrature,
+                                    const std::vector<DoFHandler<3>::active_cell_iterator> &cells,
+                                    const std::vector<ElasticFace> &elastic_faces,
+                                    const AffineConstraints<double> &constraints, MatrixType &K, MatrixType &M)
+    {
+      using CellIterator = std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
+      MassMoments total;
+      WorkStream::run(
+        cells.cbegin(), cells.cend(),
+        [](const CellIterator &cell, AssemblyScratch &scratch, CellContribution &part) {
+          scratch.fe_values.reinit(*cell);
+          part.moments = MassMoments();
+          scratch.assembler.assemble(scratch.fe_values, part.K, part.M, part.moments);
+          (*cell)->get_dof_indices(part.dof_indices);
+        },
+        [&](const CellContribution &part) {
+          constraints.distribute_local_to_global(part.K, part.dof_indices, K);
+          constraints.distribute_local_to_global(part.M, part.dof_indices, M);
+          total += part.moments;
+        },
+        AssemblyScratch(mapping, fe, quadrature, scene.material), CellContribution(fe.n_dofs_per_cell()));
+      FullMatrix<double>                   face_K(fe.n_dofs_per_cell(), fe.n_dofs_per_cell());
+      std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
+      for (const auto &face : elastic_faces)
+        {
+          elastic_face_matrix(mapping, fe, face, face_K);
+          face.cell->get_dof_indices(dof_indices);
+          constraints.distribute_local_to_global(face_K, dof_indices, K);
+        }
+      return total;
+    }
+
+    template MassMoments assemble_elasticity(const SceneParameters &, const Mapping<3> &, const FiniteElement<3> &,
+                                             const Quadrature<3> &, const std::vector<DoFHandler<3>::active_cell_iterator> &,
+                                             const std::vector<ElasticFace> &, const AffineConstraints<double> &,
+                                             SparseMatrix<double> &, SparseMatrix<double> &);
+    template MassMoments assemble_elasticity(const SceneParameters &, const Mapping<3> &, const FiniteElement<3> &,
+                                             const Quadrature<3> &, const std::vector<DoFHandler<3>::active_cell_iterator> &,
+                                             const std::vector<ElasticFace> &, const AffineConstraints<double> &,
+                                             TrilinosWrappers::SparseMatrix &, TrilinosWrappers::SparseMatrix &);
 
     namespace
     {
