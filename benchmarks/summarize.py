@@ -44,7 +44,7 @@ def kernel(path):
     print("kernel tick, r = 200, 2 HIPs, corrected (goal: p99.9 <= 5 us):")
     for t in ticks:
         if t["r"] == "200" and t["hips"] == "2" and t["corrected"] == "1":
-            print(f"  {t['scenario']:11s} p50 {float(t['p50_ns']) / 1e3:6.2f} us  p99 {float(t['p99_ns']) / 1e3:6.2f} us  "
+            print(f"  {t['scenario']:12s} p50 {float(t['p50_ns']) / 1e3:6.2f} us  p99 {float(t['p99_ns']) / 1e3:6.2f} us  "
                   f"p99.9 {float(t['p99.9_ns']) / 1e3:6.2f} us  max {float(t['max_ns']) / 1e3:8.1f} us")
 
 

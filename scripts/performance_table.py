@@ -116,20 +116,26 @@ def tick_figure(rows):
     return f"p50 {r['p50_ns']}, p99 {r['p99_ns']}, p99.9 {r['p99.9_ns']}, max {r['max_ns']} ns"
 
 
-def slide_figure(rows):
-    """The sliding (proxy) contact's tick against the fixed one's of the same run (ticked alternately)."""
-    by = {r["scenario"]: r for r in rows}
-    slide, fixed = by["slide"], by["fixed"]
-    ratio = float(slide["p50_ns"]) / float(fixed["p50_ns"])
-    return (f"sliding p50 {slide['p50_ns']}, p99 {slide['p99_ns']}, p99.9 {slide['p99.9_ns']} ns; fixed p50 "
-            f"{fixed['p50_ns']}, p99 {fixed['p99_ns']}, p99.9 {fixed['p99.9_ns']} ns; sliding/fixed p50 {ratio:.2f}×")
+def pair_figure(first, second, words):
+    """One tick's rows against another's ticked alternately with it (sliding and fixed contact, every-vertex and
+    sampled basis): the first run's percentiles and the ratio of the p50s in each run of the CSV."""
+    def cell(r):
+        return f"p50 {r['p50_ns']}, p99 {r['p99_ns']}, p99.9 {r['p99.9_ns']} ns"
+
+    def figure(rows):
+        ours = [r for r in rows if r["scenario"] == first]
+        theirs = [r for r in rows if r["scenario"] == second]
+        ratios = ", ".join(f"{float(a['p50_ns']) / float(b['p50_ns']):.2f}" for a, b in zip(ours, theirs))
+        return (f"{words[0]} {cell(ours[0])}; {words[1]} {cell(theirs[0])}; {words[0]}/{words[1]} p50 {ratios}×"
+                + (f" ({len(ours)} runs)" if len(ours) > 1 else ""))
+    return figure
 
 
-def slide_rows(r):
+def pair_rows(r, scenarios):
     def select(rows):
         found = [row for row in rows if row.get("kind") == "tick" and row.get("r") == r
-                 and row.get("scenario") in ("slide", "fixed")]
-        return found if {row["scenario"] for row in found} == {"slide", "fixed"} else []
+                 and row.get("scenario") in scenarios]
+        return found if {row["scenario"] for row in found} == set(scenarios) else []
     return select
 
 
@@ -206,8 +212,10 @@ CASES = [
      rows_where(kind="tick", scenario="admittance", r="200", hips="2", corrected="1"), tick_figure),
     ("kernel tick", "landing (contact start and space switch), r = 200", KERNEL_TICK,
      rows_where(kind="tick", scenario="landing", r="200"), tick_figure),
-    ("kernel tick", "sliding (proxy) contact against the fixed one, r = 200", KERNEL_TICK, slide_rows("200"),
-     slide_figure),
+    ("kernel tick", "sliding (proxy) contact against the fixed one, r = 200", KERNEL_TICK,
+     pair_rows("200", ("slide", "fixed")), pair_figure("slide", "fixed", ("sliding", "fixed"))),
+    ("kernel tick", "every display vertex a candidate against 32 per space, 2 HIPs, corrected, r = 200", KERNEL_TICK,
+     pair_rows("200", ("every-vertex", "sampled")), pair_figure("every-vertex", "sampled", ("every-vertex", "sampled"))),
     ("display reconstruction", "float32 modes, largest surface", ["benchmarks/results/*/display.csv"],
      largest("vertices", precision="f32", r="200"), display_figure),
     ("display reconstruction", "float64 modes, largest surface", ["benchmarks/results/*/display.csv"],

@@ -8,11 +8,16 @@
 // "slide" and "fixed" rows: one HIP 1 mm deep moving to and fro over the plate at 0.1 m/s, with a
 // sliding proxy contact (mu_s 0.3, mu_d 0.2) or with the fixed (snap) contact it starts with, the two
 // kernels ticked alternately in one loop (the machine's load falls on both alike); a comment line
-// before them gives each one's passivity observer at the end and its lowest value.
+// before them gives each one's passivity observer at the end and its lowest value; "sampled" and
+// "every-vertex" rows: the corrected 2-HIP admittance tick on the plate with 32 candidates per space
+// and on the same plate whose every display vertex is a candidate with cross rows to the vertices it
+// shares a triangle with (issue 36's basis), the two kernels ticked alternately at the same vertices;
+// a comment line before them gives both bases' sizes and the ratio of their p50s.
 //
-// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE] [--slide-only]
+// Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
+//                          [--slide-only | --every-vertex-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
-// the given .mrt file (its space 0 and, for the landing row, space 1).
+// the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex rows).
 #include "bench_support.h"
 
 #include <modalrt/modalrt.h>
@@ -37,7 +42,8 @@ namespace
     std::uint32_t              vertices_per_side  = 64;
     std::vector<std::uint32_t> modes              = {20, 50, 200, 1000};
     std::string                basis_file;
-    bool                       slide_only = false; // only the "slide" and "fixed" rows
+    bool                       slide_only        = false; // only the "slide" and "fixed" rows
+    bool                       every_vertex_only = false; // only the "sampled" and "every-vertex" rows
   };
 
   struct Percentiles
@@ -64,6 +70,11 @@ namespace
     return p;
   }
 
+  std::uint32_t elapsed_ns(Clock::time_point start, Clock::time_point stop)
+  {
+    return std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+  }
+
   modalrt_basis *load_basis_file(const std::string &path)
   {
     modalrt_basis *basis = nullptr;
@@ -75,13 +86,15 @@ namespace
     return basis;
   }
 
-  modalrt_basis *make_basis(const Options &o, std::uint32_t r)
+  // The synthetic plate: 32 candidates per space, or every display vertex a candidate.
+  modalrt_basis *make_basis(const Options &o, std::uint32_t r, bool every_vertex = false)
   {
     modalrt::PlateOptions plate;
     plate.nx = plate.ny  = o.vertices_per_side;
     plate.modes          = r;
     plate.float64_modes  = false;
     plate.patch_radius   = 2.5 * plate.length / (plate.nx - 1); // about 20 vertices per patch
+    plate.every_vertex_candidates = every_vertex;
     return modalrt_bench::load_plate(plate, "bench-kernel-tick");
   }
 
@@ -149,8 +162,7 @@ namespace
         modalrt_kernel_tick_impedance(k, &in, 1, &out);
         const auto stop = Clock::now();
         if (phase == 0 && n >= 200)
-          ns[std::size_t(recorded++)] =
-            std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+          ns[std::size_t(recorded++)] = elapsed_ns(start, stop);
       }
     modalrt_kernel_stats stats;
     modalrt_kernel_get_stats(k, &stats);
@@ -202,8 +214,7 @@ namespace
             modalrt_kernel_tick_impedance(kernels[which], &in, 1, &out[which]);
             const auto stop = Clock::now();
             if (n >= 0)
-              ns[which][std::size_t(n)] =
-                std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+              ns[which][std::size_t(n)] = elapsed_ns(start, stop);
             modalrt_kernel_stats stats;
             modalrt_kernel_get_stats(kernels[which], &stats);
             lowest[which] = std::min(lowest[which], stats.passivity_energy);
@@ -226,9 +237,8 @@ namespace
     return {percentiles(ns[0]), percentiles(ns[1])};
   }
 
-  // HIPs at candidate vertices of the global space, pressing with slowly varying inputs.
-  Percentiles run(const modalrt_basis *basis, const Options &o, Scenario scenario, std::uint32_t hips, bool corrected,
-                  std::vector<std::uint32_t> &ns)
+  // A kernel whose HIPs stay where their contacts begin (no switch of space, no release).
+  modalrt_kernel *create_held_kernel(const modalrt_basis *basis, std::uint32_t hips, bool corrected)
   {
     modalrt_kernel_def def    = modalrt_kernel_default_def();
     def.hip_capacity          = hips;
@@ -241,41 +251,68 @@ namespace
         std::fprintf(stderr, "bench-kernel-tick: %s\n", modalrt_last_error_message());
         std::exit(1);
       }
-    const double   *x          = modalrt_basis_display_vertices(basis);
-    const double   *normals    = modalrt_basis_display_normals(basis);
+    return k;
+  }
+
+  // HIP h presses candidate 3 + 7h of the global space, wrapped into the space's candidates (a small
+  // lattice has 16: the unwrapped index read past the array for the third and fourth HIP).
+  void contact_sites(const modalrt_basis *basis, std::uint32_t hips, std::uint32_t site[4])
+  {
     const uint32_t *candidates = modalrt_basis_candidates(basis, 0);
     modalrt_space_info space;
     modalrt_basis_get_space_info(basis, 0, &space);
-    // HIP h presses candidate 3 + 7h, wrapped into the space's candidates (a small lattice has 16:
-    // the unwrapped index read past the array for the third and fourth HIP).
-    std::uint32_t site[4];
     for (std::uint32_t h = 0; h < hips; ++h)
       site[h] = candidates[(3 + 7 * h) % space.candidate_count];
-    modalrt_hip_input  in[4];
-    modalrt_hip_output out[4];
-    std::memset(in, 0, sizeof in);
+  }
+
+  // Each HIP 1 mm in along its site's normal, its contact begun there; or hovering 2 mm out.
+  void place_hips(modalrt_kernel *k, const modalrt_basis *basis, const std::uint32_t *site, std::uint32_t hips,
+                  bool hover, modalrt_hip_input in[4])
+  {
+    const double *x       = modalrt_basis_display_vertices(basis);
+    const double *normals = modalrt_basis_display_normals(basis);
+    std::memset(in, 0, 4 * sizeof(modalrt_hip_input));
     for (std::uint32_t h = 0; h < hips; ++h)
       {
         const std::uint32_t v = site[h];
-        for (int d = 0; d < 3; ++d) // 1 mm in along the normal, or hovering 2 mm out
-          in[h].position[d] = x[3 * v + d] + (scenario == Scenario::hover ? 0.002 : -0.001) * normals[3 * v + d];
-        if (scenario != Scenario::hover)
+        for (int d = 0; d < 3; ++d)
+          in[h].position[d] = x[3 * v + d] + (hover ? 0.002 : -0.001) * normals[3 * v + d];
+        if (!hover)
           modalrt_kernel_contact_begin(k, h, v);
       }
+  }
+
+  // The slowly varying press of tick `tick`: force and velocity along each site's normal.
+  void press(long tick, const modalrt_basis *basis, const std::uint32_t *site, std::uint32_t hips, modalrt_hip_input *in)
+  {
+    const double *normals = modalrt_basis_display_normals(basis);
+    const double  t       = 1e-3 * double(tick);
+    for (std::uint32_t h = 0; h < hips; ++h)
+      {
+        const double *n = normals + 3 * site[h];
+        for (int d = 0; d < 3; ++d)
+          {
+            in[h].force[d]    = (-0.5 - 0.3 * std::sin(3.0 * t + h)) * n[d];
+            in[h].velocity[d] = 1e-4 * std::cos(5.0 * t) * n[d];
+          }
+      }
+  }
+
+  // HIPs at candidate vertices of the global space, pressing with slowly varying inputs.
+  Percentiles run(const modalrt_basis *basis, const Options &o, Scenario scenario, std::uint32_t hips, bool corrected,
+                  std::vector<std::uint32_t> &ns)
+  {
+    modalrt_kernel *k = create_held_kernel(basis, hips, corrected);
+    std::uint32_t   site[4];
+    contact_sites(basis, hips, site);
+    modalrt_hip_input  in[4];
+    modalrt_hip_output out[4];
+    place_hips(k, basis, site, hips, scenario == Scenario::hover, in);
     const long warmup = 10000;
     ns.resize(std::size_t(o.ticks));
     for (long n = -warmup; n < o.ticks; ++n)
       {
-        const double t = 1e-3 * double(n);
-        for (std::uint32_t h = 0; h < hips; ++h)
-          {
-            const double *n = normals + 3 * site[h];
-            for (int d = 0; d < 3; ++d)
-              {
-                in[h].force[d]    = (-0.5 - 0.3 * std::sin(3.0 * t + h)) * n[d];
-                in[h].velocity[d] = 1e-4 * std::cos(5.0 * t) * n[d];
-              }
-          }
+        press(n, basis, site, hips, in);
         const auto start = Clock::now();
         if (scenario == Scenario::admittance)
           modalrt_kernel_tick_admittance(k, in, hips, out);
@@ -283,10 +320,55 @@ namespace
           modalrt_kernel_tick_impedance(k, in, hips, out);
         const auto stop = Clock::now();
         if (n >= 0)
-          ns[std::size_t(n)] = std::uint32_t(std::chrono::duration_cast<std::chrono::nanoseconds>(stop - start).count());
+          ns[std::size_t(n)] = elapsed_ns(start, stop);
       }
     modalrt_kernel_destroy(k);
     return percentiles(ns);
+  }
+
+  // The corrected 2-HIP admittance tick on two bases of one plate, the kernels ticked alternately in
+  // one loop (the machine's load falls on both alike): the sampled one (32 candidates per space) and
+  // the one whose every display vertex is a candidate with cross rows to its triangles' vertices.
+  // Both HIPs press the same vertices (the sampled basis's sites, candidates of both). Returns
+  // {sampled, every vertex}.
+  std::pair<Percentiles, Percentiles> run_basis_pair(const modalrt_basis *sampled, const modalrt_basis *every_vertex,
+                                                     const Options &o)
+  {
+    const std::uint32_t  hips      = 2;
+    const modalrt_basis *bases[2]  = {sampled, every_vertex};
+    modalrt_kernel      *kernels[2];
+    modalrt_hip_input    in[2][4];
+    modalrt_hip_output   out[2][4];
+    std::uint32_t        site[4];
+    contact_sites(sampled, hips, site);
+    for (int b = 0; b < 2; ++b)
+      {
+        kernels[b] = create_held_kernel(bases[b], hips, true);
+        place_hips(kernels[b], bases[b], site, hips, false, in[b]);
+      }
+    const long                 warmup = 10000;
+    std::vector<std::uint32_t> ns[2];
+    for (auto &v : ns)
+      v.resize(std::size_t(o.ticks));
+    for (long n = -warmup; n < o.ticks; ++n)
+      for (int kernel = 0; kernel < 2; ++kernel) // alternate which one goes first
+        {
+          const int which = (kernel + int(n & 1)) & 1;
+          press(n, bases[which], site, hips, in[which]);
+          const auto start = Clock::now();
+          modalrt_kernel_tick_admittance(kernels[which], in[which], hips, out[which]);
+          const auto stop = Clock::now();
+          if (n >= 0)
+            ns[which][std::size_t(n)] = elapsed_ns(start, stop);
+        }
+    for (int b = 0; b < 2; ++b)
+      for (std::uint32_t h = 0; h < hips; ++h)
+        if (!out[b][h].in_contact || !(out[b][h].flags & MODALRT_HIP_CORRECTED))
+          std::fprintf(stderr, "bench-kernel-tick: HIP %u on the %s basis is not a corrected contact\n", h,
+                       b == 0 ? "sampled" : "every-vertex");
+    for (modalrt_kernel *k : kernels)
+      modalrt_kernel_destroy(k);
+    return {percentiles(ns[0]), percentiles(ns[1])};
   }
 
   Options parse(int argc, char **argv)
@@ -301,6 +383,8 @@ namespace
           o.vertices_per_side = std::uint32_t(std::atol(argv[++k]));
         else if (arg == "--slide-only")
           o.slide_only = true;
+        else if (arg == "--every-vertex-only")
+          o.every_vertex_only = true;
         else if (arg == "--basis" && k + 1 < argc)
           o.basis_file = argv[++k];
         else if (arg == "--modes" && k + 1 < argc)
@@ -316,11 +400,46 @@ namespace
         else
           {
             std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] "
-                                 "[--basis FILE] [--slide-only]\n");
+                                 "[--basis FILE] [--slide-only | --every-vertex-only]\n");
             std::exit(2);
           }
       }
+    if (o.slide_only && o.every_vertex_only)
+      {
+        std::fprintf(stderr, "bench-kernel-tick: --slide-only and --every-vertex-only exclude each other\n");
+        std::exit(2);
+      }
     return o;
+  }
+
+  void print_row(const char *scenario, std::uint32_t r, std::uint32_t hips, bool corrected, const Percentiles &p)
+  {
+    std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", scenario, r, hips, corrected ? 1 : 0, p.p50, p.p99, p.p999,
+                p.max, p.mean);
+    std::fflush(stdout);
+  }
+
+  // The "sampled" and "every-vertex" rows of one r, after a comment line with both bases' sizes and
+  // the ratio of their p50s.
+  void print_basis_pair(const modalrt_basis *sampled, const Options &o, std::uint32_t r)
+  {
+    modalrt_basis     *every_vertex = make_basis(o, r, true);
+    const auto         pair         = run_basis_pair(sampled, every_vertex, o);
+    const modalrt_basis *bases[2]   = {sampled, every_vertex};
+    modalrt_basis_info info[2];
+    modalrt_space_info space[2];
+    for (int b = 0; b < 2; ++b)
+      {
+        modalrt_basis_get_info(bases[b], &info[b]);
+        modalrt_basis_get_space_info(bases[b], 0, &space[b]);
+      }
+    std::printf("# basis r=%u, corrected 2-HIP admittance, ticked alternately: sampled %u candidates per space (%.1f MB), "
+                "every vertex %u (%.1f MB); every-vertex/sampled p50 %.3f\n",
+                r, space[0].candidate_count, 1e-6 * double(info[0].file_bytes), space[1].candidate_count,
+                1e-6 * double(info[1].file_bytes), pair.second.p50 / pair.first.p50);
+    print_row("sampled", r, 2, true, pair.first);
+    print_row("every-vertex", r, 2, true, pair.second);
+    modalrt_basis_destroy(every_vertex);
   }
 } // namespace
 
@@ -337,41 +456,35 @@ int main(int argc, char **argv)
       modalrt_basis_get_space_info(probe, 0, &info);
       o.modes = {info.mode_count};
       modalrt_basis_destroy(probe);
-      std::printf("# bench-kernel-tick: %ld ticks per row, basis %s\n", o.ticks, o.basis_file.c_str());
+      std::printf("# bench-kernel-tick: %ld ticks per row, basis %s (no sampled/every-vertex rows: synthetic plate only)\n",
+                  o.ticks, o.basis_file.c_str());
     }
   std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns\n");
   std::vector<std::uint32_t> ns;
+  const bool all = !o.slide_only && !o.every_vertex_only;
   for (std::uint32_t r : o.modes)
     {
       modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
       const std::vector<Scenario> scenarios =
-        o.slide_only ? std::vector<Scenario>{} : std::vector<Scenario>{Scenario::admittance, Scenario::impedance, Scenario::hover};
+        all ? std::vector<Scenario>{Scenario::admittance, Scenario::impedance, Scenario::hover} : std::vector<Scenario>{};
       for (Scenario scenario : scenarios)
         for (std::uint32_t hips = 1; hips <= 4; ++hips)
           for (bool corrected : {false, true})
             {
               if (scenario == Scenario::hover && !corrected)
                 continue; // no contact: the correction plays no part
-              const Percentiles p = run(basis, o, scenario, hips, corrected, ns);
-              std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(scenario), r, hips, corrected ? 1 : 0,
-                          p.p50, p.p99, p.p999, p.max, p.mean);
-              std::fflush(stdout);
+              print_row(name(scenario), r, hips, corrected, run(basis, o, scenario, hips, corrected, ns));
             }
-      const auto slide = run_slide(basis, o);
-      for (bool proxy : {false, true})
+      if (all || o.slide_only)
         {
-          const Percentiles &p = proxy ? slide.second : slide.first;
-          std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", proxy ? "slide" : "fixed", r, 1u, 1, p.p50, p.p99,
-                      p.p999, p.max, p.mean);
-          std::fflush(stdout);
+          const auto slide = run_slide(basis, o);
+          print_row("fixed", r, 1, true, slide.first);
+          print_row("slide", r, 1, true, slide.second);
         }
-      if (!o.slide_only)
-        {
-          const Percentiles p = run_landings(basis, o, true, ns);
-          std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f\n", name(Scenario::landing), r, 1u, 1, p.p50, p.p99,
-                      p.p999, p.max, p.mean);
-          std::fflush(stdout);
-        }
+      if (all)
+        print_row(name(Scenario::landing), r, 1, true, run_landings(basis, o, true, ns));
+      if ((all || o.every_vertex_only) && o.basis_file.empty())
+        print_basis_pair(basis, o, r);
       modalrt_basis_destroy(basis);
     }
   return 0;

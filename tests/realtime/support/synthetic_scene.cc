@@ -420,6 +420,63 @@ namespace modalrt
         }
       return s;
     }
+
+    // ---------------------------------------------------------------------------------------------
+    // The analytic plate's made-up residual compliance between the candidates at vertices va and vb:
+    // 1e-5 m/N on each axis times a Gaussian of their distance (SPD over any set of distinct vertices).
+    // ---------------------------------------------------------------------------------------------
+    double made_up_compliance(const BasisContent &c, std::uint32_t va, std::uint32_t vb)
+    {
+      const double *xa = &c.vertices[3 * std::size_t(va)], *xb = &c.vertices[3 * std::size_t(vb)];
+      const double  d2 = (xa[0] - xb[0]) * (xa[0] - xb[0]) + (xa[1] - xb[1]) * (xa[1] - xb[1]);
+      return 1e-5 * std::exp(-d2 / (0.02 * 0.02));
+    }
+
+    // Every pair of candidates, version 1.0's dense CROSS_COMPLIANCE.
+    void add_dense_compliance(const BasisContent &c, BasisSpaceContent &sp)
+    {
+      const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
+      sp.cross_compliance.assign(n3 * n3, 0.0);
+      for (std::size_t a = 0; a < nc; ++a)
+        for (std::size_t b = 0; b < nc; ++b)
+          for (int i = 0; i < 3; ++i)
+            sp.cross_compliance[(3 * a + i) * n3 + 3 * b + i] = made_up_compliance(c, sp.candidates[a], sp.candidates[b]);
+      for (std::size_t a = 0; a < nc; ++a)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            sp.candidate_compliance.push_back(sp.cross_compliance[(3 * a + i) * n3 + 3 * a + j]);
+    }
+
+    // Every display vertex a candidate (candidate index = vertex), its pairs with the vertices it
+    // shares a triangle with in version 1.1's compressed rows: what the precompute writes by default
+    // (Contact/Cross compliance radius = 0). The pairs hold the dense form's numbers over 8: a row has
+    // at most 6 neighbours at 0.9 of its diagonal, so the rows stay diagonally dominant and every set of
+    // contacts gets an SPD compliance (the dense form's Gaussian cut to neighbours would not be).
+    void add_neighbour_compliance(const BasisContent &c, BasisSpaceContent &sp)
+    {
+      const std::size_t nv = c.vertex_count();
+      std::vector<std::vector<std::uint32_t>> adjacent(nv);
+      for (std::size_t t = 0; t + 2 < c.triangles.size(); t += 3)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            if (i != j)
+              adjacent[c.triangles[t + i]].push_back(c.triangles[t + j]);
+      sp.cross_offsets.assign(1, 0);
+      for (std::uint32_t a = 0; a < nv; ++a)
+        {
+          std::sort(adjacent[a].begin(), adjacent[a].end());
+          adjacent[a].erase(std::unique(adjacent[a].begin(), adjacent[a].end()), adjacent[a].end());
+          for (std::uint32_t b : adjacent[a])
+            {
+              sp.cross_neighbours.push_back(b);
+              for (int k = 0; k < 9; ++k)
+                sp.cross_blocks.push_back(k % 4 == 0 ? made_up_compliance(c, a, b) / 8.0 : 0.0);
+            }
+          sp.cross_offsets.push_back(std::uint32_t(sp.cross_neighbours.size()));
+          for (int k = 0; k < 9; ++k)
+            sp.candidate_compliance.push_back(k % 4 == 0 ? made_up_compliance(c, a, a) : 0.0);
+        }
+    }
   } // namespace
 
   BasisContent make_lattice_cantilever(const LatticeOptions &o)
@@ -489,11 +546,17 @@ namespace modalrt
             for (int k = 0; k < 6; ++k)
               sp.participation.push_back(0.1 / (1.0 + i + k));
           }
-        for (std::uint32_t k = 0; k < o.candidates; ++k)
-          sp.candidates.push_back(((3 + 5 * k + 11 * s) % o.ny) * o.nx + (7 + 13 * k + 3 * s) % o.nx); // spread over the plate
+        if (o.every_vertex_candidates)
+          {
+            sp.candidates.resize(nv);
+            std::iota(sp.candidates.begin(), sp.candidates.end(), 0u);
+          }
+        else
+          for (std::uint32_t k = 0; k < o.candidates; ++k)
+            sp.candidates.push_back(((3 + 5 * k + 11 * s) % o.ny) * o.nx + (7 + 13 * k + 3 * s) % o.nx); // spread over the plate
         std::sort(sp.candidates.begin(), sp.candidates.end());
         sp.candidates.erase(std::unique(sp.candidates.begin(), sp.candidates.end()), sp.candidates.end());
-        const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
+        const std::size_t nc = sp.candidates.size();
         for (std::uint32_t v : sp.candidates)
           for (int d = 0; d < 3; ++d)
             for (std::uint32_t i = 0; i < r; ++i)
@@ -503,20 +566,10 @@ namespace modalrt
                   b += c.patch_weights[e] * sp.display_modes[(3 * std::size_t(c.patch_vertices[e]) + d) * r + i];
                 sp.candidate_modes.push_back(b);
               }
-        // A made-up residual compliance: SPD, decaying with the distance between candidates.
-        sp.cross_compliance.assign(n3 * n3, 0.0);
-        for (std::size_t a = 0; a < nc; ++a)
-          for (std::size_t b = 0; b < nc; ++b)
-            {
-              const double *xa = &c.vertices[3 * sp.candidates[a]], *xb = &c.vertices[3 * sp.candidates[b]];
-              const double  d2 = (xa[0] - xb[0]) * (xa[0] - xb[0]) + (xa[1] - xb[1]) * (xa[1] - xb[1]);
-              for (int i = 0; i < 3; ++i)
-                sp.cross_compliance[(3 * a + i) * n3 + 3 * b + i] = 1e-5 * std::exp(-d2 / (0.02 * 0.02));
-            }
-        for (std::size_t a = 0; a < nc; ++a)
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-              sp.candidate_compliance.push_back(sp.cross_compliance[(3 * a + i) * n3 + 3 * a + j]);
+        if (o.every_vertex_candidates)
+          add_neighbour_compliance(c, sp);
+        else
+          add_dense_compliance(c, sp);
         for (std::size_t a = 0; a < std::min<std::size_t>(nc, 4); ++a)
           for (std::uint32_t d = 0; d < 3; ++d)
             {

@@ -79,7 +79,10 @@ namespace modalrt
     double        length = 0.3, width = 0.3; // [m]
     std::uint32_t modes         = 200;   // r of every space
     std::uint32_t spaces        = 2;
-    std::uint32_t candidates    = 32;    // per space
+    std::uint32_t candidates    = 32;    // per space, with a dense (version 1.0) cross compliance
+    bool          every_vertex_candidates = false; // every display vertex a candidate of every space instead,
+                                                   // with cross rows to the vertices it shares a triangle with
+                                                   // (version 1.1, as the precompute writes them)
     bool          float64_modes = false;
     double        patch_radius  = 0.0;   // [m]
   };
