@@ -296,7 +296,8 @@ namespace modal_haptics
                                              space_parts::cut_off_stop(scene.modes));
           else
             eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
-                                       scene.modes.maximum_count, scene.modes.tolerance, verbose);
+                                       scene.modes.maximum_count, scene.modes.tolerance, verbose,
+                                       space_parts::cut_off_stop(scene.modes));
         }
       catch (const ExceptionBase &e)
         {
@@ -318,7 +319,7 @@ namespace modal_haptics
           amg_inverse()->eigensolver_method() :
         method == Method::block_krylov ?
           block_krylov_method(scene.modes.block_size, eigen) :
-          "ARPACK dsaupd mode 3 (shift-invert)";
+          "ARPACK dsaupd mode 3 (shift-invert)" + arpack_runs(eigen.n_runs);
       space_parts::record_iteration(result, eigen);
       identify_rigid_body_modes();
       // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first

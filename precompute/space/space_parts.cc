@@ -394,7 +394,8 @@ namespace modal_haptics
       else
         out << below << " below " << cut_off << ", raised to the floor of " << modes.minimum_count
             << " ('Modes/Minimum number of modes')";
-      // The eigensolve stops where the count is decided (CutOffStop): often nothing is left to drop.
+      // The eigensolve stops where the count is decided (CutOffStop): the block Krylov method drops at
+      // most the one above the cut-off, ARPACK and LOBPCG what their last run found beyond it.
       if (dropped > 0)
         out << "; dropped " << dropped << " above it";
       return out.str();
