@@ -505,12 +505,13 @@ namespace modal_haptics
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
                                                 constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
-      log(amg->preconditioner_name() + " set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
-          " modes, distributed");
+      log(amg->preconditioner_name() + " set up; LOBPCG for " + space_parts::sought_modes(scene.modes) +
+          ", distributed");
       Timer timer;
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
                                                 scene.modes.lobpcg_modes_per_run,
-                                                [this](const std::string &line) { log(line); });
+                                                [this](const std::string &line) { log(line); },
+                                                space_parts::cut_off_stop(scene.modes));
       result.eigensolve_iteration_seconds = timer.wall_time();
       result.n_operator_applications      = solution.n_operator_applications;
       result.eigensolver_method           = amg->eigensolver_method() + ", distributed";

@@ -267,11 +267,12 @@ namespace modal_haptics
                                                      node_blocked, vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
       line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
-           << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
+           << " s; LOBPCG for " << space_parts::sought_modes(scene.modes);
       log(line.str());
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
                                                 scene.modes.lobpcg_modes_per_run,
-                                                [this](const std::string &line) { log(line); });
+                                                [this](const std::string &line) { log(line); },
+                                                space_parts::cut_off_stop(scene.modes));
       log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
       factorization = std::move(amg);
       return solution;

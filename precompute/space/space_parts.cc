@@ -406,6 +406,13 @@ namespace modal_haptics
       return {modes.minimum_count, std::pow(two_pi * modes.cut_off_frequency(), 2)};
     }
 
+    std::string sought_modes(const ModeParameters &modes)
+    {
+      const bool cut = modes.cut_off_rule != CutOffRule::none;
+      return std::string(cut ? "up to " : "") + std::to_string(modes.maximum_count) + " modes" +
+             (cut ? ", until the cut-off's count is decided" : "");
+    }
+
     // The cut-off rule drops modes above its frequency, but never below the floor count; the report
     // says which modes went and why.
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
