@@ -121,9 +121,11 @@ namespace modal_haptics
     const ModeParameters m;
     prm.enter_subsection("Modes");
     prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
-                      "The eigensolve computes at most this many lowest modes (r, >= 1); with a cut-off rule the "
-                      "block Krylov method stops as soon as the rule's count is decided (the minimum and one "
-                      "converged mode above the cut-off). Units: none.");
+                      "The eigensolve computes at most this many lowest modes (r, >= 1); with a cut-off rule it "
+                      "stops once the rule's count is decided (the minimum and one converged mode above the "
+                      "cut-off): the block Krylov method as its Ritz pairs converge, ARPACK (PARPACK) and LOBPCG "
+                      "after a first run for the minimum and a margin (half the minimum, at least 4), then runs "
+                      "that double the count found, each in the complement of the modes found before. Units: none.");
     prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
                       "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
                         ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");

@@ -582,7 +582,7 @@ namespace modal_haptics
     LobpcgRun lobpcg_run(Epetra_MultiVector &found, int first, int count, double tolerance,
                          const ProjectedAmg &preconditioner, std::vector<double> &eigenvalues,
                          std::unique_ptr<Epetra_MultiVector>            &start,
-                         const std::function<void(const std::string &)> &progress) const;
+                         const std::function<void(const std::string &)> &progress, const CutOffStop &stop) const;
 
     // A X = B by block CG (Trilinos Belos) from zero, preconditioned by the AMG and deflated by
     // the modes once they are known, every column to 1e-12 of its load. One block Krylov space for
@@ -965,19 +965,77 @@ namespace modal_haptics
       const std::function<void(const std::string &)> progress;
       dealii::Timer                                  total, since_progress;
     };
+
+    // Eigenvalues of K from those of A = K - shift M, ascending.
+    std::vector<double> of_K(std::vector<double> of_A, const double shift)
+    {
+      for (double &lambda : of_A)
+        lambda += shift;
+      std::sort(of_A.begin(), of_A.end());
+      return of_A;
+    }
+
+    // Passes once the run's lowest converged pairs (lowest_converged), with the modes of the earlier
+    // runs, decide the cut-off's count (CutOffStop): the run then ends short of its count. LOBPCG
+    // minimizes the Rayleigh quotient over its block: its lowest pairs converge first, and its i-th
+    // Ritz value bounds the i-th eigenvalue from above (Courant-Fischer). Stopping where the converged
+    // lowest hold the floor and one above the cut-off trusts what every count of LOBPCG's trusts:
+    // that the block has not missed a mode below its converged ones (a random start, a block larger
+    // than the count; a later run, in the complement, would find a missed one first). The shift plays
+    // no part here (LOBPCG seeks the smallest of A = K - shift M, whatever shift <= 0).
+    class CutOffDecided : public Anasazi::StatusTest<double, Epetra_MultiVector, Epetra_Operator>
+    {
+    public:
+      // earlier: the eigenvalues of K found by the earlier runs; shift: A = K - shift M.
+      CutOffDecided(const CutOffStop &stop, const unsigned int n_modes, std::vector<double> earlier, const double shift,
+                    const int wanted, const double tolerance, const double scale)
+        : stop(stop), n_modes(n_modes), earlier(std::move(earlier)), shift(shift), wanted(wanted),
+          tolerance(tolerance), scale(scale)
+      {}
+
+      Anasazi::TestStatus checkStatus(LobpcgBase *solver) override
+      {
+        std::vector<double> lowest = earlier;
+        const auto          values = solver->getRitzValues();
+        const auto          converged = lowest_converged(*solver, tolerance, scale);
+        for (std::size_t k = 0; k < converged.size() && int(k) < wanted; ++k)
+          lowest.push_back(values[converged[k]].realpart + shift);
+        std::sort(lowest.begin(), lowest.end());
+        status = stop.decided_count(lowest, n_modes) <= lowest.size() ? Anasazi::Passed : Anasazi::Failed;
+        return status;
+      }
+      Anasazi::TestStatus getStatus() const override { return status; }
+      std::vector<int> whichVecs() const override { return {}; }
+      int howMany() const override { return 0; }
+      void reset() override { status = Anasazi::Undefined; }
+      void clearStatus() override { status = Anasazi::Undefined; }
+      std::ostream &print(std::ostream &out, int) const override { return out << "the cut-off's count decided\n"; }
+
+    private:
+      const CutOffStop          stop;
+      const unsigned int        n_modes;
+      const std::vector<double> earlier;
+      const double              shift;
+      const int                 wanted;
+      const double              tolerance, scale;
+      Anasazi::TestStatus       status = Anasazi::Undefined;
+    };
   } // namespace
 
   // One LOBPCG run (Trilinos Anasazi): the 'count' lowest eigenpairs of (A, M) in the M-orthogonal
   // complement of found's first 'first' columns (the modes of earlier runs), written into its next
-  // columns, their eigenvalues of A appended to 'eigenvalues'. It starts from 'start' (the Ritz
-  // vectors an earlier run left, if any; random columns fill the block). If the run has to stop
-  // before all 'count' have converged (the basis lost, iterate_until_basis_lost), it keeps the
-  // lowest that have, and leaves the rest of its Ritz vectors in 'start' for the next run.
+  // columns, their eigenvalues of A appended to 'eigenvalues'; fewer once the converged ones decide
+  // the cut-off's count (CutOffDecided). It starts from 'start' (the Ritz vectors an earlier run left,
+  // if any; random columns fill the block). It keeps the lowest pairs that have converged, and leaves
+  // the rest of its Ritz vectors in 'start' for the next run: those of the modes above its count
+  // (the block is larger), and of the modes below it where the run had to stop before all 'count'
+  // converged (the basis lost, iterate_until_basis_lost).
   AmgShiftedInverse::Impl::LobpcgRun
   AmgShiftedInverse::Impl::lobpcg_run(Epetra_MultiVector &found, const int first, const int count,
                                       const double tolerance, const ProjectedAmg &preconditioner,
                                       std::vector<double> &eigenvalues, std::unique_ptr<Epetra_MultiVector> &start,
-                                      const std::function<void(const std::string &)> &progress) const
+                                      const std::function<void(const std::string &)> &progress,
+                                      const CutOffStop                                &stop) const
   {
     using MV = Epetra_MultiVector;
     using OP = Epetra_Operator;
@@ -1012,10 +1070,12 @@ namespace modal_haptics
     const auto enough_iterations = Teuchos::rcp(new Anasazi::StatusTestMaxIters<double, MV, OP>(5000));
     const auto progress_lines =
       Teuchos::rcp(new LobpcgProgress(count, tolerance, mass_scale, preconditioner, progress));
-    const auto stop = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
+    const auto cut_off_decided = Teuchos::rcp(new CutOffDecided(stop, found.NumVectors(), of_K(eigenvalues, shift),
+                                                                shift, count, tolerance, mass_scale));
+    const auto ended           = Teuchos::rcp(new Anasazi::StatusTestCombo<double, MV, OP>(
       Anasazi::StatusTestCombo<double, MV, OP>::OR,
-      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, enough_iterations,
-                                                                        progress_lines)));
+      Teuchos::tuple<Teuchos::RCP<Anasazi::StatusTest<double, MV, OP>>>(wanted_converged, cut_off_decided,
+                                                                        enough_iterations, progress_lines)));
     Teuchos::ParameterList parameters;
     parameters.set("Block Size", block_size);
     parameters.set("Full Ortho", true);
@@ -1023,7 +1083,7 @@ namespace modal_haptics
     // converge from scratch (on the P2 plate in runs of 18: over 20,000 preconditioner applications
     // instead of 4,900).
     Lobpcg lobpcg(
-      problem, sorter, Teuchos::rcp(new Anasazi::OutputManager<double>(Anasazi::Errors + Anasazi::Warnings)), stop,
+      problem, sorter, Teuchos::rcp(new Anasazi::OutputManager<double>(Anasazi::Errors + Anasazi::Warnings)), ended,
       Teuchos::rcp(new Anasazi::SVQBOrthoManager<double, MV, OP>(problem->getM())), parameters);
     if (first > 0)
       lobpcg.setAuxVecs(Teuchos::tuple<Teuchos::RCP<const MV>>(problem->getAuxVecs()));
@@ -1031,7 +1091,8 @@ namespace modal_haptics
     const int        iterations    = lobpcg.getNumIters();
     std::vector<int> keep          = lowest_converged(lobpcg, tolerance, mass_scale);
     keep.resize(std::min<std::size_t>(keep.size(), count));
-    AssertThrow((ended_by_test && int(keep.size()) == count) || (!ended_by_test && !keep.empty()),
+    const bool decided = cut_off_decided->getStatus() == Anasazi::Passed;
+    AssertThrow((ended_by_test && (int(keep.size()) == count || decided)) || (!ended_by_test && !keep.empty()),
                 ExcMessage("LOBPCG + AMG found " + std::to_string(first + keep.size()) + " of " +
                            std::to_string(found.NumVectors()) + " modes in " + std::to_string(iterations) +
                            " iterations" + (ended_by_test ? "" : " (its basis lost its rank)") +
@@ -1048,28 +1109,24 @@ namespace modal_haptics
         eigenvalues.push_back(values[keep[k]].realpart);
         std::copy((*ritz)[keep[k]], (*ritz)[keep[k]] + found.MyLength(), found[first + k]);
       }
-    start.reset();
-    if (int(keep.size()) < count)
-      {
-        std::vector<int> rest;
-        for (int j = 0; j < block_size; ++j)
-          if (std::find(keep.begin(), keep.end(), j) == keep.end())
-            rest.push_back(j);
-        start = std::make_unique<MV>(found.Map(), int(rest.size()));
-        for (std::size_t c = 0; c < rest.size(); ++c)
-          std::copy((*ritz)[rest[c]], (*ritz)[rest[c]] + found.MyLength(), (*start)[c]);
-        if (progress)
-          progress("LOBPCG: run ended at iteration " + std::to_string(iterations) + " with " +
-                   std::to_string(keep.size()) + " of its " + std::to_string(count) +
-                   " modes converged; the next run seeks the rest from its other Ritz vectors");
-      }
+    std::vector<int> rest;
+    for (int j = 0; j < block_size; ++j)
+      if (std::find(keep.begin(), keep.end(), j) == keep.end())
+        rest.push_back(j);
+    start = std::make_unique<MV>(found.Map(), int(rest.size()));
+    for (std::size_t c = 0; c < rest.size(); ++c)
+      std::copy((*ritz)[rest[c]], (*ritz)[rest[c]] + found.MyLength(), (*start)[c]);
+    if (int(keep.size()) < count && !decided && progress)
+      progress("LOBPCG: run ended at iteration " + std::to_string(iterations) + " with " + std::to_string(keep.size()) +
+               " of its " + std::to_string(count) + " modes converged; the next run seeks the rest from its other Ritz vectors");
     return {iterations, int(keep.size())};
   }
 
 
   EigenSolution AmgShiftedInverse::lowest_modes(const unsigned int n_modes, const double tolerance,
                                                 const unsigned int                              modes_per_run,
-                                                const std::function<void(const std::string &)> &progress)
+                                                const std::function<void(const std::string &)> &progress,
+                                                const CutOffStop                                &stop)
   {
     dealii::Timer timer;
     impl->progress         = progress;
@@ -1082,7 +1139,7 @@ namespace modal_haptics
                            std::to_string(3 * lobpcg_block(per_run)) + " DoFs; the part has " +
                            std::to_string(A_epetra.NumGlobalRows()) + ": use 'Modes/Eigensolver = block-krylov'."));
     if (per_run < int(n_modes) && progress)
-      progress("LOBPCG: " + std::to_string((n_modes + per_run - 1) / per_run) + " runs of at most " +
+      progress("LOBPCG: up to " + std::to_string((n_modes + per_run - 1) / per_run) + " runs of at most " +
                std::to_string(per_run) + " modes, each in the complement of the earlier ones' (" +
                (modes_per_run > 0 ? std::string("Modes/LOBPCG modes per run") :
                                     std::to_string(n_modes) + " at once would not fit half the available memory") +
@@ -1090,23 +1147,26 @@ namespace modal_haptics
     // No progress lines of its own: LobpcgProgress's say more.
     ProjectedAmg        preconditioner(impl->amg_operator(), impl->constrained, nullptr, "LOBPCG", {});
     Epetra_MultiVector  found(A_epetra.OperatorDomainMap(), int(n_modes));
-    std::vector<double> lambda;
-    int                 iterations = 0, runs = 0;
+    std::vector<double> lambda; // of A = K - shift M
+    int                 iterations = 0, runs = 0, largest_run = 0;
     std::unique_ptr<Epetra_MultiVector> start;
-    for (int first = 0; first < int(n_modes); ++runs)
+    // Runs as the cut-off asks (CutOffStop::next_batch: the floor and a margin first, under rule 'none'
+    // all n_modes), each at most per_run; a run ends early where its converged lowest decide the count.
+    for (int first = 0, batch; (batch = int(stop.next_batch(of_K(lambda, impl->shift), n_modes))) > 0; ++runs)
       {
-        const auto run = impl->lobpcg_run(found, first, std::min(per_run, int(n_modes) - first), tolerance,
-                                          preconditioner, lambda, start, progress);
+        const int  count = std::min(per_run, batch);
+        const auto run   = impl->lobpcg_run(found, first, count, tolerance, preconditioner, lambda, start, progress, stop);
         iterations += run.iterations;
         first += run.modes_found;
+        largest_run = std::max(largest_run, count);
       }
     impl->stats.eigensolver_iterations = iterations;
-    impl->stats.modes_per_run          = per_run;
+    impl->stats.modes_per_run          = largest_run;
     impl->stats.n_lobpcg_runs          = runs;
 
     // Ascending over the runs too (a later run's lowest lies above an earlier run's highest unless
     // two modes are equal to the tolerance).
-    std::vector<unsigned int> order(n_modes);
+    std::vector<unsigned int> order(lambda.size());
     std::iota(order.begin(), order.end(), 0u);
     std::sort(order.begin(), order.end(), [&](unsigned a, unsigned b) { return lambda[a] < lambda[b]; });
     EigenSolution eigen;

@@ -104,13 +104,15 @@ namespace modal_haptics
     ~AmgShiftedInverse() override;
 
     // The n_modes lowest eigenpairs of K phi = lambda M phi, M-orthonormal, ascending (each vector
-    // holds this process's rows). Converged when every pair's ||A x - theta M x|| / (theta ||M x||)
-    // is below tolerance (collective). At most modes_per_run modes per LOBPCG run (0: all at once
-    // if that fits half the available memory, else as many as fit), later runs in the complement
-    // of the earlier ones' modes. progress, when set, gets a line every 30 s, and so do the
-    // static solves' block CGs after it.
+    // holds this process's rows), or fewer once they decide the cut-off's count ('stop'). Converged
+    // when every pair's ||A x - theta M x|| / (theta ||M x||) is below tolerance (collective). At
+    // most modes_per_run modes per LOBPCG run (0: all at once if that fits half the available
+    // memory, else as many as fit) and at most stop.next_batch, later runs in the complement of the
+    // earlier ones' modes; a run stops as soon as its converged lowest pairs decide the count.
+    // progress, when set, gets a line every 30 s, and so do the static solves' block CGs after it.
     EigenSolution lowest_modes(unsigned int n_modes, double tolerance, unsigned int modes_per_run,
-                               const std::function<void(const std::string &)> &progress);
+                               const std::function<void(const std::string &)> &progress,
+                               const CutOffStop                                &stop = {});
 
     // Later static solves are deflated by the modes' span (amg_eigensolver.cc, Deflation): their
     // preconditioner is exact on it and CG works on the rest of the spectrum only. The modes are

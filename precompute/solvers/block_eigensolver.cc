@@ -628,4 +628,16 @@ namespace modal_haptics
         return count;
     return n_modes;
   }
+
+  unsigned int CutOffStop::next_batch(const std::vector<double> &found, const unsigned int n_modes) const
+  {
+    const unsigned int n_found = found.size();
+    if (n_found >= n_modes || (n_found > 0 && decided_count(found, n_modes) <= n_found))
+      return 0;
+    if (std::isinf(cut_off_eigenvalue))
+      return n_modes - n_found;
+    // The floor and a margin, for a cut-off a little above the floor's modes: 15 for the default floor of 10.
+    const unsigned int floor = std::max(1u, minimum);
+    return std::min(n_modes - n_found, n_found > 0 ? n_found : floor + std::max(4u, floor / 2));
+  }
 } // namespace modal_haptics

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
-#include <numeric>
 
 namespace modal_haptics
 {
@@ -26,10 +25,10 @@ namespace modal_haptics
     }
 
     // One reverse-communication step of mode 3: y = (K - sigma M)^{-1} (M x), where ARPACK may
-    // hand us M x already computed.
+    // hand us M x already computed, projected onto the complement of the modes earlier runs found.
     void apply_shift_invert(Factorization &inverse, const dealii::SparseMatrix<double> &M,
-                            const int ido, const int n, double *workd, const int *ipntr,
-                            dealii::Vector<double> &x, dealii::Vector<double> &y)
+                            const FoundModes<dealii::Vector<double>> &found, const int ido, const int n,
+                            double *workd, const int *ipntr, dealii::Vector<double> &x, dealii::Vector<double> &y)
     {
       double *in  = workd + ipntr[0] - 1;
       double *out = workd + ipntr[1] - 1;
@@ -41,6 +40,7 @@ namespace modal_haptics
       else // ido == 1: M x is at ipntr[2]
         std::copy(workd + ipntr[2] - 1, workd + ipntr[2] - 1 + n, y.begin());
       inverse.solve_block(y.data(), 1);
+      found.project(y);
       std::copy(y.begin(), y.end(), out);
     }
 
@@ -89,10 +89,12 @@ namespace modal_haptics
       std::vector<int>    iparam, ipntr;
     };
 
-    // The Lanczos iteration: dsaupd until it converges, applying the shift-invert operator and M
-    // when asked. Counts the operator applications and the restarts in `solution`.
+    // The Lanczos iteration: dsaupd until it converges, applying the shift-invert operator (in the
+    // complement of the found modes) and M when asked. Counts the operator applications and the
+    // restarts in `solution`.
     void run_lanczos(ShiftInvertArpack &arpack, Factorization &inverse, const dealii::SparseMatrix<double> &M,
-                     const bool verbose, const dealii::Timer &timer, EigenSolution &solution)
+                     const FoundModes<dealii::Vector<double>> &found, const bool verbose, const dealii::Timer &timer,
+                     EigenSolution &solution)
     {
       const int              n = arpack.n;
       dealii::Vector<double> x(n), y(n);
@@ -101,7 +103,7 @@ namespace modal_haptics
           const int ido = arpack.step();
           if (ido == -1 || ido == 1)
             {
-              apply_shift_invert(inverse, M, ido, n, arpack.workd.data(), arpack.ipntr.data(), x, y);
+              apply_shift_invert(inverse, M, found, ido, n, arpack.workd.data(), arpack.ipntr.data(), x, y);
               ++solution.n_operator_applications;
               if (verbose && solution.n_operator_applications % 25 == 0)
                 std::cout << "[eigensolve]   " << solution.n_operator_applications << " solves, "
@@ -119,7 +121,7 @@ namespace modal_haptics
         }
       AssertThrow(arpack.info >= 0, ExcMessage(arpack_error("dsaupd", arpack.info)));
       AssertThrow(arpack.info != 1, ExcMessage(arpack_error("dsaupd", arpack.info)));
-      solution.n_restarts = arpack.iparam[2];
+      solution.n_restarts += arpack.iparam[2];
     }
 
     // dseupd: the converged eigenvalues and their vectors (column after column in z), in ARPACK's order.
@@ -143,48 +145,59 @@ namespace modal_haptics
                   ExcMessage("ARPACK converged only " + std::to_string(n_converged) + " of " +
                              std::to_string(arpack.nev) + " modes."));
     }
-
-    // The eigenpairs into `solution`, eigenvalues ascending (ARPACK does not promise an order), each
-    // vector normalized in M again so that round-off does not accumulate (ARPACK's are M-orthonormal).
-    void store_sorted_eigenpairs(const std::vector<double> &lambda, const std::vector<double> &z,
-                                 const dealii::SparseMatrix<double> &M, EigenSolution &solution)
-    {
-      const std::size_t         n = M.m();
-      std::vector<unsigned int> order(lambda.size());
-      std::iota(order.begin(), order.end(), 0);
-      std::sort(order.begin(), order.end(), [&](unsigned a, unsigned b) { return lambda[a] < lambda[b]; });
-      for (const unsigned int i : order)
-        {
-          solution.eigenvalues.push_back(lambda[i]);
-          dealii::Vector<double> phi(n);
-          std::copy(z.begin() + i * n, z.begin() + (i + 1) * n, phi.begin());
-          phi /= std::sqrt(M.matrix_norm_square(phi));
-          solution.eigenvectors.push_back(std::move(phi));
-        }
-    }
   } // namespace
 
+  // Runs of ARPACK until the cut-off decides the count (CutOffStop::next_batch), each for the next
+  // modes in the M-orthogonal complement of the earlier runs' (FoundModes). Why the runs may stop
+  // there: shift-invert converges the eigenvalues nearest the shift, and the shift lies below the
+  // first mode ('Modes/Shift'; CHOLMOD's Cholesky of K - shift M fails otherwise), so a run's nev
+  // modes are the lowest nev of its complement, and every mode no run has found lies above all the
+  // found ones. Once the found ones hold the floor and one above the cut-off, no unfound mode lies
+  // below the cut-off: the argument of CutOffStop, which depends on the shift lying below the modes
+  // (a shift inside the spectrum converges the modes on both sides of it first). No Sylvester count
+  // checks it: the inertia of K - cut-off M would take a second factorization. A later run
+  // starts from ARPACK's random vector put into the range of the projected operator (dsaupd applies
+  // OP to it for bmat = 'G'): what it reuses of the earlier runs is their converged modes, through
+  // the projection, which ARPACK cannot be given as locked vectors.
   EigenSolution solve_shift_invert(const dealii::SparseMatrix<double> &K,
                                    const dealii::SparseMatrix<double> &M,
                                    Factorization                      &inverse,
                                    const double                        shift,
                                    const unsigned int                  n_modes,
                                    const double                        tolerance,
-                                   const bool                          verbose)
+                                   const bool                          verbose,
+                                   const CutOffStop                   &stop)
   {
-    const int n   = K.m();
-    const int nev = n_modes;
-    AssertThrow(nev >= 1 && nev < n - 1,
-                ExcMessage("Cannot compute " + std::to_string(nev) + " modes of a system with " +
+    const int n = K.m();
+    AssertThrow(n_modes >= 1 && int(n_modes) < n - 1,
+                ExcMessage("Cannot compute " + std::to_string(n_modes) + " modes of a system with " +
                            std::to_string(n) + " unknowns: lower 'Modes/Maximum number of modes' or refine the mesh."));
-    ShiftInvertArpack arpack(n, nev, tolerance);
-    EigenSolution     solution;
-    dealii::Timer     timer;
-    run_lanczos(arpack, inverse, M, verbose, timer, solution);
-    std::vector<double> lambda, z;
-    extract_eigenpairs(arpack, shift, lambda, z);
+    EigenSolution                      solution;
+    dealii::Timer                      timer;
+    FoundModes<dealii::Vector<double>> found;
+    solution.n_runs = 0;
+    for (unsigned int nev = stop.next_batch({}, n_modes); nev > 0; nev = stop.next_batch(found.ascending(), n_modes))
+      {
+        if (verbose && solution.n_runs > 0)
+          std::cout << "[eigensolve]   ARPACK: the " << found.size()
+                    << " modes found do not decide the cut-off's count: " << nev
+                    << " more, in their M-orthogonal complement" << std::endl;
+        ShiftInvertArpack arpack(n, nev, tolerance);
+        run_lanczos(arpack, inverse, M, found, verbose, timer, solution);
+        std::vector<double> lambda, z;
+        extract_eigenpairs(arpack, shift, lambda, z);
+        for (unsigned int i = 0; i < nev; ++i)
+          found.add(lambda[i], dealii::Vector<double>(z.begin() + std::size_t(i) * n, z.begin() + std::size_t(i + 1) * n), M);
+        ++solution.n_runs;
+      }
     solution.eigensolve_iteration_seconds = timer.wall_time();
-    store_sorted_eigenpairs(lambda, z, M, solution);
+    found.take_ascending(solution.eigenvalues, solution.eigenvectors);
     return solution;
+  }
+
+  std::string arpack_runs(const unsigned int runs)
+  {
+    return runs > 1 ? ", " + std::to_string(runs) + " runs, each in the M-orthogonal complement of the earlier ones' modes" :
+                      std::string();
   }
 } // namespace modal_haptics

@@ -35,7 +35,6 @@
 #include <iostream>
 #include <limits>
 #include <map>
-#include <numeric>
 #include <optional>
 #include <sstream>
 
@@ -423,17 +422,21 @@ namespace modal_haptics
         eigenvectors.push_back(distributed(local));
     }
 
-    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization. The start
-    // vector is a fixed function of the DoF positions, not of their numbering or partition, so that
-    // runs on different process counts build nearly the same Krylov space.
+    // PARPACK in mode 3 (shift-invert, M inner product) over the MUMPS factorization, in runs until
+    // the cut-off decides the count, as the serial ARPACK (eigensolver.cc, solve_shift_invert, says
+    // why that is safe: the shift lies below the first mode, which MUMPS's inertia confirmed in
+    // refuse_shift_above_first_mode, or the LU path's check after the solve does). The inertia
+    // counts modes below the factorized shift only: a Sylvester count below the cut-off would take
+    // a second factorization, of K - cut-off M, which is not done. The start vector is a fixed
+    // function of the DoF positions, not of their numbering or partition, so that runs on different
+    // process counts build nearly the same Krylov space.
     void DistributedSpace::parpack_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
-      const int n   = result.n_dofs;
-      const int nev = scene.modes.maximum_count;
-      AssertThrow(nev >= 1 && nev < n - 1,
-                  ExcMessage("Cannot compute " + std::to_string(nev) + " modes of a system with " + std::to_string(n) +
+      const int          n       = result.n_dofs;
+      const unsigned int n_modes = scene.modes.maximum_count;
+      AssertThrow(n_modes >= 1 && int(n_modes) < n - 1,
+                  ExcMessage("Cannot compute " + std::to_string(n_modes) + " modes of a system with " + std::to_string(n) +
                              " unknowns: lower 'Modes/Maximum number of modes' or refine the mesh."));
-      const unsigned int ncv = std::min(n - 1, std::max(2 * nev + 10, 20)); // as the serial ARPACK call
 
       std::map<types::global_dof_index, Point<3>> support;
       DoFTools::map_dofs_to_support_points(mapping, dof_handler, support);
@@ -445,33 +448,46 @@ namespace modal_haptics
         }
       start.compress(VectorOperation::insert);
 
-      SolverControl control(10000, scene.modes.tolerance, false, false);
-      PArpackSolver<DistributedVector> solver(
-        control, comm,
-        PArpackSolver<DistributedVector>::AdditionalData(ncv, PArpackSolver<DistributedVector>::largest_magnitude,
-                                                         /*symmetric*/ true, /*mode*/ 3));
-      solver.reinit(owned_dofs);
-      solver.set_shift(shift);
-      solver.set_initial_vector(start);
-      std::vector<std::complex<double>> lambda(nev);
-      std::vector<DistributedVector>    vectors(nev, owned_layout);
-      Timer                             arpack_timer;
-      solver.solve(stiffness_matrix, mass_matrix, *inverse, lambda, vectors, nev);
-      result.eigensolve_iteration_seconds          = arpack_timer.wall_time();
-      result.n_operator_applications = result.factorization.n_solved_vectors;
-      result.eigensolver_method      = "PARPACK pdsaupd mode 3 (shift-invert), distributed";
-
-      // PARPACK does not promise an order: sort ascending.
-      std::vector<unsigned int> order(nev);
-      std::iota(order.begin(), order.end(), 0);
-      std::sort(order.begin(), order.end(), [&](unsigned a, unsigned b) { return lambda[a].real() < lambda[b].real(); });
-      for (const unsigned int i : order)
+      // PARPACK's operator: MUMPS's solve, then the projection onto the complement of the modes found
+      // by the earlier runs (nothing in the first).
+      FoundModes<DistributedVector> found;
+      struct ComplementInverse
+      {
+        const DistributedInverse            &inverse;
+        const FoundModes<DistributedVector> &found;
+        void vmult(DistributedVector &dst, const DistributedVector &src) const
         {
-          eigenvalues.push_back(lambda[i].real());
-          // Normalize again so that round-off does not accumulate.
-          vectors[i] /= std::sqrt(mass_matrix.matrix_norm_square(vectors[i]));
-          eigenvectors.push_back(std::move(vectors[i]));
+          inverse.vmult(dst, src);
+          found.project(dst);
         }
+      } const operator_in_complement{*inverse, found};
+      const CutOffStop stop = space_parts::cut_off_stop(scene.modes);
+      Timer            arpack_timer;
+      unsigned int     runs = 0;
+      for (unsigned int nev = stop.next_batch({}, n_modes); nev > 0; nev = stop.next_batch(found.ascending(), n_modes))
+        {
+          if (runs++ > 0)
+            log("PARPACK: the " + std::to_string(found.size()) + " modes found do not decide the cut-off's count: " +
+                std::to_string(nev) + " more, in their M-orthogonal complement");
+          const unsigned int ncv = std::min(n - 1, std::max(2 * int(nev) + 10, 20)); // as the serial ARPACK call
+          SolverControl      control(10000, scene.modes.tolerance, false, false);
+          PArpackSolver<DistributedVector> solver(
+            control, comm,
+            PArpackSolver<DistributedVector>::AdditionalData(ncv, PArpackSolver<DistributedVector>::largest_magnitude,
+                                                             /*symmetric*/ true, /*mode*/ 3));
+          solver.reinit(owned_dofs);
+          solver.set_shift(shift);
+          solver.set_initial_vector(start);
+          std::vector<std::complex<double>> lambda(nev);
+          std::vector<DistributedVector>    vectors(nev, owned_layout);
+          solver.solve(stiffness_matrix, mass_matrix, operator_in_complement, lambda, vectors, nev);
+          for (unsigned int i = 0; i < nev; ++i)
+            found.add(lambda[i].real(), std::move(vectors[i]), mass_matrix);
+        }
+      result.eigensolve_iteration_seconds = arpack_timer.wall_time();
+      result.n_operator_applications      = result.factorization.n_solved_vectors;
+      result.eigensolver_method = "PARPACK pdsaupd mode 3 (shift-invert)" + arpack_runs(runs) + ", distributed";
+      found.take_ascending(eigenvalues, eigenvectors);
     }
 
     // LOBPCG + AMG on this backend's Trilinos matrices (amg_eigensolver.h), every process its rows.
@@ -498,12 +514,13 @@ namespace modal_haptics
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
                                                 constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
-      log(amg->preconditioner_name() + " set up; LOBPCG for " + std::to_string(scene.modes.maximum_count) +
-          " modes, distributed");
+      log(amg->preconditioner_name() + " set up; LOBPCG for " + space_parts::sought_modes(scene.modes) +
+          ", distributed");
       Timer timer;
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
                                                 scene.modes.lobpcg_modes_per_run,
-                                                [this](const std::string &line) { log(line); });
+                                                [this](const std::string &line) { log(line); },
+                                                space_parts::cut_off_stop(scene.modes));
       result.eigensolve_iteration_seconds = timer.wall_time();
       result.n_operator_applications      = solution.n_operator_applications;
       result.eigensolver_method           = amg->eigensolver_method() + ", distributed";

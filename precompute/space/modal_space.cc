@@ -267,11 +267,12 @@ namespace modal_haptics
                                                      node_blocked, vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
       line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
-           << " s; LOBPCG for " << scene.modes.maximum_count << " modes";
+           << " s; LOBPCG for " << space_parts::sought_modes(scene.modes);
       log(line.str());
       EigenSolution solution = amg->lowest_modes(scene.modes.maximum_count, scene.modes.lobpcg_tolerance,
                                                 scene.modes.lobpcg_modes_per_run,
-                                                [this](const std::string &line) { log(line); });
+                                                [this](const std::string &line) { log(line); },
+                                                space_parts::cut_off_stop(scene.modes));
       log("LOBPCG: " + std::to_string(amg->amg_statistics().eigensolver_iterations) + " iterations");
       factorization = std::move(amg);
       return solution;
@@ -296,7 +297,8 @@ namespace modal_haptics
                                              space_parts::cut_off_stop(scene.modes));
           else
             eigen = solve_shift_invert(stiffness_matrix, mass_matrix, *factorization, shift,
-                                       scene.modes.maximum_count, scene.modes.tolerance, verbose);
+                                       scene.modes.maximum_count, scene.modes.tolerance, verbose,
+                                       space_parts::cut_off_stop(scene.modes));
         }
       catch (const ExceptionBase &e)
         {
@@ -318,7 +320,7 @@ namespace modal_haptics
           amg_inverse()->eigensolver_method() :
         method == Method::block_krylov ?
           block_krylov_method(scene.modes.block_size, eigen) :
-          "ARPACK dsaupd mode 3 (shift-invert)";
+          "ARPACK dsaupd mode 3 (shift-invert)" + arpack_runs(eigen.n_runs);
       space_parts::record_iteration(result, eigen);
       identify_rigid_body_modes();
       // Rigid-body modes (lambda = 0) have no relative residual: theirs is taken against the first

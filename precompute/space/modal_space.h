@@ -191,8 +191,11 @@ namespace modal_haptics
     // kept frequencies, kept eigenvalues, damping and dropped modes; returns the kept modes' indices.
     std::vector<unsigned int> select_modes(const SceneParameters &scene, const std::vector<double> &eigenvalues,
                                            ModalSpaceResult &result);
-    // When the eigensolve has found what select_modes needs (the block Krylov method stops there).
+    // When the eigensolve has found what select_modes needs (every eigensolver stops there).
     CutOffStop cut_off_stop(const ModeParameters &modes);
+    // What an eigensolver that states its count up front seeks, for its log line: "50 modes", or
+    // "up to 50 modes, until the cut-off's count is decided".
+    std::string sought_modes(const ModeParameters &modes);
     // Why select_modes kept what it kept, in the parameters' names: "kept 10 modes: 4 below the 500 Hz
     // cut-off ('Modes/Cut-off rule' = haptic: half 'Modes/Haptic rate'), raised to the floor of 10
     // ('Modes/Minimum number of modes'); dropped 1 above it" (no "dropped" when none was).

@@ -482,7 +482,8 @@ namespace modal_haptics
       else
         out << below << " below " << cut_off << ", raised to the floor of " << modes.minimum_count
             << " ('Modes/Minimum number of modes')";
-      // The eigensolve stops where the count is decided (CutOffStop): often nothing is left to drop.
+      // The eigensolve stops where the count is decided (CutOffStop): the block Krylov method drops at
+      // most the one above the cut-off, ARPACK and LOBPCG what their last run found beyond it.
       if (dropped > 0)
         out << "; dropped " << dropped << " above it";
       return out.str();
@@ -491,6 +492,13 @@ namespace modal_haptics
     CutOffStop cut_off_stop(const ModeParameters &modes)
     {
       return {modes.minimum_count, std::pow(two_pi * modes.cut_off_frequency(), 2)};
+    }
+
+    std::string sought_modes(const ModeParameters &modes)
+    {
+      const bool cut = modes.cut_off_rule != CutOffRule::none;
+      return std::string(cut ? "up to " : "") + std::to_string(modes.maximum_count) + " modes" +
+             (cut ? ", until the cut-off's count is decided" : "");
     }
 
     // The cut-off rule drops modes above its frequency, but never below the floor count; the report

@@ -92,3 +92,36 @@ def validity_rates(forces):
     c2's own: compared to a tolerance of the largest rate, like every other dataset."""
     f = np.asarray(forces, dtype=float)
     return np.where(f > 0, 1.0 / np.where(f > 0, f, 1.0), 0.0)
+
+
+CUT_OFF_MAXIMUM = 24
+
+
+def cut_off_between(frequencies, at_least=9):
+    """Modes entries for a haptic cut-off midway between two frequencies at least 2 % apart, the
+    at_least-th (1-based) or a later one and the next (pairs of equal modes are common on our
+    symmetric parts), a floor of 4 and at most CUT_OFF_MAXIMUM modes: with at_least > 8 an eigensolver
+    that seeks a count per run (ARPACK, PARPACK, LOBPCG: the floor and a margin of 4 first) needs a
+    second run to decide the count."""
+    k = next(k for k in range(at_least, len(frequencies)) if frequencies[k] > 1.02 * frequencies[k - 1])
+    return [f"Maximum number of modes = {CUT_OFF_MAXIMUM}", "Minimum number of modes = 4", "Cut-off rule = haptic",
+            f"Haptic rate = {frequencies[k - 1] + frequencies[k]:.9g}"]
+
+
+def cut_off_checks(space, reference, tolerance):
+    """(condition, description) pairs for a space run with cut_off_between's entries, against
+    reference (the same space's lowest frequencies from a run without a cut-off): fewer modes
+    computed than the maximum (the eigensolve stopped once the cut-off decided the count; before
+    ARPACK and LOBPCG computed the maximum), every reference mode below the cut-off kept and no other,
+    and the computed frequencies equal to the reference's (relative tolerance)."""
+    computed, kept, cut_off = space["computed_frequencies_hz"], space["frequencies_hz"], space["cut_off_hz"]
+    below = sum(1 for f in reference if f <= cut_off)
+    compared = min(len(computed), len(reference))
+    difference = max(abs(a / b - 1) for a, b in zip(computed, reference))
+    name = space["name"]
+    return [(len(computed) < CUT_OFF_MAXIMUM,
+             f"{name}: {len(computed)} modes computed, fewer than the maximum {CUT_OFF_MAXIMUM} (the cut-off decided)"),
+            (below < len(reference) and len(kept) == max(4, below),
+             f"{name}: kept {len(kept)}, the {below} below the {cut_off:.1f} Hz cut-off (floor 4)"),
+            (difference <= tolerance,
+             f"{name}: the {compared} computed frequencies equal the reference's to {difference:.1e} <= {tolerance:g}")]

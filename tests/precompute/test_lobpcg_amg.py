@@ -11,6 +11,9 @@ LOBPCG runs of at most 3 modes (Modes/LOBPCG modes per run). For each:
 * every validation case's full static FE response (AMG-preconditioned CG, or its refinement against K
   with the shift) equal to the direct path's to 1e-8, and the corrected contact error <= 1e-8;
 * the report names the method, and for P2 the preconditioner's vertex (P1) space.
+Under a haptic cut-off above the P1 cantilever's 9th mode (a floor of 4, at most 24 modes) LOBPCG stops
+once the cut-off decides the count: fewer than 24 computed (a first run of 8, a second in their
+complement ended by the count's decision), those below the cut-off kept, equal to the direct path's.
 And 'auto' with a factor memory limit below the cantilever's factor switches to lobpcg-amg, saying so,
 and with the default limit factorizes; serially, with a limit below CHOLMOD's factor but above MUMPS's
 in-core data with its factor on disk (the P2 cantilever at 2.5 mm), 'auto' and 'block-krylov' (with
@@ -27,7 +30,8 @@ import subprocess
 import sys
 import time
 
-from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, cut_off_between, cut_off_checks, \
+    run_precompute
 from test_mpi_np1_vs_np2 import mpi_command, mpi_environment
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -163,6 +167,26 @@ def free_part_refused_on_disk(args, checks):
                  0 if done.returncode != 0 and "Factor storage = disk" in done.stderr else 1, 0)
 
 
+def cut_off_decides(args, checks):
+    """The P1 cantilever under a haptic cut-off above its 9th mode (cut_off_between), a floor of 4 and
+    at most 24 modes: LOBPCG's first run seeks 8, a second one in their complement stops once its
+    converged lowest decide the count; fewer than 24 computed, those below the cut-off kept, equal
+    to the direct path's 16 modes (no cut-off) to 1e-8."""
+    direct_dir, amg_dir = (os.path.join(args.workdir, "cut_off_" + name) for name in ("direct", "amg"))
+    for folder in (direct_dir, amg_dir):
+        os.makedirs(folder)
+        shutil.copy(os.path.join(HERE, "cantilever.geo"), folder)
+    more = lambda lines: "subsection Modes\n" + "".join(f"  set {line}\n" for line in lines) + "end\n"
+    direct, _ = run_precompute(args.binary, direct_dir, scene_text("cantilever.prm", ["Eigensolver = block-krylov"], 1) +
+                               more(["Maximum number of modes = 16", "Minimum number of modes = 16"]))
+    reference = space(direct)["computed_frequencies_hz"]
+    amg, _ = run_precompute(args.binary, amg_dir, scene_text("cantilever.prm", ["Eigensolver = lobpcg-amg"], 1) +
+                            more(cut_off_between(reference)), meshes_from=direct_dir)
+    print(f"--- cantilever P1, cut-off {space(amg)['cut_off_hz']:.1f} Hz: {space(amg)['eigensolver']['method']}")
+    for condition, what in cut_off_checks(space(amg), reference, 1e-8):
+        checks.below(what + " (0: it does)", 0 if condition else 1, 0)
+
+
 def main():
     args = binary_and_fresh_workdir(mpirun_help="also run LOBPCG + AMG under mpirun -np 2")
     checks = Checks()
@@ -190,6 +214,7 @@ def main():
             print(f"--- auto, {label}, factor memory limit {limit} GB: {method}")
             checks.below(f"auto chose {expected} (0: it did)", 0 if method.startswith(expected) else 1, 0)
             checks.below("auto said why, in the report (0: it did)", 0 if why in method else 1, 0)
+    cut_off_decides(args, checks)
     serial_hands_over_to_mumps_on_disk(args, checks)
     free_part_refused_on_disk(args, checks)
     sys.exit(0 if checks.ok else 1)
