@@ -882,7 +882,11 @@ namespace modalrt_tool
     void print_press_validity(const RunReport &r)
     {
       if (!r.validity_map)
-        return;
+        {
+          if (!r.presses.empty()) // said once, as each slide says it
+            std::printf("  validity      no validity map in the basis\n");
+          return;
+        }
       constexpr std::size_t shown = 12;
       for (std::size_t k = 0; k < std::min(r.presses.size(), shown); ++k)
         {

@@ -357,6 +357,7 @@ time,hip,event,x,y,z
     const auto presses = read_csv("run_out_multi/presses.csv");
     const auto trace   = read_csv("run_out_multi/trace.csv");
     ENSURE(presses.size() == 3 && trace.size() > 1);
+    ENSURE(contains(out, "  validity      no validity map in the basis")); // said once, for the presses
     if (presses.size() != 3)
       return;
     const auto &h = presses[0];
@@ -744,6 +745,7 @@ time,hip,event,x,y,z
             ENSURE(contains(out, "beyond its validity force: F5 = 1.75 N, from "));
             ENSURE(clamp ? largest <= 1.75 + 1e-8 : largest > 2.5); // the trace's 9 digits
             ENSURE(!clamp || contains(out, "held at it (--validity-clamp)"));
+            ENSURE(!contains(out, "no validity map in the basis"));
           }
       }
     expect_failure(files + " --output-dir x --validity-level 7", 2, {"--validity-level", "'7'", "1, 5 or 10"});
