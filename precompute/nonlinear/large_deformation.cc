@@ -199,10 +199,7 @@ namespace modal_haptics
             }
         return Utilities::MPI::sum(psi3, communicator(space.dof_handler));
       }
-    } // namespace
 
-    namespace
-    {
       // Psi3 is the integral of a trilinear form c(H, H, H) with c(H_i, H_j, H_k) = X(H_i) . Y(H_j, H_k),
       // Y symmetric in j, k: St. Venant-Kirchhoff X = sigma_i, Y = 1/2 sym(H_j^T H_k); the neo-Hookean law
       // appends X = (tr eps_i, eps_i), Y = (-lambda eps_j : eps_k, -4/3 mu sym(eps_j eps_k)) (tr(ABC) of
@@ -416,7 +413,7 @@ namespace modal_haptics
       private:
         // rhs = force * load - f_int(u) on the free DoFs, the potential energy (stored minus the load's
         // work); the tangent too when with_tangent. False when some quadrature point has det F <= 0
-        // on any process (nothing is assembled then).
+        // on any process (then rhs, energy and the tangent are not to be used).
         bool assemble(const VectorType &u, double force, const VectorType &load, bool with_tangent);
         bool assemble_at(const VectorType &u, double force, const VectorType &load,
                          bool with_tangent); // assemble without its timer

@@ -149,13 +149,10 @@ namespace modal_haptics
 
   // Runs of ARPACK until the cut-off decides the count (CutOffStop::next_batch), each for the next
   // modes in the M-orthogonal complement of the earlier runs' (FoundModes). Why the runs may stop
-  // there: shift-invert converges the eigenvalues nearest the shift, and the shift lies below the
-  // first mode ('Modes/Shift'; CHOLMOD's Cholesky of K - shift M fails otherwise), so a run's nev
-  // modes are the lowest nev of its complement, and every mode no run has found lies above all the
-  // found ones. Once the found ones hold the floor and one above the cut-off, no unfound mode lies
-  // below the cut-off: the argument of CutOffStop, which depends on the shift lying below the modes
-  // (a shift inside the spectrum converges the modes on both sides of it first). No Sylvester count
-  // checks it: the inertia of K - cut-off M would take a second factorization. A later run
+  // there is CutOffStop's argument (eigensolver.h): with the shift below the first mode, a run's nev
+  // modes are the lowest nev of its complement, so every mode no run has found lies above all the
+  // found ones. No Sylvester count checks it: the inertia of K - cut-off M would take a second
+  // factorization. A later run
   // starts from ARPACK's random vector put into the range of the projected operator (dsaupd applies
   // OP to it for bmat = 'G'): what it reuses of the earlier runs is their converged modes, through
   // the projection, which ARPACK cannot be given as locked vectors.
