@@ -122,8 +122,11 @@ def serial_hands_over_to_mumps_on_disk(args, checks):
         worst = max(abs(fa - fd) / fd for fa, fd in zip(a["computed_frequencies_hz"], d["computed_frequencies_hz"]))
         checks.below("frequencies, MUMPS on disk vs CHOLMOD (max relative difference)", worst, 1e-8)
         checks.below("max |Phi^T M Phi - I|", a["orthonormality_error"], 1e-10)
-        # The block Krylov method's residuals at its default tolerance: 1.4e-8 here, CHOLMOD's run 1.6e-8.
-        checks.below("max ||K phi - lambda M phi|| / ||lambda M phi||", a["max_relative_residual"], 1e-7)
+        # Block Krylov stops on the residual of the shift-invert operator (1e-10 of the Ritz value); in
+        # K and M that residual is multiplied by up to ||K - sigma M|| / lambda, so rounding (MUMPS's and
+        # BLAS's threads) moves it between runs: 1.4e-8 to 3.8e-7 here. A mode that did not converge is
+        # off by 1e-3 or more; the bound is the other parts' 1e-5, and the frequencies above hold 1e-8.
+        checks.below("max ||K phi - lambda M phi|| / ||lambda M phi||", a["max_relative_residual"], 1e-5)
     checks.below("MUMPS's factor files left", len(os.listdir(factor_files)), 0)
     killed_runs_factor_files_removed_by_the_next(args, checks, fine, direct_dir, factor_files)
 
