@@ -162,6 +162,8 @@ namespace modal_haptics
       write_array(g, "cross_offsets", s.cross_offsets, {s.cross_offsets.size()}, w);
       write_array(g, "cross_neighbours", s.cross_neighbours, {s.cross_neighbours.size()}, w);
       write_array(g, "cross_blocks", s.cross_blocks, {s.cross_neighbours.size(), 3, 3}, w);
+      if (s.far_rank > 0)
+        write_array(g, "far_compliance", s.far_compliance, {nc, 3, s.far_rank}, w);
       write_array(g, "felt_stiffness", s.felt_stiffness, {s.felt_stiffness.size()}, w);
       write_array(g, "modal_only_stiffness", s.modal_only_stiffness, {s.modal_only_stiffness.size()}, w);
       if (!s.validity_force.empty())
@@ -457,7 +459,8 @@ namespace modal_haptics
     Json static_correction_json(const ModalSpaceResult &s, const SceneParameters &scene)
     {
       const std::size_t r = s.eigenvalues.size(), nc = s.candidates.size(), pairs = s.cross_neighbours.size();
-      const std::size_t bytes = 4 * nc + 8 * (3 * r + 9) * nc + (s.cross_offsets.empty() ? 0 : 4 * (nc + 1) + 76 * pairs);
+      const std::size_t bytes = 4 * nc + 8 * (3 * r + 9 + 3 * s.far_rank) * nc +
+                                (s.cross_offsets.empty() ? 0 : 4 * (nc + 1) + 76 * pairs);
       return {{"n_candidates", nc},
               {"cross_compliance", !s.cross_offsets.empty()},
               {"cross_compliance_radius_m", scene.contact.cross_compliance ? scene.contact.cross_compliance_radius * scene.length_unit : 0.},
@@ -465,6 +468,30 @@ namespace modal_haptics
               {"seconds_per_load", s.correction_seconds_per_candidate},
               {"refinement_steps", s.static_solve_iterations},
               {"bytes_per_candidate", nc ? bytes / nc : 0}};
+    }
+
+    // The far-field coupling: its rank and cost, and its error by distance against exact columns.
+    Json far_field_json(const ModalSpaceResult &s)
+    {
+      Json bands = Json::array();
+      for (const auto &b : s.far_field_bands)
+        bands.push_back({{"from_m", b.from},
+                         {"to_m", b.to > 1e29 ? Json() : Json(b.to)},
+                         {"pairs", b.pairs},
+                         {"median_error", b.median_error},
+                         {"p95_error", b.p95_error},
+                         {"max_error", b.max_error},
+                         {"median_modes_alone", b.median_modes_alone},
+                         {"p95_modes_alone", b.p95_modes_alone}});
+      Json far = {{"rank", s.far_rank},
+                  {"seconds", s.far_field_seconds},
+                  {"sampled_vertices", s.far_field_sampled},
+                  {"rms_error", s.far_field_rms_error},
+                  {"rms_modes_alone", s.far_field_rms_modes_alone},
+                  {"error_by_distance", bands}};
+      if (!s.far_field_left_out.empty())
+        far["left_out"] = s.far_field_left_out;
+      return far;
     }
 
     // The felt-stiffness map of a space over its own region (its VOI; the global space: outside every
@@ -588,6 +615,8 @@ namespace modal_haptics
       space["eigensolver"]       = eigensolver_json(s);
       space["static_correction"] = static_correction_json(s, scene);
       space["felt_stiffness"]    = felt_stiffness_json(s, display);
+      if (!s.far_field_sampled.empty())
+        space["far_field"] = far_field_json(s);
       space["mass_kg"]           = s.mass;
       space["centre_of_mass_m"]  = s.centre_of_mass;
       space["validation"]        = validation_json(s.validation);
@@ -601,7 +630,9 @@ namespace modal_haptics
       for (const auto &check : s.two_contact_checks)
         pairs.push_back({{"vertices", check.vertices},
                          {"distance_m", check.distance},
-                         {"rel_error_corrected", check.rel_error_corrected}});
+                         {"rel_error_corrected", check.rel_error_corrected},
+                         {"far", check.far},
+                         {"rel_error_without_cross", check.rel_error_without_cross}});
       space["timings_s"] = Json(s.timings_s);
       return space;
     }

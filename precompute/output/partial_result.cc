@@ -41,7 +41,13 @@ namespace boost::serialization
   template <class Archive>
   void serialize(Archive &ar, modal_haptics::TwoContactCheck &c, const unsigned int)
   {
-    ar &c.vertices &c.distance &c.rel_error_corrected;
+    ar &c.vertices &c.distance &c.rel_error_corrected &c.far &c.rel_error_without_cross;
+  }
+
+  template <class Archive>
+  void serialize(Archive &ar, modal_haptics::FarFieldBand &b, const unsigned int)
+  {
+    ar &b.from &b.to &b.pairs &b.median_error &b.p95_error &b.max_error &b.median_modes_alone &b.p95_modes_alone;
   }
 
   template <class Archive>

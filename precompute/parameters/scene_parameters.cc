@@ -294,6 +294,13 @@ namespace modal_haptics
                       "that close feel the full-FE answer; farther apart, the modes alone couple them "
                       "(docs/accuracy.md measures what that leaves out; each millimetre costs static-correction "
                       "time and .mrt size)." + geometry_units);
+    prm.declare_entry("Far field rank", text(c.far_field_rank), Patterns::Integer(0, 1000),
+                      "Two candidates farther apart than the cross compliance radius are coupled by the "
+                      "modes plus a rank-k approximation of the residual compliance between every pair of "
+                      "candidates of the space (a Nystrom factor from 2 k solves; the .mrt's FAR_COMPLIANCE, "
+                      "3 k numbers per candidate); its error against exact solves, by distance, is in "
+                      "report.json (spaces[].far_field). 0 = none: the modes alone couple such pairs. Needs "
+                      "'Cross compliance'. Units: none.");
     prm.declare_entry("Validation pairs", text(c.validation_pairs), Patterns::Integer(0),
                       "Pairs of neighbouring candidates per space (closer than the cross compliance radius, "
                       "picked at random with a fixed seed) pressed together and validated against one full "
@@ -358,6 +365,7 @@ namespace modal_haptics
     cross_compliance           = prm.get_bool("Cross compliance");
     cross_compliance_radius    = prm.get_double("Cross compliance radius");
     validation_pairs           = prm.get_integer("Validation pairs");
+    far_field_rank             = prm.get_integer("Far field rank");
     validation_samples         = prm.get_integer("Validation samples");
     correction_field_tolerance = prm.get_double("Correction field tolerance");
     for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))

@@ -118,6 +118,7 @@ namespace modal_haptics
     bool         cross_compliance      = true;
     double       cross_compliance_radius = 0.; // pairs closer than this (0: sharing a display triangle) [geometry units]
     unsigned int validation_pairs      = 2;   // pairs of neighbouring candidates pressed together and validated
+    unsigned int far_field_rank        = 64;  // rank of the residual coupling of candidates farther apart; 0 = none
     unsigned int validation_samples    = 4;   // sampled candidates per space
     double       correction_field_tolerance = 1e-3; // relative truncation of the display correction field
     // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of

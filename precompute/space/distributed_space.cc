@@ -131,6 +131,8 @@ namespace modal_haptics
       void relieve_load(Field &) const {}
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
+      void add_combined_patch_load(Block &X, unsigned int column, const std::vector<unsigned int> &vertices,
+                                   const double *weights) const;
       void solve_static(Block &X);
       unsigned int columns_per_static_solve(const unsigned int wanted) const
       {
@@ -693,6 +695,18 @@ namespace modal_haptics
           unit[c]                      = 1.;
           X.columns[first_column + c] = patch_load(vertex, unit);
         }
+    }
+
+    void DistributedSpace::add_combined_patch_load(Block &X, const unsigned int column, const std::vector<unsigned int> &vertices,
+                                                   const double *weights) const
+    {
+      X.columns.resize(std::max<std::size_t>(X.columns.size(), column + 1));
+      DistributedVector load;
+      load = writable_layout; // writable ghost entries, as in patch_load
+      for (std::size_t k = 0; k < vertices.size(); ++k)
+        surface.add_patch_load(vertices[k], {{weights[3 * k], weights[3 * k + 1], weights[3 * k + 2]}}, load);
+      load.compress(VectorOperation::add);
+      X.columns[column] = load;
     }
 
     // The block's solutions, made readable at the owned cells' DoFs (block_column reads them so).

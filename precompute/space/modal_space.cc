@@ -82,6 +82,13 @@ namespace modal_haptics
         return {std::vector<double>(n_columns * std::size_t(dof_handler.n_dofs()), 0.), dof_handler.n_dofs()};
       }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
+      void add_combined_patch_load(Block &X, const unsigned int column, const std::vector<unsigned int> &vertices,
+                                   const double *weights) const
+      {
+        double *load = &X.values[column * X.n];
+        for (std::size_t k = 0; k < vertices.size(); ++k)
+          surface.add_patch_load(vertices[k], {{weights[3 * k], weights[3 * k + 1], weights[3 * k + 2]}}, load);
+      }
       void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
       unsigned int columns_per_static_solve(const unsigned int wanted) const
       {

@@ -144,6 +144,7 @@ namespace modal_haptics
       virtual void solve_eigenproblem() = 0; // as 'choice' says, and mode selection
       virtual void interpolate() = 0;        // display surface, mesh vertices, participation factors
       virtual void compute_static_correction() = 0;
+      virtual void compute_far_field() = 0;
       virtual void validate() = 0;
       // The validity map's estimate at every corrected contact, and the nonlinear solves at the
       // validity contacts (precompute/nonlinear/), serial and distributed.
@@ -290,6 +291,8 @@ namespace modal_haptics
     std::vector<unsigned int> response_vertices(const ModalSpaceResult &result, const StaticCorrectionPlan &plan,
                                                 unsigned int load);
     std::string static_correction_summary(const ModalSpaceResult &result, std::size_t n_loads);
+    // "far field: rank k, ... s; coupling error (median, against the modes alone) by distance".
+    std::string far_field_summary(const ModalSpaceResult &result);
 
     // A static solve with the factorization of A = K - shift M is refined against K itself: 'refine'
     // makes one step u += A^-1 (f - K u) on its right-hand sides (the first from u = 0) and returns
@@ -313,10 +316,16 @@ namespace modal_haptics
     constexpr std::array<std::array<double, 3>, 2> two_contact_forces = {{{{0., 0., 1.}}, {{0., 1., 0.}}}};
     // 'count' pairs (a, b) of candidates, b a neighbour of a, drawn with a fixed seed.
     std::vector<std::array<unsigned int, 2>> two_contact_pairs(const ModalSpaceResult &result, unsigned int count);
+    // 'count' pairs of candidates without a stored cross block (the far field couples them), drawn
+    // with a fixed seed; none when the space has no far field.
+    std::vector<std::array<unsigned int, 2>> far_contact_pairs(const ModalSpaceResult &result, unsigned int count);
+    // The worse of the two contacts' relative errors; with_cross_residual = false leaves the pair's
+    // residual coupling out (what the modes alone give between them).
     double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
-                             const std::array<std::array<double, 3>, 2> &full_responses);
-    // The residual compliance C_ab of two candidates (indices): their own C at a == b, the stored
-    // cross block of neighbours, else zero (9 values, row-major).
+                             const std::array<std::array<double, 3>, 2> &full_responses, bool with_cross_residual = true);
+    // The residual compliance C_ab of two candidates (indices), as the kernel couples them: their own
+    // C at a == b, the stored cross block of neighbours, else the far field's Z_a Z_b^T, else zero
+    // (9 values, row-major).
     std::array<double, 9> residual_compliance(const ModalSpaceResult &result, unsigned int a, unsigned int b);
 
     // One summary line of the validation for the log.

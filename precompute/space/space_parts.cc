@@ -115,6 +115,7 @@ namespace modal_haptics
       result.eigensolver_method += choice.report_note;
       phase("interpolation", [&] { interpolate(); });
       phase("static_correction", [&] { compute_static_correction(); });
+      phase("far_field", [&] { compute_far_field(); });
       phase("validation", [&] { validate(); });
       if (scene.contact.validity_estimate)
         phase("validity_estimate", [&] { estimate_validity(); });

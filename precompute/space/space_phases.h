@@ -20,6 +20,8 @@
 //   void relieve_load(Field &) const  inertia relief of a free part's load (identity when clamped)
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
+//   void add_combined_patch_load(Block &, unsigned column, vertices, const double *weights) const
+//                                     sum_k W_{vertices[k]} (weights 3k .. 3k + 2) into one column
 //   void solve_static(Block &)
 //   unsigned columns_per_static_solve(unsigned wanted) const   at most wanted: fewer where a block
 //                                     solve's work space would not fit the memory
@@ -43,6 +45,7 @@
 #pragma once
 
 #include "nonlinear/large_deformation.h"
+#include "space/far_field.h"
 #include "space/modal_space.h"
 
 #include <deal.II/base/parallel.h>
@@ -330,13 +333,109 @@ namespace modal_haptics
              std::to_string(timer.wall_time() - modal_rows) + " s)");
     }
 
+    // R X for blocks of candidate loads: column j of X holds 3 nc weights (the load sum_a W_a x_a);
+    // the answer, W^T (K^-1 - Phi Lambda^+ Phi^T) W X, is 3 nc x k column-major like X, the same on
+    // every process. Blocks of columns share a pass over the factor.
+    template <typename Backend>
+    std::vector<double> apply_residual_compliance(Backend &b, const ModalSpaceResult &result, const std::vector<double> &X,
+                                                  const unsigned int k)
+    {
+      const auto        &candidates = result.candidates;
+      const std::size_t  n          = 3 * candidates.size();
+      const unsigned int r          = result.eigenvalues.size();
+      std::vector<double> Y(n * k, 0.);
+      const unsigned int  per_solve = std::max(1u, b.columns_per_static_solve(k));
+      for (unsigned int first = 0; first < k; first += per_solve)
+        {
+          const unsigned int count = std::min(per_solve, k - first);
+          auto               block = b.new_block(count);
+          for (unsigned int j = 0; j < count; ++j)
+            b.add_combined_patch_load(block, j, candidates, &X[(first + j) * n]);
+          b.solve_static(block);
+          for (unsigned int j = 0; j < count; ++j)
+            for (std::size_t a = 0; a < candidates.size(); ++a)
+              {
+                const auto u = b.surface.local_patch_average(candidates[a], b.block_column(block, j));
+                std::copy(u.begin(), u.end(), &Y[(first + j) * n + 3 * a]);
+              }
+        }
+      b.sum_over_processes(Y);
+      // The modal part, B Lambda^+ B^T X, with B the candidates' modal rows.
+      const auto &B = result.candidate_modes;
+      for (unsigned int j = 0; j < k; ++j)
+        {
+          std::vector<double> q(r, 0.);
+          for (std::size_t row = 0; row < n; ++row)
+            for (unsigned int i = 0; i < r; ++i)
+              q[i] += B[row * r + i] * X[j * n + row];
+          for (unsigned int i = 0; i < r; ++i)
+            q[i] *= static_gain(result.eigenvalues[i]);
+          for (std::size_t row = 0; row < n; ++row)
+            for (unsigned int i = 0; i < r; ++i)
+              Y[j * n + row] -= B[row * r + i] * q[i];
+        }
+      return Y;
+    }
+
+    // The residual coupling of candidates farther apart than the stored blocks reach, as the factor
+    // Z of a randomized Nystrom approximation R ~ Z Z^T (far_field.h): R applied to 'Far field rank'
+    // random loads, the answers orthonormalized, R applied once more (a power step: the local
+    // response each patch has of its own, which R's random image mixes in, weighs less against the
+    // coupling that reaches far). Its error is measured against R's exact columns at a few sampled
+    // candidates and reported by distance.
+    template <typename Backend>
+    void compute_far_field(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
+    {
+      const std::size_t nc = result.candidates.size(), n = 3 * nc;
+      if (in.scene.contact.far_field_rank == 0 || result.cross_offsets.empty() || nc < 2)
+        return;
+      const unsigned int k = std::min<std::size_t>(in.scene.contact.far_field_rank, n);
+      dealii::Timer      timer;
+      const unsigned int seed = 20261127u + result.index;
+      std::vector<double> Q   = apply_residual_compliance(b, result, far_field::gaussian_probes(n, k, seed), k);
+      const unsigned int  kq  = far_field::orthonormalize_columns(Q, n, k);
+      const std::vector<double> Y = apply_residual_compliance(b, result, Q, kq);
+      result.far_compliance       = far_field::nystrom_factor(Q, Y, n, kq, result.far_rank);
+      result.far_field_seconds    = timer.wall_time();
+
+      const auto sampled = far_field::sample_candidates(nc, 8, seed);
+      std::vector<double> units(n * 3 * sampled.size(), 0.);
+      for (std::size_t t = 0; t < sampled.size(); ++t)
+        for (unsigned int d = 0; d < 3; ++d)
+          units[(3 * t + d) * n + 3 * sampled[t] + d] = 1.;
+      const auto exact = apply_residual_compliance(b, result, units, 3 * sampled.size());
+      const auto measured              = far_field::error_by_distance(result, in.display.vertices, sampled, exact);
+      result.far_field_bands           = measured.bands;
+      result.far_field_rms_error       = measured.rms_error;
+      result.far_field_rms_modes_alone = measured.rms_modes_alone;
+      result.far_field_sampled.clear();
+      for (const unsigned int s : sampled)
+        result.far_field_sampled.push_back(result.candidates[s]);
+      in.log(space_parts::far_field_summary(result) + " (checked against " + std::to_string(3 * sampled.size()) +
+             " exact solves in " + std::to_string(timer.wall_time() - result.far_field_seconds) + " s)");
+      // Where the residual coupling is mostly each patch's own (a stiff, compact part), a rank-k
+      // factor cannot hold it, and its error can exceed the coupling itself: then it is not kept.
+      if (!(measured.rms_error < measured.rms_modes_alone))
+        {
+          std::ostringstream why;
+          why << "at the sampled pairs its error (rms " << measured.rms_error << " of the contacts' own compliance) "
+              << "is not below what the modes alone leave out (" << measured.rms_modes_alone << ")";
+          result.far_field_left_out = why.str();
+          result.far_compliance.clear();
+          result.far_rank = 0;
+          in.log("far field not kept: " + result.far_field_left_out);
+        }
+    }
+
     // Two hands on one space: pairs of neighbouring candidates (space_parts::two_contact_pairs)
     // pushed at once (in z and y), a fresh full solve each against the kernel's formula with the
     // cross compliance, u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
     template <typename Backend>
     void validate_two_contacts(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
     {
-      const auto pairs = space_parts::two_contact_pairs(result, in.scene.contact.validation_pairs);
+      auto       pairs = space_parts::two_contact_pairs(result, in.scene.contact.validation_pairs);
+      const auto far   = space_parts::far_contact_pairs(result, in.scene.contact.validation_pairs);
+      pairs.insert(pairs.end(), far.begin(), far.end());
       if (pairs.empty())
         return;
       std::vector<typename Backend::Field> fields;
@@ -367,9 +466,12 @@ namespace modal_haptics
           const auto &x = in.display.vertices;
           check.distance = std::hypot(x[pairs[k][0]][0] - x[pairs[k][1]][0], x[pairs[k][0]][1] - x[pairs[k][1]][1],
                                       x[pairs[k][0]][2] - x[pairs[k][1]][2]);
-          check.rel_error_corrected =
-            space_parts::two_contact_error(result, pairs[k], {{{{u[0], u[1], u[2]}}, {{u[3], u[4], u[5]}}}});
-          result.two_contact_rel_error_corrected = std::max(result.two_contact_rel_error_corrected, check.rel_error_corrected);
+          const std::array<std::array<double, 3>, 2> full = {{{{u[0], u[1], u[2]}}, {{u[3], u[4], u[5]}}}};
+          check.far                     = k >= pairs.size() - far.size();
+          check.rel_error_corrected     = space_parts::two_contact_error(result, pairs[k], full);
+          check.rel_error_without_cross = space_parts::two_contact_error(result, pairs[k], full, false);
+          if (!check.far) // the exact pairs' worst; the far ones are approximations, reported per pair
+            result.two_contact_rel_error_corrected = std::max(result.two_contact_rel_error_corrected, check.rel_error_corrected);
           result.two_contact_checks.push_back(check);
         }
     }
@@ -493,6 +595,7 @@ namespace modal_haptics
         compute_participation_factors(backend(), result);
       }
       void compute_static_correction() override { space_phases::compute_static_correction(backend(), inputs(), result); }
+      void compute_far_field() override { space_phases::compute_far_field(backend(), inputs(), result); }
       void validate() override { space_phases::validate(backend(), inputs(), result); }
       void output_results() const override
       {

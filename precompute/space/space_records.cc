@@ -184,6 +184,18 @@ namespace modal_haptics
       return line.str();
     }
 
+    std::string far_field_summary(const ModalSpaceResult &result)
+    {
+      std::ostringstream line;
+      line << "far field: rank " << result.far_rank << " for " << result.candidates.size() << " candidates, "
+           << result.far_field_seconds << " s; residual coupling error, median (modes alone) by distance:";
+      for (const auto &band : result.far_field_bands)
+        line << ' ' << band.from * 1e3 << (band.to > 1e29 ? "+" : "-" + std::to_string(int(band.to * 1e3))) << " mm "
+             << std::setprecision(2) << band.median_error << " (" << band.median_modes_alone << ")"
+             << std::setprecision(6);
+      return line.str();
+    }
+
     unsigned int refine_static_solve(const std::function<double()> &refine, const std::string &space_name,
                                      const double shift_hz)
     {
@@ -289,12 +301,12 @@ namespace modal_haptics
       std::array<double, 9> C{};
       if (a == b)
         std::copy_n(&result.candidate_compliance[9 * std::size_t(a)], 9, C.begin());
-      else if (!result.cross_offsets.empty())
-        {
-          const std::ptrdiff_t k = mrt::cross_position(result.cross_offsets.data(), result.cross_neighbours.data(), a, b);
-          if (k >= 0)
-            std::copy_n(&result.cross_blocks[9 * std::size_t(k)], 9, C.begin());
-        }
+      else if (const std::ptrdiff_t k = result.cross_offsets.empty() ? -1 :
+                   mrt::cross_position(result.cross_offsets.data(), result.cross_neighbours.data(), a, b);
+               k >= 0)
+        std::copy_n(&result.cross_blocks[9 * std::size_t(k)], 9, C.begin());
+      else
+        mrt::far_coupling(result.far_compliance.data(), result.far_rank, a, b, C.data());
       return C;
     }
 
@@ -316,9 +328,23 @@ namespace modal_haptics
       return pairs;
     }
 
+    std::vector<std::array<unsigned int, 2>> far_contact_pairs(const ModalSpaceResult &result, const unsigned int count)
+    {
+      std::vector<std::array<unsigned int, 2>> pairs;
+      const unsigned int                       nc = result.candidates.size();
+      std::mt19937 random(20261128u + result.index); // a fixed seed: the same pairs every run
+      for (unsigned int attempt = 0; result.far_rank > 0 && pairs.size() < count && attempt < 100 * count; ++attempt)
+        {
+          const unsigned int a = random() % nc, b = random() % nc;
+          if (a != b && mrt::cross_position(result.cross_offsets.data(), result.cross_neighbours.data(), a, b) < 0)
+            pairs.push_back({{result.candidates[a], result.candidates[b]}});
+        }
+      return pairs;
+    }
+
     // The kernel's formula: u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
     double two_contact_error(const ModalSpaceResult &result, const std::array<unsigned int, 2> &vertices,
-                             const std::array<std::array<double, 3>, 2> &full_responses)
+                             const std::array<std::array<double, 3>, 2> &full_responses, const bool with_cross_residual)
     {
       const unsigned int r = result.eigenvalues.size();
       const auto        &forces = two_contact_forces;
@@ -343,6 +369,8 @@ namespace modal_haptics
                 predicted += result.candidate_modes[(index[h] * 3 + c) * r + i] * modal_force[i] * static_gain(result.eigenvalues[i]);
               for (unsigned int g = 0; g < 2; ++g)
                 {
+                  if (g != h && !with_cross_residual)
+                    continue;
                   const auto C = residual_compliance(result, index[h], index[g]);
                   for (unsigned int d = 0; d < 3; ++d)
                     predicted += C[3 * c + d] * forces[g][d];
@@ -366,6 +394,18 @@ namespace modal_haptics
       std::ostringstream line;
       line << "validation: " << result.validation.size() << " full static solves; contact error modal-only up to "
            << worst_modal << ", corrected up to " << worst_corrected;
+      double       worst_far = 0., worst_without = 0.;
+      unsigned int n_far     = 0;
+      for (const auto &check : result.two_contact_checks)
+        if (check.far)
+          {
+            ++n_far;
+            worst_far     = std::max(worst_far, check.rel_error_corrected);
+            worst_without = std::max(worst_without, check.rel_error_without_cross);
+          }
+      if (n_far > 0)
+        line << "; " << n_far << " pairs farther apart pressed together: error with the far field up to " << worst_far
+             << " (without it " << worst_without << ")";
       return line.str();
     }
   } // namespace space_parts

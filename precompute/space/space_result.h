@@ -28,9 +28,21 @@ namespace modal_haptics
     std::array<unsigned int, 2> vertices{}; // display vertices
     double distance = 0.;                   // between them [m]
     double rel_error_corrected = 0.;        // the worse of the two contacts' relative errors
+    bool   far = false;                     // no stored cross block: the far field couples them
+    double rel_error_without_cross = 0.;    // the same with the pair's residual coupling left out
   };
 
-  // One full static FE solve of a unit patch load, compared with the modal and corrected answers.
+  // The far-field coupling's error over one band of distances between two candidates: per pair,
+  // |R_ab - Z_a Z_b^T|_F / sqrt(|C_aa|_F |C_bb|_F) with R_ab the exact residual compliance (from
+  // full solves at sampled candidates), and what the modes alone leave out, |R_ab|_F / the same.
+  struct FarFieldBand
+  {
+    double       from = 0., to = 0.; // [m]
+    unsigned int pairs = 0;
+    double       median_error = 0., p95_error = 0., max_error = 0., median_modes_alone = 0., p95_modes_alone = 0.;
+  };
+
+    // One full static FE solve of a unit patch load, compared with the modal and corrected answers.
   struct ValidationCase
   {
     unsigned int vertex    = 0; // display vertex
@@ -122,6 +134,11 @@ namespace modal_haptics
     // not stored.
     std::vector<unsigned int> cross_offsets, cross_neighbours;
     std::vector<double>       cross_blocks;
+    // The residual coupling of candidates without a stored block: R_ab ~ Z_a Z_b^T, Z_a the 3 x k
+    // rows (3a + i) k + j of far_compliance [sqrt(m/N)], k = far_rank (0: none), a Nystrom factor of
+    // the residual compliance between all candidates (space_phases.h, compute_far_field).
+    std::vector<double> far_compliance;
+    unsigned int        far_rank = 0;
     // The felt-stiffness map: the normal stiffness 1 / (n^T W_v^T K^-1 W_v n) [N/m] of the patch load
     // along the outward normal n, at the space's candidates and shared vertices (0 elsewhere: the
     // scene's map takes each vertex from the space whose region holds it), and what the modes alone
@@ -150,7 +167,8 @@ namespace modal_haptics
       field("display_modes", b.display_modes), field("candidates", b.candidates);
       field("candidate_modes", b.candidate_modes), field("candidate_compliance", b.candidate_compliance);
       field("cross_offsets", b.cross_offsets), field("cross_neighbours", b.cross_neighbours);
-      field("cross_blocks", b.cross_blocks), field("felt_stiffness", b.felt_stiffness);
+      field("cross_blocks", b.cross_blocks), field("far_compliance", b.far_compliance), field("far_rank", b.far_rank);
+      field("felt_stiffness", b.felt_stiffness);
       field("modal_only_stiffness", b.modal_only_stiffness), field("validity_force", b.validity_force);
       field("participation", b.participation);
       field("mass", b.mass), field("centre_of_mass", b.centre_of_mass), field("inertia", b.inertia);
@@ -169,6 +187,12 @@ namespace modal_haptics
     unsigned int             n_spurious_rows = 0; // constrained rows, moved to lambda = infinity
     std::map<unsigned int, std::array<double, 9>> full_compliance; // W^T K^-1 W at shared vertices
     double two_contact_rel_error_corrected = -1.; // the worst two-contact check (< 0: none)
+    // The far-field factor's cost and its error by distance (against sampled exact columns).
+    double                    far_field_seconds = 0.;
+    std::vector<unsigned int> far_field_sampled; // the candidates (display vertices) whose columns were solved
+    std::vector<FarFieldBand> far_field_bands;
+    double                    far_field_rms_error = 0., far_field_rms_modes_alone = 0.; // over the sampled pairs
+    std::string               far_field_left_out; // why a computed factor was not kept (empty: kept)
     std::vector<TwoContactCheck> two_contact_checks;
 
     // What the supports caught, and the rigid-body motions they leave free (a free-floating part:
@@ -204,6 +228,9 @@ namespace modal_haptics
       field("n_spurious_rows", d.n_spurious_rows), field("full_compliance", d.full_compliance);
       field("two_contact_rel_error_corrected", d.two_contact_rel_error_corrected);
       field("two_contact_checks", d.two_contact_checks);
+      field("far_field_seconds", d.far_field_seconds), field("far_field_sampled", d.far_field_sampled);
+      field("far_field_bands", d.far_field_bands), field("far_field_rms_error", d.far_field_rms_error);
+      field("far_field_rms_modes_alone", d.far_field_rms_modes_alone), field("far_field_left_out", d.far_field_left_out);
       field("supports_summary", d.supports_summary), field("free_motions", d.free_motions);
       field("n_rigid_body_modes", d.n_rigid_body_modes);
       field("rigid_computed_frequencies_hz", d.rigid_computed_frequencies_hz);
