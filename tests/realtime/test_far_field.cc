@@ -44,25 +44,17 @@ namespace
   };
 
   // The reference from the file's content: u_a = sum_b (B_a Lambda^-1 B_b^T + C_ab) F_b, C_ab as the
-  // specification gives it (modalrt::content_residual_block: own, stored, Z_a Z_b^T, or none).
+  // specification gives it (modalrt::content_static_compliance: own, stored, Z_a Z_b^T, or none).
   std::array<double, 3> static_answer(const BasisContent &c, const TwoPresses &p, int a)
   {
-    const modalrt::BasisSpaceContent &s  = c.spaces[tip];
-    const std::size_t                 r  = s.eigenvalues.size();
-    const std::size_t                 ka = candidate_of(s, p.vertices[a]);
+    const modalrt::BasisSpaceContent &s = c.spaces[tip];
     std::array<double, 3>             u{};
     for (int b = 0; b < 2; ++b)
       {
-        const std::size_t           kb = candidate_of(s, p.vertices[b]);
-        const std::array<double, 9> C  = modalrt::content_residual_block(s, ka, kb);
+        const auto G = modalrt::content_static_compliance(s, candidate_of(s, p.vertices[a]), candidate_of(s, p.vertices[b]));
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
-            {
-              double G = C[3 * i + j];
-              for (std::size_t m = 0; m < r; ++m)
-                G += s.candidate_modes[(3 * ka + i) * r + m] * s.candidate_modes[(3 * kb + j) * r + m] / s.eigenvalues[m];
-              u[i] += G * p.F[b][j];
-            }
+            u[i] += G[3 * i + j] * p.F[b][j];
       }
     return u;
   }

@@ -329,7 +329,7 @@ time,hip,event,x,y,z
   // each press's multi-contact static stiffness is the static answer computed here from the basis
   // content written to the file,
   //   u_a = sum_b (B_a Lambda^-1 B_b^T + C_ab) F_b,  multi_static_stiffness = felt_force / (-n . u_a),
-  // C_ab as the specification gives it (modalrt::content_residual_block), within 1e-9 relative.
+  // C_ab as the specification gives it (modalrt::content_static_compliance), within 1e-9 relative.
   void check_multi_presses(const modalrt::BasisContent &content, const std::vector<std::vector<std::string>> &presses,
                            const std::vector<std::vector<std::string>> &trace, const std::uint32_t vertices[2])
   {
@@ -355,7 +355,7 @@ time,hip,event,x,y,z
             F[b][d] = std::stod(trace[r][column(trace[0], "hip" + std::to_string(b) + "_f" + "xyz"[d])]);
         // The static answer from the content of the file.
         const modalrt::BasisSpaceContent &s  = content.spaces[space];
-        const std::size_t                 nm = s.eigenvalues.size(), nc = s.candidates.size();
+        const std::size_t                 nc = s.candidates.size();
         const auto index = [&](std::uint32_t v) {
           return std::size_t(std::lower_bound(s.candidates.begin(), s.candidates.end(), v) - s.candidates.begin());
         };
@@ -365,16 +365,10 @@ time,hip,event,x,y,z
           {
             const std::size_t kb = index(vertices[b]);
             ENSURE(kb < nc && s.candidates[kb] == vertices[b]);
-            const std::array<double, 9> C = modalrt::content_residual_block(s, a, kb);
+            const std::array<double, 9> G = modalrt::content_static_compliance(s, a, kb);
             for (int c = 0; c < 3; ++c)
               for (int d = 0; d < 3; ++d)
-                {
-                  double G = C[3 * c + d];
-                  for (std::size_t i = 0; i < nm; ++i)
-                    G += s.candidate_modes[(3 * a + c) * nm + i] * s.candidate_modes[(3 * kb + d) * nm + i] /
-                         s.eigenvalues[i];
-                  u[c] += G * F[b][d];
-                }
+                u[c] += G[3 * c + d] * F[b][d];
           }
         const double n[3] = {std::stod(p[column(h, "nx")]), std::stod(p[column(h, "ny")]), std::stod(p[column(h, "nz")])};
         const double felt_force = -(n[0] * F[hip][0] + n[1] * F[hip][1] + n[2] * F[hip][2]);

@@ -650,6 +650,17 @@ namespace modalrt
           }
     return c;
   }
+  std::array<double, 9> content_static_compliance(const BasisSpaceContent &sp, std::size_t a, std::size_t b)
+  {
+    std::array<double, 9> G = content_residual_block(sp, a, b);
+    const std::size_t     r = sp.eigenvalues.size();
+    for (std::size_t i = 0; i < 3; ++i)
+      for (std::size_t j = 0; j < 3; ++j)
+        for (std::size_t m = 0; m < r; ++m)
+          G[3 * i + j] += sp.candidate_modes[(3 * a + i) * r + m] * sp.candidate_modes[(3 * b + j) * r + m] / sp.eigenvalues[m];
+    return G;
+  }
+
   BasisContent with_sparse_cross(BasisContent content, bool neighbours_only)
   {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges; // vertex pairs sharing a triangle

@@ -79,6 +79,11 @@ namespace modalrt
   // (1.3), else 0. The tests' reference, computed apart from the kernel.
   std::array<double, 9> content_residual_block(const BasisSpaceContent &space, std::size_t a, std::size_t b);
 
+  // The static compliance G_ab = B_a Lambda^-1 B_b^T + C_ab [m/N] (3 x 3 row-major) between candidates
+  // a and b (indices) of a space, from the content (C_ab by content_residual_block): contacts at
+  // candidates settle to u_a = sum_b G_ab F_b.
+  std::array<double, 9> content_static_compliance(const BasisSpaceContent &space, std::size_t a, std::size_t b);
+
   BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());
 
   // The same content with every space's dense CROSS_COMPLIANCE (version 1.0) as version 1.1's
