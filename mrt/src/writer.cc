@@ -74,6 +74,8 @@ namespace mrt
               out.push_back(make(cross_blocks, s, f64, sp.cross_blocks));
             }
         }
+      if (!sp.far_compliance.empty()) // written as given: a reader refuses it without candidates
+        out.push_back(make(far_compliance, s, f64, sp.far_compliance));
       if (!sp.participation.empty())
         out.push_back(make(participation, s, f64, sp.participation));
       if (nval > 0)

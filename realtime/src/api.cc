@@ -30,8 +30,8 @@ namespace
   // The static compliance of a load spread over display vertices with weights: B Lambda^-1 B^T with
   // B = sum_k w_k B_k (a candidate's stored block, else its patch row: the kernel's contact rows),
   // taken in pieces of `piece` modes so that no 3 x r buffer is allocated, plus the residual the
-  // kernel gives that load (blended_residual). full_fe: every weighted corner a candidate, and the
-  // cross compliance stored or a single weighted corner.
+  // kernel gives that load (blended_residual). full_fe: every weighted corner a candidate, and every
+  // pair of them coupled exactly (own or stored blocks, not the far field).
   int blended_compliance(const char *function, const modalrt_basis &basis, const ModalSpace &space,
                          const std::uint32_t *vertices, const double *weights, int count, double G[9],
                          std::uint32_t *full_fe)
@@ -76,18 +76,27 @@ namespace
             for (int d = 0; d < 3; ++d)
               G[3 * c + d] += B[c * n + i] * B[d * n + i] / space.eigenvalues[begin + i];
       }
-    double C[9];
-    blended_residual(space, corners, count, corners, count, true, C);
+    double     C[9];
+    const bool exact_pairs = blended_residual(space, corners, count, corners, count, true, C);
     for (int k = 0; k < 9; ++k)
       G[k] += C[k];
     if (full_fe)
-      *full_fe = all_candidates && (weighted == 1 || space.cross_count > 0) ? 1u : 0u;
+      *full_fe = all_candidates && exact_pairs ? 1u : 0u;
     return MODALRT_OK;
   }
 
   int null_kernel(const char *function)
   {
     return failed(MODALRT_ERROR_INVALID_ARGUMENT, function);
+  }
+
+  // The residual coupling of two display vertices of a space (none unless both are candidates).
+  ModalSpace::Coupling vertex_pair_coupling(const ModalSpace &s, std::uint32_t vertex_a, std::uint32_t vertex_b,
+                                            double C[9])
+  {
+    const int ca = s.candidate_index(vertex_a), cb = s.candidate_index(vertex_b);
+    return ca >= 0 && cb >= 0 ? s.residual_coupling(std::uint32_t(ca), std::uint32_t(cb), C)
+                              : ModalSpace::Coupling::none;
   }
 } // namespace
 
@@ -187,6 +196,7 @@ int modalrt_basis_get_space_info(const modalrt_basis *basis, uint32_t space, mod
   i.validation_count  = s.validation_count;
   i.cross_count       = s.cross_count;
   i.has_participation = s.participation.empty() ? 0 : 1;
+  i.far_rank          = s.far_rank;
   const double two_pi = 6.283185307179586476925;
   i.lowest_frequency  = std::sqrt(s.eigenvalues.front()) / two_pi;
   i.highest_frequency = std::sqrt(s.eigenvalues.back()) / two_pi;
@@ -216,12 +226,25 @@ const double   *modalrt_basis_display_normals(const modalrt_basis *basis) { retu
 
 int modalrt_basis_pair_is_exact(const modalrt_basis *basis, uint32_t space, uint32_t a, uint32_t b)
 {
-  if (!basis || space >= basis->space_count())
-    return 0;
-  const ModalSpace &s = basis->spaces[space];
-  const int         ca = s.candidate_index(a), cb = s.candidate_index(b);
-  double            C[9];
-  return ca >= 0 && cb >= 0 && s.residual_compliance(std::uint32_t(ca), std::uint32_t(cb), C) ? 1 : 0;
+  double C[9];
+  return basis && space < basis->space_count() &&
+             vertex_pair_coupling(basis->spaces[space], a, b, C) == ModalSpace::Coupling::exact
+           ? 1
+           : 0;
+}
+
+int modalrt_basis_pair_coupling(const modalrt_basis *basis, uint32_t space, uint32_t vertex_a, uint32_t vertex_b,
+                                double C[9])
+{
+  if (!basis || space >= basis->space_count() || vertex_a >= basis->vertex_count || vertex_b >= basis->vertex_count)
+    return invalid("modalrt_basis_pair_coupling: null basis, space or vertex out of range");
+  double     block[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  const auto coupling = vertex_pair_coupling(basis->spaces[space], vertex_a, vertex_b, block);
+  if (C)
+    std::copy_n(block, 9, C);
+  return coupling == ModalSpace::Coupling::exact ? MODALRT_COUPLING_EXACT
+         : coupling == ModalSpace::Coupling::far ? MODALRT_COUPLING_FAR
+                                                 : MODALRT_COUPLING_NONE;
 }
 
 const double *modalrt_basis_felt_stiffness(const modalrt_basis *basis, uint32_t space)

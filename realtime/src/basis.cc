@@ -2,6 +2,8 @@
 // and the mode-norm bound that sizes the snap search.
 #include "basis.h"
 
+#include "dense.h"
+
 #include <mrt/cross_rows.h>
 #include <mrt/surface_normals.h>
 
@@ -25,20 +27,29 @@ namespace modalrt
       std::copy_n(space.display_modes_f32.data() + first, n, out);
   }
 
-  bool ModalSpace::residual_compliance(const std::uint32_t a, const std::uint32_t b, double C[9]) const noexcept
+  ModalSpace::Coupling ModalSpace::residual_coupling(const std::uint32_t a, const std::uint32_t b,
+                                                     double C[9]) const noexcept
   {
     if (a == b)
       {
         std::copy_n(&candidate_compliance[9 * std::size_t(a)], 9, C);
-        return true;
+        return Coupling::exact;
       }
-    if (cross_count == 0)
-      return false;
-    const std::ptrdiff_t k = mrt::cross_position(cross_offsets.data(), cross_neighbours.data(), a, b);
-    if (k < 0)
-      return false;
-    std::copy_n(&cross_blocks[9 * std::size_t(k)], 9, C);
-    return true;
+    const std::ptrdiff_t stored =
+      cross_count > 0 ? mrt::cross_position(cross_offsets.data(), cross_neighbours.data(), a, b) : -1;
+    if (stored >= 0)
+      {
+        std::copy_n(&cross_blocks[9 * std::size_t(stored)], 9, C);
+        return Coupling::exact;
+      }
+    if (far_rank == 0)
+      return Coupling::none;
+    const std::size_t k = far_rank;
+    const double     *Za = &far_compliance[3 * k * a], *Zb = &far_compliance[3 * k * b];
+    for (std::size_t i = 0; i < 3; ++i)
+      for (std::size_t j = 0; j < 3; ++j)
+        C[3 * i + j] = dot(Za + i * k, Zb + j * k, std::uint32_t(k));
+    return Coupling::far;
   }
 
   namespace

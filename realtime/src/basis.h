@@ -42,6 +42,10 @@ namespace modalrt
     modalrt::Vector<std::uint32_t> cross_offsets;        // nc + 1 when cross_count = nc
     modalrt::Vector<std::uint32_t> cross_neighbours;
     modalrt::Vector<double>        cross_blocks;
+    // The far field (.mrt 1.3, FAR_COMPLIANCE): candidate a's 3 x k factor Z_a at 3 a k, row-major
+    // [sqrt(m/N)], so that C_ab ~ Z_a Z_b^T for a pair without a stored block; empty and k = 0 without.
+    std::uint32_t                  far_rank = 0; // k
+    modalrt::Vector<double>        far_compliance; // 3 nc k
     modalrt::Vector<double>        felt_stiffness;       // nv [N/m], or empty (not in the file)
     modalrt::Vector<double>        validity_force;       // 3 nv [N]: F1, F5, F10 per vertex (0: no value,
                                                          // 1e30: not reached), or empty (not in the file)
@@ -55,9 +59,20 @@ namespace modalrt
 
     // Index of `vertex` among the candidates, -1 if it has no static correction.
     int candidate_index(std::uint32_t vertex) const;
-    // The residual compliance C_ab of candidates a and b (3 x 3 row-major): a's own at a == b, the
-    // stored cross block of neighbours; false (C untouched) where none is stored.
-    bool residual_compliance(std::uint32_t a, std::uint32_t b, double C[9]) const noexcept;
+    // How the kernel couples two candidates beyond the modes (modalrt_basis_pair_coupling's 0, 1, 2).
+    enum class Coupling
+    {
+      none,  // no residual coupling: the modes alone
+      exact, // a's own block at a == b, or the stored cross block: the full-FE residual
+      far    // the far field's Z_a Z_b^T
+    };
+    // The one rule for the residual compliance C_ab of candidates a and b (3 x 3 row-major): a's own
+    // at a == b, the stored cross block of neighbours, else Z_a Z_b^T when the space has a far field,
+    // else none (C untouched). No allocation: 9 k multiply-adds on the stack.
+    Coupling residual_coupling(std::uint32_t a, std::uint32_t b, double C[9]) const noexcept;
+    // Whether distinct candidates can be coupled (stored rows or a far field): a load spread over
+    // several candidates then blends its pairs' blocks; without, only each candidate's own block.
+    bool couples_distinct_candidates() const noexcept { return cross_count > 0 || far_rank > 0; }
   };
 
   struct TransferMatrix

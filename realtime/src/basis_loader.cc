@@ -507,6 +507,7 @@ namespace modalrt
           read_dense_cross(s, space);
         else if (find(format::cross_offsets, s) != nullptr)
           read_sparse_cross(s, space);
+        read_far_field(s, space);
         space.felt_stiffness = read_optional<double>(format::felt_stiffness, s,
                                                      find(format::felt_stiffness, s) ? basis_.vertex_count : 0, "nv");
         check_finite(space.felt_stiffness, format::felt_stiffness, s);
@@ -537,6 +538,23 @@ namespace modalrt
                                                 b == 1 ? 5 : 10, " = ", F[b],
                                                 " N (the forces of 1, 5, 10 % must not decrease)"));
           }
+      }
+
+      // Version 1.3's far field: candidate a's 3 x k factor Z_a, k = count / (3 nc) >= 1 (so the space
+      // needs candidates), every value finite and within the bound on absurd magnitudes.
+      void read_far_field(std::uint32_t s, modalrt::ModalSpace &space)
+      {
+        const SectionRecord *far = find(format::far_compliance, s);
+        if (!far)
+          return;
+        const std::uint64_t rows = 3 * std::uint64_t(space.candidate_count);
+        if (rows == 0 || far->count == 0 || far->count % rows != 0)
+          fail(MODALRT_ERROR_FORMAT, cat(basis_.source, ": section FAR_COMPLIANCE of ", space_label(s), ": ", far->count,
+                                         " values, expected a positive multiple of 3 nc = ", rows,
+                                         rows == 0 ? " (the space has no candidates)" : " (3 nc k, k the rank)"));
+        space.far_compliance = read<double>(far, far->count, "3 nc k");
+        check_finite(space.far_compliance, format::far_compliance, s);
+        space.far_rank = std::uint32_t(far->count / rows);
       }
 
       // Version 1.0's dense CROSS_COMPLIANCE, kept as rows in which every other candidate is a

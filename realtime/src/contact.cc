@@ -258,9 +258,9 @@ void modalrt_kernel::refresh_contact_set() noexcept
       }
 }
 
-// C_ab: the candidate's own compliance for one vertex, the cross block for two candidates of the
-// active space when stored (neighbours closer than the precompute's cross compliance radius), 0 when
-// either vertex has no correction (or corrections are off).
+// C_ab: the active space's residual coupling of the two candidates (ModalSpace::residual_coupling:
+// the own block, a stored cross block, or the far field's Z_a Z_b^T), 0 when there is none, when
+// either vertex has no correction, or when corrections are off.
 void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept
 {
   if (a.proxy.active || b.proxy.active)
@@ -268,7 +268,7 @@ void modalrt_kernel::pair_compliance(const Contact &a, const Contact &b, double 
   std::fill_n(C, 9, 0.0);
   if (!def.use_static_correction || a.candidate < 0 || b.candidate < 0)
     return;
-  basis.spaces[space_].residual_compliance(std::uint32_t(a.candidate), std::uint32_t(b.candidate), C);
+  basis.spaces[space_].residual_coupling(std::uint32_t(a.candidate), std::uint32_t(b.candidate), C);
 }
 
 // B_a G B_b^T and B_a H B_b^T (+ C_ab) for every pair of active contacts (dense.h's add_own_gram,

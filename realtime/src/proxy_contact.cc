@@ -302,8 +302,9 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
         }
     }
   // The residual compliance of the corner pairs, as blended_residual reads them for a load with
-  // itself (proxy_pair_compliance): per pair none, a stored block weighted by w_k w_l, or (without
-  // cross compliance) a corner's own block weighted by w_k.
+  // itself (proxy_pair_compliance): per pair none, the pair's residual coupling (stored or far field)
+  // weighted by w_k w_l, or (a space that couples no distinct candidates) a corner's own block
+  // weighted by w_k.
   const ModalSpace &space = basis.spaces[space_];
   proxy.residual_any      = false;
   for (int k = 0; k < 3; ++k)
@@ -314,9 +315,9 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
         pair.kind           = ProxyResidual::none;
         if (!def.use_static_correction || ck < 0 || cl < 0)
           continue;
-        if (space.cross_count > 0)
+        if (space.couples_distinct_candidates())
           {
-            if (space.residual_compliance(std::uint32_t(ck), std::uint32_t(cl), pair.C))
+            if (space.residual_coupling(std::uint32_t(ck), std::uint32_t(cl), pair.C) != ModalSpace::Coupling::none)
               pair.kind = ProxyResidual::pair, proxy.residual_any = true;
           }
         else if (k == l)
@@ -765,10 +766,11 @@ bool modalrt_kernel::walk_proxy(Contact &c, const double step[3]) noexcept
 // Residual compliances, outputs, the passivity observer
 // =================================================================================================
 
-void modalrt::blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb,
+bool modalrt::blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb,
                                bool same, double C[9])
 {
   std::fill_n(C, 9, 0.0);
+  bool exact = true;
   for (int i = 0; i < na; ++i)
     for (int j = 0; j < nb; ++j)
       {
@@ -777,16 +779,21 @@ void modalrt::blended_residual(const ModalSpace &space, const LoadCorner *a, int
         if (ci < 0 || cj < 0 || w == 0.0)
           continue;
         double block[9];
-        if (space.cross_count > 0)
+        if (space.couples_distinct_candidates())
           {
-            if (space.residual_compliance(std::uint32_t(ci), std::uint32_t(cj), block))
+            const ModalSpace::Coupling coupling = space.residual_coupling(std::uint32_t(ci), std::uint32_t(cj), block);
+            exact = exact && coupling == ModalSpace::Coupling::exact;
+            if (coupling != ModalSpace::Coupling::none)
               for (int k = 0; k < 9; ++k)
                 C[k] += w * block[k];
           }
         else if (same && i == j)
           for (int k = 0; k < 9; ++k)
             C[k] += a[i].weight * space.candidate_compliance[9 * std::size_t(ci) + k];
+        else
+          exact = false;
       }
+  return exact;
 }
 
 // C_ab between two contacts, at least one a proxy (blended_residual of their loads).

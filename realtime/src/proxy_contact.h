@@ -158,11 +158,13 @@ namespace modalrt
   };
 
   // The residual compliance C_ab [m/N] (3 x 3) between two such loads: sum_i sum_j w_i w_j C(i, j)
-  // over corners at candidates, from the stored cross compliance (a triangle's corners are always
-  // neighbours; a pair beyond the precompute's radius adds nothing); without it a load's own C
-  // (`same`) is sum_i w_i C_i (exact at the corners, continuous between) and two loads do not see
-  // each other's.
-  void blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb, bool same,
+  // over corners at candidates, C(i, j) the space's residual coupling (ModalSpace::residual_coupling:
+  // the stored cross compliance, where a triangle's corners are always neighbours; the far field's
+  // Z_i Z_j^T for a pair beyond the precompute's radius, or nothing without one); in a space that
+  // couples no distinct candidates a load's own C (`same`) is sum_i w_i C_i (exact at the corners,
+  // continuous between) and two loads do not see each other's. True when every weighted pair of
+  // candidates was coupled exactly (own or stored blocks): the full-FE residual of the loads.
+  bool blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb, bool same,
                         double C[9]);
 
   // Barycentric weights of the point of triangle (a, b, c) closest to x (Ericson, Real-Time

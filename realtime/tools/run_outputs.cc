@@ -381,6 +381,46 @@ namespace modalrt_tool
       p.validity_force = trace_validity_force(basis, result.trace[p.last_row * hips + p.hip], level);
     }
 
+    // Why the multi-contact reference at `vertices` is not the full-FE answer ("" when it is): the
+    // contacts away from the space's candidates (no static correction), else the first pair the space
+    // does not couple exactly (modalrt_basis_pair_coupling): not at all (no cross compliance, or a
+    // pair not stored and no far field), or by the far field's approximation (far_rank is then set to
+    // its rank: the reference is the kernel's answer with it, whose error the precompute measured).
+    std::string multi_contact_note(const modalrt_basis *basis, std::uint32_t space_index,
+                                   const std::vector<std::uint32_t> &vertices, std::uint32_t &far_rank)
+    {
+      modalrt_space_info space{};
+      modalrt_basis_get_space_info(basis, space_index, &space);
+      const std::string name = csv_safe(space.name);
+      std::string       away;
+      for (std::uint32_t v : vertices)
+        {
+          double        G[9];
+          std::uint32_t full = 0;
+          if (modalrt_basis_contact_compliance(basis, space_index, v, G, &full) != MODALRT_OK || !full)
+            away += " " + std::to_string(v);
+        }
+      if (!away.empty())
+        return "not a candidate of '" + name + "': vertex" + away;
+      std::string far;
+      for (std::size_t i = 0; i < vertices.size(); ++i)
+        for (std::size_t j = i + 1; j < vertices.size(); ++j)
+          {
+            const std::uint32_t va = vertices[i], vb = vertices[j];
+            const std::string   pair = std::to_string(va) + " and " + std::to_string(vb);
+            const int coupling = modalrt_basis_pair_coupling(basis, space_index, va, vb, nullptr);
+            if (coupling == MODALRT_COUPLING_FAR && far.empty())
+              far = "far-field coupling (rank " + std::to_string(space.far_rank) + ") between vertices " + pair +
+                    ": the precompute's report.json states its measured error (spaces[].far_field)";
+            else if (coupling != MODALRT_COUPLING_EXACT && coupling != MODALRT_COUPLING_FAR)
+              return space.cross_count == 0 && space.far_rank == 0
+                       ? "space '" + name + "' stores no cross compliance"
+                       : "vertices " + pair + " are farther apart than the cross compliance radius of '" + name + "'";
+          }
+      far_rank = far.empty() ? 0 : space.far_rank;
+      return far;
+    }
+
     void multi_contact_reference(Press &p, const HapticResult &result, std::uint32_t hips, const modalrt_basis *basis,
                                  modalrt_kernel *reference, double force_sign)
     {
@@ -405,36 +445,16 @@ namespace modalrt_tool
         return;
       modalrt_kernel_reset(reference);
       modalrt_kernel_switch_space(reference, p.space);
-      modalrt_space_info space{};
-      modalrt_basis_get_space_info(basis, p.space, &space);
-      p.multi_full_fe = space.cross_count > 0;
-      if (!p.multi_full_fe)
-        p.multi_note = std::string("space '") + csv_safe(space.name) + "' stores no cross compliance";
-      for (std::size_t i = 0; p.multi_full_fe && i < in_contact.size(); ++i)
-        for (std::size_t j = i + 1; p.multi_full_fe && j < in_contact.size(); ++j)
-          {
-            const std::uint32_t va = result.trace[first * hips + in_contact[i]].active_vertex;
-            const std::uint32_t vb = result.trace[first * hips + in_contact[j]].active_vertex;
-            if (modalrt_basis_pair_is_exact(basis, p.space, va, vb))
-              continue;
-            p.multi_full_fe = false;
-            p.multi_note    = "vertices " + std::to_string(va) + " and " + std::to_string(vb) +
-                           " are farther apart than the cross compliance radius of '" + csv_safe(space.name) + "'";
-          }
+      std::vector<std::uint32_t> vertices;
+      for (std::uint32_t h : in_contact)
+        vertices.push_back(result.trace[first * hips + h].active_vertex);
+      p.multi_note    = multi_contact_note(basis, p.space, vertices, p.multi_far_rank);
+      p.multi_full_fe = p.multi_note.empty();
       const double *rest = modalrt_basis_display_vertices(basis);
       for (std::uint32_t h : in_contact)
         {
           const TraceSample &s = result.trace[first * hips + h];
           modalrt_kernel_contact_begin(reference, h, s.active_vertex);
-          double        G[9];
-          std::uint32_t full = 0;
-          if (modalrt_basis_contact_compliance(basis, p.space, s.active_vertex, G, &full) != MODALRT_OK || !full)
-            {
-              if (p.multi_full_fe || p.multi_note.empty())
-                p.multi_note = "not a candidate of '" + csv_safe(space.name) + "': vertex";
-              p.multi_note += " " + std::to_string(s.active_vertex);
-              p.multi_full_fe = false;
-            }
           for (int c = 0; c < 3; ++c)
             {
               inputs[h].position[c] = rest[3 * std::size_t(s.active_vertex) + c];
@@ -546,7 +566,8 @@ namespace modalrt_tool
       "felt_displacement [N/m]; ratio = felt / static stiffness. With several HIPs in contact at the felt time "
       "(felt_contacts > 1, other_vertices): multi_static_stiffness = felt_force / the static normal displacement "
       "under all their loads at once, multi_full_fe 1 when it is the full-FE answer (every contact a candidate, "
-      "cross compliance stored), multi_ratio = felt / multi_static_stiffness, multi_note why not full FE. "
+      "every pair's cross compliance stored), multi_ratio = felt / multi_static_stiffness, multi_note why not full "
+      "FE (a pair coupled by the basis's far field says so: the answer then holds its approximation). "
       "max_force_n the largest |F| of the press; validity_force_n the validity map's force at the press's point at "
       "validity_level_pct (nan: no value); beyond_validity 1 when a row was flagged MODALRT_HIP_BEYOND_VALIDITY, "
       "beyond_start_s its first row and beyond_force_n |F| there (nan: never)\n"
@@ -867,8 +888,9 @@ namespace modalrt_tool
           if (p.felt_contacts > 1 && std::isfinite(p.multi_stiffness))
             std::printf("  %-13s with the %u contacts' loads together (vertices %u;%s): %s %.4g N/mm; ratio %.3f\n", "",
                         p.felt_contacts, p.vertex, p.other_vertices.c_str(),
-                        p.multi_full_fe ? "full-FE static (cross compliance)"
-                                        : ("static, no full-FE reference (" + p.multi_note + ")").c_str(),
+                        p.multi_full_fe    ? "full-FE static (cross compliance)"
+                        : p.multi_far_rank ? ("static (" + p.multi_note + ")").c_str()
+                                           : ("static, no full-FE reference (" + p.multi_note + ")").c_str(),
                         1e-3 * p.multi_stiffness, p.felt_stiffness / p.multi_stiffness);
         }
       if (presses.size() > shown)

@@ -98,11 +98,13 @@ namespace modalrt_tool
     // Several HIPs in contact at the felt time: the static answer to all their loads at once (the
     // forces of that trace row, each at its own vertex), u_n = n^T sum_b G_ab F_b, from a kernel
     // settled to its exact static equilibrium under them. It is the full-FE answer when every
-    // contact is a candidate of the space and the space stores the cross compliance.
+    // contact is a candidate of the space and every pair's cross compliance is stored; a pair the
+    // space's far field couples (FAR_COMPLIANCE) gives the kernel's approximation of it.
     std::uint32_t felt_contacts = 0;           // [-] HIPs in contact at the felt time
     std::string   other_vertices;              // their other active vertices, ';'-separated
     double        multi_stiffness = std::nan(""); // [N/m] felt_force / u_n of that static answer; NaN if one contact
     bool          multi_full_fe   = false;     // every pair has its full-FE cross compliance
+    std::uint32_t multi_far_rank  = 0;         // > 0: no pair uncoupled, some coupled by the far field of this rank
     std::string   multi_note;                  // why not full FE ("" when it is)
     // The validity map at the kernel's level (MODALRT_HIP_BEYOND_VALIDITY), from the trace's rows.
     double        max_force = 0.0;             // [N] largest |F| of the press's rows

@@ -89,10 +89,11 @@ namespace
   {
     modalrt_space_info info;
     modalrt_basis_get_space_info(basis, s, &info);
+    const std::string far_field = info.far_rank ? "rank " + std::to_string(info.far_rank) : "none";
     std::printf("\nspace %u '%s': r = %u modes, %u candidates, %u validation cases, cross compliance %s, "
-                "participation %s\n",
+                "far field %s, participation %s\n",
                 s, info.name, info.mode_count, info.candidate_count, info.validation_count,
-                info.cross_count ? "yes" : "no", info.has_participation ? "yes" : "no");
+                info.cross_count ? "yes" : "no", far_field.c_str(), info.has_participation ? "yes" : "no");
     const double *lambda = modalrt_basis_eigenvalues(basis, s);
     const double *zeta   = modalrt_basis_damping_ratios(basis, s);
     std::printf("  frequencies [Hz] (damping ratio):");

@@ -93,7 +93,7 @@ namespace
     const std::vector<unsigned char> bytes = modalrt::write_basis(worked_example());
     ENSURE(bytes.size() == 1760);
     const unsigned char expected[48] = {0x4d, 0x4f, 0x44, 0x41, 0x4c, 0x52, 0x54, 0x00, 0x01, 0x00, 0x00, 0x00,
-                                        0x02, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x0d, 0x00, 0x00, 0x00,
+                                        0x03, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x0d, 0x00, 0x00, 0x00,
                                         0xe0, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
                                         0x04, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00};
     ENSURE(std::memcmp(bytes.data(), expected, 48) == 0);
@@ -249,6 +249,35 @@ namespace
     ENSURE(std::string(modalrt_last_error_message()).find("/nonexistent/scene.mrt") != std::string::npos);
   }
 
+  // FAR_COMPLIANCE (.mrt 1.3): a size that is not a positive multiple of 3 nc, a value that is not
+  // finite, and the section in a space without candidates are refused, naming the section and the space.
+  void far_field_checked()
+  {
+    modalrt::LatticeOptions options;
+    options.far_rank        = 2;
+    const BasisContent good = modalrt::make_lattice_cantilever(options);
+    std::string        message;
+    ENSURE(try_load(modalrt::write_basis(good), message) == MODALRT_OK);
+
+    BasisContent c = good;
+    c.spaces[1].far_compliance.push_back(0.0);
+    ensure_rejected(modalrt::write_basis(c), MODALRT_ERROR_FORMAT, "FAR_COMPLIANCE of space 1 'tip': ");
+    ensure_rejected(modalrt::write_basis(c), MODALRT_ERROR_FORMAT, "expected a positive multiple of 3 nc");
+
+    c = good;
+    c.extra_sections.push_back({mrt::far_compliance, 0, mrt::scene_wide, mrt::f64, 0, {}});
+    c.spaces[0].far_compliance.clear();
+    ensure_rejected(modalrt::write_basis(c), MODALRT_ERROR_FORMAT, "FAR_COMPLIANCE of space 0 'global': 0 values");
+
+    c = good;
+    c.spaces[1].far_compliance[5] = std::nan("");
+    ensure_rejected(modalrt::write_basis(c), MODALRT_ERROR_VALUE, "FAR_COMPLIANCE of space 1 'tip': value nan at index 5");
+
+    c                             = worked_example(); // no candidates
+    c.spaces[0].far_compliance    = {1e-3, 2e-3, 3e-3};
+    ensure_rejected(modalrt::write_basis(c), MODALRT_ERROR_FORMAT, "(the space has no candidates)");
+  }
+
   // Reading from a file gives the same basis as from memory, and names the file in messages.
   void file_round_trip()
   {
@@ -277,6 +306,7 @@ int main()
   round_trip(false);
   newer_minor_version();
   corrupt_files();
+  far_field_checked();
   file_round_trip();
   return test::finish("test_basis_file");
 }

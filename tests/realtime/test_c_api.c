@@ -118,6 +118,8 @@ int main(int argc, char **argv)
                  "modalrt_basis_contact_compliance");
   EXPECT_FAILURE(modalrt_basis_point_compliance(basis, 0, 0xFFFFFFu, weights, compliance, NULL),
                  MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_basis_point_compliance");
+  EXPECT_FAILURE(modalrt_basis_pair_coupling(basis, 0, 0, 0xFFFFFFu, compliance), MODALRT_ERROR_INVALID_ARGUMENT,
+                 "modalrt_basis_pair_coupling");
   EXPECT_FAILURE(modalrt_basis_get_section(basis, 9999, &section), MODALRT_ERROR_INVALID_ARGUMENT,
                  "modalrt_basis_get_section");
   EXPECT_FAILURE(modalrt_basis_verify_case(basis, 99999, &verify_case), MODALRT_ERROR_INVALID_ARGUMENT,

@@ -18,21 +18,14 @@ namespace
     return o;
   }
 
-  // Full static compliance between candidates a and b of a space: B_a Lambda^-1 B_b^T + C_ab.
+  // Full static compliance between candidate vertices va and vb of a space: B_a Lambda^-1 B_b^T + C_ab.
   void full_compliance(const BasisContent &c, std::uint32_t s, std::uint32_t va, std::uint32_t vb, double C[9])
   {
     const auto       &sp = c.spaces[s];
-    const std::size_t r = sp.eigenvalues.size(), n3 = 3 * sp.candidates.size();
     const std::size_t a = std::lower_bound(sp.candidates.begin(), sp.candidates.end(), va) - sp.candidates.begin();
     const std::size_t b = std::lower_bound(sp.candidates.begin(), sp.candidates.end(), vb) - sp.candidates.begin();
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        {
-          double sum = sp.cross_compliance[(3 * a + i) * n3 + 3 * b + j];
-          for (std::size_t m = 0; m < r; ++m)
-            sum += sp.candidate_modes[(3 * a + i) * r + m] * sp.candidate_modes[(3 * b + j) * r + m] / sp.eigenvalues[m];
-          C[3 * i + j] = sum;
-        }
+    const auto        G = modalrt::content_static_compliance(sp, a, b);
+    std::copy(G.begin(), G.end(), C);
   }
 
   // Solves the small dense system A x = y (Gaussian elimination, n <= 12).

@@ -6,6 +6,7 @@
 #include "test_support.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -324,17 +325,80 @@ time,hip,event,x,y,z
     std::printf("  exit %d: %s", status, out.substr(0, out.find('\n') + 1).c_str());
   }
 
-  // Two HIPs pressing two candidates of the tip space at once (admittance, rigid probe, constant
-  // forces): each press's multi-contact static stiffness is the full-FE answer of the stored cross
-  // compliance, computed here from the basis content written to the file:
-  //   u_a = sum_b (B_a Lambda^-1 B_b^T + R_ab) F_b,  multi_static_stiffness = felt_force / (-n . u_a),
-  // within 1e-9 relative. Without CROSS_COMPLIANCE the same presses say there is no full-FE answer.
+  // The multi-contact presses of a run of the two-HIP session on `content` (admittance, rigid probe):
+  // each press's multi-contact static stiffness is the static answer computed here from the basis
+  // content written to the file,
+  //   u_a = sum_b (B_a Lambda^-1 B_b^T + C_ab) F_b,  multi_static_stiffness = felt_force / (-n . u_a),
+  // C_ab as the specification gives it (modalrt::content_static_compliance), within 1e-9 relative.
+  void check_multi_presses(const modalrt::BasisContent &content, const std::vector<std::vector<std::string>> &presses,
+                           const std::vector<std::vector<std::string>> &trace, const std::uint32_t vertices[2])
+  {
+    ENSURE(presses.size() == 3 && trace.size() > 1);
+    if (presses.size() != 3)
+      return;
+    const auto &h = presses[0];
+    for (std::size_t k = 1; k < presses.size(); ++k)
+      {
+        const auto         &p     = presses[k];
+        const std::uint32_t hip   = std::stoul(p[column(h, "hip")]);
+        const std::uint32_t space = std::stoul(p[column(h, "space")]);
+        ENSURE(hip < 2 && std::stoul(p[column(h, "vertex")]) == vertices[hip] && space == 1);
+        ENSURE(p[column(h, "felt_contacts")] == "2");
+        // The forces on the part at the felt time (admittance: the trace's force is the one applied).
+        const double felt_time = std::stod(p[column(h, "felt_time_s")]);
+        std::size_t  r         = 1;
+        while (r + 1 < trace.size() && std::stod(trace[r][0]) < felt_time - 1e-12)
+          ++r;
+        double F[2][3];
+        for (std::uint32_t b = 0; b < 2; ++b)
+          for (int d = 0; d < 3; ++d)
+            F[b][d] = std::stod(trace[r][column(trace[0], "hip" + std::to_string(b) + "_f" + "xyz"[d])]);
+        // The static answer from the content of the file.
+        const modalrt::BasisSpaceContent &s  = content.spaces[space];
+        const std::size_t                 nc = s.candidates.size();
+        const auto index = [&](std::uint32_t v) {
+          return std::size_t(std::lower_bound(s.candidates.begin(), s.candidates.end(), v) - s.candidates.begin());
+        };
+        const std::size_t a = index(vertices[hip]);
+        double            u[3] = {0.0, 0.0, 0.0};
+        for (std::uint32_t b = 0; b < 2; ++b)
+          {
+            const std::size_t kb = index(vertices[b]);
+            ENSURE(kb < nc && s.candidates[kb] == vertices[b]);
+            const std::array<double, 9> G = modalrt::content_static_compliance(s, a, kb);
+            for (int c = 0; c < 3; ++c)
+              for (int d = 0; d < 3; ++d)
+                u[c] += G[3 * c + d] * F[b][d];
+          }
+        const double n[3] = {std::stod(p[column(h, "nx")]), std::stod(p[column(h, "ny")]), std::stod(p[column(h, "nz")])};
+        const double felt_force = -(n[0] * F[hip][0] + n[1] * F[hip][1] + n[2] * F[hip][2]);
+        const double exact      = felt_force / -(n[0] * u[0] + n[1] * u[1] + n[2] * u[2]);
+        const double multi      = std::stod(p[column(h, "multi_static_stiffness_n_per_m")]);
+        const double single     = std::stod(p[column(h, "static_stiffness_n_per_m")]);
+        std::printf("  HIP %u at vertex %u: multi-contact static stiffness %.12g N/m, from the file's content "
+                    "%.12g N/m (relative difference %.2e); alone %.6g N/m\n",
+                    hip, vertices[hip], multi, exact, std::abs(multi - exact) / exact, single);
+        ENSURE(std::abs(multi - exact) <= 1e-9 * std::abs(exact) && exact > 0.0);
+        ENSURE(std::abs(single - exact) > 1e-3 * exact); // the other load matters
+        ENSURE_NEAR(std::stod(p[column(h, "felt_force_n")]), felt_force, 1e-9);
+      }
+  }
+
+  // Two HIPs pressing two candidates of the tip space at once, through modal-rt run: with the dense
+  // cross compliance every pair is stored and the presses are the full-FE answer (multi_full_fe 1);
+  // without CROSS_COMPLIANCE the same presses say there is no full-FE answer; with the cross
+  // compliance between triangle neighbours only and a far field (.mrt 1.3), the far pair's presses
+  // are the static answer with C_ab = Z_a Z_b^T and say so (multi_full_fe 0, multi_note, the summary).
   void multi_contact_full_fe()
   {
     modalrt::LatticeOptions o = lattice();
     o.patch_radius            = 0.0; // B_v = the modes at the vertex: the file's CANDIDATE_MODES
     const auto content        = modalrt::make_lattice_cantilever(o);
     ENSURE(modalrt::write_basis_file("run_multi.mrt", content));
+    modalrt::LatticeOptions far = o;
+    far.far_rank                = 3;
+    const auto far_content      = modalrt::make_lattice_cantilever(far);
+    ENSURE(modalrt::write_basis_file("run_multi_far.mrt", far_content));
     o.cross = false;
     ENSURE(modalrt::write_basis_file("run_multi_no_cross.mrt", modalrt::make_lattice_cantilever(o)));
     const std::uint32_t vertices[2] = {modalrt::lattice_display_vertex(o, 6, 1), modalrt::lattice_display_vertex(o, 8, 2)};
@@ -355,64 +419,29 @@ time,hip,event,x,y,z
                out) == 0);
     std::printf("%s", out.c_str());
     const auto presses = read_csv("run_out_multi/presses.csv");
-    const auto trace   = read_csv("run_out_multi/trace.csv");
-    ENSURE(presses.size() == 3 && trace.size() > 1);
     ENSURE(contains(out, "  validity      no validity map in the basis")); // said once, for the presses
-    if (presses.size() != 3)
-      return;
-    const auto &h = presses[0];
+    check_multi_presses(content, presses, read_csv("run_out_multi/trace.csv"), vertices);
     for (std::size_t k = 1; k < presses.size(); ++k)
       {
-        const auto         &p     = presses[k];
-        const std::uint32_t hip   = std::stoul(p[column(h, "hip")]);
-        const std::uint32_t space = std::stoul(p[column(h, "space")]);
-        ENSURE(hip < 2 && std::stoul(p[column(h, "vertex")]) == vertices[hip] && space == 1);
-        ENSURE(p[column(h, "felt_contacts")] == "2" && p[column(h, "multi_full_fe")] == "1");
-        ENSURE(p[column(h, "multi_note")].empty());
-        // The forces on the part at the felt time (admittance: the trace's force is the one applied).
-        const double felt_time = std::stod(p[column(h, "felt_time_s")]);
-        std::size_t  r         = 1;
-        while (r + 1 < trace.size() && std::stod(trace[r][0]) < felt_time - 1e-12)
-          ++r;
-        double F[2][3];
-        for (std::uint32_t b = 0; b < 2; ++b)
-          for (int d = 0; d < 3; ++d)
-            F[b][d] = std::stod(trace[r][column(trace[0], "hip" + std::to_string(b) + "_f" + "xyz"[d])]);
-        // The exact static answer from the content of the file.
-        const modalrt::BasisSpaceContent &s  = content.spaces[space];
-        const std::size_t                 nm = s.eigenvalues.size(), nc = s.candidates.size();
-        const auto index = [&](std::uint32_t v) {
-          return std::size_t(std::lower_bound(s.candidates.begin(), s.candidates.end(), v) - s.candidates.begin());
-        };
-        ENSURE(s.cross_compliance.size() == 9 * nc * nc);
-        const std::size_t a = index(vertices[hip]);
-        double            u[3] = {0.0, 0.0, 0.0};
-        for (std::uint32_t b = 0; b < 2; ++b)
-          {
-            const std::size_t kb = index(vertices[b]);
-            ENSURE(kb < nc && s.candidates[kb] == vertices[b]);
-            for (int c = 0; c < 3; ++c)
-              for (int d = 0; d < 3; ++d)
-                {
-                  double G = s.cross_compliance[(3 * a + c) * 3 * nc + 3 * kb + d];
-                  for (std::size_t i = 0; i < nm; ++i)
-                    G += s.candidate_modes[(3 * a + c) * nm + i] * s.candidate_modes[(3 * kb + d) * nm + i] /
-                         s.eigenvalues[i];
-                  u[c] += G * F[b][d];
-                }
-          }
-        const double n[3] = {std::stod(p[column(h, "nx")]), std::stod(p[column(h, "ny")]), std::stod(p[column(h, "nz")])};
-        const double felt_force = -(n[0] * F[hip][0] + n[1] * F[hip][1] + n[2] * F[hip][2]);
-        const double exact      = felt_force / -(n[0] * u[0] + n[1] * u[1] + n[2] * u[2]);
-        const double multi      = std::stod(p[column(h, "multi_static_stiffness_n_per_m")]);
-        const double single     = std::stod(p[column(h, "static_stiffness_n_per_m")]);
-        std::printf("  HIP %u at vertex %u: multi-contact static stiffness %.12g N/m, exact from the cross compliance "
-                    "%.12g N/m (relative difference %.2e); alone %.6g N/m\n",
-                    hip, vertices[hip], multi, exact, std::abs(multi - exact) / exact, single);
-        ENSURE(std::abs(multi - exact) <= 1e-9 * std::abs(exact) && exact > 0.0);
-        ENSURE(std::abs(single - exact) > 1e-3 * exact); // the other load matters
-        ENSURE_NEAR(std::stod(p[column(h, "felt_force_n")]), felt_force, 1e-9);
+        ENSURE(presses[k][column(presses[0], "multi_full_fe")] == "1");
+        ENSURE(presses[k][column(presses[0], "multi_note")].empty());
       }
+
+    ENSURE(run("--basis run_multi_far.mrt --session run_multi.csv --output-dir run_out_multi_far --mode admittance "
+               "--device probe --trace-rate 1000 --no-plot",
+               out) == 0);
+    const auto far_presses = read_csv("run_out_multi_far/presses.csv");
+    check_multi_presses(far_content, far_presses, read_csv("run_out_multi_far/trace.csv"), vertices);
+    const std::string far_note = "far-field coupling (rank 3) between vertices " + std::to_string(vertices[0]) +
+                                 " and " + std::to_string(vertices[1]) +
+                                 ": the precompute's report.json states its measured error (spaces[].far_field)";
+    for (std::size_t k = 1; k < far_presses.size(); ++k)
+      {
+        ENSURE(far_presses[k][column(far_presses[0], "multi_full_fe")] == "0");
+        ENSURE(far_presses[k][column(far_presses[0], "multi_note")] == far_note);
+      }
+    ENSURE(contains(out, "static (" + far_note + ")"));
+    ENSURE(!contains(out, "no full-FE reference (far-field"));
 
     ENSURE(run("--basis run_multi_no_cross.mrt --session run_multi.csv --output-dir run_out_multi_no_cross "
                "--mode admittance --device probe --no-plot --quiet",

@@ -3,6 +3,7 @@
 // corrupt file is reported with its name and a non-zero exit status. info --vertex / --near: a
 // vertex's felt stiffness equals 1 / (n^T (B Lambda^-1 B^T + C) n) from the basis content at a
 // candidate and says "modal only" elsewhere; --near finds the vertex at a point; bad values are named.
+// The far field (FAR_COMPLIANCE): info prints its rank per space.
 // The validity map (VALIDITY_FORCE): info lists its lowest forces per space, --vertex the three forces.
 // The felt-stiffness map (FELT_STIFFNESS): info prints per space its range over the space's region and
 // its 5 softest spots, the numbers of the map written; --vertex prints the scene's map at the vertex,
@@ -53,6 +54,24 @@ namespace
         std::printf("%s", out.substr(out.rfind('\n', out.size() - 2) + 1).c_str());
         std::remove(path.c_str());
       }
+  }
+
+  // info prints each space's far-field rank (.mrt 1.3), "none" without one; verify passes on it.
+  void far_field_info()
+  {
+    modalrt::LatticeOptions o;
+    o.far_rank = 4;
+    ENSURE(modalrt::write_basis_file("tool_far.mrt", modalrt::make_lattice_cantilever(o)));
+    ENSURE(modalrt::write_basis_file("tool_no_far.mrt", modalrt::make_lattice_cantilever()));
+    std::string out;
+    ENSURE(run("info --basis tool_far.mrt", out) == 0);
+    ENSURE(contains(out, "space 0 'global': r = 8 modes") && contains(out, "far field rank 4, "));
+    ENSURE(contains(out, "format version  1.3"));
+    ENSURE(run("verify --basis tool_far.mrt", out) == 0 && contains(out, "PASS"));
+    ENSURE(run("info --basis tool_no_far.mrt", out) == 0 && contains(out, "far field none, "));
+    ENSURE(!contains(out, "far field rank"));
+    std::remove("tool_far.mrt");
+    std::remove("tool_no_far.mrt");
   }
 
   void inconsistent_basis()
@@ -273,6 +292,7 @@ namespace
 int main()
 {
   consistent_bases();
+  far_field_info();
   inconsistent_basis();
   corrupt_file();
   vertex_info();

@@ -1,4 +1,4 @@
-// Constants of the .mrt basis file, version 1.2 (docs/basis-format.md): the layout, the header and
+// Constants of the .mrt basis file, version 1.3 (docs/basis-format.md): the layout, the header and
 // table field offsets, the scalar types and the section kinds. The one place they are written: the
 // writer (writer.h), the kernel's loader (realtime/src/basis_loader.cc) and the tests take them from
 // here.
@@ -11,7 +11,7 @@ namespace mrt
 {
   constexpr char          magic[8]          = {'M', 'O', 'D', 'A', 'L', 'R', 'T', '\0'};
   constexpr std::uint32_t version_major     = 1;
-  constexpr std::uint32_t version_minor     = 2;
+  constexpr std::uint32_t version_minor     = 3;
   constexpr std::size_t   header_bytes      = 64;
   constexpr std::size_t   table_entry_bytes = 40;
   constexpr std::size_t   section_alignment = 64;
@@ -75,7 +75,8 @@ namespace mrt
     cross_blocks         = 30,
     felt_stiffness       = 31, // version 1.1: the felt-stiffness map
     transfer             = 32,
-    validity_force       = 33  // version 1.2: where the linear felt compliance stops holding
+    validity_force       = 33, // version 1.2: where the linear felt compliance stops holding
+    far_compliance       = 34  // version 1.3: a low-rank factor of the residual compliance between far candidates
   };
 
   // Name of a kind as the specification spells it, "UNKNOWN" for kinds of a newer minor version.
@@ -108,6 +109,7 @@ namespace mrt
         case felt_stiffness: return "FELT_STIFFNESS";
         case transfer: return "TRANSFER";
         case validity_force: return "VALIDITY_FORCE";
+        case far_compliance: return "FAR_COMPLIANCE";
         default: return "UNKNOWN";
       }
   }

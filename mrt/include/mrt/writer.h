@@ -27,6 +27,8 @@ namespace mrt
     std::vector<double>        cross_blocks;         // 9 per neighbour [m/N]
     std::vector<double>        felt_stiffness;       // nv or empty: the felt-stiffness map [N/m]
     std::vector<double>        validity_force;       // 3 nv or empty: the validity map [N] (1.2)
+    std::vector<double>        far_compliance;       // 3 nc k or empty (1.3): candidate a's 3 x k factor Z_a,
+                                                     // row-major [sqrt(m/N)]; C_ab ~ Z_a Z_b^T where no block is stored
     std::vector<double>        participation;        // 6 r or empty
     std::vector<std::uint32_t> validation_cases;     // 2 nval
     std::vector<double>        validation_response;  // 3 nval
@@ -73,7 +75,7 @@ namespace mrt
   };
 
   // The bytes of the file: sections in the order of the specification, the optional sections that
-  // are empty (candidates, cross compliance, participation, validation) left out.
+  // are empty (candidates, cross compliance, far field, participation, validation) left out.
   std::vector<unsigned char> write_basis(const BasisContent &content);
   // Writes it to `path`; false (and a message) if the file cannot be written.
   bool write_basis_file(const std::string &path, const BasisContent &content, std::string *error = nullptr);

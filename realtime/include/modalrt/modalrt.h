@@ -82,8 +82,9 @@
  *     vertex: its proxy. The proxy is a point of the deformed display surface (each vertex where the
  *     modes and the contact's static correction put it: rest + B_v q + C F, B_v the vertex's contact
  *     row), held by its triangle and barycentric weights w. Its load point is that blend: row
- *     B = sum_k w_k B_k, residual compliance sum_a sum_b w_a w_b C_ab (CROSS_COMPLIANCE where stored,
- *     else sum_k w_k C_k), rest position and outward normal blended the same way: force and felt
+ *     B = sum_k w_k B_k, residual compliance sum_a sum_b w_a w_b C_ab (C_ab as
+ *     modalrt_basis_pair_coupling gives it; a space with neither cross compliance nor a far field:
+ *     sum_k w_k C_k), rest position and outward normal blended the same way: force and felt
  *     compliance are continuous as the proxy crosses from one vertex's neighbourhood to the next.
  *   - Impedance ticks: before the step the proxy moves over the surface (across triangles by the
  *     surface's adjacency, at most 4 edges per tick) under Coulomb friction applied to the coupling
@@ -156,13 +157,16 @@ extern "C" {
  * 3.2: reads .mrt 1.2 (the validity map, VALIDITY_FORCE); modalrt_basis_validity_forces and
  * modalrt_basis_point_validity_force; MODALRT_HIP_BEYOND_VALIDITY; modalrt_kernel_def's former
  * `reserved` is validity_level and its former `reserved2` is validity_clamp (both 0 by default: the
- * 5 % level, no clamp; a 3.1 application that left them 0 gets the flag and nothing else). */
+ * 5 % level, no clamp; a 3.1 application that left them 0 gets the flag and nothing else).
+ * 3.3: reads .mrt 1.3 (the far field, FAR_COMPLIANCE: two candidates without a stored cross block are
+ * coupled by Z_a Z_b^T instead of the modes alone); modalrt_basis_pair_coupling and the
+ * MODALRT_COUPLING_* values; modalrt_space_info's former `reserved` is far_rank (0: no far field). */
 #define MODALRT_VERSION_MAJOR 3
-#define MODALRT_VERSION_MINOR 2
+#define MODALRT_VERSION_MINOR 3
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
-#define MODALRT_BASIS_FORMAT_MINOR 2
+#define MODALRT_BASIS_FORMAT_MINOR 3
 
 /* Marks "no vertex" / "no space" in outputs. */
 #define MODALRT_NONE 0xFFFFFFFFu
@@ -285,7 +289,8 @@ typedef struct modalrt_space_info
   uint32_t cross_count;       /* [-] candidates with cross compliance rows (0 or candidate_count): each with
                                  its neighbours closer than the precompute's cross compliance radius */
   uint32_t has_participation; /* 1 if PARTICIPATION is stored (frame acceleration drives the modes) */
-  uint32_t reserved;          /* 0 */
+  uint32_t far_rank;          /* [-] rank k of the far field (FAR_COMPLIANCE, .mrt 1.3), 0 without one
+                                 (API 3.3; before: reserved, 0) */
   double   lowest_frequency;  /* [Hz] */
   double   highest_frequency; /* [Hz] */
 } modalrt_space_info;
@@ -326,8 +331,30 @@ MODALRT_API int modalrt_basis_point_validity_force(const modalrt_basis *basis, u
 /* 1 when two HIPs at display vertices a and b of a space feel the full FE answer together: both are
  * candidates and their residual cross compliance is stored (neighbours closer than the precompute's
  * cross compliance radius, or sharing a display triangle), or a == b is a candidate; else 0 (also
- * for a bad argument). */
+ * for a bad argument, and for a pair the far field couples: modalrt_basis_pair_coupling's 2). */
 MODALRT_API int modalrt_basis_pair_is_exact(const modalrt_basis *basis, uint32_t space, uint32_t a, uint32_t b);
+/* How the kernel couples two contacts beyond the modes (modalrt_basis_pair_coupling). */
+enum
+{
+  MODALRT_COUPLING_NONE  = 0, /* no residual coupling: the modes alone (a vertex is not a candidate, or the
+                                 pair is not stored and the space has no far field) */
+  MODALRT_COUPLING_EXACT = 1, /* the stored residual (a candidate's own block at a == b, or the stored cross
+                                 block): with the modes, the full FE answer (modalrt_basis_pair_is_exact) */
+  MODALRT_COUPLING_FAR   = 2  /* the far field's approximation Z_a Z_b^T (FAR_COMPLIANCE, .mrt 1.3) of a pair
+                                 without a stored block; the precompute's report.json states its measured
+                                 error (spaces[].far_field) */
+};
+/* The residual coupling C_ab [m/N] (3x3, row-major, body frame) that the kernel adds to the modes'
+ * B_a Lambda^-1 B_b^T between contacts at display vertices vertex_a and vertex_b of a space (the
+ * displacement at a is u_a = sum_b (B_a Lambda^-1 B_b^T + C_ab) F_b), and where it comes from: the
+ * one rule the kernel follows. Both vertices must be candidates; then the candidate's own
+ * CANDIDATE_COMPLIANCE at a == b, the stored cross block of a stored pair (both exact), else
+ * Z_a Z_b^T when the space has a far field, else none. C is filled for EXACT and FAR, zeroed for NONE;
+ * it may be NULL. modalrt_space_info's far_rank gives the rank k. No allocation.
+ * Returns: MODALRT_COUPLING_NONE, _EXACT or _FAR; ERROR_INVALID_ARGUMENT (null basis, space or vertex
+ * out of range). */
+MODALRT_API int modalrt_basis_pair_coupling(const modalrt_basis *basis, uint32_t space, uint32_t vertex_a,
+                                            uint32_t vertex_b, double C[9]);
 /* Static compliance G [m/N] (3x3, row-major, body frame) of a contact at display vertex `vertex` in
  * space `space`: the settled felt displacement of the active vertex (patch average) is u_c = G F for
  * a constant force F on it, alone on the part. At a candidate of the space G = B_v Lambda^-1 B_v^T +
@@ -343,10 +370,11 @@ MODALRT_API int modalrt_basis_contact_compliance(const modalrt_basis *basis, uin
  * `triangle`, spread over its three corners' contacts with the barycentric weights `weights` (>= 0,
  * sum 1): where a proxy contact sits (modalrt_hip_output's proxy_triangle and proxy_weights). G =
  * B Lambda^-1 B^T + C with B = sum_k w_k B_k (each corner's row as in modalrt_basis_contact_compliance)
- * and C = sum_a sum_b w_a w_b C_ab over corners at candidates from CROSS_COMPLIANCE (without it,
- * sum_k w_k C_k): the residual the kernel gives a proxy there. *full_fe is 1 when it is the full static
- * FE compliance of the blended load: every corner with a weight is a candidate, and the space stores
- * CROSS_COMPLIANCE or one corner holds the whole weight. `full_fe` may be NULL. No allocation.
+ * and C = sum_a sum_b w_a w_b C_ab over corners at candidates, C_ab as modalrt_basis_pair_coupling
+ * gives it (in a space with neither CROSS_COMPLIANCE nor a far field: sum_k w_k C_k): the residual the
+ * kernel gives a proxy there. *full_fe is 1 when it is the full static FE compliance of the blended
+ * load: every corner with a weight is a candidate, and every pair of them is coupled exactly (one
+ * corner holds the whole weight, or their cross blocks are stored). `full_fe` may be NULL. No allocation.
  * Returns: OK, ERROR_INVALID_ARGUMENT (null argument, space or triangle out of range, weights
  * negative, non-finite or not summing to 1 within 1e-9), ERROR_VALUE (a mode with omega = 0). */
 MODALRT_API int modalrt_basis_point_compliance(const modalrt_basis *basis, uint32_t space, uint32_t triangle,

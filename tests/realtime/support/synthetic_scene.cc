@@ -506,7 +506,61 @@ namespace modalrt
         for (std::uint32_t j = 0; j < c.spaces.size(); ++j)
           if (k != j)
             c.transfers.push_back({k, j, least_squares_transfer(c, g, k, j)});
+    if (o.far_rank > 0)
+      {
+        c = with_sparse_cross(std::move(c), true);
+        for (std::uint32_t s = 0; s < c.spaces.size(); ++s)
+          if (!c.spaces[s].candidates.empty())
+            c.spaces[s].far_compliance = made_up_far_factor(c, s, o.far_rank, o.length, o.width);
+      }
     return c;
+  }
+
+  std::vector<double> made_up_far_factor(const BasisContent &content, std::uint32_t space, std::uint32_t rank,
+                                         double length, double width)
+  {
+    const BasisSpaceContent &sp    = content.spaces[space];
+    double                   scale = 0.0;
+    for (double x : sp.candidate_compliance)
+      scale = std::max(scale, std::fabs(x));
+    scale = std::sqrt(scale);
+    std::vector<double> Z;
+    for (std::uint32_t v : sp.candidates)
+      {
+        const double x = content.vertices[3 * std::size_t(v)], y = content.vertices[3 * std::size_t(v) + 1];
+        for (int i = 0; i < 3; ++i)
+          for (std::uint32_t j = 0; j < rank; ++j)
+            Z.push_back(scale * std::cos(pi * (j + 1) * x / length + 2 * pi * i / 3 + y / width));
+      }
+    return Z;
+  }
+
+  std::array<double, 9> content_residual_block(const BasisSpaceContent &sp, std::size_t a, std::size_t b)
+  {
+    std::array<double, 9> C{};
+    const std::size_t     n3 = 3 * sp.candidates.size();
+    std::ptrdiff_t        stored = -1; // b's position in a's row
+    for (std::size_t k = sp.cross_offsets.empty() ? 0 : sp.cross_offsets[a];
+         !sp.cross_offsets.empty() && k < sp.cross_offsets[a + 1]; ++k)
+      if (sp.cross_neighbours[k] == b)
+        stored = std::ptrdiff_t(k);
+    if (a == b)
+      std::copy_n(&sp.candidate_compliance[9 * a], 9, C.begin());
+    else if (!sp.cross_compliance.empty())
+      for (std::size_t i = 0; i < 3; ++i)
+        for (std::size_t j = 0; j < 3; ++j)
+          C[3 * i + j] = sp.cross_compliance[(3 * a + i) * n3 + 3 * b + j];
+    else if (stored >= 0)
+      std::copy_n(&sp.cross_blocks[9 * std::size_t(stored)], 9, C.begin());
+    else if (!sp.far_compliance.empty())
+      {
+        const std::size_t k = sp.far_compliance.size() / n3;
+        for (std::size_t i = 0; i < 3; ++i)
+          for (std::size_t j = 0; j < 3; ++j)
+            for (std::size_t m = 0; m < k; ++m)
+              C[3 * i + j] += sp.far_compliance[(3 * a + i) * k + m] * sp.far_compliance[(3 * b + j) * k + m];
+      }
+    return C;
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -596,18 +650,39 @@ namespace modalrt
           }
     return c;
   }
-  BasisContent with_sparse_cross(BasisContent content)
+  std::array<double, 9> content_static_compliance(const BasisSpaceContent &sp, std::size_t a, std::size_t b)
   {
+    std::array<double, 9> G = content_residual_block(sp, a, b);
+    const std::size_t     r = sp.eigenvalues.size();
+    for (std::size_t i = 0; i < 3; ++i)
+      for (std::size_t j = 0; j < 3; ++j)
+        for (std::size_t m = 0; m < r; ++m)
+          G[3 * i + j] += sp.candidate_modes[(3 * a + i) * r + m] * sp.candidate_modes[(3 * b + j) * r + m] / sp.eigenvalues[m];
+    return G;
+  }
+
+  BasisContent with_sparse_cross(BasisContent content, bool neighbours_only)
+  {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges; // vertex pairs sharing a triangle
+    for (std::size_t t = 0; t < content.triangles.size(); t += 3)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l)
+          edges.emplace_back(content.triangles[t + k], content.triangles[t + l]);
+    std::sort(edges.begin(), edges.end());
     for (auto &sp : content.spaces)
       {
         const std::size_t nc = sp.candidates.size(), n3 = 3 * nc;
         if (sp.cross_compliance.empty())
           continue;
+        const auto kept = [&](std::size_t a, std::size_t b) {
+          return b != a && (!neighbours_only || std::binary_search(edges.begin(), edges.end(),
+                                                                   std::make_pair(sp.candidates[a], sp.candidates[b])));
+        };
         sp.cross_offsets.assign(1, 0);
         for (std::size_t a = 0; a < nc; ++a)
           {
             for (std::size_t b = 0; b < nc; ++b)
-              if (b != a)
+              if (kept(a, b))
                 {
                   sp.cross_neighbours.push_back(std::uint32_t(b));
                   for (int i = 0; i < 3; ++i)

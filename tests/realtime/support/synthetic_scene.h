@@ -16,6 +16,7 @@
 
 #include <mrt/writer.h>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -59,13 +60,37 @@ namespace modalrt
                                             // p = 1, 5, 10 % (x its rest x), except F10 = 1e30 (not reached) in the
                                             // last column (x = length); 0 elsewhere (no value)
     double        validity_unit    = 0.2;   // [N]
+    std::uint32_t far_rank         = 0;     // > 0: .mrt 1.3's far field, as the precompute writes it: the cross
+                                            // compliance stored only between candidates sharing a display
+                                            // triangle (version 1.1's rows), and a made-up FAR_COMPLIANCE of this
+                                            // rank for the other pairs (made_up_far_factor); needs `cross`
   };
+
+  // The made-up far-field factor of the lattice (LatticeOptions::far_rank = k): candidate a's 3 x k
+  // block Z_a(i, j) = s cos(pi (j + 1) x_a / length + 2 pi i / 3 + y_a / width), smooth in the
+  // candidate's rest position (x_a, y_a), s [sqrt(m/N)] the square root of the space's largest own
+  // residual compliance entry, so that Z_a Z_b^T is of the size of the residual compliance.
+  std::vector<double> made_up_far_factor(const BasisContent &content, std::uint32_t space, std::uint32_t rank,
+                                         double length, double width);
+
+  // The residual compliance block C_ab [m/N] (3 x 3 row-major) between candidates a and b (indices)
+  // of a space, read from the writer's content the way the specification gives it: a's own at
+  // a == b, the dense (1.0) or row (1.1) cross block where stored, else Z_a Z_b^T of FAR_COMPLIANCE
+  // (1.3), else 0. The tests' reference, computed apart from the kernel.
+  std::array<double, 9> content_residual_block(const BasisSpaceContent &space, std::size_t a, std::size_t b);
+
+  // The static compliance G_ab = B_a Lambda^-1 B_b^T + C_ab [m/N] (3 x 3 row-major) between candidates
+  // a and b (indices) of a space, from the content (C_ab by content_residual_block): contacts at
+  // candidates settle to u_a = sum_b G_ab F_b.
+  std::array<double, 9> content_static_compliance(const BasisSpaceContent &space, std::size_t a, std::size_t b);
 
   BasisContent make_lattice_cantilever(const LatticeOptions &options = LatticeOptions());
 
   // The same content with every space's dense CROSS_COMPLIANCE (version 1.0) as version 1.1's
   // compressed rows, every other candidate a neighbour: both forms must give the kernel the same numbers.
-  BasisContent with_sparse_cross(BasisContent content);
+  // neighbours_only: keep only the pairs of candidates that share a display triangle (what the
+  // precompute stores with its default cross compliance radius, 0).
+  BasisContent with_sparse_cross(BasisContent content, bool neighbours_only = false);
 
   // Display vertex of lattice node (i, j) of the top face.
   inline std::uint32_t lattice_display_vertex(const LatticeOptions &o, std::uint32_t i, std::uint32_t j)
