@@ -310,6 +310,7 @@ namespace modal_haptics
           space.cross_offsets.assign(s.cross_offsets.begin(), s.cross_offsets.end());
           space.cross_neighbours.assign(s.cross_neighbours.begin(), s.cross_neighbours.end());
           space.cross_blocks         = s.cross_blocks;
+          space.far_compliance       = s.far_compliance;
           space.felt_stiffness       = s.felt_stiffness;
           space.validity_force       = s.validity_force;
           space.participation        = s.participation;

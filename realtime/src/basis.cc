@@ -2,8 +2,6 @@
 // and the mode-norm bound that sizes the snap search.
 #include "basis.h"
 
-#include "dense.h"
-
 #include <mrt/cross_rows.h>
 #include <mrt/surface_normals.h>
 
@@ -44,11 +42,7 @@ namespace modalrt
       }
     if (far_rank == 0)
       return Coupling::none;
-    const std::size_t k = far_rank;
-    const double     *Za = &far_compliance[3 * k * a], *Zb = &far_compliance[3 * k * b];
-    for (std::size_t i = 0; i < 3; ++i)
-      for (std::size_t j = 0; j < 3; ++j)
-        C[3 * i + j] = dot(Za + i * k, Zb + j * k, std::uint32_t(k));
+    mrt::far_coupling(far_compliance.data(), far_rank, a, b, C);
     return Coupling::far;
   }
 
