@@ -3,7 +3,7 @@
 slotted bolt (fix yz) and an elastic mount under its base.
 
 Asserted:
-* its default log (no --quiet) is under 64 lines, without gmsh's progress, with our summaries;
+* its default log (no --quiet) is under 67 lines, without gmsh's progress, with our summaries;
 * each support catches what it should: the mount's faces add up to the base's underside (60 x 40 mm
   less two 3 mm holes, within 1 %: the holes are polygons), both bolt boxes catch faces and nodes;
 * nothing is left free (0 rigid-body modes), the corrected contact responses equal the full static
@@ -52,8 +52,9 @@ done = subprocess.run([args.binary, os.path.join(example, "bracket.prm"), "--out
 log = (done.stdout + done.stderr).splitlines()
 check(done.returncode == 0, "the example runs")
 # One summary line per phase and space (two spaces here; the validity map's phase added two lines:
-# 61), against gmsh's ~200 progress lines before issue 39.
-check(len(log) < 64, f"its default log has {len(log)} lines (< 64)")
+# 61; the far field's two and a row of the timer's table: 64), against gmsh's ~200 progress lines
+# before issue 39.
+check(len(log) < 67, f"its default log has {len(log)} lines (< 67)")
 check(not any(line.startswith("Info") for line in log), "no gmsh 'Info' line in it")
 for summary in ("[geometry] volume", "[global] support 1", "[global] kept", "[flange_top] kept"):
     check(any(line.startswith(summary) for line in log), f"it has the summary line '{summary} ...'")
