@@ -28,6 +28,23 @@ def main(path):
               f"{m['median_n_per_mm']:.1f} / {m['max_n_per_mm']:.3g} N/mm (min / median / max); softest at vertex "
               f"{soft['vertex']} ({x}) mm; the modes alone: median {m['modal_only_ratio_median']:.3f} x as stiff, "
               f"off by > 8 % at {100 * m['modal_only_off_by_more_than_8_percent']:.0f} % of the vertices")
+    for s in report["spaces"]:
+        far = s.get("far_field")
+        if not far:
+            continue
+        if far["rank"] == 0:
+            print(f"far field, {s['name']}: not kept ({far.get('left_out', '')})")
+            continue
+        def band(b):
+            upper = "" if b["to_m"] is None else f"{1e3 * b['to_m']:.0f}"
+            return (f"{1e3 * b['from_m']:.0f}-{upper} mm {100 * b['median_error']:.2g} % "
+                    f"({100 * b['median_modes_alone']:.2g} %)")
+        bands = "; ".join(band(b) for b in far["error_by_distance"])
+        pairs = [p for p in s["two_contact_checks"] if p["far"]]
+        pressed = (f"; {len(pairs)} far pairs pressed together: worst {100 * max(p['rel_error_corrected'] for p in pairs):.2g} % "
+                   f"off the full solve ({100 * max(p['rel_error_without_cross'] for p in pairs):.2g} % with the modes alone)"
+                   if pairs else "")
+        print(f"far field, {s['name']} (rank {far['rank']}): coupling error median by distance (modes alone): {bands}{pressed}")
     for c in report.get("cross_space", []):
         if c["region"] != c["space"]:
             continue  # the VOI that holds the vertex is the comparison that matters
