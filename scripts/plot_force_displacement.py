@@ -101,11 +101,16 @@ def draw_press(ax, trace, press):
         ax.plot(x, [k * 1e-3 * d for d in x], "--", color="C3", lw=1.5, label=label)
 
     # Several HIPs in contact: the static answer to all their loads together (full FE through the
-    # stored cross compliance when every contact is a candidate), the reference that applies.
+    # stored cross compliance when every contact is a candidate; within the far field's measured
+    # error where it couples a pair), the reference that applies.
     multi = finite(press.get("multi_static_stiffness_n_per_m", "nan") or "nan")
     if multi and multi > 0 and int(press.get("felt_contacts", "1") or 1) > 1:
+        note = press.get("multi_note", "")
         if press.get("multi_full_fe") == "1":
             label = "full-FE static, %s contacts' loads together %.4g N/mm" % (press["felt_contacts"], multi * 1e-3)
+        elif note.startswith("far-field coupling"):  # a pair coupled by the precompute's far field
+            label = "static with the far field, %s contacts' loads together %.4g N/mm\n(%s)" % (
+                press["felt_contacts"], multi * 1e-3, note.split(":")[0])
         else:
             label = "static, %s contacts' loads together %.4g N/mm\n(no full-FE reference: %s)" % (
                 press["felt_contacts"], multi * 1e-3, press.get("multi_note", ""))
