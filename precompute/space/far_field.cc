@@ -59,6 +59,9 @@ namespace modal_haptics::far_field
   std::vector<double> nystrom_factor(const std::vector<double> &Q, const std::vector<double> &Y, const std::size_t n,
                                      const unsigned int k, unsigned int &rank)
   {
+    rank = 0;
+    if (k == 0) // R reached no direction at all (every patch clamped)
+      return {};
     // core = Q^T Y = Q^T R Q, symmetrized against rounding, then V D V^T.
     std::vector<double> core(std::size_t(k) * k, 0.);
     const int           ni = int(n), ki = int(k);
