@@ -121,6 +121,11 @@ int main(int argc, char **argv)
   const Bytes with_validity        = mrt::write_basis(modalrt::make_lattice_cantilever(validity));
   ok &= save(dir, "lattice_validity_force.mrt", with_validity);
 
+  // Version 1.3's far field (FAR_COMPLIANCE) in both spaces, rank 3.
+  modalrt::LatticeOptions far_field = small_lattice();
+  far_field.far_rank          = 3;
+  ok &= save(dir, "lattice_far_compliance.mrt", mrt::write_basis(modalrt::make_lattice_cantilever(far_field)));
+
   // ----- corrupted variants of the two-space file --------------------------------------------------
   ok &= save(dir, "corrupt_header_only.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + format::header_bytes));
   ok &= save(dir, "corrupt_truncated.mrt", Bytes(two_spaces.begin(), two_spaces.begin() + two_spaces.size() * 3 / 5));
