@@ -151,6 +151,11 @@ namespace modal_haptics
         common.postorder          = 1;
         common.supernodal         = CHOLMOD_SUPERNODAL;
         common.quick_return_if_not_posdef = 1;
+        // Silent: CHOLMOD would print "CHOLMOD error: matrix not positive definite" to the log for a
+        // tangent past a limit point, which the nonlinear solve handles, and for a shift above the
+        // first frequency, which the message below explains; every other failure is thrown with its
+        // status below.
+        common.print = 0;
         stats.method              = "cholmod-supernodal-metis";
 
         cholmod_sparse *A = copy_upper_triangle(K, M, shift);

@@ -8,7 +8,8 @@ on the cantilever (200 x 10 x 10 mm steel, tests/precompute/cantilever.prm), eac
   counts CAD surfaces where the run counts mesh faces;
 * plausibility that depends on the unit: a part in metres read as millimetres is warned about (its
   size, its mass, its first frequency), a coarse size larger than the part is refused before meshing,
-  a patch radius is warned about only when it is large against the part.
+  a patch radius is warned about only when it is large against the part;
+* a shift above the first frequency is explained in the run's words, without CHOLMOD's raw line.
 """
 import os
 import shutil
@@ -100,6 +101,16 @@ def unit_plausibility(args):
           in out, "a 30 mm patch on a 200 mm part is", out)
 
 
+def shift_above_first_frequency(args):
+    """A shift above the first frequency: the run's own explanation, without CHOLMOD's raw
+    'CHOLMOD error: matrix not positive definite' line before it."""
+    code, out = run(args, "shift_above_f1", section("Meshing", "set Coarse size = 5"),
+                    section("Modes", "set Shift = 1e6"), options=("--quiet",))
+    check(code != 0 and "'Modes/Shift' lies above the first eigenfrequency" in out,
+          "a shift above the first frequency is refused in the run's words", out)
+    check("CHOLMOD error" not in out and "CHOLMOD warning" not in out, "... without CHOLMOD's own line", out)
+
+
 def main():
     args = binary_and_fresh_workdir()
     shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
@@ -110,6 +121,7 @@ def main():
     mode_selection(args)
     free_motions_predicted(args)
     unit_plausibility(args)
+    shift_above_first_frequency(args)
     print(f"{len(failures)} failure(s)")
     return 1 if failures else 0
 
