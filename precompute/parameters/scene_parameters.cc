@@ -304,7 +304,8 @@ namespace modal_haptics
     prm.declare_entry("Validation pairs", text(c.validation_pairs), Patterns::Integer(0),
                       "Pairs of neighbouring candidates per space (closer than the cross compliance radius, "
                       "picked at random with a fixed seed) pressed together and validated against one full "
-                      "static FE solve. Units: none.");
+                      "static FE solve; with a far field ('Far field rank'), as many pairs farther apart too "
+                      "(report.json: two_contact_checks, 'far'). Units: none.");
     prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
                       "Candidates per space validated against full static FE, in x, y and z. Units: none.");
     prm.declare_entry("Validation points", "", Patterns::Anything(),
