@@ -63,7 +63,12 @@ def check_far_field(space, g, expect):
     answer with it than with the modes alone."""
     far = space.get("far_field")
     expect(far is not None, f"{space['name']}: report.json has its far field")
-    if far is None or far["rank"] == 0:
+    if far is None:
+        return
+    if far["rank"] == 0:  # not kept: the precompute's rule, and it says why
+        expect(far["rms_error"] >= 0.5 * far["rms_modes_alone"] and "left_out" in far,
+               f"{space['name']}: far field not kept, its sampled rms error {far['rms_error']:.3f} is not below half "
+               f"of the modes alone's {far['rms_modes_alone']:.3f}")
         return
     C = g["candidate_compliance"][:]
     Z = g["far_compliance"][:]
@@ -72,9 +77,9 @@ def check_far_field(space, g, expect):
     expect(Z.shape == (len(C), 3, far["rank"]) and worst >= -1e-9,
            f"{space['name']}: C_aa - Z_a Z_a^T >= 0 at every candidate (rank {far['rank']}; smallest eigenvalue "
            f"{worst:.1e} of |C_aa|)")
-    expect(far["rms_error"] < far["rms_modes_alone"],
+    expect(far["rms_error"] < 0.5 * far["rms_modes_alone"],
            f"{space['name']}: sampled pairs' residual coupling error, rms {far['rms_error']:.3f} with the far field "
-           f"< {far['rms_modes_alone']:.3f} with the modes alone")
+           f"< half of {far['rms_modes_alone']:.3f} with the modes alone")
     pairs = [p for p in space["two_contact_checks"] if p["far"]]
     with_far = np.median([p["rel_error_corrected"] for p in pairs]) if pairs else np.inf
     without = np.median([p["rel_error_without_cross"] for p in pairs]) if pairs else 0.0
