@@ -134,13 +134,6 @@ namespace modal_haptics::far_field
       std::nth_element(values.begin(), values.begin() + k, values.end());
       return values[k];
     }
-
-    bool stored_pair(const ModalSpaceResult &result, const unsigned int a, const unsigned int b)
-    {
-      const auto first = result.cross_neighbours.begin() + result.cross_offsets[a];
-      const auto last  = result.cross_neighbours.begin() + result.cross_offsets[a + 1];
-      return std::binary_search(first, last, b);
-    }
   } // namespace
 
   ErrorByDistance error_by_distance(const ModalSpaceResult &result, const std::vector<std::array<double, 3>> &positions,
@@ -159,7 +152,7 @@ namespace modal_haptics::far_field
         std::copy_n(&result.candidate_compliance[9 * std::size_t(s)], 9, own_s.begin());
         for (unsigned int b = 0; b < nc; ++b)
           {
-            if (b == s || stored_pair(result, s, b))
+            if (b == s || mrt::cross_position(result.cross_offsets.data(), result.cross_neighbours.data(), s, b) >= 0)
               continue;
             std::array<double, 9> own_b, R{}, far{}, error{};
             std::copy_n(&result.candidate_compliance[9 * std::size_t(b)], 9, own_b.begin());
