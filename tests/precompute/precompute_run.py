@@ -9,6 +9,44 @@ import subprocess
 import numpy as np
 
 
+class Checks:
+    """A test's named checks. Each is printed as it is made; the failed ones are listed again at the end,
+    so a CI log that keeps only the output's tail still says which failed (with `detail`, what was seen)."""
+
+    def __init__(self):
+        self.failures = []
+
+    def __call__(self, condition, what, detail=""):
+        print(("ok      " if condition else "FAILED  ") + what, flush=True)
+        if not condition:
+            self.failures.append(what)
+            if detail:
+                print("   output was:", detail.strip().replace("\n", "\n   "), flush=True)
+        return condition
+
+    def below(self, name, value, limit):
+        """value <= limit, printed as a table row with both."""
+        passed = value <= limit
+        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}", flush=True)
+        if not passed:
+            self.failures.append(f"{name}: {value:.3e} > {limit:.2g}")
+
+    def relative(self, name, value, reference, tolerance, unit="Hz"):
+        """|value - reference| / |reference| <= tolerance, both printed in the name."""
+        self.below(f"{name}: {value:.3f} {unit} vs {reference:.3f}", abs(value - reference) / abs(reference), tolerance)
+
+    @property
+    def ok(self):
+        return not self.failures
+
+    def exit_code(self):
+        """Lists the failed checks once more and returns the test's exit code."""
+        for what in self.failures:
+            print("FAILED  " + what)
+        print(f"{len(self.failures)} failed")
+        return 1 if self.failures else 0
+
+
 def copy_meshes(source, folder):
     """The meshes and their cache keys of one run into another's folder, which then reuses them:
     gmsh does not mesh the same input twice the same, and comparing runs need one mesh."""
@@ -43,22 +81,6 @@ def test_prm(prm_name, geometry):
     here = os.path.dirname(os.path.abspath(__file__))
     with open(os.path.join(here, prm_name)) as f:
         return f.read().replace(geometry, os.path.join(here, geometry))
-
-
-class Checks:
-    """Each check prints its value against its limit; ok is False once one fails."""
-
-    def __init__(self):
-        self.ok = True
-
-    def below(self, name, value, limit):
-        passed = value <= limit
-        self.ok &= passed
-        print(f"{name:64s} {value:12.3e}  (<= {limit:.2g}) {'ok' if passed else 'FAILED'}")
-
-    def relative(self, name, value, reference, tolerance, unit="Hz"):
-        """|value - reference| / |reference| <= tolerance, both printed in the name."""
-        self.below(f"{name}: {value:.3f} {unit} vs {reference:.3f}", abs(value - reference) / abs(reference), tolerance)
 
 
 def binary_and_fresh_workdir(mpirun_help=None, required=()):

@@ -18,15 +18,9 @@ import re
 import subprocess
 import sys
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
-failures = []
-
-
-def check(condition, what):
-    print(("  ok    " if condition else "  FAIL  ") + what)
-    if not condition:
-        failures.append(what)
+check = Checks()
 
 
 def run(binary, prm_text, folder, meshes_from=None):
@@ -80,5 +74,4 @@ rigid = run(args.binary, text.replace(supports, bolts + "; normal 0 0 -1 1 : cla
 f1 = [r["spaces"][0]["frequencies_hz"][0] for r in (bolts_only, report, rigid)]
 check(f1[0] < f1[1] < f1[2], f"f1: bolts only {f1[0]:.1f} Hz < elastic mount {f1[1]:.1f} Hz < clamped base {f1[2]:.1f} Hz")
 
-print(f"{len(failures)} failure(s)")
-sys.exit(1 if failures else 0)
+sys.exit(check.exit_code())

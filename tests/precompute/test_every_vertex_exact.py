@@ -14,7 +14,6 @@ inside each VOI and 20 outside (global space):
   random pairs farther apart pressed together are nearer the full solve with it than without.
 The first run (no validation) gives the display surface and its regions; the second reuses its meshes.
 """
-import json
 import os
 import subprocess
 import sys
@@ -22,7 +21,7 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLES_PER_REGION = 20
@@ -109,12 +108,7 @@ def main():
     report, _ = run_precompute(args.binary, folder, scene_text([
         "set Validation samples = 0", f"set Validation pairs = {PAIRS_PER_SPACE}", f"set Validation points = {points}"]),
         meshes_from=first)
-    failures = []
-
-    def expect(condition, what):
-        print(("ok      " if condition else "FAILED  ") + what)
-        if not condition:
-            failures.append(what)
+    expect = Checks()
 
     with h5py.File(os.path.join(folder, "small_block.h5"), "r") as h5:
         triangles = h5["display_surface/triangles"][:]
@@ -148,8 +142,7 @@ def main():
                             capture_output=True, text=True)
     print(verify.stdout[-1500:])
     expect(verify.returncode == 0, "modal-rt verify: the kernel's felt compliance equals every full solve")
-    print(f"{len(failures)} failed")
-    return 1 if failures else 0
+    return expect.exit_code()
 
 
 if __name__ == "__main__":

@@ -220,7 +220,7 @@ def main():
     cut_off_decides(args, checks)
     serial_hands_over_to_mumps_on_disk(args, checks)
     free_part_refused_on_disk(args, checks)
-    sys.exit(0 if checks.ok else 1)
+    sys.exit(checks.exit_code())
 
 
 if __name__ == "__main__":

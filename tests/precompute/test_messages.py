@@ -16,18 +16,11 @@ import shutil
 import subprocess
 import sys
 
-from precompute_run import binary_and_fresh_workdir
+from precompute_run import Checks, binary_and_fresh_workdir
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BASE = open(os.path.join(HERE, "cantilever.prm")).read()
-failures = []
-
-
-def check(condition, what, output=""):
-    print(("  ok    " if condition else "  FAIL  ") + what)
-    if not condition:
-        failures.append(what)
-        print("   output was:", output.strip().replace("\n", "\n   "))
+check = Checks()
 
 
 def section(name, *lines):
@@ -122,8 +115,7 @@ def main():
     free_motions_predicted(args)
     unit_plausibility(args)
     shift_above_first_frequency(args)
-    print(f"{len(failures)} failure(s)")
-    return 1 if failures else 0
+    return check.exit_code()
 
 
 if __name__ == "__main__":

@@ -60,7 +60,7 @@ import sys
 
 import h5py
 import numpy as np
-from precompute_run import copy_meshes, cut_off_between, cut_off_checks, largest_principal_angle, validity_rates
+from precompute_run import Checks, copy_meshes, cut_off_between, cut_off_checks, largest_principal_angle, validity_rates
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = "small_block"
@@ -230,12 +230,7 @@ def main():
     parser.add_argument("--workdir", required=True)
     args = parser.parse_args()
     shutil.rmtree(args.workdir, ignore_errors=True)
-    failures = []
-
-    def expect(condition, what):
-        print(("ok      " if condition else "FAILED  ") + what, flush=True)
-        if not condition:
-            failures.append(what)
+    expect = Checks()
 
     np1_dir = os.path.join(args.workdir, "np1")
     np1, np1_modes = run(mpi_command(args.mpirun, 1) + [args.binary, "--distributed"], np1_dir)
@@ -393,8 +388,7 @@ def main():
                f"{ours['name']} on the mumps_workspace meshes: np=2 vs serial {difference:.1e} <= 1e-9"
                f"{' (MUMPS workspace relaxed)' if relaxed else ''}")
 
-    print(f"{0 if failures else 1} passed, {1 if failures else 0} failed")
-    return 1 if failures else 0
+    return expect.exit_code()
 
 
 if __name__ == "__main__":

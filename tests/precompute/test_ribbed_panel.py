@@ -13,6 +13,8 @@ import shutil
 import subprocess
 import sys
 
+from precompute_run import Checks
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 TOP = os.path.dirname(os.path.dirname(HERE))
 REFERENCE_HZ = [85.08, 120.72, 160.24, 161.77, 255.71, 290.89]
@@ -31,12 +33,7 @@ def main():
     subprocess.run([args.binary, os.path.join(TOP, "parameters", "ribbed_panel.prm"), "--output-dir", args.workdir],
                    check=True)
     report = json.load(open(os.path.join(args.workdir, "report.json")))
-    failures = []
-
-    def expect(condition, what):
-        print(("ok      " if condition else "FAILED  ") + what)
-        if not condition:
-            failures.append(what)
+    expect = Checks()
 
     for name in ["ribbed_panel.h5", "ribbed_panel.mrt", "used_parameters.prm", "report.json"]:
         expect(os.path.getsize(os.path.join(args.workdir, name)) > 0, f"{name} written")
@@ -56,8 +53,7 @@ def main():
         modal = min(c["contact_rel_error_modal"] for c in s["validation"])
         expect(corrected <= 1e-8, f"{n}: corrected contact error {corrected:.1e} <= 1e-8")
         expect(modal > 1e-3, f"{n}: modal-only contact error is honest (>= {modal:.2e})")
-    print(f"{0 if failures else 1} passed, {1 if failures else 0} failed")
-    return 1 if failures else 0
+    return expect.exit_code()
 
 
 if __name__ == "__main__":

@@ -110,8 +110,7 @@ def main():
     checks.relative("roller: torsion 1 (stiffened by the facets' normals)", f[2], F_TORSION, 0.05)
     checks.relative("roller: axial 1", f[3], F_AXIAL, 0.01)
 
-    print("roller_cylinder:", "PASSED" if checks.ok else "FAILED")
-    return 0 if checks.ok else 1
+    return checks.exit_code()
 
 
 if __name__ == "__main__":

@@ -106,8 +106,7 @@ end
     report, _ = run_precompute(args.binary, os.path.join(args.workdir, "hard_support"), hard)
     hard_support(checks, report["spaces"][0])
 
-    print("simply_supported_plate:", "PASSED" if checks.ok else "FAILED")
-    return 0 if checks.ok else 1
+    return checks.exit_code()
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, copy_meshes, cut_off_between, cut_off_checks
+from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, cut_off_between, cut_off_checks
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -35,12 +35,7 @@ def main():
     args = binary_and_fresh_workdir()
     subprocess.run([args.binary, os.path.join(HERE, "small_scene.prm"), "--output-dir", args.workdir], check=True)
     report = json.load(open(os.path.join(args.workdir, "report.json")))
-    failures = []
-
-    def expect(condition, what):
-        print(("ok      " if condition else "FAILED  ") + what)
-        if not condition:
-            failures.append(what)
+    expect = Checks()
 
     for name in ["small_block.h5", "small_block.mrt", "used_parameters.prm"] + \
             [f"modes_{s}.{e}" for s in ["global", "left", "right"] for e in ["vtu", "pvd"]]:
@@ -93,8 +88,7 @@ def main():
         for condition, what in cut_off_checks(theirs, ours["computed_frequencies_hz"], 5e-10):
             expect(condition, "ARPACK, " + what)
 
-    print(f"{0 if failures else 1} passed, {1 if failures else 0} failed")
-    return 1 if failures else 0
+    return expect.exit_code()
 
 
 if __name__ == "__main__":

@@ -182,8 +182,7 @@ def main():
     checks.below("whole, 'Clamp groups = clamp' vs 'surface clamp : clamp', max rel.",
                  float(np.max(np.abs(fo - fw) / fw)), 1e-10)
 
-    print("symmetry_half_model:", "PASSED" if checks.ok else "FAILED")
-    return 0 if checks.ok else 1
+    return checks.exit_code()
 
 
 if __name__ == "__main__":

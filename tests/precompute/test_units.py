@@ -16,17 +16,11 @@ import re
 import subprocess
 import sys
 
-from precompute_run import binary_and_fresh_workdir
+from precompute_run import Checks, binary_and_fresh_workdir
 
 DENSITY, VOLUME = 7850.0, 0.2 * 0.01 * 0.01
 EULER_BERNOULLI_F1 = 203.9  # Hz, E = 200 GPa (test_cantilever.py's reference)
-failures = []
-
-
-def check(condition, what):
-    print(("  ok    " if condition else "  FAIL  ") + what)
-    if not condition:
-        failures.append(what)
+check = Checks()
 
 
 def write_step(folder, name, size, unit_entity):
@@ -185,5 +179,4 @@ if os.path.exists(msh):
           and abs(number_after("mass", out) - DENSITY * VOLUME) < 1e-6,
           "a .msh input: bounding box, mass and the clamp group's area from the mesh")
 
-print(f"{len(failures)} failure(s)")
-sys.exit(1 if failures else 0)
+sys.exit(check.exit_code())
