@@ -336,14 +336,34 @@ namespace modal_haptics
       return psi3;
     }
 
-    std::array<double, 3> second_order_validity_forces(const double c1, const double c2)
+    namespace
+    {
+      // The least F > 0 with c3 F^2 + c2 F = rise (infinity if none), by the rounding-safe form of the roots.
+      double least_positive_root(const double c3, const double c2, const double rise)
+      {
+        const double none = std::numeric_limits<double>::infinity();
+        if (c3 == 0.)
+          return c2 != 0. && rise / c2 > 0. ? rise / c2 : none;
+        const double discriminant = c2 * c2 + 4. * c3 * rise;
+        if (discriminant < 0.)
+          return none;
+        const double q     = -0.5 * (c2 + std::copysign(std::sqrt(discriminant), c2));
+        double       least = none;
+        for (const double root : {q / c3, q != 0. ? -rise / q : none})
+          if (root > 0. && root < least)
+            least = root;
+        return least;
+      }
+    } // namespace
+
+    std::array<double, 3> series_validity_forces(const double c1, const double c2, const double c3)
     {
       std::array<double, 3> forces;
       for (unsigned int k = 0; k < validity_departures.size(); ++k)
         {
           const double delta = validity_departures[k];
-          forces[k]          = c2 == 0. ? std::numeric_limits<double>::infinity() :
-                                          delta * c1 / (std::abs(c2) * (c2 > 0. ? 1. - delta : 1. + delta));
+          forces[k]          = std::min(least_positive_root(c3, c2, c1 * delta / (1. - delta)),  // softening
+                                        least_positive_root(c3, c2, -c1 * delta / (1. + delta))); // stiffening
         }
       return forces;
     }
@@ -438,6 +458,11 @@ namespace modal_haptics
         bool preconditioned_cg(VectorType &du, double tolerance);
         // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load.
         void estimate_second_order(const VectorType &u1, ValidityCurve &curve);
+        // curve.estimate_third_order and its check, from u1; 'tangent' must still be K (at u = 0).
+        void estimate_third_order(const VectorType &u1, ValidityCurve &curve);
+        // The even parts of the stored energy and of rhs = -f_int along t u1, (g(t u1) + g(-t u1)) / 2;
+        // false where an element inverts.
+        bool even_parts(const VectorType &u1, double t, double &even_energy, VectorType &even_rhs);
 
         const SpaceView<Algebra>                   space;
         const MaterialParameters                   material;
@@ -646,7 +671,7 @@ namespace modal_haptics
         const double psi3       = cubic_energy(space, material, law, u1);
         curve.estimate_seconds += timer.wall_time();
         curve.estimate_exact.c2 = -3. * psi3;
-        curve.estimate_exact.validity_force = second_order_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
+        curve.estimate_exact.validity_force = series_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
 
         // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
         // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
@@ -666,6 +691,94 @@ namespace modal_haptics
         };
         const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
         curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
+      }
+
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::even_parts(const VectorType &u1, const double t, double &even_energy,
+                                                      VectorType &even_rhs)
+      {
+        even_energy = 0.;
+        even_rhs    = 0.;
+        for (const double sign : {1., -1.})
+          {
+            VectorType u(u1);
+            u *= sign * t;
+            if (!assemble(u, 0., u1, false))
+              return false;
+            even_energy += 0.5 * energy;
+            even_rhs.add(0.5, rhs);
+          }
+        return true;
+      }
+
+      // The weights on e(h), e(2 h), e(3 h) of the t^2 and t^4 coefficients of an even series
+      // e(t) = x t^2 + y t^4 + z t^6 (+ O(t^8)): the quadratic e / s in s = (t / h)^2 through s = 1, 4, 9
+      // by divided differences, applied to each unit sample.
+      std::array<std::array<double, 3>, 2> even_series_weights()
+      {
+        std::array<std::array<double, 3>, 2> weights{};
+        for (unsigned int i = 0; i < 3; ++i)
+          {
+            std::array<double, 3> e{};
+            e[i]                 = 1.;
+            const double f1 = e[0], f4 = e[1] / 4., f9 = e[2] / 9.;
+            const double d1 = (f4 - f1) / 3., d2 = (f9 - f4) / 5., z = (d2 - d1) / 8., y = d1 - 5. * z;
+            weights[0][i] = f1 - y - z; // x h^2
+            weights[1][i] = y;          // y h^4
+          }
+        return weights;
+      }
+
+      template <typename Algebra>
+      void LargeDeformationSolve<Algebra>::estimate_third_order(const VectorType &u1, ValidityCurve &curve)
+      {
+        // d(F) = c1 F + c2 F^2 + c3 F^3: K u2 = -grad Psi3(u1) = -g2, K u3 = -2 B(u1, u2) - grad Psi4(u1)
+        // (grad Psi3(u) = B(u, u)), and u1^T B(u1, u2) = g2^T u2 = -u2^T K u2, Euler's theorem for
+        // Psi4: c3 = u1^T K u3 = 2 u2^T K u2 - 4 Psi4(u1). g2 and Psi4(u1) from the even parts along
+        // t u1 (the elastic supports' energy is quadratic: it is in the t^2 terms only), at t = h, 2 h,
+        // 3 h with h the response to a hundredth of the force limit, as the check of Psi3 above: where
+        // the curve departs by percents at the limit, the t^4 terms there stand about 1e-7 of the t^2
+        // terms (above their rounding), and the t^8 terms left out are negligible. h is quartered where
+        // an element inverts.
+        Timer                     timer;
+        const auto                weights = even_series_weights();
+        std::array<double, 3>     even_energy{};
+        std::vector<VectorType>   even_rhs(3, u1);
+        double                    h      = curve.force_limit / 100.;
+        bool                      inside = false;
+        for (unsigned int attempt = 0; attempt < 8; ++attempt, h /= 4.)
+          {
+            inside = true;
+            for (unsigned int i = 0; i < 3 && inside; ++i)
+              inside = even_parts(u1, (i + 1) * h, even_energy[i], even_rhs[i]);
+            if (inside)
+              break;
+          }
+        curve.estimate_third_order.c2 = curve.estimate_exact.c2;
+        if (!inside)
+          {
+            curve.estimate_third_order.c3 = std::numeric_limits<double>::quiet_NaN();
+            curve.estimate_third_order.validity_force.fill(std::numeric_limits<double>::quiet_NaN());
+            curve.estimate_seconds += timer.wall_time();
+            return;
+          }
+        double quadratic = 0., psi4 = 0.;
+        rhs              = 0.; // -g2
+        for (unsigned int i = 0; i < 3; ++i)
+          {
+            quadratic += weights[0][i] * even_energy[i] / (h * h);
+            psi4 += weights[1][i] * even_energy[i] / std::pow(h, 4);
+            rhs.add(weights[0][i] / (h * h), even_rhs[i]);
+          }
+        curve.quadratic_term_check = std::abs(2. * quadratic - curve.linear_compliance) / curve.linear_compliance;
+
+        VectorType  minus_g2(rhs), u2(u1);
+        std::string failure;
+        AssertThrow(solve_tangent(u2, failure), ExcMessage("The validity analysis' third-order term: " + failure));
+        curve.estimate_third_order.c3 = 2. * (u2 * minus_g2) - 4. * psi4;
+        curve.estimate_third_order.validity_force =
+          series_validity_forces(curve.linear_compliance, curve.estimate_third_order.c2, curve.estimate_third_order.c3);
+        curve.estimate_seconds += timer.wall_time();
       }
 
       template <typename Algebra>
@@ -776,6 +889,7 @@ namespace modal_haptics
         curve.estimate_seconds  = solve_timer.wall_time();
         curve.linear_compliance = load * du;
         estimate_second_order(du, curve);
+        estimate_third_order(du, curve);
 
         const double first_increment = ramp.force_limit / ramp.load_steps;
         const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
@@ -957,7 +1071,7 @@ namespace modal_haptics
           {
             const std::array<double, 3> inward = {{-normals[3 * v], -normals[3 * v + 1], -normals[3 * v + 2]}};
             const double                c1     = 1. / result.felt_stiffness[v];
-            set_map_entry(result, v, second_order_validity_forces(c1, modal_second_order(modal, result, v, inward)));
+            set_map_entry(result, v, series_validity_forces(c1, modal_second_order(modal, result, v, inward)));
             ++count;
             if (display.region[v] == result.index &&
                 (display.region[lowest] != result.index || result.validity_force[3 * v] < result.validity_force[3 * lowest]))
@@ -1025,14 +1139,15 @@ namespace modal_haptics
           if (!curve.stop_reason.empty())
             summary << "; the solve stopped at " << curve.force_reached << " N of " << ramp.force_limit
                     << " N: " << curve.stop_reason;
-          summary << "; second-order estimate " << forces_text(curve.estimate_exact.validity_force) << " (exact, "
+          summary << "; third-order estimate " << forces_text(curve.estimate_third_order.validity_force)
+                  << " N, second-order " << forces_text(curve.estimate_exact.validity_force) << " (exact, both "
                   << std::setprecision(2) << curve.estimate_seconds << " s)";
           if (modal)
             {
               std::vector<double> q;
               curve.estimate_modal.c2 = modal_second_order(*modal, result, vertex, direction, &q);
               curve.estimate_modal.validity_force =
-                second_order_validity_forces(curve.linear_compliance, curve.estimate_modal.c2);
+                series_validity_forces(curve.linear_compliance, curve.estimate_modal.c2);
               // The tensor against Psi3 of the field it stands for (serial runs: the modes as serial vectors).
               if constexpr (std::is_same_v<Algebra, SerialAlgebra>)
                 if (modal->serial_modes)

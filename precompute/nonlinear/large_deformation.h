@@ -132,10 +132,11 @@ namespace modal_haptics
       std::vector<double> t; // r x r(r+1)/2, row i, pairs (j <= k) in order
     };
 
-    // The forces [N] where the secant compliance c1 + c2 F of a second-order curve departs by 1, 5,
-    // 10 % from c1: delta c1 / (|c2| (1 - delta)) softening (c2 > 0), delta c1 / (|c2| (1 + delta))
-    // stiffening; infinity where c2 = 0.
-    std::array<double, 3> second_order_validity_forces(double c1, double c2);
+    // The forces [N] where the linear compliance c1 departs by 1, 5, 10 % from the secant compliance
+    // c1 + c2 F + c3 F^2 of a series curve: the least F > 0 where it reaches c1 / (1 - delta)
+    // (softening) or c1 / (1 + delta) (stiffening). With c3 = 0, delta c1 / (|c2| (1 - delta)) where
+    // c2 > 0 and delta c1 / (|c2| (1 + delta)) where c2 < 0; infinity where neither is reached.
+    std::array<double, 3> series_validity_forces(double c1, double c2, double c3 = 0.);
 
     // The forces where the linear felt compliance departs by validity_departures from the secant
     // compliance of the curve (ValidityCurve::validity_force).

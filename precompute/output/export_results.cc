@@ -129,9 +129,12 @@ namespace modal_haptics
           write_array(c, "validity_force_n", std::vector<double>(curve.validity_force.begin(), curve.validity_force.end()),
                       {3}, w);
           for (const auto &[name, estimate] : {std::make_pair("second_order_exact", &curve.estimate_exact),
-                                               std::make_pair("second_order_modal", &curve.estimate_modal)})
+                                               std::make_pair("second_order_modal", &curve.estimate_modal),
+                                               std::make_pair("third_order_exact", &curve.estimate_third_order)})
             {
               c.set_attribute(std::string(name) + "_c2_m_per_n2", estimate->c2);
+              if (estimate->c3 != 0.)
+                c.set_attribute(std::string(name) + "_c3_m_per_n3", estimate->c3);
               write_array(c, std::string(name) + "_validity_force_n",
                           std::vector<double>(estimate->validity_force.begin(), estimate->validity_force.end()), {3}, w);
             }
@@ -385,7 +388,7 @@ namespace modal_haptics
 
     // An estimate at a validity contact and its relative error against the full solve's forces
     // (null where either is not reached: the full one beyond the force limit or where it stopped).
-    Json estimate_json(const ValidityCurve::SecondOrderEstimate &estimate, const ValidityCurve &curve)
+    Json estimate_json(const ValidityCurve::SeriesEstimate &estimate, const ValidityCurve &curve)
     {
       Json error = Json::object();
       for (unsigned int k = 0; k < validity_departures.size(); ++k)
@@ -395,9 +398,12 @@ namespace modal_haptics
           error[std::to_string(departure_percent(k)) + "_percent"] =
             reached && std::isfinite(e) ? Json(e / full - 1.) : Json();
         }
-      return {{"c2_m_per_n2", estimate.c2},
-              {"validity_force_n", forces_json(estimate.validity_force)},
-              {"rel_error", error}};
+      Json json = {{"c2_m_per_n2", estimate.c2},
+                   {"validity_force_n", forces_json(estimate.validity_force)},
+                   {"rel_error", error}};
+      if (estimate.c3 != 0.)
+        json["c3_m_per_n3"] = estimate.c3;
+      return json;
     }
 
     // The nonlinear solves at the validity contacts (docs/report-schema.md, "validity").
@@ -422,9 +428,11 @@ namespace modal_haptics
                               {"seconds", c.seconds},
                               {"second_order_exact", estimate_json(c.estimate_exact, c)},
                               {"second_order_modal", estimate_json(c.estimate_modal, c)},
+                              {"third_order_exact", estimate_json(c.estimate_third_order, c)},
                               {"estimate_s", c.estimate_seconds},
                               {"cubic_term_check", c.cubic_term_check},
-                              {"modal_cubic_check", c.modal_cubic_check}});
+                              {"modal_cubic_check", c.modal_cubic_check},
+                              {"quadratic_term_check", c.quadratic_term_check}});
         }
       return validity;
     }

@@ -51,9 +51,9 @@ namespace boost::serialization
   }
 
   template <class Archive>
-  void serialize(Archive &ar, modal_haptics::ValidityCurve::SecondOrderEstimate &e, const unsigned int)
+  void serialize(Archive &ar, modal_haptics::ValidityCurve::SeriesEstimate &e, const unsigned int)
   {
-    ar &e.c2 &e.validity_force;
+    ar &e.c2 &e.c3 &e.validity_force;
   }
 
   template <class Archive>
@@ -61,7 +61,8 @@ namespace boost::serialization
   {
     ar &c.vertex &c.direction &c.material &c.linear_compliance &c.forces &c.displacements &c.newton_iterations;
     ar &c.newton_residuals &c.force_limit &c.force_reached &c.stop_reason &c.validity_force &c.seconds;
-    ar &c.estimate_exact &c.estimate_modal &c.estimate_seconds &c.cubic_term_check &c.modal_cubic_check;
+    ar &c.estimate_exact &c.estimate_modal &c.estimate_third_order &c.estimate_seconds &c.cubic_term_check
+      &c.modal_cubic_check &c.quadratic_term_check;
   }
 
   template <class Archive>

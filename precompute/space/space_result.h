@@ -80,17 +80,23 @@ namespace modal_haptics
     // force limit; force_reached when the solve stopped before (the part does not carry more).
     std::array<double, 3> validity_force{};
     double seconds = 0.; // wall time of the solve
-    // The second-order estimate at this contact (docs/accuracy.md): the felt displacement
-    // d(F) = c1 F + c2 F^2 + ..., c2 = -3 Psi3(u1), Psi3 the cubic term of the stored energy and u1
-    // the linear response to the unit load, once exact (u1 = K^-1 W_v d: one solve) and once
-    // projected on the modes (u1 ~ Phi Lambda^-1 B_v^T d: what the validity map holds elsewhere).
-    struct SecondOrderEstimate
+    // The series estimates at this contact (docs/accuracy.md): the felt displacement
+    // d(F) = c1 F + c2 F^2 + c3 F^3 + ..., c2 = -3 Psi3(u1), Psi3 the cubic term of the stored energy
+    // and u1 the linear response to the unit load, once exact (u1 = K^-1 W_v d: one solve) and once
+    // projected on the modes (u1 ~ Phi Lambda^-1 B_v^T d: what the validity map holds elsewhere);
+    // and the exact third order, c3 = 2 u2^T K u2 - 4 Psi4(u1), u2 = -K^-1 grad Psi3(u1) (NaN where
+    // an element inverts even at the smallest step of its finite differences).
+    struct SeriesEstimate
     {
       double                c2 = 0.;          // [m/N^2]
-      std::array<double, 3> validity_force{}; // [N] where c1 / (c1 + c2 F) departs by 1, 5, 10 %
+      double                c3 = 0.;          // [m/N^3] (0 in the second-order estimates)
+      std::array<double, 3> validity_force{}; // [N] where c1 / (c1 + c2 F + c3 F^2) departs by 1, 5, 10 %
     };
-    SecondOrderEstimate estimate_exact, estimate_modal;
-    double estimate_seconds = 0.; // the exact estimate: a solve and an integral over the mesh
+    SeriesEstimate estimate_exact, estimate_modal, estimate_third_order;
+    double estimate_seconds = 0.; // the exact estimates: two solves, an integral and 6 assemblies
+    // Self-check of the third order's finite differences (negative: not computed): their quadratic
+    // term, c1 / 2 t^2, against the solve's c1; relative.
+    double quadratic_term_check = -1.;
     // Self-checks of the cubic term (negative: not computed): Psi3(u1) by quadrature against the odd
     // part of the stored energy along t u1 (finite differences), and sum P_ijk q_i q_j q_k against
     // Psi3(Phi q) by quadrature; relative differences.
