@@ -1140,7 +1140,7 @@ namespace modal_haptics
             summary << "; the solve stopped at " << curve.force_reached << " N of " << ramp.force_limit
                     << " N: " << curve.stop_reason;
           summary << "; third-order estimate " << forces_text(curve.estimate_third_order.validity_force)
-                  << " N, second-order " << forces_text(curve.estimate_exact.validity_force) << " (exact, both "
+                  << ", second-order " << forces_text(curve.estimate_exact.validity_force) << " (exact, both "
                   << std::setprecision(2) << curve.estimate_seconds << " s)";
           if (modal)
             {
