@@ -8,16 +8,18 @@
 // "slide" and "fixed" rows: one HIP 1 mm deep moving to and fro over the plate at 0.1 m/s, with a
 // sliding proxy contact (mu_s 0.3, mu_d 0.2) or with the fixed (snap) contact it starts with, the two
 // kernels ticked alternately in one loop (the machine's load falls on both alike); a comment line
-// before them gives each one's passivity observer at the end and its lowest value; "sampled" and
-// "every-vertex" rows: the corrected 2-HIP admittance tick on the plate with 32 candidates per space
-// and on the same plate whose every display vertex is a candidate with cross rows to the vertices it
-// shares a triangle with (issue 36's basis), the two kernels ticked alternately at the same vertices;
-// a comment line before them gives both bases' sizes and the ratio of their p50s.
+// before them gives each one's passivity observer at the end and its lowest value; "sampled",
+// "every-vertex" and "far-field" rows: the corrected 2-HIP admittance tick on the plate with 32
+// candidates per space, on the same plate whose every display vertex is a candidate with cross rows
+// to the vertices it shares a triangle with (issue 36's basis), and on that one with a far field of
+// rank 64 (.mrt 1.3) coupling the two HIPs, which are not neighbours; the three kernels ticked in
+// turn at the same vertices; a comment line before them gives the bases' sizes and the ratios of
+// their p50s to the sampled one's.
 //
 // Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
 //                          [--slide-only | --every-vertex-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
-// the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex rows).
+// the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex/far-field rows).
 #include "bench_support.h"
 
 #include <modalrt/modalrt.h>
@@ -43,7 +45,7 @@ namespace
     std::vector<std::uint32_t> modes              = {20, 50, 200, 1000};
     std::string                basis_file;
     bool                       slide_only        = false; // only the "slide" and "fixed" rows
-    bool                       every_vertex_only = false; // only the "sampled" and "every-vertex" rows
+    bool                       every_vertex_only = false; // only the "sampled", "every-vertex", "far-field" rows
   };
 
   struct Percentiles
@@ -86,8 +88,12 @@ namespace
     return basis;
   }
 
-  // The synthetic plate: 32 candidates per space, or every display vertex a candidate.
-  modalrt_basis *make_basis(const Options &o, std::uint32_t r, bool every_vertex = false)
+  // The far field's rank on the every-vertex plate: the precompute's default 'Contact/Far field rank'.
+  constexpr std::uint32_t far_field_rank = 64;
+
+  // The synthetic plate: 32 candidates per space, or every display vertex a candidate (with a far
+  // field of far_rank when > 0).
+  modalrt_basis *make_basis(const Options &o, std::uint32_t r, bool every_vertex = false, std::uint32_t far_rank = 0)
   {
     modalrt::PlateOptions plate;
     plate.nx = plate.ny  = o.vertices_per_side;
@@ -95,6 +101,7 @@ namespace
     plate.float64_modes  = false;
     plate.patch_radius   = 2.5 * plate.length / (plate.nx - 1); // about 20 vertices per patch
     plate.every_vertex_candidates = every_vertex;
+    plate.far_rank                = far_rank;
     return modalrt_bench::load_plate(plate, "bench-kernel-tick");
   }
 
@@ -326,34 +333,35 @@ namespace
     return percentiles(ns);
   }
 
-  // The corrected 2-HIP admittance tick on two bases of one plate, the kernels ticked alternately in
-  // one loop (the machine's load falls on both alike): the sampled one (32 candidates per space) and
-  // the one whose every display vertex is a candidate with cross rows to its triangles' vertices.
-  // Both HIPs press the same vertices (the sampled basis's sites, candidates of both). Returns
-  // {sampled, every vertex}.
-  std::pair<Percentiles, Percentiles> run_basis_pair(const modalrt_basis *sampled, const modalrt_basis *every_vertex,
-                                                     const Options &o)
+  // The corrected 2-HIP admittance tick on bases of one plate, the kernels ticked in turn in one loop
+  // (the machine's load falls on all alike; which one goes first rotates): the sampled one (32
+  // candidates per space), the one whose every display vertex is a candidate with cross rows to its
+  // triangles' vertices, and that one with a far field. All HIPs press the same vertices (the sampled
+  // basis's sites, candidates of all). Returns one Percentiles per basis, in order.
+  constexpr int compared_bases                = 3;
+  const char   *basis_names[compared_bases] = {"sampled", "every-vertex", "far-field"};
+
+  std::vector<Percentiles> run_bases(const modalrt_basis *const (&bases)[compared_bases], const Options &o)
   {
-    const std::uint32_t  hips      = 2;
-    const modalrt_basis *bases[2]  = {sampled, every_vertex};
-    modalrt_kernel      *kernels[2];
-    modalrt_hip_input    in[2][4];
-    modalrt_hip_output   out[2][4];
-    std::uint32_t        site[4];
-    contact_sites(sampled, hips, site);
-    for (int b = 0; b < 2; ++b)
+    const std::uint32_t hips = 2;
+    modalrt_kernel     *kernels[compared_bases];
+    modalrt_hip_input   in[compared_bases][4];
+    modalrt_hip_output  out[compared_bases][4];
+    std::uint32_t       site[4];
+    contact_sites(bases[0], hips, site);
+    for (int b = 0; b < compared_bases; ++b)
       {
         kernels[b] = create_held_kernel(bases[b], hips, true);
         place_hips(kernels[b], bases[b], site, hips, false, in[b]);
       }
     const long                 warmup = 10000;
-    std::vector<std::uint32_t> ns[2];
+    std::vector<std::uint32_t> ns[compared_bases];
     for (auto &v : ns)
       v.resize(std::size_t(o.ticks));
     for (long n = -warmup; n < o.ticks; ++n)
-      for (int kernel = 0; kernel < 2; ++kernel) // alternate which one goes first
+      for (int kernel = 0; kernel < compared_bases; ++kernel)
         {
-          const int which = (kernel + int(n & 1)) & 1;
+          const int which = int((kernel + (n % compared_bases + compared_bases)) % compared_bases);
           press(n, bases[which], site, hips, in[which]);
           const auto start = Clock::now();
           modalrt_kernel_tick_admittance(kernels[which], in[which], hips, out[which]);
@@ -361,14 +369,26 @@ namespace
           if (n >= 0)
             ns[which][std::size_t(n)] = elapsed_ns(start, stop);
         }
-    for (int b = 0; b < 2; ++b)
+    for (int b = 0; b < compared_bases; ++b)
       for (std::uint32_t h = 0; h < hips; ++h)
         if (!out[b][h].in_contact || !(out[b][h].flags & MODALRT_HIP_CORRECTED))
           std::fprintf(stderr, "bench-kernel-tick: HIP %u on the %s basis is not a corrected contact\n", h,
-                       b == 0 ? "sampled" : "every-vertex");
+                       basis_names[b]);
     for (modalrt_kernel *k : kernels)
       modalrt_kernel_destroy(k);
-    return {percentiles(ns[0]), percentiles(ns[1])};
+    std::vector<Percentiles> result;
+    for (auto &v : ns)
+      result.push_back(percentiles(v));
+    return result;
+  }
+
+  // Whether the far field couples the two HIPs' sites of run_bases (they share no triangle).
+  bool far_coupled(const modalrt_basis *basis)
+  {
+    std::uint32_t site[4];
+    double        C[9];
+    contact_sites(basis, 2, site);
+    return modalrt_basis_pair_coupling(basis, 0, site[0], site[1], C) == MODALRT_COUPLING_FAR;
   }
 
   Options parse(int argc, char **argv)
@@ -419,27 +439,30 @@ namespace
     std::fflush(stdout);
   }
 
-  // The "sampled" and "every-vertex" rows of one r, after a comment line with both bases' sizes and
-  // the ratio of their p50s.
-  void print_basis_pair(const modalrt_basis *sampled, const Options &o, std::uint32_t r)
+  // The "sampled", "every-vertex" and "far-field" rows of one r, after a comment line with the bases'
+  // sizes and the ratios of their p50s to the sampled one's.
+  void print_bases(const modalrt_basis *sampled, const Options &o, std::uint32_t r)
   {
-    modalrt_basis     *every_vertex = make_basis(o, r, true);
-    const auto         pair         = run_basis_pair(sampled, every_vertex, o);
-    const modalrt_basis *bases[2]   = {sampled, every_vertex};
-    modalrt_basis_info info[2];
-    modalrt_space_info space[2];
-    for (int b = 0; b < 2; ++b)
+    modalrt_basis *every_vertex = make_basis(o, r, true), *far = make_basis(o, r, true, far_field_rank);
+    const modalrt_basis *const bases[compared_bases] = {sampled, every_vertex, far};
+    const auto                 p = run_bases(bases, o);
+    modalrt_basis_info         info[compared_bases];
+    modalrt_space_info         space[compared_bases];
+    for (int b = 0; b < compared_bases; ++b)
       {
         modalrt_basis_get_info(bases[b], &info[b]);
         modalrt_basis_get_space_info(bases[b], 0, &space[b]);
       }
-    std::printf("# basis r=%u, corrected 2-HIP admittance, ticked alternately: sampled %u candidates per space (%.1f MB), "
-                "every vertex %u (%.1f MB); every-vertex/sampled p50 %.3f\n",
+    std::printf("# basis r=%u, corrected 2-HIP admittance, ticked in turn: sampled %u candidates per space (%.1f MB), "
+                "every vertex %u (%.1f MB), with a far field of rank %u (%.1f MB; the two HIPs coupled by it: %s); "
+                "every-vertex/sampled p50 %.3f, far-field/sampled p50 %.3f\n",
                 r, space[0].candidate_count, 1e-6 * double(info[0].file_bytes), space[1].candidate_count,
-                1e-6 * double(info[1].file_bytes), pair.second.p50 / pair.first.p50);
-    print_row("sampled", r, 2, true, pair.first);
-    print_row("every-vertex", r, 2, true, pair.second);
+                1e-6 * double(info[1].file_bytes), space[2].far_rank, 1e-6 * double(info[2].file_bytes),
+                far_coupled(far) ? "yes" : "NO", p[1].p50 / p[0].p50, p[2].p50 / p[0].p50);
+    for (int b = 0; b < compared_bases; ++b)
+      print_row(basis_names[b], r, 2, true, p[b]);
     modalrt_basis_destroy(every_vertex);
+    modalrt_basis_destroy(far);
   }
 } // namespace
 
@@ -456,7 +479,7 @@ int main(int argc, char **argv)
       modalrt_basis_get_space_info(probe, 0, &info);
       o.modes = {info.mode_count};
       modalrt_basis_destroy(probe);
-      std::printf("# bench-kernel-tick: %ld ticks per row, basis %s (no sampled/every-vertex rows: synthetic plate only)\n",
+      std::printf("# bench-kernel-tick: %ld ticks per row, basis %s (no sampled/every-vertex/far-field rows: synthetic plate only)\n",
                   o.ticks, o.basis_file.c_str());
     }
   std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns\n");
@@ -484,7 +507,7 @@ int main(int argc, char **argv)
       if (all)
         print_row(name(Scenario::landing), r, 1, true, run_landings(basis, o, true, ns));
       if ((all || o.every_vertex_only) && o.basis_file.empty())
-        print_basis_pair(basis, o, r);
+        print_bases(basis, o, r);
       modalrt_basis_destroy(basis);
     }
   return 0;

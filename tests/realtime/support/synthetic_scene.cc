@@ -638,6 +638,8 @@ namespace modalrt
                 }
             }
         c.spaces.push_back(std::move(sp));
+        if (o.far_rank > 0 && o.every_vertex_candidates)
+          c.spaces.back().far_compliance = made_up_far_factor(c, s, o.far_rank, o.length, o.width);
       }
     for (std::uint32_t k = 0; k < o.spaces; ++k)
       for (std::uint32_t j = 0; j < o.spaces; ++j)

@@ -108,6 +108,8 @@ namespace modalrt
     bool          every_vertex_candidates = false; // every display vertex a candidate of every space instead,
                                                    // with cross rows to the vertices it shares a triangle with
                                                    // (version 1.1, as the precompute writes them)
+    std::uint32_t far_rank      = 0;     // > 0, with every_vertex_candidates: a made-up FAR_COMPLIANCE of
+                                         // this rank (.mrt 1.3, made_up_far_factor) couples the other pairs
     bool          float64_modes = false;
     double        patch_radius  = 0.0;   // [m]
   };
