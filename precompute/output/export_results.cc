@@ -2,6 +2,7 @@
 // and report.json (docs/report-schema.md). Each is written to a temporary file and renamed.
 #include "output/atomic_file.h"
 #include "output/exporters.h"
+#include "space/quantile.h"
 
 #include <deal.II/base/hdf5.h>
 #include <deal.II/base/mpi.h>
@@ -534,12 +535,12 @@ namespace modal_haptics
           softest.push_back(spot(region[k]));
           stiffest.push_back(spot(region[region.size() - 1 - k]));
         }
-      const auto ratio_at = [&](const double q) { return ratios.empty() ? 0. : ratios[std::size_t(q * (ratios.size() - 1))]; };
+      const auto ratio_at = [&](const double q) { return ratios.empty() ? 0. : ratios[quantile_rank(ratios.size(), q)]; };
       const std::size_t off_by_8_percent =
         std::count_if(ratios.begin(), ratios.end(), [](const double x) { return std::abs(x - 1.) > 0.08; });
       return {{"n_vertices", region.size()},
               {"min_n_per_mm", s.felt_stiffness[region.front()] * 1e-3},
-              {"median_n_per_mm", s.felt_stiffness[region[region.size() / 2]] * 1e-3},
+              {"median_n_per_mm", s.felt_stiffness[region[quantile_rank(region.size(), 0.5)]] * 1e-3},
               {"max_n_per_mm", s.felt_stiffness[region.back()] * 1e-3},
               {"modal_only_ratio_median", ratio_at(0.5)},
               {"modal_only_ratio_max", ratio_at(1.)},
@@ -570,7 +571,7 @@ namespace modal_haptics
           for (const unsigned int v : region)
             forces.push_back(s.validity_force[3 * v + k]);
           std::sort(forces.begin(), forces.end());
-          const auto at = [&](const double q) { return forces[std::size_t(q * (forces.size() - 1))]; };
+          const auto at = [&](const double q) { return forces[quantile_rank(forces.size(), q)]; };
           map[std::to_string(departure_percent(k)) + "_percent"] = {
             {"min_n", at(0.)},       {"q05_n", at(0.05)}, {"q25_n", at(0.25)}, {"median_n", at(0.5)},
             {"q75_n", at(0.75)},     {"max_n", at(1.)},

@@ -1,5 +1,7 @@
 #include "space/far_field.h"
 
+#include "space/quantile.h"
+
 #include "solvers/blas_lapack.h"
 
 #include <mrt/cross_rows.h>
@@ -124,15 +126,6 @@ namespace modal_haptics::far_field
       for (const double x : A)
         sum += x * x;
       return std::sqrt(sum);
-    }
-
-    double quantile(std::vector<double> values, const double fraction)
-    {
-      if (values.empty())
-        return 0.;
-      const std::size_t k = std::min(values.size() - 1, std::size_t(fraction * (values.size() - 1) + 0.5));
-      std::nth_element(values.begin(), values.begin() + k, values.end());
-      return values[k];
     }
   } // namespace
 
