@@ -291,9 +291,9 @@ namespace modal_haptics
     prm.declare_entry("Cross compliance radius", text(c.cross_compliance_radius), Patterns::Double(0.),
                       "Two candidates closer than this, or sharing a display triangle (radius 0, the default: "
                       "what a sliding contact blends), get their residual cross compliance stored: two HIPs "
-                      "that close feel the full-FE answer; farther apart, the modes alone couple them "
-                      "(docs/accuracy.md measures what that leaves out; each millimetre costs static-correction "
-                      "time and .mrt size)." + geometry_units);
+                      "that close feel the full-FE answer; farther apart, the modes and the far field couple them "
+                      "('Far field rank'; docs/accuracy.md measures what that leaves out; each millimetre costs "
+                      "static-correction time and .mrt size)." + geometry_units);
     prm.declare_entry("Far field rank", text(c.far_field_rank), Patterns::Integer(0, 1000),
                       "Two candidates farther apart than the cross compliance radius are coupled by the "
                       "modes plus a rank-k approximation of the residual compliance between every pair of "
