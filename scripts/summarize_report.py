@@ -45,6 +45,16 @@ def main(path):
                    f"off the full solve ({100 * max(p['rel_error_without_cross'] for p in pairs):.2g} % with the modes alone)"
                    if pairs else "")
         print(f"far field, {s['name']} (rank {far['rank']}): coupling error median by distance (modes alone): {bands}{pressed}")
+    for s in report["spaces"]:
+        for c in s.get("validity", []):
+            def forces(node, missing="never"):  # the full solve's missing ones lie above its force limit
+                return " / ".join(missing if node[k] is None else f"{node[k]:.3g}"
+                                  for k in ("1_percent", "5_percent", "10_percent"))
+            stopped = f", stopped at {c['force_reached_n']:.3g} N: {c['stop_reason']}" if c["stop_reason"] else ""
+            print(f"validity, {s['name']} vertex {c['vertex']} (up to {c['force_limit_n']:.3g} N{stopped}): "
+                  f"1 / 5 / 10 % at {forces(c['validity_force_n'], 'above')} N (full solve); estimates "
+                  f"{forces(c['third_order_exact']['validity_force_n'])} N (exact third order), "
+                  f"{forces(c['second_order_exact']['validity_force_n'])} N (exact second order)")
     for c in report.get("cross_space", []):
         if c["region"] != c["space"]:
             continue  # the VOI that holds the vertex is the comparison that matters
