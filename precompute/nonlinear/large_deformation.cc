@@ -178,9 +178,11 @@ namespace modal_haptics
       // cells. With H = grad u, eps = sym H, sigma = lambda tr(eps) I + 2 mu eps: St. Venant-Kirchhoff
       // psi3 = 1/2 sigma : (H^T H); the neo-Hookean law adds -lambda tr(eps) tr(eps^2) - 4/3 mu tr(eps^3)
       // (W = lambda/2 (tr E)^2 + mu tr E^2 - lambda tr E tr E^2 - 4/3 mu tr E^3 + O(E^4)).
+      // With largest_gradient, also the largest |grad u| (Frobenius) at a quadrature point.
       template <typename Algebra>
       double cubic_energy(const SpaceView<Algebra> &space, const MaterialParameters &material,
-                          const HyperelasticLaw law, const typename Algebra::Vector &u)
+                          const HyperelasticLaw law, const typename Algebra::Vector &u,
+                          double *largest_gradient = nullptr)
       {
         const auto [mu, lambda] = lame_constants(material);
         const auto  u_read      = readable(space, u);
@@ -188,15 +190,20 @@ namespace modal_haptics
                               update_gradients | update_JxW_values);
         const FEValuesExtractors::Vector displacement(0);
         std::vector<Tensor<2, 3>>        grad_u(space.quadrature.size());
-        double                           psi3 = 0.;
+        double                           psi3 = 0., largest = 0.;
         for (const auto &cell : space.dof_handler.active_cell_iterators())
           if (cell->is_locally_owned())
             {
               fe_values.reinit(cell);
               fe_values[displacement].get_function_gradients(u_read, grad_u);
               for (unsigned int q = 0; q < grad_u.size(); ++q)
-                psi3 += cubic_density(law, mu, lambda, grad_u[q]) * fe_values.JxW(q);
+                {
+                  psi3 += cubic_density(law, mu, lambda, grad_u[q]) * fe_values.JxW(q);
+                  largest = std::max(largest, grad_u[q].norm());
+                }
             }
+        if (largest_gradient)
+          *largest_gradient = Utilities::MPI::max(largest, communicator(space.dof_handler));
         return Utilities::MPI::sum(psi3, communicator(space.dof_handler));
       }
 
@@ -456,10 +463,15 @@ namespace modal_haptics
         bool solve_tangent(VectorType &du, std::string &failure, double tolerance = 1e-12);
         bool solve_tangent_system(VectorType &du, std::string &failure, double tolerance); // untimed
         bool preconditioned_cg(VectorType &du, double tolerance);
-        // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load.
-        void estimate_second_order(const VectorType &u1, ValidityCurve &curve);
-        // curve.estimate_third_order and its check, from u1; 'tangent' must still be K (at u = 0).
-        void estimate_third_order(const VectorType &u1, ValidityCurve &curve);
+        // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load. Returns the step h [N] of
+        // the finite differences along t u1: the largest displacement gradient of h u1 is 1e-3, where
+        // the expansion's cubic and quartic terms stand well above the rounding of the energy's
+        // quadratic one (1e-3 and 1e-6 of it) and the orders left out are negligible; whatever the
+        // force limit (a step from it, tried first, met only rounding at a limit of 1e-3 N).
+        double estimate_second_order(const VectorType &u1, ValidityCurve &curve);
+        // curve.estimate_third_order and its check, from u1 with the step h; 'tangent' must still be K
+        // (at u = 0).
+        void estimate_third_order(const VectorType &u1, double h, ValidityCurve &curve);
         // The even parts of the stored energy and of rhs = -f_int along t u1, (g(t u1) + g(-t u1)) / 2;
         // false where an element inverts.
         bool even_parts(const VectorType &u1, double t, double &even_energy, VectorType &even_rhs);
@@ -665,17 +677,18 @@ namespace modal_haptics
       }
 
       template <typename Algebra>
-      void LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve)
+      double LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve)
       {
         Timer        timer;
-        const double psi3       = cubic_energy(space, material, law, u1);
+        double       largest_gradient = 0.;
+        const double psi3             = cubic_energy(space, material, law, u1, &largest_gradient);
         curve.estimate_seconds += timer.wall_time();
         curve.estimate_exact.c2 = -3. * psi3;
         curve.estimate_exact.validity_force = series_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
 
         // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
         // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
-        const double h   = curve.force_limit / 100.;
+        const double h   = largest_gradient > 0. ? 1e-3 / largest_gradient : curve.force_limit / 100.;
         const auto   odd = [&](const double t) {
           VectorType u(u1);
           u *= t;
@@ -691,6 +704,7 @@ namespace modal_haptics
         };
         const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
         curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
+        return h;
       }
 
       template <typename Algebra>
@@ -730,21 +744,18 @@ namespace modal_haptics
       }
 
       template <typename Algebra>
-      void LargeDeformationSolve<Algebra>::estimate_third_order(const VectorType &u1, ValidityCurve &curve)
+      void LargeDeformationSolve<Algebra>::estimate_third_order(const VectorType &u1, double h, ValidityCurve &curve)
       {
         // d(F) = c1 F + c2 F^2 + c3 F^3: K u2 = -grad Psi3(u1) = -g2, K u3 = -2 B(u1, u2) - grad Psi4(u1)
         // (grad Psi3(u) = B(u, u)), and u1^T B(u1, u2) = g2^T u2 = -u2^T K u2, Euler's theorem for
         // Psi4: c3 = u1^T K u3 = 2 u2^T K u2 - 4 Psi4(u1). g2 and Psi4(u1) from the even parts along
         // t u1 (the elastic supports' energy is quadratic: it is in the t^2 terms only), at t = h, 2 h,
-        // 3 h with h the response to a hundredth of the force limit, as the check of Psi3 above: where
-        // the curve departs by percents at the limit, the t^4 terms there stand about 1e-7 of the t^2
-        // terms (above their rounding), and the t^8 terms left out are negligible. h is quartered where
-        // an element inverts.
+        // 3 h with the step h of the check of Psi3 (estimate_second_order); h is quartered where an
+        // element inverts.
         Timer                     timer;
         const auto                weights = even_series_weights();
         std::array<double, 3>     even_energy{};
         std::vector<VectorType>   even_rhs(3, u1);
-        double                    h      = curve.force_limit / 100.;
         bool                      inside = false;
         for (unsigned int attempt = 0; attempt < 8; ++attempt, h /= 4.)
           {
@@ -888,8 +899,8 @@ namespace modal_haptics
         AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
         curve.estimate_seconds  = solve_timer.wall_time();
         curve.linear_compliance = load * du;
-        estimate_second_order(du, curve);
-        estimate_third_order(du, curve);
+        const double step = estimate_second_order(du, curve);
+        estimate_third_order(du, step, curve);
 
         const double first_increment = ramp.force_limit / ramp.load_steps;
         const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
