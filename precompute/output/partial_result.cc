@@ -99,7 +99,7 @@ namespace modal_haptics
   namespace
   {
     // The first line of every partial result file; a new layout of the archive gets a new number.
-    const std::string format_line = "modal-haptics partial result, format 4";
+    const std::string format_line = "modal-haptics partial result, format 5";
   } // namespace
 
   std::string partial_result_file(const std::string &directory, const std::string &scenario)
