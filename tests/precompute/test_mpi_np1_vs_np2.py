@@ -41,7 +41,7 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   np = 2 and serially on the same meshes: the same load levels, Newton iterations, factorizations (of
   the tangents where CG on them stalls: MUMPS's L D L^T at np = 2, CHOLMOD serially) and stop reason
   (the limit point, told at np = 2 by the inertia of MUMPS's factor); displacements, the linear
-  compliance, the validity forces and the exact second-order estimate to 1e-8, the third-order one to 1e-9;
+  compliance, the validity forces and the exact second-order estimate to 1e-8, the third-order one to 1e-8;
 * a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
   under mpirun -np 2 exit non-zero with the message, no hang (the shift refused by the inertia of
   MUMPS's L D L^T, before PARPACK);
@@ -219,10 +219,10 @@ def compare_validity_analysis(args, expect):
             d = relative(np.array(a, dtype=float), np.array(b, dtype=float))
             expect(d <= 1e-8, f"{case}: {what} np=2 vs serial {d:.1e} <= 1e-8")
         # The third order's Psi4 is a difference of energies, summed in another order at np = 2: it
-        # keeps more of their rounding (3e-12 seen).
+        # keeps more of their rounding (1.2e-10 seen in CI's run with the step from the gradient).
         third = [np.array(list(z["third_order_exact"]["validity_force_n"].values()), dtype=float) for z in (x, y)]
         d = relative(*third)
-        expect(np.all(np.isfinite(third[1])) and d <= 1e-9, f"{case}: third-order estimate np=2 vs serial {d:.1e} <= 1e-9")
+        expect(np.all(np.isfinite(third[1])) and d <= 1e-8, f"{case}: third-order estimate np=2 vs serial {d:.1e} <= 1e-8")
     counts = {label: validity_summary(text) for label, text in logs.items()}
     expect(counts["np2"] == counts["serial"] and counts["np2"][2] > 0 and counts["np2"][3] > 0,
            f"validity analysis: assemblies, factorizations and CG iterations alike at np=2 and serially "
