@@ -463,18 +463,26 @@ namespace modal_haptics
         bool solve_tangent(VectorType &du, std::string &failure, double tolerance = 1e-12);
         bool solve_tangent_system(VectorType &du, std::string &failure, double tolerance); // untimed
         bool preconditioned_cg(VectorType &du, double tolerance);
-        // curve.estimate_exact and the checks of Psi3, from u1 = K^-1 load. Returns the step h [N] of
-        // the finite differences along t u1: the largest displacement gradient of h u1 is 1e-3, where
-        // the expansion's cubic and quartic terms stand well above the rounding of the energy's
-        // quadratic one (1e-3 and 1e-6 of it) and the orders left out are negligible; whatever the
-        // force limit (a step from it, tried first, met only rounding at a limit of 1e-3 N).
-        double estimate_second_order(const VectorType &u1, ValidityCurve &curve);
-        // curve.estimate_third_order and its check, from u1 with the step h; 'tangent' must still be K
-        // (at u = 0).
-        void estimate_third_order(const VectorType &u1, double h, ValidityCurve &curve);
-        // The even parts of the stored energy and of rhs = -f_int along t u1, (g(t u1) + g(-t u1)) / 2;
-        // false where an element inverts.
-        bool even_parts(const VectorType &u1, double t, double &even_energy, VectorType &even_rhs);
+        // curve.estimate_exact, from u1 = K^-1 load; Psi3(u1) into psi3. Returns the step h [N] of the
+        // finite differences along t u1: the largest displacement gradient of h u1 is 1e-3, where the
+        // expansion's cubic and quartic terms stand well above the rounding of the energy's quadratic
+        // one (1e-3 and 1e-6 of it) and the orders left out are negligible; whatever the force limit (a
+        // step from it, tried first, met only rounding at a limit of 1e-3 N).
+        double estimate_second_order(const VectorType &u1, ValidityCurve &curve, double &psi3);
+        // The stored energy and rhs = -f_int along +-t u1 at t = h, 2 h, 3 h, assembled once for both
+        // uses: the odd parts of the energy check Psi3, the even parts give grad Psi3 and Psi4.
+        struct ResponseSamples
+        {
+          bool                    inside = false; // no element inverted at any sample
+          double                  h      = 0.;    // [N], quartered from the step asked for where one did
+          std::array<double, 3>   odd_energy{}, even_energy{}; // (g(t u1) -+ g(-t u1)) / 2 at t = h, 2 h, 3 h
+          std::vector<VectorType> even_rhs;
+        };
+        ResponseSamples sample_along_response(const VectorType &u1, double h);
+        // curve.cubic_term_check: Psi3 against the odd part's Richardson extrapolation.
+        static void check_cubic_term(double psi3, const ResponseSamples &samples, ValidityCurve &curve);
+        // curve.estimate_third_order and its check from the samples; 'tangent' must still be K (at u = 0).
+        void estimate_third_order(const ResponseSamples &samples, ValidityCurve &curve);
 
         const SpaceView<Algebra>                   space;
         const MaterialParameters                   material;
@@ -677,52 +685,59 @@ namespace modal_haptics
       }
 
       template <typename Algebra>
-      double LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve)
+      double LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve,
+                                                                   double &psi3)
       {
-        Timer        timer;
-        double       largest_gradient = 0.;
-        const double psi3             = cubic_energy(space, material, law, u1, &largest_gradient);
+        Timer  timer;
+        double largest_gradient = 0.;
+        psi3                    = cubic_energy(space, material, law, u1, &largest_gradient);
         curve.estimate_seconds += timer.wall_time();
         curve.estimate_exact.c2 = -3. * psi3;
         curve.estimate_exact.validity_force = series_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
-
-        // The odd part of the stored energy along t u1, (W(t u1) - W(-t u1)) / 2 = t^3 Psi3 + t^5 Psi5 + ...,
-        // at t = h and 2 h (Richardson): the elastic supports' quadratic energy cancels.
-        const double h   = largest_gradient > 0. ? 1e-3 / largest_gradient : curve.force_limit / 100.;
-        const auto   odd = [&](const double t) {
-          VectorType u(u1);
-          u *= t;
-          double half = 0.;
-          for (const double sign : {1., -1.})
-            {
-              VectorType signed_u(u);
-              signed_u *= sign;
-              AssertThrow(assemble(signed_u, 0., u1, false), ExcInternalError());
-              half += sign * 0.5 * energy;
-            }
-          return half;
-        };
-        const double finite_difference = (32. * odd(h) - odd(2. * h)) / (24. * h * h * h);
-        curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
-        return h;
+        return largest_gradient > 0. ? 1e-3 / largest_gradient : curve.force_limit / 100.;
       }
 
       template <typename Algebra>
-      bool LargeDeformationSolve<Algebra>::even_parts(const VectorType &u1, const double t, double &even_energy,
-                                                      VectorType &even_rhs)
+      typename LargeDeformationSolve<Algebra>::ResponseSamples
+      LargeDeformationSolve<Algebra>::sample_along_response(const VectorType &u1, double h)
       {
-        even_energy = 0.;
-        even_rhs    = 0.;
-        for (const double sign : {1., -1.})
+        ResponseSamples samples;
+        samples.even_rhs.assign(3, u1);
+        for (unsigned int attempt = 0; attempt < 8 && !samples.inside; ++attempt, h /= 4.)
           {
-            VectorType u(u1);
-            u *= sign * t;
-            if (!assemble(u, 0., u1, false))
-              return false;
-            even_energy += 0.5 * energy;
-            even_rhs.add(0.5, rhs);
+            samples.inside = true;
+            samples.h      = h;
+            for (unsigned int i = 0; i < 3 && samples.inside; ++i)
+              {
+                samples.odd_energy[i] = samples.even_energy[i] = 0.;
+                samples.even_rhs[i]                            = 0.;
+                for (const double sign : {1., -1.})
+                  {
+                    VectorType u(u1);
+                    u *= sign * (i + 1) * h;
+                    samples.inside = assemble(u, 0., u1, false);
+                    if (!samples.inside)
+                      break;
+                    samples.odd_energy[i] += sign * 0.5 * energy;
+                    samples.even_energy[i] += 0.5 * energy;
+                    samples.even_rhs[i].add(0.5, rhs);
+                  }
+              }
           }
-        return true;
+        return samples;
+      }
+
+      // The odd part of the stored energy along t u1, o(t) = t^3 Psi3 + t^5 Psi5 + ... (the elastic
+      // supports' quadratic energy cancels), at t = h and 2 h: Richardson's (32 o(h) - o(2 h)) / (24 h^3).
+      template <typename Algebra>
+      void LargeDeformationSolve<Algebra>::check_cubic_term(const double psi3, const ResponseSamples &samples,
+                                                            ValidityCurve &curve)
+      {
+        if (!samples.inside)
+          return; // stays -1: not computed
+        const double h                 = samples.h;
+        const double finite_difference = (32. * samples.odd_energy[0] - samples.odd_energy[1]) / (24. * h * h * h);
+        curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
       }
 
       // The weights on e(h), e(2 h), e(3 h) of the t^2 and t^4 coefficients of an even series
@@ -744,35 +759,24 @@ namespace modal_haptics
       }
 
       template <typename Algebra>
-      void LargeDeformationSolve<Algebra>::estimate_third_order(const VectorType &u1, double h, ValidityCurve &curve)
+      void LargeDeformationSolve<Algebra>::estimate_third_order(const ResponseSamples &samples, ValidityCurve &curve)
       {
         // d(F) = c1 F + c2 F^2 + c3 F^3: K u2 = -grad Psi3(u1) = -g2, K u3 = -2 B(u1, u2) - grad Psi4(u1)
         // (grad Psi3(u) = B(u, u)), and u1^T B(u1, u2) = g2^T u2 = -u2^T K u2, Euler's theorem for
         // Psi4: c3 = u1^T K u3 = 2 u2^T K u2 - 4 Psi4(u1). g2 and Psi4(u1) from the even parts along
-        // t u1 (the elastic supports' energy is quadratic: it is in the t^2 terms only), at t = h, 2 h,
-        // 3 h with the step h of the check of Psi3 (estimate_second_order); h is quartered where an
-        // element inverts.
-        Timer                     timer;
-        const auto                weights = even_series_weights();
-        std::array<double, 3>     even_energy{};
-        std::vector<VectorType>   even_rhs(3, u1);
-        bool                      inside = false;
-        for (unsigned int attempt = 0; attempt < 8; ++attempt, h /= 4.)
-          {
-            inside = true;
-            for (unsigned int i = 0; i < 3 && inside; ++i)
-              inside = even_parts(u1, (i + 1) * h, even_energy[i], even_rhs[i]);
-            if (inside)
-              break;
-          }
+        // t u1 (the elastic supports' energy is quadratic: it is in the t^2 terms only).
+        Timer      timer;
+        const auto weights = even_series_weights();
         curve.estimate_third_order.c2 = curve.estimate_exact.c2;
-        if (!inside)
+        if (!samples.inside)
           {
             curve.estimate_third_order.c3 = std::numeric_limits<double>::quiet_NaN();
             curve.estimate_third_order.validity_force.fill(std::numeric_limits<double>::quiet_NaN());
-            curve.estimate_seconds += timer.wall_time();
             return;
           }
+        const double h = samples.h;
+        const auto  &even_energy = samples.even_energy;
+        const auto  &even_rhs    = samples.even_rhs;
         double quadratic = 0., psi4 = 0.;
         rhs              = 0.; // -g2
         for (unsigned int i = 0; i < 3; ++i)
@@ -783,7 +787,7 @@ namespace modal_haptics
           }
         curve.quadratic_term_check = std::abs(2. * quadratic - curve.linear_compliance) / curve.linear_compliance;
 
-        VectorType  minus_g2(rhs), u2(u1);
+        VectorType  minus_g2(rhs), u2(rhs);
         std::string failure;
         AssertThrow(solve_tangent(u2, failure), ExcMessage("The validity analysis' third-order term: " + failure));
         curve.estimate_third_order.c3 = 2. * (u2 * minus_g2) - 4. * psi4;
@@ -899,8 +903,13 @@ namespace modal_haptics
         AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
         curve.estimate_seconds  = solve_timer.wall_time();
         curve.linear_compliance = load * du;
-        const double step = estimate_second_order(du, curve);
-        estimate_third_order(du, step, curve);
+        double       psi3 = 0.;
+        const double step = estimate_second_order(du, curve, psi3);
+        Timer        sample_timer;
+        const auto   samples = sample_along_response(du, step);
+        curve.estimate_seconds += sample_timer.wall_time();
+        check_cubic_term(psi3, samples, curve);
+        estimate_third_order(samples, curve);
 
         const double first_increment = ramp.force_limit / ramp.load_steps;
         const double least_increment = first_increment / std::pow(2., ramp.max_halvings);
