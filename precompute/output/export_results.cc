@@ -2,6 +2,7 @@
 // and report.json (docs/report-schema.md). Each is written to a temporary file and renamed.
 #include "output/atomic_file.h"
 #include "output/exporters.h"
+#include "solvers/factorization.h"
 #include "space/quantile.h"
 
 #include <deal.II/base/hdf5.h>
@@ -680,7 +681,10 @@ namespace modal_haptics
               {"parameter_file", scene.parameter_file},
               {"geometry", scene.meshing.geometry},
               {"element_degree", scene.element_degree},
-              {"processes", {{"count", results.n_processes}, {"max_peak_memory_mb", results.max_peak_memory_mb}}},
+              {"processes",
+               {{"count", results.n_processes},
+                {"max_peak_memory_mb", results.max_peak_memory_mb},
+                {"blas_kernels", running_blas_kernels().core}}},
               {"material",
                {{"youngs_modulus_pa", scene.material.youngs_modulus},
                 {"poissons_ratio", scene.material.poissons_ratio},

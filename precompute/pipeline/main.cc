@@ -257,6 +257,10 @@ namespace
   std::string run_mode(const CommandLine &command, const Processes &processes,
                        const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm)
   {
+    if (const auto blas = modal_haptics::running_blas_kernels(); blas.chosen_by_us && command.verbose && processes.rank == 0)
+      std::cout << "[blas] OpenBLAS did not know this CPU and took its generic Prescott kernels: running with "
+                   "OPENBLAS_CORETYPE="
+                << blas.core << " (set OPENBLAS_CORETYPE yourself to choose)" << std::endl;
     modal_haptics::ModalPrecompute precompute(scene, prm, command.verbose && processes.rank == 0,
                                               command.distributed);
     if (command.mesh_only)
@@ -305,7 +309,7 @@ namespace
 
 int main(int argc, char **argv)
 {
-  modal_haptics::shorten_openblas_spin_unless_set(argv);
+  modal_haptics::restart_with_openblas_settings(argv);
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.

@@ -63,17 +63,66 @@ namespace modal_haptics
     }
   } // namespace
 
-  // The spin is read from OPENBLAS_THREAD_TIMEOUT (2^value cycles) when the library loads, before
-  // main, and no call changes it: hence the restart. 2^20 cycles (about 0.4 ms) is long enough for
-  // the factorization's back-to-back calls (docs/performance.md). Not under an MPI launcher: there
-  // each process has one BLAS thread (no idle worker to spin), and a process that replaces itself
-  // under the launcher's daemon is one risk more for nothing.
-  void shorten_openblas_spin_unless_set(char **argv)
+  namespace
   {
-    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") != nullptr || started_by_mpi_launcher())
-      return;
-    setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
-    execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on with the long spin
+    // The marker of a restart that set OPENBLAS_CORETYPE: the OpenBLAS core it replaced.
+    constexpr const char *replaced_core_variable = "MODAL_HAPTICS_OPENBLAS_REPLACED_CORE";
+
+    std::string openblas_core_name()
+    {
+      auto *core_name = reinterpret_cast<char *(*)()>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+      return core_name != nullptr ? std::string(core_name()) : std::string();
+    }
+
+    // OpenBLAS (a DYNAMIC_ARCH build, as Debian's) picks its kernels by the CPU's vendor, family and
+    // model, and falls back to its generic Prescott (SSE3) kernels on a model its table lacks:
+    // Debian 12's 0.3.21 on Intel's family 6 model 207 (Emerald Rapids, as some of our VMs report),
+    // where DGEMM then runs about 4x slower (the default scene's rib_b: the static correction's
+    // solves 27.8 s with Prescott's kernels, 7.1 s with SkylakeX's). Only that fallback is replaced,
+    // by the instruction sets the CPU and the OS support (GCC's __builtin_cpu_supports checks
+    // both); a core OpenBLAS recognised is left alone. nullptr: nothing to replace.
+    const char *blas_kernels_for_this_cpu()
+    {
+#if defined(__x86_64__)
+      if (openblas_core_name() != "Prescott")
+        return nullptr;
+      __builtin_cpu_init();
+      if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+          __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq"))
+        return "SkylakeX";
+      if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+        return "Haswell";
+#endif
+      return nullptr;
+    }
+  } // namespace
+
+  // 2^20 cycles of spin (about 0.4 ms) is long enough for the factorization's back-to-back calls
+  // (docs/performance.md). A process under an MPI launcher restarts only for the kernels: a
+  // process that replaces itself under the launcher's daemon is one risk more, worth taking for
+  // DGEMM's factor of 4, not for the spin.
+  void restart_with_openblas_settings(char **argv)
+  {
+    bool changed = false;
+    if (std::getenv("OPENBLAS_THREAD_TIMEOUT") == nullptr && !started_by_mpi_launcher())
+      {
+        setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
+        changed = true;
+      }
+    if (std::getenv("OPENBLAS_CORETYPE") == nullptr)
+      if (const char *kernels = blas_kernels_for_this_cpu())
+        {
+          setenv("OPENBLAS_CORETYPE", kernels, 0);
+          setenv(replaced_core_variable, openblas_core_name().c_str(), 1);
+          changed = true;
+        }
+    if (changed)
+      execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on as it is
+  }
+
+  BlasKernels running_blas_kernels()
+  {
+    return {openblas_core_name(), std::getenv(replaced_core_variable) != nullptr};
   }
 
   BlasThreads::BlasThreads(const int threads)

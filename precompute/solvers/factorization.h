@@ -93,13 +93,28 @@ namespace modal_haptics
   // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
   int set_openblas_threads(int threads);
 
-  // OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s) after every call before they
-  // sleep; on 2 cores the spinning worker takes a core from our own threads (the triangular solves
-  // start right after the eigensolver's GEMMs on the basis: 250k DoFs, 7.0 s of solves against
-  // 6.4 s with a short spin). Unless the user has set OPENBLAS_THREAD_TIMEOUT, or an MPI launcher
-  // started the process, sets it to 20 and restarts the program (execv of itself, same PID, same
-  // arguments): the first line of main, before anything else has happened.
-  void shorten_openblas_spin_unless_set(char **argv);
+  // What OpenBLAS reads from the environment only when it loads, before main, and what this program
+  // sets there, unless the user has set it, by restarting itself (execv of itself, same PID, same
+  // arguments) as the first line of main, before anything else has happened:
+  // - OPENBLAS_THREAD_TIMEOUT = 20. OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s)
+  //   after every call before they sleep; on 2 cores the spinning worker takes a core from our own
+  //   threads (the triangular solves start right after the eigensolver's GEMMs on the basis: 250k
+  //   DoFs, 7.0 s of solves against 6.4 s with a short spin). Not under an MPI launcher: there each
+  //   process has one BLAS thread (no idle worker to spin).
+  // - OPENBLAS_CORETYPE, only where OpenBLAS did not know the CPU and fell back to its generic
+  //   Prescott kernels (blas_kernels_for_this_cpu): under an MPI launcher too, since every process
+  //   runs the BLAS's slow kernels otherwise.
+  void restart_with_openblas_settings(char **argv);
+
+  // The kernels the running OpenBLAS uses ("SkylakeX", "Haswell", "Zen", ...; empty when the BLAS
+  // is not OpenBLAS), and whether this program chose them (OPENBLAS_CORETYPE set by
+  // restart_with_openblas_settings).
+  struct BlasKernels
+  {
+    std::string core;
+    bool        chosen_by_us = false;
+  };
+  BlasKernels running_blas_kernels();
 
   class Factorization
   {

@@ -42,6 +42,8 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   the tangents where CG on them stalls: MUMPS's L D L^T at np = 2, CHOLMOD serially) and stop reason
   (the limit point, told at np = 2 by the inertia of MUMPS's factor); displacements, the linear
   compliance, the validity forces and the exact second-order estimate to 1e-8, the third-order one to 1e-8;
+* np = 1, np = 2 and the serial run ran the same OpenBLAS kernels (report.json's
+  processes.blas_kernels: the restart with the CPU's kernels works under mpirun too);
 * a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
   under mpirun -np 2 exit non-zero with the message, no hang (the shift refused by the inertia of
   MUMPS's L D L^T, before PARPACK);
@@ -244,6 +246,10 @@ def main():
     serial, serial_modes = run([args.binary], os.path.join(args.workdir, "serial"), np1_dir)
     for name in [SCENE + ".h5", SCENE + ".mrt", "report.json", "modes_left.vtu"]:
         expect(os.path.getsize(os.path.join(args.workdir, "np2", name)) > 0, f"np = 2 wrote {name}")
+    # Where OpenBLAS fell back to its generic kernels the processes restart under mpirun too, with the
+    # serial run's choice.
+    kernels = [report["processes"]["blas_kernels"] for report in (np1, np2, serial)]
+    expect(len(set(kernels)) == 1, f"np=1, np=2 and serial ran the same OpenBLAS kernels {kernels}")
 
     h5 = {run: os.path.join(args.workdir, run, SCENE + ".h5") for run in ["np1", "np2", "serial"]}
     compare_h5(h5["np1"], h5["serial"], "np=1 vs serial", expect)

@@ -11,7 +11,10 @@
   of 4 and at most 24 modes: it computes fewer than 24 (a first run of 8, then 8 more in their
   complement), keeps those below the cut-off, and its first 12 equal the block Krylov method's 12;
 * transfer: the normal equations of a space onto itself give the identity; a field that lies in
-  both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error.
+  both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error;
+* the BLAS: report.json names OpenBLAS's kernels, and on a CPU with AVX2 and FMA (unless the test's
+  environment sets OPENBLAS_CORETYPE) they are not the generic Prescott ones OpenBLAS falls back to
+  on a model it does not know (the program then restarts with the CPU's: README, "The BLAS kernels").
 """
 import json
 import os
@@ -41,6 +44,12 @@ def main():
             [f"modes_{s}.{e}" for s in ["global", "left", "right"] for e in ["vtu", "pvd"]]:
         expect(os.path.getsize(os.path.join(args.workdir, name)) > 0, f"{name} written")
     expect([s["name"] for s in report["spaces"]] == ["global", "left", "right"], "three spaces, global first")
+    blas_kernels = report["processes"]["blas_kernels"]
+    cpu_flags = set(open("/proc/cpuinfo").read().split())
+    expect(blas_kernels != "", "report.json names the OpenBLAS kernels that ran")
+    if {"avx2", "fma"} <= cpu_flags and "OPENBLAS_CORETYPE" not in os.environ:
+        expect(blas_kernels != "Prescott", f"a CPU with AVX2 and FMA runs OpenBLAS's kernels for it, not "
+               f"the generic fallback ({blas_kernels})")
     for s in report["spaces"]:
         n = s["name"]
         expect(s["orthonormality_error"] < 1e-10, f"{n}: orthonormality error {s['orthonormality_error']:.2e} < 1e-10")
