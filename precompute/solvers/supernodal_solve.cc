@@ -524,14 +524,19 @@ namespace modal_haptics
                                    std::vector<char> &on_path, std::vector<Index> &path) const
   {
     for (const auto &column : B)
-      for (const auto &entry : column)
-        // Up the tree until a supernode already on a path (the rest of its path is too).
-        for (Index s = supernode_of_column[position_of_row[entry.first]]; s >= 0 && !on_path[s];
-             s = parent_supernode[s])
-          {
-            on_path[s] = 1;
-            path.push_back(s);
-          }
+      mark_path(column, position_of_row, on_path, path);
+  }
+
+  void SupernodalSolve::mark_path(const SparseColumn &column, const std::vector<Index> &position_of_row,
+                                  std::vector<char> &on_path, std::vector<Index> &path) const
+  {
+    for (const auto &entry : column)
+      // Up the tree until a supernode already on a path (the rest of its path is too).
+      for (Index s = supernode_of_column[position_of_row[entry.first]]; s >= 0 && !on_path[s]; s = parent_supernode[s])
+        {
+          on_path[s] = 1;
+          path.push_back(s);
+        }
   }
 
   SupernodalSolve::TopInverse SupernodalSolve::top_inverse(const std::size_t max_columns) const
@@ -598,30 +603,67 @@ namespace modal_haptics
   }
 
   void SupernodalSolve::forward_local(const Index supernode, double *X, const int ld, const Index *local_row,
-                                      const int n_rhs, double *workspace) const
+                                      const int *active, const int n_active, const int width, double *own,
+                                      double *workspace) const
   {
     const Block b(*this, supernode);
-    // A supernode's columns are consecutive rows of X.
-    if (!solve_own_rows(b, X + local_row[b.first], ld, n_rhs, workspace))
+    // A supernode's columns are consecutive rows of X. Where every column is active they are solved
+    // in place; otherwise the active columns' rows are gathered into 'own' and put back.
+    const bool all  = n_active == width;
+    double    *rows = X + local_row[b.first];
+    if (!all)
+      for (int c = 0; c < n_active; ++c)
+        std::copy_n(rows + std::size_t(active[c]) * ld, b.n_columns, own + std::size_t(c) * b.n_columns);
+    const bool has_below = solve_own_rows(b, all ? rows : own, all ? ld : b.n_columns, n_active, workspace);
+    if (!all)
+      for (int c = 0; c < n_active; ++c)
+        std::copy_n(own + std::size_t(c) * b.n_columns, b.n_columns, rows + std::size_t(active[c]) * ld);
+    if (!has_below)
       return;
-    for (int c = 0; c < n_rhs; ++c)
+    for (int c = 0; c < n_active; ++c)
       {
-        double       *column  = X + std::size_t(c) * ld;
+        double       *column  = X + std::size_t(all ? c : active[c]) * ld;
         const double *updates = workspace + std::size_t(c) * b.below;
         for (int i = 0; i < b.below; ++i)
           column[local_row[b.rows_below[i]]] -= updates[i];
       }
   }
 
+  std::vector<std::vector<int>> SupernodalSolve::active_columns(const std::vector<SparseColumn> &B,
+                                                                const std::vector<Index> &path,
+                                                                const std::vector<Index> &position_of_row,
+                                                                GroupScratch &scratch) const
+  {
+    for (std::size_t i = 0; i < path.size(); ++i)
+      scratch.path_position[path[i]] = Index(i);
+    std::vector<std::vector<int>> active(path.size());
+    std::vector<Index>            own_path;
+    for (int k = 0; k < int(B.size()); ++k)
+      {
+        own_path.clear();
+        mark_path(B[k], position_of_row, scratch.on_path, own_path);
+        for (const Index s : own_path)
+          {
+            scratch.on_path[s] = 0;
+            if (scratch.path_position[s] >= 0)
+              active[scratch.path_position[s]].push_back(k);
+          }
+      }
+    for (const Index s : path)
+      scratch.path_position[s] = -1;
+    return active;
+  }
+
   std::vector<double> SupernodalSolve::group_gram(const std::vector<SparseColumn> &B, const std::size_t leading,
                                                   const TopInverse &top, const std::vector<Index> &position_of_row,
-                                                  std::vector<Index> &local_row, std::vector<char> &on_path) const
+                                                  GroupScratch &scratch) const
   {
     const int          width = int(B.size());
+    auto              &local_row = scratch.local_row;
     std::vector<Index> path;
-    mark_paths(B, position_of_row, on_path, path);
+    mark_paths(B, position_of_row, scratch.on_path, path);
     for (const Index s : path)
-      on_path[s] = 0;
+      scratch.on_path[s] = 0;
     // Children before parents (the order of a forward solve); the top is not solved.
     path.erase(std::remove_if(path.begin(), path.end(), [&](const Index s) { return s >= top.first_supernode; }),
                path.end());
@@ -637,9 +679,19 @@ namespace modal_haptics
     for (int k = 0; k < width; ++k)
       for (const auto &[row, value] : B[k])
         X[local_row[position_of_row[row]] + std::size_t(k) * ld] += value;
-    std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * std::size_t(std::max(width, 1)));
+    // The union of the columns' paths is several times the work of each column's own path (3.5x on
+    // the default scene's rib_b): each supernode solves only the columns whose path it is on.
+    const auto          active = active_columns(B, path, position_of_row, scratch);
+    const std::size_t   width_or_1 = std::max(width, 1);
+    std::vector<double> workspace(std::max<Index>(max_rows_below, 1) * width_or_1);
+    int                 max_own_rows = 1;
     for (const Index s : path)
-      forward_local(s, X.data(), ld, local_row.data(), width, workspace.data());
+      max_own_rows = std::max<int>(max_own_rows, first_column[s + 1] - first_column[s]);
+    std::vector<double> own(std::size_t(max_own_rows) * width_or_1);
+    for (std::size_t i = 0; i < path.size(); ++i)
+      if (!active[i].empty())
+        forward_local(path[i], X.data(), ld, local_row.data(), active[i].data(), int(active[i].size()), width,
+                      own.data(), workspace.data());
 
     // G = Y^T Y over the path's rows, plus the top's share from its inverse.
     const int           n_leading = int(leading), k = int(rows_of_Y);
@@ -663,10 +715,9 @@ namespace modal_haptics
     std::vector<std::vector<double>> grams(groups.size());
     const unsigned int               threads = n_threads();
     run_on_threads(threads, [&](const unsigned int t) {
-      std::vector<Index> local_row(n, -1);
-      std::vector<char>  on_path(n_supernodes, 0);
+      GroupScratch scratch(*this);
       for (std::size_t g = t; g < groups.size(); g += threads)
-        grams[g] = group_gram(groups[g], leading[g], top, position_of_row, local_row, on_path);
+        grams[g] = group_gram(groups[g], leading[g], top, position_of_row, scratch);
     });
     return grams;
   }
