@@ -9,7 +9,6 @@ extern "C"
               const int *, const double *, const int *, const double *, double *, const int *);
   void dsyev_(const char *, const char *, const int *, double *, const int *, double *, double *, const int *, int *);
   void dpotrf_(const char *, const int *, double *, const int *, int *);
-  void dpotri_(const char *, const int *, double *, const int *, int *);
   void dpotrs_(const char *, const int *, const int *, const double *, const int *, double *, const int *, int *);
   void dtrmm_(const char *, const char *, const char *, const char *, const int *, const int *, const double *,
               const double *, const int *, double *, const int *);

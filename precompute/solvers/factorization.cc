@@ -267,17 +267,12 @@ namespace modal_haptics
         stats.n_solved_vectors += n_rhs;
       }
 
-      // The top of the tree read from its dense inverse (SupernodalSolve::group_grams): on the
-      // default scene's spaces (100k-165k DoFs) 3000 columns made the group solves 25 % faster
-      // than none (the inverse: 0.55 s, 72 MB); 5000 gained nothing more and took 2.5 s.
-      static constexpr std::size_t max_top_inverse_columns = 3000;
-
       bool group_grams(const std::vector<std::vector<SparseColumn>> &groups, const std::vector<std::size_t> &leading,
                        std::vector<std::vector<double>> &grams) override
       {
         dealii::Timer     timer;
         const BlasThreads one_blas_thread(1);
-        grams = triangular_solves->group_grams(groups, leading, max_top_inverse_columns);
+        grams = triangular_solves->group_grams(groups, leading);
         stats.solve_seconds += timer.wall_time();
         for (const auto &group : groups)
           stats.n_solved_vectors += group.size();

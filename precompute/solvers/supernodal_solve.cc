@@ -539,69 +539,6 @@ namespace modal_haptics
         }
   }
 
-  SupernodalSolve::TopInverse SupernodalSolve::top_inverse(const std::size_t max_columns) const
-  {
-    TopInverse top{n_supernodes, n, 0, {}};
-    for (Index s = 0; s < n_supernodes; ++s)
-      if (parent_supernode[s] >= 0 && parent_supernode[s] < s)
-        return top;
-    while (top.first_supernode > 0 && std::size_t(n - first_column[top.first_supernode - 1]) <= max_columns)
-      --top.first_supernode;
-    top.first_column = first_column[top.first_supernode];
-    top.size         = n - top.first_column;
-    if (top.size == 0)
-      return top;
-
-    // L22, dense: every supernode of the top has its rows in the top (its ancestors' columns).
-    const int t = int(top.size);
-    top.entries.assign(std::size_t(t) * t, 0.);
-    for (Index s = top.first_supernode; s < n_supernodes; ++s)
-      {
-        const Block  b(*this, s);
-        const Index *own_rows = rows + row_start[s];
-        for (int j = 0; j < b.n_columns; ++j)
-          for (int i = j; i < b.n_rows; ++i)
-            top.entries[std::size_t(own_rows[i] - top.first_column) + std::size_t(b.first + j - top.first_column) * t] =
-              b.L[i + std::size_t(j) * b.n_rows];
-      }
-    int info = 0;
-    dpotri_("L", &t, top.entries.data(), &t, &info);
-    if (info != 0)
-      throw std::runtime_error("SupernodalSolve: the top of the factor is singular (dpotri info " +
-                               std::to_string(info) + ").");
-    for (int j = 0; j < t; ++j) // the upper triangle too: a gather then reads either
-      for (int i = j + 1; i < t; ++i)
-        top.entries[j + std::size_t(i) * t] = top.entries[i + std::size_t(j) * t];
-    return top;
-  }
-
-  void SupernodalSolve::add_top_share(const TopInverse &top, const double *top_rows, const int ld, const int width,
-                                      const int leading, std::vector<double> &G) const
-  {
-    // J: the top's rows where some column is not zero (those the paths below reach, and the loads').
-    std::vector<int> J;
-    for (int i = 0; i < int(top.size); ++i)
-      for (int k = 0; k < width; ++k)
-        if (top_rows[i + std::size_t(k) * ld] != 0.)
-          {
-            J.push_back(i);
-            break;
-          }
-    const int m = int(J.size());
-    if (m == 0 || leading == 0)
-      return;
-    std::vector<double> C(std::size_t(m) * width), Z(std::size_t(m) * m), ZC(std::size_t(m) * leading);
-    for (int k = 0; k < width; ++k)
-      for (int i = 0; i < m; ++i)
-        C[i + std::size_t(k) * m] = top_rows[J[i] + std::size_t(k) * ld];
-    for (int j = 0; j < m; ++j)
-      for (int i = 0; i < m; ++i)
-        Z[i + std::size_t(j) * m] = top.entries[J[i] + std::size_t(J[j]) * top.size];
-    const double one = 1., zero = 0.;
-    dgemm_("N", "N", &m, &leading, &m, &one, Z.data(), &m, C.data(), &m, &zero, ZC.data(), &m);
-    dgemm_("T", "N", &width, &leading, &m, &one, C.data(), &m, ZC.data(), &m, &one, G.data(), &width);
-  }
-
   void SupernodalSolve::forward_local(const Index supernode, double *X, const int ld, const Index *local_row,
                                       const int *active, const int n_active, const int width, double *own,
                                       double *workspace) const
@@ -655,8 +592,7 @@ namespace modal_haptics
   }
 
   std::vector<double> SupernodalSolve::group_gram(const std::vector<SparseColumn> &B, const std::size_t leading,
-                                                  const TopInverse &top, const std::vector<Index> &position_of_row,
-                                                  GroupScratch &scratch) const
+                                                  const std::vector<Index> &position_of_row, GroupScratch &scratch) const
   {
     const int          width = int(B.size());
     auto              &local_row = scratch.local_row;
@@ -664,17 +600,12 @@ namespace modal_haptics
     mark_paths(B, position_of_row, scratch.on_path, path);
     for (const Index s : path)
       scratch.on_path[s] = 0;
-    // Children before parents (the order of a forward solve); the top is not solved.
-    path.erase(std::remove_if(path.begin(), path.end(), [&](const Index s) { return s >= top.first_supernode; }),
-               path.end());
-    std::sort(path.begin(), path.end());
+    std::sort(path.begin(), path.end()); // children before parents: the order of a forward solve
     Index rows_of_Y = 0;
     for (const Index s : path)
       for (Index column = first_column[s]; column < first_column[s + 1]; ++column)
         local_row[column] = rows_of_Y++;
-    for (Index column = top.first_column; column < n; ++column) // the top's rows follow the path's
-      local_row[column] = rows_of_Y + (column - top.first_column);
-    const int           ld = int(std::max<Index>(rows_of_Y + top.size, 1));
+    const int           ld = int(std::max<Index>(rows_of_Y, 1));
     std::vector<double> X(std::size_t(ld) * std::max(width, 1), 0.);
     for (int k = 0; k < width; ++k)
       for (const auto &[row, value] : B[k])
@@ -693,31 +624,28 @@ namespace modal_haptics
         forward_local(path[i], X.data(), ld, local_row.data(), active[i].data(), int(active[i].size()), width,
                       own.data(), workspace.data());
 
-    // G = Y^T Y over the path's rows, plus the top's share from its inverse.
+    // G = Y^T Y over the path's rows.
     const int           n_leading = int(leading), k = int(rows_of_Y);
     std::vector<double> G(std::size_t(width) * n_leading, 0.);
     const double        one = 1., zero = 0.;
     if (width > 0 && n_leading > 0 && k > 0)
       dgemm_("T", "N", &width, &n_leading, &k, &one, X.data(), &ld, X.data(), &ld, &zero, G.data(), &width);
-    if (width > 0)
-      add_top_share(top, X.data() + rows_of_Y, ld, width, n_leading, G);
     return G;
   }
 
   std::vector<std::vector<double>>
   SupernodalSolve::group_grams(const std::vector<std::vector<SparseColumn>> &groups,
-                               const std::vector<std::size_t> &leading, const std::size_t max_top_columns) const
+                               const std::vector<std::size_t> &leading) const
   {
     std::vector<Index> position_of_row(n);
     for (Index i = 0; i < n; ++i)
       position_of_row[permutation[i]] = i;
-    const TopInverse                 top = top_inverse(max_top_columns);
     std::vector<std::vector<double>> grams(groups.size());
     const unsigned int               threads = n_threads();
     run_on_threads(threads, [&](const unsigned int t) {
       GroupScratch scratch(*this);
       for (std::size_t g = t; g < groups.size(); g += threads)
-        grams[g] = group_gram(groups[g], leading[g], top, position_of_row, scratch);
+        grams[g] = group_gram(groups[g], leading[g], position_of_row, scratch);
     });
     return grams;
   }

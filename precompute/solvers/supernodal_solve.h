@@ -40,17 +40,12 @@ namespace modal_haptics
     // Columns close together share the upper part of their paths; below, each supernode of the
     // union solves only the columns whose own path it is on (the union is 3.5x the own paths' work
     // on the default scene's rib_b). Groups go to the threads in turn; the caller keeps the BLAS on
-    // one thread. Memory per thread: the group's path and the top times its width.
-    //
-    // Every path ends in the top of the tree (the last separators), where the supernodes are large
-    // and dense: solving through them for every group would cost most of the time. So the trailing
-    // columns, up to max_top_columns of them, are not solved: with L = [L11 0; L21 L22] and
-    // C = B_2 - L21 L11^-1 B_1 (what the paths below leave in the top's rows), the top's share of
-    // Y^T Y is C^T (L22 L22^T)^-1 C, read from that inverse, computed once per call (dense,
-    // max_top_columns^2 doubles; 0: solve through the whole tree).
+    // one thread. Memory per thread: the group's path times its width. The top of the tree (the last
+    // separators, large and dense), which every path crosses, is solved for every group too: the
+    // dense inverse of its last 3,000 columns, read instead (C^T (L22 L22^T)^-1 C), was no faster
+    // once each supernode solved only its own columns (docs/performance.md).
     std::vector<std::vector<double>> group_grams(const std::vector<std::vector<SparseColumn>> &groups,
-                                                 const std::vector<std::size_t> &leading,
-                                                 std::size_t                     max_top_columns) const;
+                                                 const std::vector<std::size_t> &leading) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }
 
@@ -70,17 +65,6 @@ namespace modal_haptics
                     std::vector<char> &on_path, std::vector<Index> &path) const;
     void mark_path(const SparseColumn &column, const std::vector<Index> &position_of_row, std::vector<char> &on_path,
                    std::vector<Index> &path) const;
-    // The trailing columns [first_column, n) of the factor, from first_supernode on, and the inverse
-    // of their block's Schur complement, (L22 L22^T)^-1 (dense, symmetric, size x size): the same
-    // rows and columns of P A^-1 P^T.
-    struct TopInverse
-    {
-      Index               first_supernode, first_column, size;
-      std::vector<double> entries;
-    };
-    // The largest such block of at most max_columns columns (none when the supernodes are not in
-    // postorder: only then is a trailing range closed under parents, a block of L of its own).
-    TopInverse top_inverse(std::size_t max_columns) const;
     // What a thread of group_grams keeps between its groups (only the entries a group set change).
     struct GroupScratch
     {
@@ -93,11 +77,11 @@ namespace modal_haptics
       std::vector<char>  on_path;       // per supernode, while paths are marked
       std::vector<Index> path_position; // per supernode: its index in the group's path, or -1
     };
-    // One group of group_grams. X is local: the rows of the group's path below the top (in the
-    // order of its supernodes), then the top's rows.
-    std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading, const TopInverse &top,
+    // One group of group_grams. X is local: the rows of the group's path, in the order of its
+    // supernodes.
+    std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading,
                                    const std::vector<Index> &position_of_row, GroupScratch &scratch) const;
-    // Per supernode of the group's path (below the top), the columns of B whose own path it is on:
+    // Per supernode of the group's path, the columns of B whose own path it is on:
     // a column's solution is zero on every other supernode of the union. Ascending.
     std::vector<std::vector<int>> active_columns(const std::vector<SparseColumn> &B, const std::vector<Index> &path,
                                                  const std::vector<Index> &position_of_row, GroupScratch &scratch) const;
@@ -106,10 +90,6 @@ namespace modal_haptics
     // below subtracted. 'own' holds the active columns' own rows while they are solved.
     void forward_local(Index supernode, double *X, int ld, const Index *local_row, const int *active, int n_active,
                        int width, double *own, double *workspace) const;
-    // G += C^T Z C[:, :leading] for C the top's rows of X (t rows from 'top_rows', ld rows per
-    // column) and Z the top inverse.
-    void add_top_share(const TopInverse &top, const double *top_rows, int ld, int width, int leading,
-                       std::vector<double> &G) const;
     // y_own = L11^-1 y_own in place (at 'own', ld rows per column) and workspace = L21 y_own (below
     // x n_rhs): what the supernode subtracts from the rows below it; false when it has none.
     bool solve_own_rows(const Block &b, double *own, int ld, int n_rhs, double *workspace) const;
