@@ -463,12 +463,12 @@ namespace modal_haptics
         bool solve_tangent(VectorType &du, std::string &failure, double tolerance = 1e-12);
         bool solve_tangent_system(VectorType &du, std::string &failure, double tolerance); // untimed
         bool preconditioned_cg(VectorType &du, double tolerance);
-        // curve.estimate_exact, from u1 = K^-1 load; Psi3(u1) into psi3. Returns the step h [N] of the
+        // curve.estimate_exact, from u1 = K^-1 load (c2 = -3 Psi3(u1)). Returns the step h [N] of the
         // finite differences along t u1: the largest displacement gradient of h u1 is 1e-3, where the
         // expansion's cubic and quartic terms stand well above the rounding of the energy's quadratic
         // one (1e-3 and 1e-6 of it) and the orders left out are negligible; whatever the force limit (a
         // step from it, tried first, met only rounding at a limit of 1e-3 N).
-        double estimate_second_order(const VectorType &u1, ValidityCurve &curve, double &psi3);
+        double estimate_second_order(const VectorType &u1, ValidityCurve &curve);
         // The stored energy and rhs = -f_int along +-t u1 at t = h, 2 h, 3 h, assembled once for both
         // uses: the odd parts of the energy check Psi3, the even parts give grad Psi3 and Psi4.
         struct ResponseSamples
@@ -478,9 +478,13 @@ namespace modal_haptics
           std::array<double, 3>   odd_energy{}, even_energy{}; // (g(t u1) -+ g(-t u1)) / 2 at t = h, 2 h, 3 h
           std::vector<VectorType> even_rhs;
         };
+        // The samples at the step h, quartered until no element inverts (at most 7 times).
         ResponseSamples sample_along_response(const VectorType &u1, double h);
-        // curve.cubic_term_check: Psi3 against the odd part's Richardson extrapolation.
-        static void check_cubic_term(double psi3, const ResponseSamples &samples, ValidityCurve &curve);
+        // The samples at t = h, 2 h, 3 h into 'samples'; false where an element inverts.
+        bool sample_at_steps(const VectorType &u1, double h, ResponseSamples &samples);
+        // curve.cubic_term_check: Psi3 (from curve.estimate_exact) against the odd part's Richardson
+        // extrapolation.
+        static void check_cubic_term(const ResponseSamples &samples, ValidityCurve &curve);
         // curve.estimate_third_order and its check from the samples; 'tangent' must still be K (at u = 0).
         void estimate_third_order(const ResponseSamples &samples, ValidityCurve &curve);
 
@@ -685,12 +689,11 @@ namespace modal_haptics
       }
 
       template <typename Algebra>
-      double LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve,
-                                                                   double &psi3)
+      double LargeDeformationSolve<Algebra>::estimate_second_order(const VectorType &u1, ValidityCurve &curve)
       {
-        Timer  timer;
-        double largest_gradient = 0.;
-        psi3                    = cubic_energy(space, material, law, u1, &largest_gradient);
+        Timer        timer;
+        double       largest_gradient = 0.;
+        const double psi3             = cubic_energy(space, material, law, u1, &largest_gradient);
         curve.estimate_seconds += timer.wall_time();
         curve.estimate_exact.c2 = -3. * psi3;
         curve.estimate_exact.validity_force = series_validity_forces(curve.linear_compliance, curve.estimate_exact.c2);
@@ -704,37 +707,41 @@ namespace modal_haptics
         ResponseSamples samples;
         samples.even_rhs.assign(3, u1);
         for (unsigned int attempt = 0; attempt < 8 && !samples.inside; ++attempt, h /= 4.)
+          samples.inside = sample_at_steps(u1, h, samples);
+        return samples;
+      }
+
+      template <typename Algebra>
+      bool LargeDeformationSolve<Algebra>::sample_at_steps(const VectorType &u1, const double h,
+                                                           ResponseSamples &samples)
+      {
+        samples.h = h;
+        for (unsigned int i = 0; i < 3; ++i)
           {
-            samples.inside = true;
-            samples.h      = h;
-            for (unsigned int i = 0; i < 3 && samples.inside; ++i)
+            samples.odd_energy[i] = samples.even_energy[i] = 0.;
+            samples.even_rhs[i]                            = 0.;
+            for (const double sign : {1., -1.})
               {
-                samples.odd_energy[i] = samples.even_energy[i] = 0.;
-                samples.even_rhs[i]                            = 0.;
-                for (const double sign : {1., -1.})
-                  {
-                    VectorType u(u1);
-                    u *= sign * (i + 1) * h;
-                    samples.inside = assemble(u, 0., u1, false);
-                    if (!samples.inside)
-                      break;
-                    samples.odd_energy[i] += sign * 0.5 * energy;
-                    samples.even_energy[i] += 0.5 * energy;
-                    samples.even_rhs[i].add(0.5, rhs);
-                  }
+                VectorType u(u1);
+                u *= sign * (i + 1) * h;
+                if (!assemble(u, 0., u1, false))
+                  return false;
+                samples.odd_energy[i] += sign * 0.5 * energy;
+                samples.even_energy[i] += 0.5 * energy;
+                samples.even_rhs[i].add(0.5, rhs);
               }
           }
-        return samples;
+        return true;
       }
 
       // The odd part of the stored energy along t u1, o(t) = t^3 Psi3 + t^5 Psi5 + ... (the elastic
       // supports' quadratic energy cancels), at t = h and 2 h: Richardson's (32 o(h) - o(2 h)) / (24 h^3).
       template <typename Algebra>
-      void LargeDeformationSolve<Algebra>::check_cubic_term(const double psi3, const ResponseSamples &samples,
-                                                            ValidityCurve &curve)
+      void LargeDeformationSolve<Algebra>::check_cubic_term(const ResponseSamples &samples, ValidityCurve &curve)
       {
         if (!samples.inside)
           return; // stays -1: not computed
+        const double psi3              = -curve.estimate_exact.c2 / 3.;
         const double h                 = samples.h;
         const double finite_difference = (32. * samples.odd_energy[0] - samples.odd_energy[1]) / (24. * h * h * h);
         curve.cubic_term_check = std::abs(finite_difference - psi3) / std::max(std::abs(psi3), 1e-300);
@@ -903,12 +910,11 @@ namespace modal_haptics
         AssertThrow(solve_tangent(du, failure), ExcMessage("The validity analysis: " + failure + " at zero load."));
         curve.estimate_seconds  = solve_timer.wall_time();
         curve.linear_compliance = load * du;
-        double       psi3 = 0.;
-        const double step = estimate_second_order(du, curve, psi3);
+        const double step = estimate_second_order(du, curve);
         Timer        sample_timer;
         const auto   samples = sample_along_response(du, step);
         curve.estimate_seconds += sample_timer.wall_time();
-        check_cubic_term(psi3, samples, curve);
+        check_cubic_term(samples, curve);
         estimate_third_order(samples, curve);
 
         const double first_increment = ramp.force_limit / ramp.load_steps;
