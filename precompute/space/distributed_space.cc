@@ -131,8 +131,14 @@ namespace modal_haptics
       void relieve_load(Field &) const {}
       Block new_block(unsigned int) const { return {}; }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
-      void add_combined_patch_load(Block &X, unsigned int column, const std::vector<unsigned int> &vertices,
-                                   const double *weights) const;
+      void add_combined_patch_loads(Block &X, const std::vector<const space_parts::DofWeights *> &rows,
+                                    const double *weights, unsigned int count) const;
+      void patch_row_averages(const Block &X, const std::vector<const space_parts::DofWeights *> &rows,
+                              const unsigned int count, double *averages) const
+      {
+        for (unsigned int j = 0; j < count; ++j)
+          surface.row_averages(rows, block_column(X, j), averages + j * rows.size());
+      }
       void solve_static(Block &X);
       unsigned int columns_per_static_solve(const unsigned int wanted) const
       {
@@ -697,16 +703,18 @@ namespace modal_haptics
         }
     }
 
-    void DistributedSpace::add_combined_patch_load(Block &X, const unsigned int column, const std::vector<unsigned int> &vertices,
-                                                   const double *weights) const
+    void DistributedSpace::add_combined_patch_loads(Block &X, const std::vector<const space_parts::DofWeights *> &rows,
+                                                    const double *weights, const unsigned int count) const
     {
-      X.columns.resize(std::max<std::size_t>(X.columns.size(), column + 1));
-      DistributedVector load;
-      load = writable_layout; // writable ghost entries, as in patch_load
-      for (std::size_t k = 0; k < vertices.size(); ++k)
-        surface.add_patch_load(vertices[k], {{weights[3 * k], weights[3 * k + 1], weights[3 * k + 2]}}, load);
-      load.compress(VectorOperation::add);
-      X.columns[column] = load;
+      X.columns.resize(std::max<std::size_t>(X.columns.size(), count));
+      for (unsigned int j = 0; j < count; ++j)
+        {
+          DistributedVector load;
+          load = writable_layout; // writable ghost entries, as in patch_load
+          surface.add_rows(rows, weights + j * rows.size(), load);
+          load.compress(VectorOperation::add);
+          X.columns[j] = load;
+        }
     }
 
     // The block's solutions, made readable at the owned cells' DoFs (block_column reads them so).

@@ -82,12 +82,15 @@ namespace modal_haptics
         return {std::vector<double>(n_columns * std::size_t(dof_handler.n_dofs()), 0.), dof_handler.n_dofs()};
       }
       void add_patch_loads(Block &X, unsigned int first_column, unsigned int vertex) const;
-      void add_combined_patch_load(Block &X, const unsigned int column, const std::vector<unsigned int> &vertices,
-                                   const double *weights) const
+      void add_combined_patch_loads(Block &X, const std::vector<const space_parts::DofWeights *> &rows,
+                                    const double *weights, const unsigned int count) const
       {
-        double *load = &X.values[column * X.n];
-        for (std::size_t k = 0; k < vertices.size(); ++k)
-          surface.add_patch_load(vertices[k], {{weights[3 * k], weights[3 * k + 1], weights[3 * k + 2]}}, load);
+        surface.add_rows_to_columns(rows, weights, count, X.values.data(), X.n);
+      }
+      void patch_row_averages(const Block &X, const std::vector<const space_parts::DofWeights *> &rows,
+                              const unsigned int count, double *averages) const
+      {
+        surface.row_averages_of_columns(rows, X.values.data(), X.n, count, averages);
       }
       void solve_static(Block &X) { solve_static(X.values.data(), X.values.size() / X.n); }
       unsigned int columns_per_static_solve(const unsigned int wanted) const

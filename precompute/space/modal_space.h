@@ -219,7 +219,8 @@ namespace modal_haptics
       static constexpr unsigned int n_nearest = 12; // bounding boxes tried
 
       PointLocator(const dealii::Triangulation<3> &mesh, const dealii::Mapping<3> &mapping);
-      // Among the cells whose boxes hold x or are its n_nearest nearest, these within 'within' (a
+      // Among the cells whose boxes hold x and, unless one of them holds x, those of its n_nearest
+      // nearest boxes, these within 'within' (a
       // squared distance [m^2]): a distributed mesh locates a point on every process among the boxes
       // nearest over all processes, so that it tries the serial locator's cells.
       LocatedPoint locate(const meshing::Point3 &x,
@@ -230,8 +231,6 @@ namespace modal_haptics
     private:
       std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
       nearest_boxes(const meshing::Point3 &x) const;
-      std::vector<std::pair<dealii::BoundingBox<3>, dealii::Triangulation<3>::active_cell_iterator>>
-      candidate_boxes(const meshing::Point3 &x) const;
 
       dealii::GridTools::Cache<3> cache;
     };
@@ -244,10 +243,19 @@ namespace modal_haptics
       dealii::Point<3>                            unit;
     };
 
-    // The FE basis at a point, per displacement component: the DoFs whose shape function is of that
-    // component and their nonzero values N_i there (all three empty at a point another process
-    // evaluates). The scalar element's values are computed once for the three components.
-    using ShapeRow = std::array<DofWeights, 3>;
+    // The FE basis at a point: the values N_j there of the scalar element's n functions (the same
+    // for the three displacement components) and, per component c, the DoF of each function,
+    // dofs[c n + j]; empty at a point another process evaluates. 'cell' (the active cell's index)
+    // groups the points of a patch that share their DoFs.
+    struct ShapeRow
+    {
+      std::vector<double>                          values;
+      std::vector<dealii::types::global_dof_index> dofs;
+      unsigned int                                 cell = dealii::numbers::invalid_unsigned_int;
+
+      // Component c's DoFs with their nonzero values.
+      DofWeights component(unsigned int c) const;
+    };
     ShapeRow shape_row(const EvaluationPoint &point);
 
     // W_v from its patch quadrature (patch_quadrature) and the shape rows of its points, in the same

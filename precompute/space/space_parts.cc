@@ -551,7 +551,10 @@ namespace modal_haptics
       {
         double d2 = 0.;
         for (unsigned int d = 0; d < 3; ++d)
-          d2 += std::pow(std::max({box.lower_bound(d) - p[d], 0., p[d] - box.upper_bound(d)}), 2);
+          {
+            const double outside = std::max({box.lower_bound(d) - p[d], 0., p[d] - box.upper_bound(d)});
+            d2 += outside * outside;
+          }
         return d2;
       }
     } // namespace
@@ -562,20 +565,6 @@ namespace modal_haptics
       std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
       cache.get_locally_owned_cell_bounding_boxes_rtree().query(
         boost::geometry::index::nearest(Point<3>(x[0], x[1], x[2]), n_nearest), std::back_inserter(near));
-      return near;
-    }
-
-    std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>>
-    PointLocator::candidate_boxes(const meshing::Point3 &x) const
-    {
-      // Every box that holds the point, then the nearest: a point of a fine mesh lies in the boxes of
-      // more tets than the nearest few, and its own tet must be among those tried.
-      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> near;
-      cache.get_locally_owned_cell_bounding_boxes_rtree().query(
-        boost::geometry::index::intersects(Point<3>(x[0], x[1], x[2])), std::back_inserter(near));
-      for (const auto &box_cell : nearest_boxes(x))
-        if (std::none_of(near.begin(), near.end(), [&](const auto &other) { return other.second == box_cell.second; }))
-          near.push_back(box_cell);
       return near;
     }
 
@@ -590,30 +579,51 @@ namespace modal_haptics
       return distances;
     }
 
+    namespace
+    {
+      // The point's barycentric coordinates in a tet (its vertices' affine map).
+      std::array<double, 4> barycentric(const Triangulation<3>::active_cell_iterator &cell, const Point<3> &p)
+      {
+        Tensor<2, 3> J;
+        for (unsigned int d = 0; d < 3; ++d)
+          for (unsigned int e = 0; e < 3; ++e)
+            J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
+        const Tensor<1, 3> xi = invert(J) * (p - cell->vertex(0));
+        return {{1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]}};
+      }
+    } // namespace
+
+    // The tet whose smallest barycentric coordinate is largest (the one holding the point, or the
+    // nearest for a point just outside the mesh), among the cells whose boxes hold the point and,
+    // unless one of those holds it, the n_nearest nearest boxes: a point of a fine mesh lies in the
+    // boxes of more tets than the nearest few, and its own tet must be among those tried; the
+    // nearest-box query costs more than the rest together, and most points are inside a tet.
     LocatedPoint PointLocator::locate(const meshing::Point3 &x, const double within) const
     {
       const Point<3> p(x[0], x[1], x[2]);
-      auto           near = candidate_boxes(x);
-      near.erase(std::remove_if(near.begin(), near.end(),
-                                [&](const auto &box_cell) { return squared_distance(box_cell.first, p) > within; }),
-                 near.end());
-      if (near.empty())
-        return {Triangulation<3>::active_cell_iterator(), Point<3>(), std::numeric_limits<double>::infinity()};
-      double                                 best_min = -1e300;
+      double                                 best_min = -std::numeric_limits<double>::infinity();
       Triangulation<3>::active_cell_iterator best_cell;
       std::array<double, 4>                  best_bary{};
-      for (const auto &[box, cell] : near)
-        {
-          Tensor<2, 3> J;
-          for (unsigned int d = 0; d < 3; ++d)
-            for (unsigned int e = 0; e < 3; ++e)
-              J[d][e] = cell->vertex(e + 1)[d] - cell->vertex(0)[d];
-          const Tensor<1, 3>          xi   = invert(J) * (p - cell->vertex(0));
-          const std::array<double, 4> bary = {{1. - xi[0] - xi[1] - xi[2], xi[0], xi[1], xi[2]}};
-          const double                m    = *std::min_element(bary.begin(), bary.end());
-          if (m > best_min)
-            best_min = m, best_cell = cell, best_bary = bary;
-        }
+      std::vector<Triangulation<3>::active_cell_iterator> tried;
+      const auto try_boxes = [&](const auto &boxes) {
+        for (const auto &[box, cell] : boxes)
+          if (squared_distance(box, p) <= within && std::find(tried.begin(), tried.end(), cell) == tried.end())
+            {
+              tried.push_back(cell);
+              const auto   bary = barycentric(cell, p);
+              const double m    = *std::min_element(bary.begin(), bary.end());
+              if (m > best_min)
+                best_min = m, best_cell = cell, best_bary = bary;
+            }
+      };
+      std::vector<std::pair<BoundingBox<3>, Triangulation<3>::active_cell_iterator>> holding;
+      cache.get_locally_owned_cell_bounding_boxes_rtree().query(boost::geometry::index::intersects(p),
+                                                                 std::back_inserter(holding));
+      try_boxes(holding);
+      if (best_min < 0.)
+        try_boxes(nearest_boxes(x));
+      if (tried.empty())
+        return {Triangulation<3>::active_cell_iterator(), Point<3>(), std::numeric_limits<double>::infinity()};
       double sum = 0.;
       for (double &b : best_bary)
         sum += (b = std::max(b, 0.));
@@ -628,33 +638,73 @@ namespace modal_haptics
       if (point.cell.state() != IteratorState::valid)
         return row;
       const auto &fe = point.cell->get_fe();
-      AssertThrow(fe.n_base_elements() == 1, ExcMessage("shape_row: one scalar element for the three components"));
-      const auto         &scalar = fe.base_element(0);
-      std::vector<double> value(scalar.n_dofs_per_cell());
-      for (unsigned int j = 0; j < value.size(); ++j)
-        value[j] = scalar.shape_value(j, point.unit);
+      AssertThrow(fe.n_base_elements() == 1 && fe.n_components() == 3,
+                  ExcMessage("shape_row: one scalar element for the three components"));
+      const auto        &scalar = fe.base_element(0);
+      const unsigned int n      = scalar.n_dofs_per_cell();
+      row.values.resize(n);
+      for (unsigned int j = 0; j < n; ++j)
+        row.values[j] = scalar.shape_value(j, point.unit);
       std::vector<types::global_dof_index> dof_indices(fe.n_dofs_per_cell());
       point.cell->get_dof_indices(dof_indices);
+      row.dofs.resize(3 * n);
       for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
         {
-          const auto [component, j] = fe.system_to_component_index(i);
-          if (value[j] != 0.)
-            row[component].emplace_back(dof_indices[i], value[j]);
+          const auto [component, j]  = fe.system_to_component_index(i);
+          row.dofs[component * n + j] = dof_indices[i];
         }
+      row.cell = point.cell->active_cell_index();
       return row;
     }
 
-    // The patch traction integrated with patch_quadrature against the FE basis: summed per DoF.
+    DofWeights ShapeRow::component(const unsigned int c) const
+    {
+      DofWeights weights;
+      for (unsigned int j = 0; j < values.size(); ++j)
+        if (values[j] != 0.)
+          weights.emplace_back(dofs[c * values.size() + j], values[j]);
+      return weights;
+    }
+
+    // The patch traction integrated with patch_quadrature against the FE basis: the points of one
+    // cell summed per function first (a patch has ~100 points in a few dozen cells), then per DoF.
     PatchLoad make_patch_load(const std::vector<SurfacePoint> &quadrature, const std::vector<const ShapeRow *> &rows)
     {
-      std::array<std::map<types::global_dof_index, double>, 3> columns;
+      std::vector<std::size_t> order;
       for (std::size_t k = 0; k < quadrature.size(); ++k)
-        for (unsigned int c = 0; c < 3; ++c)
-          for (const auto &[dof, N] : (*rows[k])[c])
-            columns[c][dof] += quadrature[k].weight * N;
-      PatchLoad load;
-      for (unsigned int c = 0; c < 3; ++c)
-        load[c].assign(columns[c].begin(), columns[c].end());
+        if (!rows[k]->values.empty())
+          order.push_back(k);
+      std::stable_sort(order.begin(), order.end(),
+                       [&](const std::size_t a, const std::size_t b) { return rows[a]->cell < rows[b]->cell; });
+      PatchLoad           load;
+      std::vector<double> sum;
+      for (std::size_t first = 0; first < order.size();)
+        {
+          const ShapeRow &row  = *rows[order[first]];
+          const auto      n    = row.values.size();
+          std::size_t     last = first;
+          sum.assign(n, 0.);
+          for (; last < order.size() && rows[order[last]]->cell == row.cell; ++last)
+            for (unsigned int j = 0; j < n; ++j)
+              sum[j] += quadrature[order[last]].weight * rows[order[last]]->values[j];
+          for (unsigned int c = 0; c < 3; ++c)
+            for (unsigned int j = 0; j < n; ++j)
+              if (sum[j] != 0.)
+                load[c].emplace_back(row.dofs[c * n + j], sum[j]);
+          first = last;
+        }
+      // A DoF on a face or edge is shared by cells: its terms summed in the order of the cells.
+      for (auto &column : load)
+        {
+          std::stable_sort(column.begin(), column.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+          std::size_t kept = 0;
+          for (std::size_t i = 0; i < column.size(); ++i)
+            if (kept > 0 && column[kept - 1].first == column[i].first)
+              column[kept - 1].second += column[i].second;
+            else
+              column[kept++] = column[i];
+          column.resize(kept);
+        }
       return load;
     }
 

@@ -20,7 +20,9 @@
 //   void relieve_load(Field &) const  inertia relief of a free part's load (identity when clamped)
 //   Block new_block(unsigned n_columns) const
 //   void add_patch_loads(Block &, unsigned first_column, unsigned vertex) const   W_v e_0..2
-//   void add_combined_patch_load(Block &, unsigned column, vertices, const double *weights) const
+//   void add_combined_patch_loads(Block &, rows, const double *weights, unsigned count) const   column j += sum_row
+//                                 weights[j m + row] W_row, m = rows.size() (surface.patch_rows)
+//   void patch_row_averages(const Block &, rows, unsigned count, double *averages) const        W_row^T column j
 //                                     sum_k W_{vertices[k]} (weights 3k .. 3k + 2) into one column
 //   void solve_static(Block &)
 //   unsigned columns_per_static_solve(unsigned wanted) const   at most wanted: fewer where a block
@@ -89,6 +91,95 @@ namespace modal_haptics
               load[dof] += factor[d] * w;
       }
 
+      // The rows of W over 'vertices' (row 3 a + c: vertex a's patch load along c, this process's
+      // part), each vertex looked up once: a block's many columns then read them without the map.
+      std::vector<const space_parts::DofWeights *> patch_rows(const std::vector<unsigned int> &vertices) const
+      {
+        std::vector<const space_parts::DofWeights *> rows;
+        rows.reserve(3 * vertices.size());
+        for (const unsigned int v : vertices)
+          for (const auto &direction : patch_loads.at(v))
+            rows.push_back(&direction);
+        return rows;
+      }
+
+      // load += sum_row weights[row] W_row.
+      template <typename VectorType>
+      static void add_rows(const std::vector<const space_parts::DofWeights *> &rows, const double *weights,
+                           VectorType &load)
+      {
+        for (std::size_t row = 0; row < rows.size(); ++row)
+          if (weights[row] != 0.)
+            for (const auto &[dof, w] : *rows[row])
+              load[dof] += weights[row] * w;
+      }
+
+      // averages[row] = W_row^T u (this process's part).
+      template <typename VectorType>
+      static void row_averages(const std::vector<const space_parts::DofWeights *> &rows, const VectorType &u,
+                               double *averages)
+      {
+        for (std::size_t row = 0; row < rows.size(); ++row)
+          {
+            double sum = 0.;
+            for (const auto &[dof, w] : *rows[row])
+              sum += w * u[dof];
+            averages[row] = sum;
+          }
+      }
+
+      // The same for the columns j < count of a column-major block (n rows each), with weights and
+      // averages column-major too (m = rows.size() per column): eight columns at a time through a
+      // row-major copy, so that each weight of W meets the eight columns in one cache line (one
+      // column at a time, the scattered reads and writes cost more than a block's solve).
+      static constexpr unsigned int chunk = 8;
+      static void add_rows_to_columns(const std::vector<const space_parts::DofWeights *> &rows, const double *weights,
+                                      const unsigned int count, double *block, const std::size_t n)
+      {
+        const std::size_t   m = rows.size();
+        std::vector<double> loads(n * chunk);
+        for (unsigned int first = 0; first < count; first += chunk)
+          {
+            const unsigned int width = std::min(chunk, count - first);
+            std::fill(loads.begin(), loads.end(), 0.);
+            for (std::size_t row = 0; row < m; ++row)
+              {
+                double of_row[chunk] = {};
+                for (unsigned int j = 0; j < width; ++j)
+                  of_row[j] = weights[(first + j) * m + row];
+                for (const auto &[dof, w] : *rows[row])
+                  for (unsigned int j = 0; j < chunk; ++j)
+                    loads[dof * chunk + j] += w * of_row[j];
+              }
+            for (unsigned int j = 0; j < width; ++j)
+              for (std::size_t dof = 0; dof < n; ++dof)
+                block[(first + j) * n + dof] += loads[dof * chunk + j];
+          }
+      }
+      static void row_averages_of_columns(const std::vector<const space_parts::DofWeights *> &rows,
+                                          const double *block, const std::size_t n, const unsigned int count,
+                                          double *averages)
+      {
+        const std::size_t   m = rows.size();
+        std::vector<double> columns(n * chunk, 0.);
+        for (unsigned int first = 0; first < count; first += chunk)
+          {
+            const unsigned int width = std::min(chunk, count - first);
+            for (unsigned int j = 0; j < width; ++j)
+              for (std::size_t dof = 0; dof < n; ++dof)
+                columns[dof * chunk + j] = block[(first + j) * n + dof];
+            for (std::size_t row = 0; row < m; ++row)
+              {
+                double sum[chunk] = {};
+                for (const auto &[dof, w] : *rows[row])
+                  for (unsigned int j = 0; j < chunk; ++j)
+                    sum[j] += w * columns[dof * chunk + j];
+                for (unsigned int j = 0; j < width; ++j)
+                  averages[(first + j) * m + row] = sum[j];
+              }
+          }
+      }
+
       // Appends this process's part of u at the display vertices (3 nv, component-fastest) to 'out'.
       template <typename VectorType>
       void append_local_display_values(const VectorType &u, const unsigned int n_display_vertices,
@@ -116,11 +207,12 @@ namespace modal_haptics
       for (unsigned int v = 0; v < display.n_vertices(); ++v)
         if (evaluated[v].cell.state() == dealii::IteratorState::valid)
           {
-            auto row = space_parts::shape_row(evaluated[v]);
+            const auto row = space_parts::shape_row(evaluated[v]);
             for (unsigned int c = 0; c < 3; ++c)
               {
-                b.condense(row[c]);
-                b.surface.display_rows.emplace_back(3 * v + c, std::move(row[c]));
+                auto weights = row.component(c);
+                b.condense(weights);
+                b.surface.display_rows.emplace_back(3 * v + c, std::move(weights));
               }
           }
 
@@ -194,16 +286,26 @@ namespace modal_haptics
             rows[k] = space_parts::shape_row(evaluated[k]);
         },
         1024);
-      for (std::size_t n = 0; n < new_loads.size(); ++n)
-        {
+      // Each patch reads only the shared rows and the constraints: the patches split between threads.
+      std::vector<space_parts::PatchLoad> loads(new_loads.size());
+      dealii::parallel::apply_to_subranges(
+        std::size_t(0), new_loads.size(),
+        [&](const std::size_t first, const std::size_t last) {
           std::vector<const space_parts::ShapeRow *> rows_of_points;
-          for (const auto &point : quadratures[n])
-            rows_of_points.push_back(&rows[std::lower_bound(points.begin(), points.end(), point.x) - points.begin()]);
-          auto &load = b.surface.patch_loads[new_loads[n]];
-          load       = space_parts::make_patch_load(quadratures[n], rows_of_points);
-          for (auto &direction : load)
-            b.condense(direction);
-        }
+          for (std::size_t n = first; n < last; ++n)
+            {
+              rows_of_points.clear();
+              for (const auto &point : quadratures[n])
+                rows_of_points.push_back(
+                  &rows[std::lower_bound(points.begin(), points.end(), point.x) - points.begin()]);
+              loads[n] = space_parts::make_patch_load(quadratures[n], rows_of_points);
+              for (auto &direction : loads[n])
+                b.condense(direction);
+            }
+        },
+        64);
+      for (std::size_t n = 0; n < new_loads.size(); ++n)
+        b.surface.patch_loads[new_loads[n]] = std::move(loads[n]);
     }
 
     // The loads' responses from the Gram matrices of their groups (the backend's group_grams): in
@@ -345,19 +447,14 @@ namespace modal_haptics
       const unsigned int r          = result.eigenvalues.size();
       std::vector<double> Y(n * k, 0.);
       const unsigned int  per_solve = std::max(1u, b.columns_per_static_solve(k));
+      const auto          rows      = b.surface.patch_rows(candidates);
       for (unsigned int first = 0; first < k; first += per_solve)
         {
           const unsigned int count = std::min(per_solve, k - first);
           auto               block = b.new_block(count);
-          for (unsigned int j = 0; j < count; ++j)
-            b.add_combined_patch_load(block, j, candidates, &X[(first + j) * n]);
+          b.add_combined_patch_loads(block, rows, &X[first * n], count);
           b.solve_static(block);
-          for (unsigned int j = 0; j < count; ++j)
-            for (std::size_t a = 0; a < candidates.size(); ++a)
-              {
-                const auto u = b.surface.local_patch_average(candidates[a], b.block_column(block, j));
-                std::copy(u.begin(), u.end(), &Y[(first + j) * n + 3 * a]);
-              }
+          b.patch_row_averages(block, rows, count, &Y[first * n]);
         }
       b.sum_over_processes(Y);
       // The modal part, B Lambda^+ B^T X, with B the candidates' modal rows.
