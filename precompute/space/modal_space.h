@@ -39,14 +39,18 @@
 
 namespace modal_haptics
 {
+  class BackgroundWrites;
+
   // Runs the whole pipeline of one space: read mesh, assemble, eigensolve, select, interpolate on
-  // the display surface, static correction, validation, VTU output into vtu_file (none if empty).
+  // the display surface, static correction, validation, VTU output into vtu_file (none if empty;
+  // written by vtu_writes on a thread of its own when given, the caller waits for it).
   ModalSpaceResult compute_modal_space(const SceneParameters &scene,
                                        const ContactSurface  &display,
                                        const SpaceTask       &task,
                                        const std::string     &vtu_file,
                                        dealii::TimerOutput   &timer,
-                                       bool                   verbose);
+                                       bool                   verbose,
+                                       BackgroundWrites      *vtu_writes = nullptr);
 
   // The steps a space takes whatever the linear algebra: used by the serial space (CHOLMOD,
   // modal_space.cc) and the distributed one (Trilinos + MUMPS, distributed_space.cc), so that both
