@@ -10,10 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <exception>
 #include <functional>
-#include <future>
-#include <memory>
 #include <string>
 #include <unistd.h>
 #include <utility>
@@ -131,52 +128,5 @@ namespace modal_haptics
 
   private:
     std::vector<std::pair<std::string, std::string>> files_; // (temporary, target)
-  };
-
-  // Files written on threads of their own while the run goes on (a space's VTU while the next space
-  // computes: zlib and base64 on one core took 7-8 s of the default scene), each atomically as
-  // write_file_atomically does. wait() joins them and rethrows the first failure (it names its
-  // file); the destructor waits for whatever is still being written.
-  class BackgroundWrites
-  {
-  public:
-    BackgroundWrites() = default;
-    BackgroundWrites(const BackgroundWrites &) = delete;
-    BackgroundWrites &operator=(const BackgroundWrites &) = delete;
-    ~BackgroundWrites()
-    {
-      for (auto &write : pending)
-        if (write.valid())
-          write.wait();
-    }
-
-    // 'write' must own what it writes: it runs after the caller has gone on.
-    void add(const std::string &target, std::function<void(std::ostream &)> write)
-    {
-      pending.push_back(std::async(std::launch::async, [target, write = std::move(write)] {
-        write_file_atomically(target, write);
-      }));
-    }
-
-    void wait()
-    {
-      std::exception_ptr first_failure;
-      for (auto &write : pending)
-        try
-          {
-            write.get();
-          }
-        catch (...)
-          {
-            if (!first_failure)
-              first_failure = std::current_exception();
-          }
-      pending.clear();
-      if (first_failure)
-        std::rethrow_exception(first_failure);
-    }
-
-  private:
-    std::vector<std::future<void>> pending;
   };
 } // namespace modal_haptics

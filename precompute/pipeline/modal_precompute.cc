@@ -63,7 +63,6 @@ namespace modal_haptics
     plan_contacts();
     for (const auto &task : results.tasks)
       solve_space(task, scene.output_directory);
-    wait_for_vtu_files();
     record_peak_memory();
     // Every process writes its own rows of the .h5 (parallel HDF5 in a distributed run); process 0
     // alone writes the other files.
@@ -89,7 +88,6 @@ namespace modal_haptics
     if (distributed) // all processes write the VTU into that folder
       MPI_Barrier(MPI_COMM_WORLD);
     solve_space(task, partial_directory);
-    wait_for_vtu_files();
     record_peak_memory();
     if (distributed)
       gather_rows_on_root(results.spaces.front(), MPI_COMM_WORLD);
@@ -384,22 +382,10 @@ namespace modal_haptics
       distributed ? compute_modal_space_distributed(scene, results.display, task, vtu_file(vtu_directory, task.name),
                                                     timer, verbose, MPI_COMM_WORLD) :
                     compute_modal_space(scene, results.display, task, vtu_file(vtu_directory, task.name), timer,
-                                        verbose, &vtu_writes);
+                                        verbose);
     for (const auto &[phase, seconds] : space.timings_s)
       results.timings_s[phase] += seconds;
     results.spaces.push_back(std::move(space));
-  }
-
-  void ModalPrecompute::wait_for_vtu_files()
-  {
-    dealii::TimerOutput::Scope scope(timer, "vtu_output");
-    dealii::Timer              waited;
-    vtu_writes.wait();
-    // Mostly the last space's own file (the others were written while later spaces computed): it
-    // counts there too, so that a scenario job's partial result keeps it.
-    results.timings_s["vtu_output"] += waited.wall_time();
-    if (!results.spaces.empty())
-      results.spaces.back().timings_s["vtu_output"] += waited.wall_time();
   }
 
   // The peak resident memory (VmHWM) of the largest process: what a cluster node must hold per process.

@@ -12,7 +12,6 @@
 #pragma once
 
 #include "scene/display_surface.h"
-#include "output/atomic_file.h"
 #include "output/exporters.h"
 #include "space/space_result.h"
 #include "parameters/scene_parameters.h"
@@ -26,6 +25,7 @@
 
 namespace modal_haptics
 {
+  class StagedFiles; // atomic_file.h
 
   // With 'distributed', every process of MPI_COMM_WORLD runs run(): the spaces are computed on
   // distributed objects (distributed_space.h), process 0 meshes first and writes every file.
@@ -50,11 +50,8 @@ namespace modal_haptics
     void make_meshes(bool reuse_only = false);
     void plan_contacts();
     const SpaceTask &task_of_scenario(const std::string &name) const;
-    // The space of 'task', its VTU written into vtu_directory (on a thread of its own in a serial
-    // run: wait_for_vtu_files).
+    // The space of 'task', its VTU written into vtu_directory.
     void solve_space(const SpaceTask &task, const std::string &vtu_directory);
-    // Waits for the VTU files still being written; the time waited counts as the phase vtu_output.
-    void wait_for_vtu_files();
     void record_peak_memory();
     void read_partial_results(const std::string &partial_directory, double &job_seconds);
     // The scene's files; a merge also gathers the VTU files its jobs wrote in jobs_directory.
@@ -70,7 +67,6 @@ namespace modal_haptics
     const bool                      writes_files; // the serial run, or process 0 of a distributed one
     dealii::TimerOutput             timer;
     PrecomputeResults               results;
-    BackgroundWrites                vtu_writes;
   };
 
   // T_(k <- j) for every ordered pair of spaces: least squares over the display surface.

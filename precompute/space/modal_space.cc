@@ -110,18 +110,10 @@ namespace modal_haptics
       }
       std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
-      void write_vtu(space_phases::DetachableDataOut &data_out) const
+      void write_vtu(DataOut<3> &data_out) const
       {
-        if (!vtu_writes)
-          {
-            write_file_atomically(vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
-            return;
-          }
-        const auto built = std::make_shared<space_phases::DetachableDataOut::Built>(data_out.detach());
-        vtu_writes->add(vtu_file, [built](std::ostream &out) { built->write_vtu(out); });
+        write_file_atomically(vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
       }
-
-      BackgroundWrites *vtu_writes = nullptr; // null: the VTU is written before the space returns
 
       DoFHandler<3>                    dof_handler;
       SparseMatrix<double>             stiffness_matrix, mass_matrix;
@@ -729,8 +721,7 @@ namespace modal_haptics
                                        const SpaceTask       &task,
                                        const std::string     &vtu_file,
                                        TimerOutput           &timer,
-                                       const bool             verbose,
-                                       BackgroundWrites      *vtu_writes)
+                                       const bool             verbose)
   {
     // What the parameters alone decide, before assembly ('Factor storage = disk': MUMPS's).
     const solver_choice::Choice before_assembly =
@@ -741,8 +732,7 @@ namespace modal_haptics
     solver_choice::Choice hand_over;
     {
       SerialSpace space(scene, display, task, vtu_file, timer, verbose);
-      space.vtu_writes = vtu_writes;
-      auto outcome     = space.run();
+      auto        outcome = space.run();
       if (auto *result = std::get_if<ModalSpaceResult>(&outcome))
         return std::move(*result);
       hand_over = std::get<solver_choice::Choice>(outcome);

@@ -39,18 +39,14 @@
 
 namespace modal_haptics
 {
-  class BackgroundWrites;
-
   // Runs the whole pipeline of one space: read mesh, assemble, eigensolve, select, interpolate on
-  // the display surface, static correction, validation, VTU output into vtu_file (none if empty;
-  // written by vtu_writes on a thread of its own when given, the caller waits for it).
+  // the display surface, static correction, validation, VTU output into vtu_file (none if empty).
   ModalSpaceResult compute_modal_space(const SceneParameters &scene,
                                        const ContactSurface  &display,
                                        const SpaceTask       &task,
                                        const std::string     &vtu_file,
                                        dealii::TimerOutput   &timer,
-                                       bool                   verbose,
-                                       BackgroundWrites      *vtu_writes = nullptr);
+                                       bool                   verbose);
 
   // The steps a space takes whatever the linear algebra: used by the serial space (CHOLMOD,
   // modal_space.cc) and the distributed one (Trilinos + MUMPS, distributed_space.cc), so that both

@@ -37,7 +37,7 @@
 //   Field output_field(const Field &) const   ghosted, the constrained entries filled in (for output)
 //   std::array<Field, 6> rigid_body_motions(const dealii::Point<3> &centre) const
 //   void fill_modes_at_vertices()     the kept modes at the result's rows of mesh vertices
-//   void write_vtu(DetachableDataOut &) const
+//   void write_vtu(dealii::DataOut<3> &) const
 //   SurfaceOperators surface;         filled by the phases below
 //   std::vector<Field> validation_fields;   full - modal, one per validation case, as output_field gives
 //
@@ -645,43 +645,13 @@ namespace modal_haptics
       in.log(space_parts::validation_summary(result));
     }
 
-    // A DataOut whose built patches, with their names, vector ranges and VTK flags, can be taken
-    // away and written later (BackgroundWrites), once the DoF handler and the vectors they came
-    // from are gone.
-    class DetachableDataOut : public dealii::DataOut<3>
-    {
-    public:
-      struct Built
-      {
-        std::vector<dealii::DataOutBase::Patch<3, 3>> patches;
-        std::vector<std::string>                       names;
-        std::vector<std::tuple<unsigned int, unsigned int, std::string,
-                               dealii::DataComponentInterpretation::DataComponentInterpretation>>
-                                      ranges;
-        dealii::DataOutBase::VtkFlags flags;
-
-        void write_vtu(std::ostream &out) const { dealii::DataOutBase::write_vtu(patches, names, ranges, flags, out); }
-      };
-
-      void set_vtk_flags(const dealii::DataOutBase::VtkFlags &vtk_flags)
-      {
-        set_flags(vtk_flags);
-        flags = vtk_flags;
-      }
-      // After build_patches: this DataOut keeps no patches.
-      Built detach() { return {std::move(patches), get_dataset_names(), get_nonscalar_data_ranges(), flags}; }
-
-    private:
-      dealii::DataOutBase::VtkFlags flags;
-    };
-
     // Mode shapes (frequency in the field name) and the validation error fields, for ParaView.
     template <typename Backend>
     void output_results(const Backend &b, const PhaseInputs &in, const ModalSpaceResult &result)
     {
       if (in.vtu_file.empty())
         return;
-      DetachableDataOut data_out;
+      dealii::DataOut<3> data_out;
       data_out.attach_dof_handler(b.dof_handler);
       const std::vector<dealii::DataComponentInterpretation::DataComponentInterpretation> vector_field(
         3, dealii::DataComponentInterpretation::component_is_part_of_vector);
@@ -704,7 +674,7 @@ namespace modal_haptics
       // made the phase 6.2 s instead of 3.9 s on the default scene, for files 1.5 % smaller.
       dealii::DataOutBase::VtkFlags flags;
       flags.compression_level = dealii::DataOutBase::VtkFlags::best_speed;
-      data_out.set_vtk_flags(flags);
+      data_out.set_flags(flags);
       b.write_vtu(data_out);
     }
     // A space whose phases after the eigensolve are those above: a backend derives from
