@@ -540,18 +540,19 @@ namespace modal_haptics
   }
 
   void SupernodalSolve::forward_local(const Index supernode, double *X, const int ld, const Index *local_row,
-                                      const int *active, const int n_active, const int width, double *own,
-                                      double *workspace) const
+                                      const int *active, const int n_active, double *own, double *workspace,
+                                      GroupGram &gram) const
   {
     const Block b(*this, supernode);
     // A supernode's columns are consecutive rows of X. Where every column is active they are solved
     // in place; otherwise the active columns' rows are gathered into 'own' and put back.
-    const bool all  = n_active == width;
+    const bool all  = n_active == gram.width;
     double    *rows = X + local_row[b.first];
     if (!all)
       for (int c = 0; c < n_active; ++c)
         std::copy_n(rows + std::size_t(active[c]) * ld, b.n_columns, own + std::size_t(c) * b.n_columns);
     const bool has_below = solve_own_rows(b, all ? rows : own, all ? ld : b.n_columns, n_active, workspace);
+    add_to_gram(all ? rows : own, b.n_columns, all ? ld : b.n_columns, active, n_active, gram);
     if (!all)
       for (int c = 0; c < n_active; ++c)
         std::copy_n(own + std::size_t(c) * b.n_columns, b.n_columns, rows + std::size_t(active[c]) * ld);
@@ -564,6 +565,26 @@ namespace modal_haptics
         for (int i = 0; i < b.below; ++i)
           column[local_row[b.rows_below[i]]] -= updates[i];
       }
+  }
+
+  void SupernodalSolve::add_to_gram(const double *rows, const int n_rows, const int ld, const int *active,
+                                    const int n_active, GroupGram &gram) const
+  {
+    // The active columns ascend, so the leading ones among them come first.
+    const int    m   = int(std::lower_bound(active, active + n_active, gram.n_leading) - active);
+    const double one = 1., zero = 0.;
+    if (m == 0 || n_rows == 0)
+      return;
+    if (n_active == gram.width) // every column: straight into G
+      {
+        dgemm_("T", "N", &n_active, &m, &n_rows, &one, rows, &ld, rows, &ld, &one, gram.G.data(), &gram.width);
+        return;
+      }
+    gram.part.resize(std::size_t(n_active) * m);
+    dgemm_("T", "N", &n_active, &m, &n_rows, &one, rows, &ld, rows, &ld, &zero, gram.part.data(), &n_active);
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < n_active; ++i)
+        gram.G[active[i] + std::size_t(active[j]) * gram.width] += gram.part[i + std::size_t(j) * n_active];
   }
 
   std::vector<std::vector<int>> SupernodalSolve::active_columns(const std::vector<SparseColumn> &B,
@@ -619,18 +640,13 @@ namespace modal_haptics
     for (const Index s : path)
       max_own_rows = std::max<int>(max_own_rows, first_column[s + 1] - first_column[s]);
     std::vector<double> own(std::size_t(max_own_rows) * width_or_1);
+    // G = Y^T Y, each supernode's rows added as soon as they are solved.
+    GroupGram gram{std::vector<double>(std::size_t(width) * leading, 0.), width, int(leading), {}};
     for (std::size_t i = 0; i < path.size(); ++i)
       if (!active[i].empty())
-        forward_local(path[i], X.data(), ld, local_row.data(), active[i].data(), int(active[i].size()), width,
-                      own.data(), workspace.data());
-
-    // G = Y^T Y over the path's rows.
-    const int           n_leading = int(leading), k = int(rows_of_Y);
-    std::vector<double> G(std::size_t(width) * n_leading, 0.);
-    const double        one = 1., zero = 0.;
-    if (width > 0 && n_leading > 0 && k > 0)
-      dgemm_("T", "N", &width, &n_leading, &k, &one, X.data(), &ld, X.data(), &ld, &zero, G.data(), &width);
-    return G;
+        forward_local(path[i], X.data(), ld, local_row.data(), active[i].data(), int(active[i].size()), own.data(),
+                      workspace.data(), gram);
+    return std::move(gram.G);
   }
 
   std::vector<std::vector<double>>

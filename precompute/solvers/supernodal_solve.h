@@ -85,11 +85,22 @@ namespace modal_haptics
     // a column's solution is zero on every other supernode of the union. Ascending.
     std::vector<std::vector<int>> active_columns(const std::vector<SparseColumn> &B, const std::vector<Index> &path,
                                                  const std::vector<Index> &position_of_row, GroupScratch &scratch) const;
+    // The Gram matrix of a group (width x n_leading, column-major) as its supernodes add to it.
+    struct GroupGram
+    {
+      std::vector<double> G;
+      int                 width, n_leading;
+      std::vector<double> part; // one supernode's share, before it is scattered into G
+    };
     // One supernode of L y = b in the local X (ld rows per column), for the columns 'active' only
     // (n_active of them, all when n_active is X's width): y at its own rows, its updates to the rows
-    // below subtracted. 'own' holds the active columns' own rows while they are solved.
+    // below subtracted, and y's own rows' share of Y^T Y added to 'gram' (the rows of a supernode are
+    // final once it is solved). 'own' holds the active columns' own rows while they are solved.
     void forward_local(Index supernode, double *X, int ld, const Index *local_row, const int *active, int n_active,
-                       int width, double *own, double *workspace) const;
+                       double *own, double *workspace, GroupGram &gram) const;
+    // gram.G += Y_s^T Y_s for the supernode's own rows Y_s (n_rows x n_active at 'rows', ld apart):
+    // a column of Y is zero off its own path, so only the columns active here meet on these rows.
+    void add_to_gram(const double *rows, int n_rows, int ld, const int *active, int n_active, GroupGram &gram) const;
     // y_own = L11^-1 y_own in place (at 'own', ld rows per column) and workspace = L21 y_own (below
     // x n_rhs): what the supernode subtracts from the rows below it; false when it has none.
     bool solve_own_rows(const Block &b, double *own, int ld, int n_rhs, double *workspace) const;
