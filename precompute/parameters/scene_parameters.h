@@ -138,10 +138,19 @@ namespace modal_haptics
     void        parse_parameters(dealii::ParameterHandler &prm);
   };
 
+  // zlib on the VTU files' data arrays (deal.II's DataOut writes them base64 either way).
+  enum class VtuCompression
+  {
+    none,
+    fast,
+    best
+  };
+
   struct OutputParameters
   {
-    bool         float64_modes  = false; // .mrt display modes in float64 instead of float32
-    unsigned int vtu_modes      = 10;    // number of mode shapes written to VTU
+    bool           float64_modes   = false; // .mrt display modes in float64 instead of float32
+    unsigned int   vtu_modes       = 10;    // number of mode shapes written to VTU
+    VtuCompression vtu_compression = VtuCompression::none;
     bool         export_matrices = false; // write K and M (binary CSR) for the benchmark's peers
 
     static void declare_parameters(dealii::ParameterHandler &prm); // subsection "Output"

@@ -670,10 +670,21 @@ namespace modal_haptics
                                  std::vector<std::string>(3, space_parts::validation_field_name(result.validation[k])),
                                  dealii::DataOut<3>::type_dof_data, vector_field);
       data_out.build_patches(b.mapping, in.scene.element_degree);
-      // zlib's fastest level: the files are for viewing, and deal.II's default (best compression)
-      // made the phase 6.2 s instead of 3.9 s on the default scene, for files 1.5 % smaller.
+      // 'Output/VTU compression': none by default, since zlib on one thread took more than half of
+      // the phase (docs/performance.md) for files that are only viewed.
       dealii::DataOutBase::VtkFlags flags;
-      flags.compression_level = dealii::DataOutBase::VtkFlags::best_speed;
+      switch (in.scene.output.vtu_compression)
+        {
+          case VtuCompression::none:
+            flags.compression_level = dealii::DataOutBase::VtkFlags::no_compression;
+            break;
+          case VtuCompression::fast:
+            flags.compression_level = dealii::DataOutBase::VtkFlags::best_speed;
+            break;
+          case VtuCompression::best:
+            flags.compression_level = dealii::DataOutBase::VtkFlags::best_compression;
+            break;
+        }
       data_out.set_flags(flags);
       b.write_vtu(data_out);
     }
