@@ -29,11 +29,13 @@
 #include <deal.II/lac/trilinos_vector.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <iomanip>
 #include <limits>
 #include <sstream>
+#include <tuple>
 #include <type_traits>
 
 namespace modal_haptics
@@ -83,37 +85,44 @@ namespace modal_haptics
         const Tensor<2, 3> &stress() const { return P; }
         double              energy() const { return W; } // stored energy per reference volume
 
-        // The tangent's lower triangle K_ij += JxW (A : G_j) : G_i (j <= i) for the shape functions'
-        // gradients G = e_c (x) g (component c, gradient g): written out for rank-one G, so that a
-        // pair costs a few products. St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
+        // The tangent's lower triangle K_ij += JxW (A : G_j) : G_i for the shape functions' gradients
+        // G = e_c (x) g (component c, gradient g): written out for rank-one G, so that a pair costs a
+        // few products. St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
         //   dP_j = G_j S + F (lambda tr dE I + 2 mu dE), dE = sym(F^T G_j) = sym(f_j (x) g_j), so
         //   K_ij = delta_cicj g_i.S g_j + lambda (f_i.g_i)(f_j.g_j) + mu ((F F^T)_cicj g_i.g_j + (F g_j)_ci (F g_i)_cj).
         // Neo-Hookean, with A = F^-T (d(F^-T) = -A dF^T A, d ln J = A : dF):
         //   dP_j = mu G_j + (mu - lambda ln J) A G_j^T A + lambda (A : G_j) A, so
         //   K_ij = mu delta_cicj g_i.g_j + (mu - lambda ln J)(A g_j)_ci (A g_i)_cj + lambda (A g_j)_cj (A g_i)_ci.
-        void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<unsigned int> &c, const double JxW,
-                         std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
+        // The three components of a vector element share their scalar shape function: g, F g (or A g)
+        // and the dot products are formed once per pair of scalar functions (a, b), for its 3 x 3
+        // block of DoFs dof[a][ci], dof[b][cj] (a third of the pairs' work per DoF pair).
+        void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<std::array<unsigned int, 3>> &dof,
+                         const double JxW, std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
         {
           const unsigned int n   = g.size();
           const bool         svk = law == HyperelasticLaw::saint_venant_kirchhoff;
           const Tensor<2, 3> B   = svk ? Tensor<2, 3>(F * transpose(F)) : F_inverse_T; // F F^T, or A
-          for (unsigned int i = 0; i < n; ++i)
-            work[i] = svk ? Tensor<1, 3>(F * g[i]) : Tensor<1, 3>(F_inverse_T * g[i]); // F g_i, or A g_i
+          for (unsigned int a = 0; a < n; ++a)
+            work[a] = svk ? Tensor<1, 3>(F * g[a]) : Tensor<1, 3>(F_inverse_T * g[a]); // F g_a, or A g_a
           const double shear = svk ? mu : mu - lambda * log_J;
-          for (unsigned int i = 0; i < n; ++i)
+          for (unsigned int a = 0; a < n; ++a)
             {
-              const unsigned int  ci = c[i];
-              const Tensor<1, 3> &wi = work[i];
-              const Tensor<1, 3>  Sg = svk ? Tensor<1, 3>(S * g[i]) : Tensor<1, 3>(mu * g[i]);
-              for (unsigned int j = 0; j <= i; ++j)
+              const Tensor<1, 3> &wa = work[a];
+              const Tensor<1, 3>  Sg = svk ? Tensor<1, 3>(S * g[a]) : Tensor<1, 3>(mu * g[a]);
+              for (unsigned int b = 0; b <= a; ++b)
                 {
-                  const unsigned int cj = c[j];
-                  double k = shear * work[j][ci] * wi[cj] + lambda * work[j][cj] * wi[ci];
-                  if (svk)
-                    k += mu * B[ci][cj] * (g[i] * g[j]);
-                  if (ci == cj)
-                    k += Sg * g[j];
-                  K(i, j) += k * JxW;
+                  const Tensor<1, 3> &wb       = work[b];
+                  const double        diagonal = Sg * g[b];
+                  const double        gg       = svk ? mu * (g[a] * g[b]) : 0.;
+                  for (unsigned int ci = 0; ci < 3; ++ci)
+                    for (unsigned int cj = 0; cj < (a == b ? ci + 1 : 3); ++cj) // a == b: each DoF pair once
+                      {
+                        double k = shear * wb[ci] * wa[cj] + lambda * wb[cj] * wa[ci] + gg * B[ci][cj];
+                        if (ci == cj)
+                          k += diagonal;
+                        const unsigned int i = dof[a][ci], j = dof[b][cj];
+                        K(std::max(i, j), std::min(i, j)) += k * JxW; // K is symmetric: its lower triangle
+                      }
                 }
             }
         }
@@ -554,15 +563,15 @@ namespace modal_haptics
         NonlinearScratch(const Mapping<3> &mapping, const FiniteElement<3> &fe, const Quadrature<3> &quadrature)
           : fe_values(mapping, fe, quadrature, update_gradients | update_JxW_values)
           , grad_u(quadrature.size())
-          , shape_gradient(fe.n_dofs_per_cell())
-          , work(fe.n_dofs_per_cell())
+          , shape_gradient(fe.base_element(0).n_dofs_per_cell())
+          , work(fe.base_element(0).n_dofs_per_cell())
         {}
         NonlinearScratch(const NonlinearScratch &other)
           : NonlinearScratch(other.fe_values.get_mapping(), other.fe_values.get_fe(), other.fe_values.get_quadrature())
         {}
         FEValues<3>               fe_values;
         std::vector<Tensor<2, 3>> grad_u;
-        std::vector<Tensor<1, 3>> shape_gradient, work;
+        std::vector<Tensor<1, 3>> shape_gradient, work; // per scalar shape function
       };
 
       // A cell's part, added by one thread at a time in the cells' order (so the sums do not depend
@@ -590,9 +599,16 @@ namespace modal_haptics
         using CellIterator = typename std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
         const auto        &fe            = space.dof_handler.get_fe();
         const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-        std::vector<unsigned int> component(dofs_per_cell);
+        // The element is three copies of a scalar one (the displacement's components): DoF i is
+        // component component[i] of scalar shape function scalar[i], and dof[s][c] the other way.
+        AssertThrow(fe.n_base_elements() == 1 && fe.element_multiplicity(0) == 3, ExcInternalError());
+        std::vector<unsigned int>                component(dofs_per_cell), scalar(dofs_per_cell);
+        std::vector<std::array<unsigned int, 3>> dof(fe.base_element(0).n_dofs_per_cell());
         for (unsigned int i = 0; i < dofs_per_cell; ++i)
-          component[i] = fe.system_to_component_index(i).first;
+          {
+            std::tie(component[i], scalar[i]) = fe.system_to_component_index(i);
+            dof[scalar[i]][component[i]]      = i;
+          }
         std::vector<DoFHandler<3>::active_cell_iterator> cells;
         for (const auto &cell : space.dof_handler.active_cell_iterators())
           if (cell->is_locally_owned())
@@ -621,13 +637,12 @@ namespace modal_haptics
                 const StressAtPoint stress(law, mu, lambda, scratch.grad_u[q]);
                 const double        JxW = scratch.fe_values.JxW(q);
                 part.energy += stress.energy() * JxW;
+                for (unsigned int a = 0; a < dof.size(); ++a)
+                  scratch.shape_gradient[a] = scratch.fe_values.shape_grad(dof[a][0], q);
                 for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                  {
-                    scratch.shape_gradient[i] = scratch.fe_values.shape_grad(i, q);
-                    part.rhs(i) -= stress.stress()[component[i]] * scratch.shape_gradient[i] * JxW;
-                  }
+                  part.rhs(i) -= stress.stress()[component[i]] * scratch.shape_gradient[scalar[i]] * JxW;
                 if (with_tangent)
-                  stress.add_tangent(scratch.shape_gradient, component, JxW, scratch.work, part.K);
+                  stress.add_tangent(scratch.shape_gradient, dof, JxW, scratch.work, part.K);
               }
             if (with_tangent) // the tangent of a stored energy is symmetric
               for (unsigned int i = 0; i < dofs_per_cell; ++i)
