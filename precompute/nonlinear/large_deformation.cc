@@ -95,7 +95,7 @@ namespace modal_haptics
         //   K_ij = mu delta_cicj g_i.g_j + (mu - lambda ln J)(A g_j)_ci (A g_i)_cj + lambda (A g_j)_cj (A g_i)_ci.
         // The three components of a vector element share their scalar shape function: g, F g (or A g)
         // and the dot products are formed once per pair of scalar functions (a, b), for its 3 x 3
-        // block of DoFs dof[a][ci], dof[b][cj] (a third of the pairs' work per DoF pair).
+        // block of DoFs dof[a][ci], dof[b][cj], instead of once per pair of DoFs.
         void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<std::array<unsigned int, 3>> &dof,
                          const double JxW, std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
         {
