@@ -3,15 +3,42 @@
 //   modal-mesh <output folder> [coarse size [fine size]]      (sizes in mm)
 #include "scene_mesher.h"
 
+#include <cstdlib>
 #include <iostream>
+#include <stdexcept>
 #include <string>
+
+namespace
+{
+  const char *const usage = " <output folder> [coarse size [fine size]]   (sizes in mm; defaults 6 and 1.5)\n"
+                            "Meshes the built-in ribbed panel with the scenarios rib_a and rib_b of "
+                            "parameters/ribbed_panel.prm into the folder and prints the statistics.\n";
+
+  // A size argument [mm]: a positive number, the whole argument, or an error that names it.
+  double size_argument(const char *text, const std::string &name)
+  {
+    char        *end  = nullptr;
+    const double size = std::strtod(text, &end);
+    if (end == text || *end != '\0' || !(size > 0.))
+      throw std::invalid_argument(name + " is '" + text + "': expected a positive number of mm.");
+    return size;
+  }
+} // namespace
 
 int main(int argc, char **argv)
 {
   using namespace modal_haptics::meshing;
-  if (argc < 2 || argc > 4)
+  const std::string first = argc > 1 ? argv[1] : "";
+  if (first == "--help" || first == "-h")
     {
-      std::cerr << "usage: " << argv[0] << " <output folder> [coarse size [fine size]]   (mm)\n";
+      std::cout << "usage: " << argv[0] << usage;
+      return 0;
+    }
+  if (argc < 2 || argc > 4 || first.empty() || first[0] == '-')
+    {
+      if (!first.empty() && first[0] == '-')
+        std::cerr << "modal-mesh: unknown option '" << first << "'\n";
+      std::cerr << "usage: " << argv[0] << usage;
       return 2;
     }
   try
@@ -19,8 +46,8 @@ int main(int argc, char **argv)
       MeshingSettings settings;
       settings.geometry = "builtin:ribbed_panel";
       if (argc > 2)
-        settings.coarse_size = std::stod(argv[2]);
-      const double fine = argc > 3 ? std::stod(argv[3]) : 1.5;
+        settings.coarse_size = size_argument(argv[2], "the coarse size (second argument)");
+      const double fine = argc > 3 ? size_argument(argv[3], "the fine size (third argument)") : 1.5;
 
       VolumeOfInterest rib_a, rib_b;
       rib_a.name      = "rib_a"; // the tallest rib's middle
