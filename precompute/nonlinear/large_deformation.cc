@@ -175,6 +175,16 @@ namespace modal_haptics
         return dof_handler.get_triangulation().get_communicator();
       }
 
+      // This process's cells, in the DoF handler's order.
+      std::vector<DoFHandler<3>::active_cell_iterator> locally_owned_cells(const DoFHandler<3> &dof_handler)
+      {
+        std::vector<DoFHandler<3>::active_cell_iterator> cells;
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          if (cell->is_locally_owned())
+            cells.push_back(cell);
+        return cells;
+      }
+
       // u readable at every DoF of this process's cells: a ghosted copy (serially a plain one).
       template <typename Algebra>
       typename Algebra::Vector readable(const SpaceView<Algebra> &space, const typename Algebra::Vector &u)
@@ -307,10 +317,7 @@ namespace modal_haptics
     {
       Timer                                          timer;
       BlasThreads                                    one_thread(1);
-      std::vector<DoFHandler<3>::active_cell_iterator> cells;
-      for (const auto &cell : dof_handler.active_cell_iterators())
-        if (cell->is_locally_owned())
-          cells.push_back(cell);
+      const auto        cells    = locally_owned_cells(dof_handler);
       const std::size_t n_chunks = std::clamp<std::size_t>(MultithreadInfo::n_threads(), 1, std::max<std::size_t>(cells.size(), 1));
       std::vector<std::vector<double>> parts(n_chunks);
       Threads::TaskGroup<>             tasks;
@@ -419,6 +426,26 @@ namespace modal_haptics
         return inverse;
       }
 
+      // The element is three copies of a scalar one (the displacement's components): DoF i is
+      // component component[i] of scalar shape function scalar[i], and dof[s][c] the other way.
+      struct VectorElementDofs
+      {
+        explicit VectorElementDofs(const FiniteElement<3> &fe)
+          : component(fe.n_dofs_per_cell())
+          , scalar(fe.n_dofs_per_cell())
+          , dof(fe.base_element(0).n_dofs_per_cell())
+        {
+          AssertThrow(fe.n_base_elements() == 1 && fe.element_multiplicity(0) == 3, ExcInternalError());
+          for (unsigned int i = 0; i < fe.n_dofs_per_cell(); ++i)
+            {
+              std::tie(component[i], scalar[i]) = fe.system_to_component_index(i);
+              dof[scalar[i]][component[i]]      = i;
+            }
+        }
+        std::vector<unsigned int>                component, scalar;
+        std::vector<std::array<unsigned int, 3>> dof;
+      };
+
       template <typename Algebra>
       class LargeDeformationSolve
       {
@@ -504,6 +531,9 @@ namespace modal_haptics
         const ModeParameters                       modes;
         const double                               mu, lambda;
         const HyperelasticLaw                      law;
+        // Built once: every residual and tangent assembly walks the same cells and element.
+        const std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
+        const VectorElementDofs                                element_dofs;
         typename Algebra::Matrix                   tangent;
         VectorType                                 rhs;
         double                                     energy = 0.; // [J]
@@ -519,6 +549,8 @@ namespace modal_haptics
         , mu(lame_constants(material)[0])
         , lambda(lame_constants(material)[1])
         , law(law)
+        , owned_cells(locally_owned_cells(space.dof_handler))
+        , element_dofs(space.dof_handler.get_fe())
       {
         tangent.reinit(space.sparsity);
         rhs = space.owned_layout;
@@ -599,25 +631,14 @@ namespace modal_haptics
         using CellIterator = typename std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
         const auto        &fe            = space.dof_handler.get_fe();
         const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
-        // The element is three copies of a scalar one (the displacement's components): DoF i is
-        // component component[i] of scalar shape function scalar[i], and dof[s][c] the other way.
-        AssertThrow(fe.n_base_elements() == 1 && fe.element_multiplicity(0) == 3, ExcInternalError());
-        std::vector<unsigned int>                component(dofs_per_cell), scalar(dofs_per_cell);
-        std::vector<std::array<unsigned int, 3>> dof(fe.base_element(0).n_dofs_per_cell());
-        for (unsigned int i = 0; i < dofs_per_cell; ++i)
-          {
-            std::tie(component[i], scalar[i]) = fe.system_to_component_index(i);
-            dof[scalar[i]][component[i]]      = i;
-          }
-        std::vector<DoFHandler<3>::active_cell_iterator> cells;
-        for (const auto &cell : space.dof_handler.active_cell_iterators())
-          if (cell->is_locally_owned())
-            cells.push_back(cell);
+        const auto        &component     = element_dofs.component;
+        const auto        &scalar        = element_dofs.scalar;
+        const auto        &dof           = element_dofs.dof;
         const FEValuesExtractors::Vector displacement(0);
         std::atomic<bool>                inverted{false};
 
         WorkStream::run(
-          cells.cbegin(), cells.cend(),
+          owned_cells.cbegin(), owned_cells.cend(),
           [&](const CellIterator &cell, NonlinearScratch &scratch, NonlinearCellPart &part) {
             part.valid = false;
             if (inverted.load(std::memory_order_relaxed))
