@@ -144,7 +144,7 @@ namespace
 
 int main(int argc, char **argv)
 {
-  modal_haptics::restart_with_openblas_settings(argv);
+  modal_haptics::apply_openblas_settings(argv);
   const Options o = parse(argc, argv);
   try
     {

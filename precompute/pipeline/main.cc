@@ -309,7 +309,7 @@ namespace
 
 int main(int argc, char **argv)
 {
-  modal_haptics::restart_with_openblas_settings(argv);
+  modal_haptics::apply_openblas_settings(argv);
   // deal.II's default thread count: the node's cores shared among its MPI processes (2 for one
   // process on 2 cores, 1 each under mpirun -np 2). DEAL_II_NUM_THREADS lowers it. The triangular
   // solves and the M products run on these threads.

@@ -97,32 +97,56 @@ namespace modal_haptics
     }
   } // namespace
 
-  // 2^20 cycles of spin (about 0.4 ms) is long enough for the factorization's back-to-back calls
-  // (docs/performance.md). A process under an MPI launcher restarts only for the kernels: a
-  // process that replaces itself under the launcher's daemon is one risk more, worth taking for
-  // DGEMM's factor of 4, not for the spin.
-  void restart_with_openblas_settings(char **argv)
+  namespace
   {
-    bool changed = false;
+    // OpenBLAS reads OPENBLAS_THREAD_TIMEOUT when it loads and when it starts its workers: read the
+    // variable again and restart the workers (its exported openblas_read_env, blas_thread_shutdown_,
+    // blas_thread_init; found with dlsym, absent from other BLAS libraries). In the process instead
+    // of a restart of it: starting this program again cost ~0.75 s, most of it the dynamic linker
+    // binding the ~200 libraries deal.II brings (Debian links most with BIND_NOW).
+    bool shorten_openblas_spin_in_process()
+    {
+      using Call          = int (*)();
+      auto *read_env      = reinterpret_cast<void (*)()>(dlsym(RTLD_DEFAULT, "openblas_read_env"));
+      auto *stop_workers  = reinterpret_cast<Call>(dlsym(RTLD_DEFAULT, "blas_thread_shutdown_"));
+      auto *start_workers = reinterpret_cast<Call>(dlsym(RTLD_DEFAULT, "blas_thread_init"));
+      if (read_env == nullptr || stop_workers == nullptr || start_workers == nullptr)
+        return false;
+      read_env();
+      stop_workers();
+      start_workers();
+      return true;
+    }
+  } // namespace
+
+  // 2^20 cycles of spin (about 0.4 ms) is long enough for the factorization's back-to-back calls
+  // (docs/performance.md). A process under an MPI launcher changes only the kernels: a process
+  // that replaces itself under the launcher's daemon is one risk more, worth taking for DGEMM's
+  // factor of 4, not for the spin. The kernels are chosen when OpenBLAS loads: only a restart
+  // changes them.
+  void apply_openblas_settings(char **argv)
+  {
+    bool spin_changed = false;
     if (std::getenv("OPENBLAS_THREAD_TIMEOUT") == nullptr && !started_by_mpi_launcher())
       {
         setenv("OPENBLAS_THREAD_TIMEOUT", "20", 0);
-        changed = true;
+        spin_changed = true;
       }
     if (std::getenv("OPENBLAS_CORETYPE") == nullptr)
       if (const char *kernels = blas_kernels_for_this_cpu())
         {
           setenv("OPENBLAS_CORETYPE", kernels, 0);
           setenv(replaced_core_variable, openblas_core_name().c_str(), 1);
-          changed = true;
+          execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on as it is
         }
-    if (changed)
-      execv("/proc/self/exe", argv); // returns only if it failed: then the run goes on as it is
+    if (spin_changed && !shorten_openblas_spin_in_process())
+      execv("/proc/self/exe", argv); // an OpenBLAS without those calls: it reads the variable when it loads
   }
 
   BlasKernels running_blas_kernels()
   {
-    return {openblas_core_name(), std::getenv(replaced_core_variable) != nullptr};
+    auto *spin = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_thread_timeout"));
+    return {openblas_core_name(), std::getenv(replaced_core_variable) != nullptr, spin != nullptr ? spin() : 0};
   }
 
   BlasThreads::BlasThreads(const int threads)

@@ -93,26 +93,29 @@ namespace modal_haptics
   // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
   int set_openblas_threads(int threads);
 
-  // What OpenBLAS reads from the environment only when it loads, before main, and what this program
-  // sets there, unless the user has set it, by restarting itself (execv of itself, same PID, same
-  // arguments) as the first line of main, before anything else has happened:
+  // What OpenBLAS reads from the environment when it loads, before main, and what this program sets
+  // there unless the user has set it, as the first line of main, before anything else has happened:
   // - OPENBLAS_THREAD_TIMEOUT = 20. OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s)
   //   after every call before they sleep; on 2 cores the spinning worker takes a core from our own
   //   threads (the triangular solves start right after the eigensolver's GEMMs on the basis: 250k
-  //   DoFs, 7.0 s of solves against 6.4 s with a short spin). Not under an MPI launcher: there each
-  //   process has one BLAS thread (no idle worker to spin).
+  //   DoFs, 7.0 s of solves against 6.4 s with a short spin). The running OpenBLAS reads it again
+  //   and restarts its workers. Not under an MPI launcher: there each process has one BLAS thread
+  //   (no idle worker to spin).
   // - OPENBLAS_CORETYPE, only where OpenBLAS did not know the CPU and fell back to its generic
   //   Prescott kernels (blas_kernels_for_this_cpu): under an MPI launcher too, since every process
-  //   runs the BLAS's slow kernels otherwise.
-  void restart_with_openblas_settings(char **argv);
+  //   runs the BLAS's slow kernels otherwise. Chosen when the library loads: the program restarts
+  //   itself for it (execv of itself, same PID, same arguments).
+  void apply_openblas_settings(char **argv);
 
   // The kernels the running OpenBLAS uses ("SkylakeX", "Haswell", "Zen", ...; empty when the BLAS
   // is not OpenBLAS), and whether this program chose them (OPENBLAS_CORETYPE set by
-  // restart_with_openblas_settings).
+  // apply_openblas_settings), and the idle workers' spin OpenBLAS runs with (OPENBLAS_THREAD_TIMEOUT
+  // as it read it: 2^spin_exponent cycles; 0: its default, 2^28).
   struct BlasKernels
   {
     std::string core;
-    bool        chosen_by_us = false;
+    bool        chosen_by_us  = false;
+    int         spin_exponent = 0;
   };
   BlasKernels running_blas_kernels();
 

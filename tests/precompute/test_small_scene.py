@@ -14,7 +14,9 @@
   both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error;
 * the BLAS: report.json names OpenBLAS's kernels, and on a CPU with AVX2 and FMA (unless the test's
   environment sets OPENBLAS_CORETYPE) they are not the generic Prescott ones OpenBLAS falls back to
-  on a model it does not know (the program then restarts with the CPU's: README, "The BLAS kernels").
+  on a model it does not know (the program then restarts with the CPU's: README, "The BLAS kernels");
+  unless the environment sets OPENBLAS_THREAD_TIMEOUT, the running OpenBLAS read 20 (its idle
+  workers' spin, set by the program in its own process: report.json's processes.blas_thread_timeout).
 """
 import json
 import os
@@ -54,6 +56,9 @@ def main():
     if {"avx2", "fma"} <= cpu_flags and "OPENBLAS_CORETYPE" not in os.environ:
         expect(blas_kernels != "Prescott", f"a CPU with AVX2 and FMA runs OpenBLAS's kernels for it, not "
                f"the generic fallback ({blas_kernels})")
+    if "OPENBLAS_THREAD_TIMEOUT" not in os.environ:
+        spin = report["processes"]["blas_thread_timeout"]
+        expect(spin == 20, f"OpenBLAS's idle workers spin 2^20 cycles, set in the running process (read: {spin})")
     for s in report["spaces"]:
         n = s["name"]
         expect(s["orthonormality_error"] < 1e-10, f"{n}: orthonormality error {s['orthonormality_error']:.2e} < 1e-10")
