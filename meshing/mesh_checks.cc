@@ -45,8 +45,8 @@ namespace modal_haptics::meshing::detail
   {
     if (!(settings.coarse_size > 0.))
       throw MeshingError("coarse size must be > 0 (is " + std::to_string(settings.coarse_size) + ")");
-    if (settings.mesh_threads < 1)
-      throw MeshingError("mesh threads must be >= 1");
+    if (settings.mesh_threads < 0)
+      throw MeshingError("mesh threads must be >= 0 (0: one per core)");
     if (!(settings.min_quality < 1.))
       throw MeshingError("minimum quality must be < 1 (1 is the regular tet)");
   }

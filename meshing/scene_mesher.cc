@@ -7,6 +7,7 @@
 #include "ribbed_panel_geometry.h"
 
 #include <gmsh.h>
+#include <sched.h>
 
 #include <algorithm>
 #include <chrono>
@@ -34,6 +35,14 @@ namespace modal_haptics::meshing
     // Bump when anything in how meshes are made or written changes: every cached mesh is then redone.
     constexpr const char *mesh_format_version = "modal-haptics meshing 1";
     constexpr const char *log_prefix          = "[meshing] ";
+
+    // The cores this process may run on (its affinity: a Slurm task's, a taskset's), at least 1.
+    int cores_we_may_use()
+    {
+      cpu_set_t cores;
+      CPU_ZERO(&cores);
+      return sched_getaffinity(0, sizeof(cores), &cores) == 0 ? std::max(1, CPU_COUNT(&cores)) : 1;
+    }
     // Measured on the ribbed panel (gmsh 4.8.4), where a thin rib wall is coarser than thick:
     // - 3D Delaunay (1) leaves slivers of SICN ~1e-4 between a rib's two faces in the fine VOI
     //   that its optimizer cannot remove, three attempts in a row; HXT (10) does not.
@@ -479,7 +488,7 @@ namespace modal_haptics::meshing
         option::setNumber("Mesh.Algorithm", algorithm_2d);
         option::setNumber("Mesh.Algorithm3D", algorithm_3d);
         option::setNumber("Mesh.Optimize", 1);
-        option::setNumber("General.NumThreads", settings.mesh_threads);
+        option::setNumber("General.NumThreads", settings.mesh_threads > 0 ? settings.mesh_threads : cores_we_may_use());
       }
 
       void generate(const int dimension, const std::vector<const VolumeOfInterest *> &graded)

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <string>
 #include <unistd.h>
 #include <utility>
@@ -78,6 +79,44 @@ namespace modal_haptics
     write_temporary_file(temporary, target, write, mode);
     commit_temporary_file(temporary, target);
   }
+
+  // Files written atomically (as above) on threads of their own while the run goes on: a space's
+  // VTU, one core's work for one to two seconds, while the next space's serial steps leave the
+  // other core idle (docs/performance.md). One list per process, used from the main thread only.
+  class BackgroundWrites
+  {
+  public:
+    static BackgroundWrites &of_this_process()
+    {
+      static BackgroundWrites writes;
+      return writes;
+    }
+
+    void write_file_atomically(const std::string &target, std::function<void(std::ostream &)> write)
+    {
+      pending_.push_back(std::async(std::launch::async, [target, write = std::move(write)] {
+        modal_haptics::write_file_atomically(target, write);
+      }));
+    }
+
+    // Returns when every file is written; rethrows the first failure (its message names the file).
+    void wait()
+    {
+      auto pending = std::move(pending_);
+      pending_.clear();
+      for (auto &write : pending)
+        write.wait();
+      for (auto &write : pending)
+        write.get();
+    }
+
+    // A run that fails still lets the files already begun finish (std::async's futures wait).
+    ~BackgroundWrites() = default;
+
+  private:
+    BackgroundWrites() = default;
+    std::vector<std::future<void>> pending_;
+  };
 
   // The main results of a run (.h5, .mrt, used_parameters.prm, .pvd, report.json) are one set: each
   // is written complete into its temporary file, and they are renamed over their targets only when

@@ -222,8 +222,10 @@ namespace modal_haptics
       prm.declare_entry("Minimum element quality", text(scene.meshing.min_quality), Patterns::Double(0., 1.),
                         "Meshes with a tet of lower quality (gmsh minSICN; <= 0 is inverted) are refused. "
                         "Units: none.");
-      prm.declare_entry("Threads", std::to_string(scene.meshing.mesh_threads), Patterns::Integer(1, 64),
-                        "gmsh's threads. Units: none.");
+      prm.declare_entry("Threads", std::to_string(scene.meshing.mesh_threads), Patterns::Integer(0, 64),
+                        "gmsh's threads; 0: one per core the process may run on (its CPU affinity, e.g. "
+                        "a Slurm task's cores). gmsh's 3D mesher (HXT) makes slightly different meshes "
+                        "from run to run with any count. Units: none.");
       prm.leave_subsection();
     }
 

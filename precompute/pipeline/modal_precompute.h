@@ -52,6 +52,7 @@ namespace modal_haptics
     const SpaceTask &task_of_scenario(const std::string &name) const;
     // The space of 'task', its VTU written into vtu_directory.
     void solve_space(const SpaceTask &task, const std::string &vtu_directory);
+    void wait_for_vtu_files();
     void record_peak_memory();
     void read_partial_results(const std::string &partial_directory, double &job_seconds);
     // The scene's files; a merge also gathers the VTU files its jobs wrote in jobs_directory.

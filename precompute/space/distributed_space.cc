@@ -156,7 +156,7 @@ namespace modal_haptics
       Field output_field(const Field &u) const;
       std::array<Field, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
-      void write_vtu(DataOut<3> &data_out) const { data_out.write_vtu_in_parallel(vtu_file, comm); }
+      void write_vtu(space_phases::VtuOutput &data_out) const { data_out.write_vtu_in_parallel(vtu_file, comm); }
 
       DoFHandler<3>                    dof_handler;
       TrilinosWrappers::SparseMatrix   stiffness_matrix, mass_matrix;

@@ -110,9 +110,12 @@ namespace modal_haptics
       }
       std::array<Vector<double>, 6> rigid_body_motions(const Point<3> &centre) const;
       void fill_modes_at_vertices();
-      void write_vtu(DataOut<3> &data_out) const
+      // On a thread of its own: the next space starts meanwhile (the pipeline waits for it before
+      // the run's files are renamed into place).
+      void write_vtu(space_phases::VtuOutput &data_out) const
       {
-        write_file_atomically(vtu_file, [&](std::ostream &out) { data_out.write_vtu(out); });
+        BackgroundWrites::of_this_process().write_file_atomically(
+          vtu_file, [patches = data_out.take_patches()](std::ostream &out) { patches->write(out); });
       }
 
       DoFHandler<3>                    dof_handler;

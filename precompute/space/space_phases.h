@@ -37,7 +37,7 @@
 //   Field output_field(const Field &) const   ghosted, the constrained entries filled in (for output)
 //   std::array<Field, 6> rigid_body_motions(const dealii::Point<3> &centre) const
 //   void fill_modes_at_vertices()     the kept modes at the result's rows of mesh vertices
-//   void write_vtu(dealii::DataOut<3> &) const
+//   void write_vtu(space_phases::VtuOutput &) const   after build_patches
 //   SurfaceOperators surface;         filled by the phases below
 //   std::vector<Field> validation_fields;   full - modal, one per validation case, as output_field gives
 //
@@ -57,6 +57,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <sstream>
 
 namespace modal_haptics
@@ -645,13 +646,48 @@ namespace modal_haptics
       in.log(space_parts::validation_summary(result));
     }
 
+    // DataOut that hands its built patches over (the fields' values at the output's points, their
+    // names and vector ranges, and its VTK flags): a VTU written from them needs neither the mesh nor
+    // the vectors they came from, so it can be written on another thread while they are gone.
+    class VtuOutput : public dealii::DataOut<3>
+    {
+    public:
+      struct Patches
+      {
+        std::vector<dealii::DataOutBase::Patch<3, 3>> patches;
+        std::vector<std::string>                      names;
+        std::vector<std::tuple<unsigned int, unsigned int, std::string,
+                               dealii::DataComponentInterpretation::DataComponentInterpretation>>
+                                      vector_ranges;
+        dealii::DataOutBase::VtkFlags flags;
+        void write(std::ostream &out) const { dealii::DataOutBase::write_vtu(patches, names, vector_ranges, flags, out); }
+      };
+
+      void set_vtk_flags(const dealii::DataOutBase::VtkFlags &flags)
+      {
+        flags_for_vtu = flags;
+        set_flags(flags);
+      }
+
+      std::shared_ptr<const Patches> take_patches()
+      {
+        auto taken = std::make_shared<Patches>(
+          Patches{std::move(this->patches), get_dataset_names(), get_nonscalar_data_ranges(), flags_for_vtu});
+        clear();
+        return taken;
+      }
+
+    private:
+      dealii::DataOutBase::VtkFlags flags_for_vtu;
+    };
+
     // Mode shapes (frequency in the field name) and the validation error fields, for ParaView.
     template <typename Backend>
     void output_results(const Backend &b, const PhaseInputs &in, const ModalSpaceResult &result)
     {
       if (in.vtu_file.empty())
         return;
-      dealii::DataOut<3> data_out;
+      VtuOutput data_out;
       data_out.attach_dof_handler(b.dof_handler);
       const std::vector<dealii::DataComponentInterpretation::DataComponentInterpretation> vector_field(
         3, dealii::DataComponentInterpretation::component_is_part_of_vector);
@@ -685,7 +721,7 @@ namespace modal_haptics
             flags.compression_level = dealii::DataOutBase::VtkFlags::best_compression;
             break;
         }
-      data_out.set_flags(flags);
+      data_out.set_vtk_flags(flags);
       b.write_vtu(data_out);
     }
     // A space whose phases after the eigensolve are those above: a backend derives from
