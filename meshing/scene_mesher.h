@@ -81,7 +81,7 @@ namespace modal_haptics::meshing
     // of these boxes (widened by 1e-5 of the part's bounding-box diagonal + 2e-7, OpenCASCADE's own
     // padding) form the physical surface "clamp". A box that catches no face is an error.
     std::vector<std::array<Point3, 2>> clamp_boxes;
-    int    mesh_threads = 0;          // gmsh's threads; 0: one per core this process may run on
+    int    mesh_threads = 1;          // gmsh's threads; 0: one per core this process may run on
     double min_quality  = 0.01;       // minimum acceptable element quality (gmsh minSICN); below: error
   };
 

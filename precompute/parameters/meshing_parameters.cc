@@ -224,8 +224,9 @@ namespace modal_haptics
                         "Units: none.");
       prm.declare_entry("Threads", std::to_string(scene.meshing.mesh_threads), Patterns::Integer(0, 64),
                         "gmsh's threads; 0: one per core the process may run on (its CPU affinity, e.g. "
-                        "a Slurm task's cores). gmsh's 3D mesher (HXT) makes slightly different meshes "
-                        "from run to run with any count. Units: none.");
+                        "a Slurm task's cores). With more than one, gmsh's 3D mesher (HXT) makes a "
+                        "different mesh at every run even of a simple box (one thread: the same), 1 s "
+                        "faster on the default scene (docs/performance.md). Units: none.");
       prm.leave_subsection();
     }
 
