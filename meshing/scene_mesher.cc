@@ -43,6 +43,7 @@ namespace modal_haptics::meshing
       CPU_ZERO(&cores);
       return sched_getaffinity(0, sizeof(cores), &cores) == 0 ? std::max(1, CPU_COUNT(&cores)) : 1;
     }
+
     // Measured on the ribbed panel (gmsh 4.8.4), where a thin rib wall is coarser than thick:
     // - 3D Delaunay (1) leaves slivers of SICN ~1e-4 between a rib's two faces in the fine VOI
     //   that its optimizer cannot remove, three attempts in a row; HXT (10) does not.

@@ -675,7 +675,8 @@ namespace modal_haptics
     // What every space stands on: from "schema_version" to "display_surface" in the schema.
     Json scene_json(const SceneParameters &scene, const PrecomputeResults &results)
     {
-      const auto &d = results.display;
+      const auto &d    = results.display;
+      const auto  blas = running_blas_kernels();
       return {{"schema_version", "1.0"},
               {"scene", scene.scene_name},
               {"parameter_file", scene.parameter_file},
@@ -684,8 +685,8 @@ namespace modal_haptics
               {"processes",
                {{"count", results.n_processes},
                 {"max_peak_memory_mb", results.max_peak_memory_mb},
-                {"blas_kernels", running_blas_kernels().core},
-                {"blas_thread_timeout", running_blas_kernels().spin_exponent}}},
+                {"blas_kernels", blas.core},
+                {"blas_thread_timeout", blas.spin_exponent}}},
               {"material",
                {{"youngs_modulus_pa", scene.material.youngs_modulus},
                 {"poissons_ratio", scene.material.poissons_ratio},

@@ -95,10 +95,7 @@ namespace modal_haptics
 #endif
       return nullptr;
     }
-  } // namespace
 
-  namespace
-  {
     // OpenBLAS reads OPENBLAS_THREAD_TIMEOUT when it loads and when it starts its workers: read the
     // variable again and restart the workers (its exported openblas_read_env, blas_thread_shutdown_,
     // blas_thread_init; found with dlsym, absent from other BLAS libraries). In the process instead
