@@ -14,7 +14,9 @@
 #include <mrt/surface_normals.h>
 
 #include <deal.II/base/exceptions.h>
+#include <deal.II/base/graph_coloring.h>
 #include <deal.II/base/mpi.h>
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/multithread_info.h>
 #include <deal.II/base/point.h>
 #include <deal.II/base/symmetric_tensor.h>
@@ -34,6 +36,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <numeric>
 #include <sstream>
 #include <tuple>
 #include <type_traits>
@@ -85,9 +88,9 @@ namespace modal_haptics
         const Tensor<2, 3> &stress() const { return P; }
         double              energy() const { return W; } // stored energy per reference volume
 
-        // The tangent's lower triangle K_ij += JxW (A : G_j) : G_i for the shape functions' gradients
-        // G = e_c (x) g (component c, gradient g): written out for rank-one G, so that a pair costs a
-        // few products. St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
+        // The tangent K_ij += JxW (A : G_j) : G_i for the shape functions' gradients G = e_c (x) g
+        // (component c, gradient g): written out for rank-one G, so that a pair costs a few products.
+        // St. Venant-Kirchhoff, with f_i = F^T e_ci (row ci of F):
         //   dP_j = G_j S + F (lambda tr dE I + 2 mu dE), dE = sym(F^T G_j) = sym(f_j (x) g_j), so
         //   K_ij = delta_cicj g_i.S g_j + lambda (f_i.g_i)(f_j.g_j) + mu ((F F^T)_cicj g_i.g_j + (F g_j)_ci (F g_i)_cj).
         // Neo-Hookean, with A = F^-T (d(F^-T) = -A dF^T A, d ln J = A : dF):
@@ -95,39 +98,55 @@ namespace modal_haptics
         //   K_ij = mu delta_cicj g_i.g_j + (mu - lambda ln J)(A g_j)_ci (A g_i)_cj + lambda (A g_j)_cj (A g_i)_ci.
         // The three components of a vector element share their scalar shape function: g, F g (or A g)
         // and the dot products are formed once per pair of scalar functions (a, b), for its 3 x 3
-        // block of DoFs dof[a][ci], dof[b][cj], instead of once per pair of DoFs.
-        void add_tangent(const std::vector<Tensor<1, 3>> &g, const std::vector<std::array<unsigned int, 3>> &dof,
-                         const double JxW, std::vector<Tensor<1, 3>> &work, FullMatrix<double> &K) const
+        // block of DoFs (a, ci), (b, cj), b <= a, added to blocks[(a n + b) 9 + 3 ci + cj] (n scalar
+        // functions; scatter_tangent_blocks puts them into the cell matrix once per cell: contiguous
+        // blocks, no DoF index per quadrature point).
+        void add_tangent(const Tensor<1, 3> *g, const unsigned int n, const double JxW, std::vector<Tensor<1, 3>> &work,
+                         std::vector<double> &blocks) const
         {
-          const unsigned int n   = g.size();
-          const bool         svk = law == HyperelasticLaw::saint_venant_kirchhoff;
-          const Tensor<2, 3> B   = svk ? Tensor<2, 3>(F * transpose(F)) : F_inverse_T; // F F^T, or A
+          if (law == HyperelasticLaw::saint_venant_kirchhoff)
+            add_tangent_blocks<true>(g, n, JxW, work, blocks);
+          else
+            add_tangent_blocks<false>(g, n, JxW, work, blocks);
+        }
+
+      private:
+        // add_tangent for one law, with work[a] = F g_a (or A g_a) and JxW folded into the factors
+        // once per function: an entry of a block costs two products (St. Venant-Kirchhoff's one more).
+        template <bool svk>
+        void add_tangent_blocks(const Tensor<1, 3> *g, const unsigned int n, const double JxW,
+                                std::vector<Tensor<1, 3>> &work, std::vector<double> &blocks) const
+        {
+          const Tensor<2, 3> B = svk ? Tensor<2, 3>(mu * JxW * (F * transpose(F))) : Tensor<2, 3>();
+          const double       shear = (svk ? mu : mu - lambda * log_J) * JxW, dilation = lambda * JxW;
           for (unsigned int a = 0; a < n; ++a)
             work[a] = svk ? Tensor<1, 3>(F * g[a]) : Tensor<1, 3>(F_inverse_T * g[a]); // F g_a, or A g_a
-          const double shear = svk ? mu : mu - lambda * log_J;
           for (unsigned int a = 0; a < n; ++a)
             {
-              const Tensor<1, 3> &wa = work[a];
-              const Tensor<1, 3>  Sg = svk ? Tensor<1, 3>(S * g[a]) : Tensor<1, 3>(mu * g[a]);
-              for (unsigned int b = 0; b <= a; ++b)
+              const Tensor<1, 3> wa = work[a], la = dilation * work[a];
+              const Tensor<1, 3> Sg = svk ? Tensor<1, 3>(JxW * (S * g[a])) : Tensor<1, 3>(mu * JxW * g[a]);
+              double            *block = &blocks[9 * a * n];
+              for (unsigned int b = 0; b <= a; ++b, block += 9)
                 {
-                  const Tensor<1, 3> &wb       = work[b];
-                  const double        diagonal = Sg * g[b];
-                  const double        gg       = svk ? mu * (g[a] * g[b]) : 0.;
+                  const Tensor<1, 3> sb       = shear * work[b];
+                  const Tensor<1, 3> wb       = work[b];
+                  const double       diagonal = Sg * g[b];
                   for (unsigned int ci = 0; ci < 3; ++ci)
-                    for (unsigned int cj = 0; cj < (a == b ? ci + 1 : 3); ++cj) // a == b: each DoF pair once
-                      {
-                        double k = shear * wb[ci] * wa[cj] + lambda * wb[cj] * wa[ci] + gg * B[ci][cj];
-                        if (ci == cj)
-                          k += diagonal;
-                        const unsigned int i = dof[a][ci], j = dof[b][cj];
-                        K(std::max(i, j), std::min(i, j)) += k * JxW; // K is symmetric: its lower triangle
-                      }
+                    for (unsigned int cj = 0; cj < 3; ++cj)
+                      block[3 * ci + cj] += sb[ci] * wa[cj] + la[ci] * wb[cj];
+                  block[0] += diagonal;
+                  block[4] += diagonal;
+                  block[8] += diagonal;
+                  if (svk)
+                    {
+                      const double gg = g[a] * g[b];
+                      for (unsigned int k = 0; k < 9; ++k)
+                        block[k] += gg * B[k / 3][k % 3];
+                    }
                 }
             }
         }
 
-      private:
         const HyperelasticLaw law;
         const double          mu, lambda;
         const Tensor<2, 3>    F;
@@ -426,6 +445,25 @@ namespace modal_haptics
         return inverse;
       }
 
+      // The cell matrix from add_tangent's blocks (block (a, b), b <= a, and its transpose), local DoF
+      // i at row and column position[i].
+      void scatter_tangent_blocks(const std::vector<double> &blocks, const std::vector<std::array<unsigned int, 3>> &dof,
+                                  const unsigned short *position, FullMatrix<double> &K)
+      {
+        const unsigned int n = dof.size();
+        for (unsigned int a = 0; a < n; ++a)
+          for (unsigned int b = 0; b <= a; ++b)
+            {
+              const double *block = &blocks[9 * (a * n + b)];
+              for (unsigned int ci = 0; ci < 3; ++ci)
+                for (unsigned int cj = 0; cj < 3; ++cj)
+                  {
+                    const unsigned int i = position[dof[a][ci]], j = position[dof[b][cj]];
+                    K(i, j) = K(j, i) = block[3 * ci + cj];
+                  }
+            }
+      }
+
       // The element is three copies of a scalar one (the displacement's components): DoF i is
       // component component[i] of scalar shape function scalar[i], and dof[s][c] the other way.
       struct VectorElementDofs
@@ -445,6 +483,116 @@ namespace modal_haptics
         std::vector<unsigned int>                component, scalar;
         std::vector<std::array<unsigned int, 3>> dof;
       };
+
+      // What every assembly reads of a cell's reference configuration (total Lagrangian: it never
+      // changes), computed once per space instead of by FEValues at each of a contact's 20-odd
+      // assemblies: the scalar shape functions' gradients and JxW at each quadrature point, and the
+      // cell's DoFs (a cell's part is built in their ascending order).
+      class ReferenceCells
+      {
+      public:
+        ReferenceCells(const std::vector<DoFHandler<3>::active_cell_iterator> &cells, const Mapping<3> &mapping,
+                       const FiniteElement<3> &fe, const Quadrature<3> &quadrature,
+                       const std::vector<std::array<unsigned int, 3>> &dof)
+          : n_q(quadrature.size())
+          , n_scalar(dof.size())
+          , dofs_per_cell(fe.n_dofs_per_cell())
+          , gradients(cells.size() * n_q * n_scalar)
+          , JxW_values(cells.size() * n_q)
+          , dof_indices(cells.size() * dofs_per_cell)
+          , sorted_dof_indices(cells.size() * dofs_per_cell)
+          , sorted_position(cells.size() * dofs_per_cell)
+        {
+          parallel::apply_to_subranges(
+            std::size_t(0), cells.size(),
+            [&](const std::size_t begin, const std::size_t end) {
+              FEValues<3>                          fe_values(mapping, fe, quadrature, update_gradients | update_JxW_values);
+              std::vector<types::global_dof_index> indices(dofs_per_cell);
+              std::vector<unsigned int>            order(dofs_per_cell);
+              for (std::size_t c = begin; c < end; ++c)
+                {
+                  fe_values.reinit(cells[c]);
+                  for (unsigned int q = 0; q < n_q; ++q)
+                    {
+                      JxW_values[c * n_q + q] = fe_values.JxW(q);
+                      for (unsigned int a = 0; a < n_scalar; ++a)
+                        gradients[(c * n_q + q) * n_scalar + a] = fe_values.shape_grad(dof[a][0], q);
+                    }
+                  cells[c]->get_dof_indices(indices);
+                  std::copy(indices.begin(), indices.end(), dof_indices.begin() + c * dofs_per_cell);
+                  std::iota(order.begin(), order.end(), 0u);
+                  std::sort(order.begin(), order.end(), [&](const unsigned int i, const unsigned int j) {
+                    return indices[i] < indices[j];
+                  });
+                  for (unsigned int k = 0; k < dofs_per_cell; ++k)
+                    {
+                      sorted_dof_indices[c * dofs_per_cell + k]     = indices[order[k]];
+                      sorted_position[c * dofs_per_cell + order[k]] = k;
+                    }
+                }
+            },
+            64);
+        }
+
+        const unsigned int n_q, n_scalar, dofs_per_cell;
+        // The n_scalar gradients at quadrature point q of cell c.
+        const Tensor<1, 3> *gradients_at(const std::size_t c, const unsigned int q) const
+        {
+          return &gradients[(c * n_q + q) * n_scalar];
+        }
+        double JxW(const std::size_t c, const unsigned int q) const { return JxW_values[c * n_q + q]; }
+        const types::global_dof_index *dofs(const std::size_t c) const { return &dof_indices[c * dofs_per_cell]; }
+        // The cell's DoFs in ascending order (the order a sparse matrix row takes additions fastest),
+        // and where each local DoF stands in it.
+        const types::global_dof_index *sorted_dofs(const std::size_t c) const
+        {
+          return &sorted_dof_indices[c * dofs_per_cell];
+        }
+        const unsigned short *positions(const std::size_t c) const { return &sorted_position[c * dofs_per_cell]; }
+
+      private:
+        std::vector<Tensor<1, 3>>            gradients;
+        std::vector<double>                  JxW_values;
+        std::vector<types::global_dof_index> dof_indices, sorted_dof_indices;
+        std::vector<unsigned short>          sorted_position;
+      };
+
+      // Per cell: whether its part goes through the constraints (a constrained DoF; every cell of a
+      // distributed tangent, whose rows may be another process's); the rest is added row by row.
+      template <typename Algebra>
+      std::vector<char> cells_through_constraints(const ReferenceCells &reference, const std::size_t n_cells,
+                                                  const AffineConstraints<double> &constraints)
+      {
+        std::vector<char> through(n_cells, !std::is_same_v<Algebra, SerialAlgebra>);
+        for (std::size_t c = 0; c < n_cells; ++c)
+          for (unsigned int i = 0; i < reference.dofs_per_cell && !through[c]; ++i)
+            through[c] = constraints.is_constrained(reference.dofs(c)[i]);
+        return through;
+      }
+
+      // The cells in colors no two of whose cells write to a common row (their DoFs and the DoFs
+      // their constrained ones resolve to), so that WorkStream adds a color's cells on every thread at
+      // once; each entry still receives its sums in one order (the colors'), whichever thread runs.
+      // Empty for a distributed tangent: Trilinos' matrices take additions from one thread.
+      template <typename Algebra, typename CellIterator>
+      std::vector<std::vector<CellIterator>> color_cells(const std::vector<DoFHandler<3>::active_cell_iterator> &cells,
+                                                         const AffineConstraints<double> &constraints)
+      {
+        if (!std::is_same_v<Algebra, SerialAlgebra> || cells.empty())
+          return {};
+        const auto rows_written = [&](const CellIterator &cell) {
+          std::vector<types::global_dof_index> rows((*cell)->get_fe().n_dofs_per_cell());
+          (*cell)->get_dof_indices(rows);
+          for (std::size_t i = 0, n = rows.size(); i < n; ++i)
+            if (const auto *entries = constraints.get_constraint_entries(rows[i]))
+              for (const auto &entry : *entries)
+                rows.push_back(entry.first);
+          return rows;
+        };
+        return GraphColoring::make_graph_coloring(cells.cbegin(), cells.cend(),
+                                                  std::function<std::vector<types::global_dof_index>(const CellIterator &)>(
+                                                    rows_written));
+      }
 
       template <typename Algebra>
       class LargeDeformationSolve
@@ -534,6 +682,11 @@ namespace modal_haptics
         // Built once: every residual and tangent assembly walks the same cells and element.
         const std::vector<DoFHandler<3>::active_cell_iterator> owned_cells;
         const VectorElementDofs                                element_dofs;
+        const ReferenceCells                                   reference;
+        using CellIterator = typename std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
+        const std::vector<std::vector<CellIterator>>           colored_cells; // serial: for parallel additions
+        std::vector<double>                                    cell_energy;   // per owned cell, at the last assembly
+        const std::vector<char>                                through_constraints; // per owned cell
         typename Algebra::Matrix                   tangent;
         VectorType                                 rhs;
         double                                     energy = 0.; // [J]
@@ -551,6 +704,10 @@ namespace modal_haptics
         , law(law)
         , owned_cells(locally_owned_cells(space.dof_handler))
         , element_dofs(space.dof_handler.get_fe())
+        , reference(owned_cells, space.mapping, space.dof_handler.get_fe(), space.quadrature, element_dofs.dof)
+        , colored_cells(color_cells<Algebra, CellIterator>(owned_cells, space.constraints))
+        , cell_energy(owned_cells.size())
+        , through_constraints(cells_through_constraints<Algebra>(reference, owned_cells.size(), space.constraints))
       {
         tangent.reinit(space.sparsity);
         rhs = space.owned_layout;
@@ -592,22 +749,20 @@ namespace modal_haptics
       // copied once per thread).
       struct NonlinearScratch
       {
-        NonlinearScratch(const Mapping<3> &mapping, const FiniteElement<3> &fe, const Quadrature<3> &quadrature)
-          : fe_values(mapping, fe, quadrature, update_gradients | update_JxW_values)
-          , grad_u(quadrature.size())
-          , shape_gradient(fe.base_element(0).n_dofs_per_cell())
-          , work(fe.base_element(0).n_dofs_per_cell())
+        explicit NonlinearScratch(const unsigned int n_scalar, const unsigned int dofs_per_cell)
+          : u(dofs_per_cell)
+          , work(n_scalar)
+          , blocks(9 * n_scalar * n_scalar)
         {}
-        NonlinearScratch(const NonlinearScratch &other)
-          : NonlinearScratch(other.fe_values.get_mapping(), other.fe_values.get_fe(), other.fe_values.get_quadrature())
-        {}
-        FEValues<3>               fe_values;
-        std::vector<Tensor<2, 3>> grad_u;
-        std::vector<Tensor<1, 3>> shape_gradient, work; // per scalar shape function
+        std::vector<double>       u;      // the cell's DoF values
+        std::vector<Tensor<1, 3>> work;   // per scalar shape function
+        std::vector<double>       blocks; // add_tangent's 3 x 3 blocks
       };
 
-      // A cell's part, added by one thread at a time in the cells' order (so the sums do not depend
-      // on which thread ends first).
+      // A cell's part: its rows and columns in the order of its DoFs' global indices. Added by one
+      // thread at a time in the cells' order (distributed), or by every thread at once within a color
+      // (serial, color_cells): either way each entry gets its sums in an order fixed by the mesh,
+      // not by which thread ends first.
       struct NonlinearCellPart
       {
         explicit NonlinearCellPart(const unsigned int dofs_per_cell)
@@ -618,6 +773,7 @@ namespace modal_haptics
         FullMatrix<double>                   K;
         Vector<double>                       rhs;
         std::vector<types::global_dof_index> dof_indices;
+        std::size_t                          cell   = 0; // in owned_cells
         double                               energy = 0.;
         bool                                 valid  = false; // false: an inverted element, or skipped after one
       };
@@ -628,60 +784,83 @@ namespace modal_haptics
       bool LargeDeformationSolve<Algebra>::assemble_cells(const VectorType &u_read, const bool with_tangent,
                                                           double &local_energy)
       {
-        using CellIterator = typename std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
         const auto        &fe            = space.dof_handler.get_fe();
         const unsigned int dofs_per_cell = fe.n_dofs_per_cell();
         const auto        &component     = element_dofs.component;
         const auto        &scalar        = element_dofs.scalar;
         const auto        &dof           = element_dofs.dof;
-        const FEValuesExtractors::Vector displacement(0);
-        std::atomic<bool>                inverted{false};
+        const unsigned int n_scalar      = dof.size();
+        std::atomic<bool>  inverted{false};
 
-        WorkStream::run(
-          owned_cells.cbegin(), owned_cells.cend(),
-          [&](const CellIterator &cell, NonlinearScratch &scratch, NonlinearCellPart &part) {
+        const auto worker = [&](const CellIterator &cell, NonlinearScratch &scratch, NonlinearCellPart &part) {
             part.valid = false;
             if (inverted.load(std::memory_order_relaxed))
               return; // the assembly has failed: the rest is not needed
-            scratch.fe_values.reinit(*cell);
-            scratch.fe_values[displacement].get_function_gradients(u_read, scratch.grad_u);
-            part.K      = 0.;
+            const std::size_t c = part.cell = cell - owned_cells.cbegin();
+            const types::global_dof_index *dofs     = reference.dofs(c);
+            const unsigned short          *position = reference.positions(c);
+            part.dof_indices.assign(reference.sorted_dofs(c), reference.sorted_dofs(c) + dofs_per_cell);
+            for (unsigned int i = 0; i < dofs_per_cell; ++i)
+              scratch.u[i] = u_read(dofs[i]);
             part.rhs    = 0.;
             part.energy = 0.;
-            for (unsigned int q = 0; q < scratch.grad_u.size(); ++q)
+            if (with_tangent)
+              std::fill(scratch.blocks.begin(), scratch.blocks.end(), 0.);
+            for (unsigned int q = 0; q < reference.n_q; ++q)
               {
-                if (!(determinant(identity + scratch.grad_u[q]) > 0.))
+                const Tensor<1, 3> *g = reference.gradients_at(c, q);
+                Tensor<2, 3>        grad_u; // grad_u[i][j] = d u_i / d X_j
+                for (unsigned int a = 0; a < n_scalar; ++a)
+                  for (unsigned int comp = 0; comp < 3; ++comp)
+                    grad_u[comp] += scratch.u[dof[a][comp]] * g[a];
+                if (!(determinant(identity + grad_u) > 0.))
                   {
                     inverted = true; // an inverted (or degenerate) element: no stress is defined
                     return;
                   }
-                const StressAtPoint stress(law, mu, lambda, scratch.grad_u[q]);
-                const double        JxW = scratch.fe_values.JxW(q);
+                const StressAtPoint stress(law, mu, lambda, grad_u);
+                const double        JxW = reference.JxW(c, q);
                 part.energy += stress.energy() * JxW;
-                for (unsigned int a = 0; a < dof.size(); ++a)
-                  scratch.shape_gradient[a] = scratch.fe_values.shape_grad(dof[a][0], q);
                 for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                  part.rhs(i) -= stress.stress()[component[i]] * scratch.shape_gradient[scalar[i]] * JxW;
+                  part.rhs(position[i]) -= stress.stress()[component[i]] * g[scalar[i]] * JxW;
                 if (with_tangent)
-                  stress.add_tangent(scratch.shape_gradient, dof, JxW, scratch.work, part.K);
+                  stress.add_tangent(g, n_scalar, JxW, scratch.work, scratch.blocks);
               }
-            if (with_tangent) // the tangent of a stored energy is symmetric
-              for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                for (unsigned int j = i + 1; j < dofs_per_cell; ++j)
-                  part.K(i, j) = part.K(j, i);
-            (*cell)->get_dof_indices(part.dof_indices);
+            if (with_tangent)
+              scatter_tangent_blocks(scratch.blocks, dof, position, part.K);
             part.valid = true;
-          },
-          [&](const NonlinearCellPart &part) {
+        };
+        const auto copier = [&](const NonlinearCellPart &part) {
             if (!part.valid)
               return;
-            local_energy += part.energy;
-            if (with_tangent)
-              space.constraints.distribute_local_to_global(part.K, part.rhs, part.dof_indices, tangent, rhs);
-            else
-              space.constraints.distribute_local_to_global(part.rhs, part.dof_indices, rhs);
-          },
-          NonlinearScratch(space.mapping, fe, space.quadrature), NonlinearCellPart(dofs_per_cell));
+            cell_energy[part.cell] = part.energy;
+            if (through_constraints[part.cell])
+              {
+                if (with_tangent)
+                  space.constraints.distribute_local_to_global(part.K, part.rhs, part.dof_indices, tangent, rhs);
+                else
+                  space.constraints.distribute_local_to_global(part.rhs, part.dof_indices, rhs);
+                return;
+              }
+            // No constraint to resolve (serial): the rows straight into the matrix, columns ascending.
+            if constexpr (std::is_same_v<Algebra, SerialAlgebra>)
+              {
+                for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                  rhs(part.dof_indices[i]) += part.rhs(i);
+                if (with_tangent)
+                  for (unsigned int i = 0; i < dofs_per_cell; ++i)
+                    tangent.add(part.dof_indices[i], dofs_per_cell, part.dof_indices.data(), &part.K(i, 0), false, true);
+              }
+        };
+        const NonlinearScratch  scratch(n_scalar, dofs_per_cell);
+        const NonlinearCellPart part(dofs_per_cell);
+        if (colored_cells.empty())
+          WorkStream::run(owned_cells.cbegin(), owned_cells.cend(), worker, copier, scratch, part);
+        else
+          WorkStream::run(colored_cells, worker, copier, scratch, part);
+        // The energy summed in the cells' order, whichever thread added which cell.
+        for (const double e : cell_energy)
+          local_energy += e;
         if (inverted)
           return false;
 
@@ -929,8 +1108,13 @@ namespace modal_haptics
                 return outcome;
               }
             // An inexact Newton step, solved to a hundredth of the residual: the error it leaves is
-            // smaller than the quadratic term's from r ~ 1e-2 down (and 1e-12 at most, the rounding floor).
-            if (!solve_tangent(du, outcome.failure, std::clamp(1e-2 * residual, 1e-12, 1e-4)))
+            // smaller than the quadratic term's from r ~ 1e-2 down (and 1e-12 at most, the rounding
+            // floor). Never tighter than needed to leave a hundredth of the level's tolerance: near
+            // the solution the step's last CG iterations would only polish digits the next residual
+            // does not show (that error, at most 1e-2 tolerance, stays below what the convergence
+            // test and the quadratic rate r_k+1 / r_k^2 look at).
+            const double forcing = std::max(std::clamp(1e-2 * residual, 1e-12, 1e-4), 1e-2 * ramp.tolerance / residual);
+            if (!solve_tangent(du, outcome.failure, forcing))
               return outcome;
             // Backtracking: halve the step until every element keeps det F > 0 and the potential energy
             // has decreased enough along Newton's direction (Armijo, c = 1e-4; the direction descends
