@@ -10,27 +10,22 @@ compliance is from the exact one.
 
 Alike neighbours: kept candidates whose surface normal is within 25 degrees of the vertex's own (a
 rib's top does not borrow from its side); the four nearest of them, weighted by 1 / distance^2. The
-error is that of the compliance along the vertex's normal (area-weighted normal of its triangles:
+error is that of the compliance along the vertex's normal (the contract's area-weighted normal:
 what a HIP pressing straight in feels), relative to the exact felt compliance (modes + correction),
 and of the whole tensor (Frobenius norm, relative to the whole felt compliance's). 8 % is the
 stiffness difference a person can tell apart."""
+import os
 import sys
 
 import h5py
 import numpy as np
 from scipy.spatial import cKDTree
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "precompute"))
+from test_every_vertex_exact import vertex_normals  # noqa: E402  the contract's normals (mrt/surface_normals.h)
+
 ALIKE = np.cos(np.radians(25.0))
 NEIGHBOURS = 4
-
-
-def vertex_normals(vertices, triangles):
-    normals = np.zeros_like(vertices)
-    face = np.cross(vertices[triangles[:, 1]] - vertices[triangles[:, 0]],
-                    vertices[triangles[:, 2]] - vertices[triangles[:, 0]])
-    for corner in range(3):
-        np.add.at(normals, triangles[:, corner], face)
-    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
 
 def poisson_disk(points, normals, radius, rng):

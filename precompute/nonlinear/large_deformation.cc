@@ -16,8 +16,8 @@
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/graph_coloring.h>
 #include <deal.II/base/mpi.h>
-#include <deal.II/base/parallel.h>
 #include <deal.II/base/multithread_info.h>
+#include <deal.II/base/parallel.h>
 #include <deal.II/base/point.h>
 #include <deal.II/base/symmetric_tensor.h>
 #include <deal.II/base/tensor.h>
@@ -499,7 +499,6 @@ namespace modal_haptics
           , dofs_per_cell(fe.n_dofs_per_cell())
           , gradients(cells.size() * n_q * n_scalar)
           , JxW_values(cells.size() * n_q)
-          , dof_indices(cells.size() * dofs_per_cell)
           , sorted_dof_indices(cells.size() * dofs_per_cell)
           , sorted_position(cells.size() * dofs_per_cell)
         {
@@ -519,7 +518,6 @@ namespace modal_haptics
                         gradients[(c * n_q + q) * n_scalar + a] = fe_values.shape_grad(dof[a][0], q);
                     }
                   cells[c]->get_dof_indices(indices);
-                  std::copy(indices.begin(), indices.end(), dof_indices.begin() + c * dofs_per_cell);
                   std::iota(order.begin(), order.end(), 0u);
                   std::sort(order.begin(), order.end(), [&](const unsigned int i, const unsigned int j) {
                     return indices[i] < indices[j];
@@ -541,9 +539,8 @@ namespace modal_haptics
           return &gradients[(c * n_q + q) * n_scalar];
         }
         double JxW(const std::size_t c, const unsigned int q) const { return JxW_values[c * n_q + q]; }
-        const types::global_dof_index *dofs(const std::size_t c) const { return &dof_indices[c * dofs_per_cell]; }
         // The cell's DoFs in ascending order (the order a sparse matrix row takes additions fastest),
-        // and where each local DoF stands in it.
+        // and where each local DoF stands in it (local DoF i is sorted_dofs(c)[positions(c)[i]]).
         const types::global_dof_index *sorted_dofs(const std::size_t c) const
         {
           return &sorted_dof_indices[c * dofs_per_cell];
@@ -553,7 +550,7 @@ namespace modal_haptics
       private:
         std::vector<Tensor<1, 3>>            gradients;
         std::vector<double>                  JxW_values;
-        std::vector<types::global_dof_index> dof_indices, sorted_dof_indices;
+        std::vector<types::global_dof_index> sorted_dof_indices;
         std::vector<unsigned short>          sorted_position;
       };
 
@@ -566,7 +563,7 @@ namespace modal_haptics
         std::vector<char> through(n_cells, !std::is_same_v<Algebra, SerialAlgebra>);
         for (std::size_t c = 0; c < n_cells; ++c)
           for (unsigned int i = 0; i < reference.dofs_per_cell && !through[c]; ++i)
-            through[c] = constraints.is_constrained(reference.dofs(c)[i]);
+            through[c] = constraints.is_constrained(reference.sorted_dofs(c)[i]);
         return through;
       }
 
@@ -576,15 +573,16 @@ namespace modal_haptics
       // Empty for a distributed tangent: Trilinos' matrices take additions from one thread.
       template <typename Algebra, typename CellIterator>
       std::vector<std::vector<CellIterator>> color_cells(const std::vector<DoFHandler<3>::active_cell_iterator> &cells,
+                                                         const ReferenceCells &reference,
                                                          const AffineConstraints<double> &constraints)
       {
         if (!std::is_same_v<Algebra, SerialAlgebra> || cells.empty())
           return {};
         const auto rows_written = [&](const CellIterator &cell) {
-          std::vector<types::global_dof_index> rows((*cell)->get_fe().n_dofs_per_cell());
-          (*cell)->get_dof_indices(rows);
-          for (std::size_t i = 0, n = rows.size(); i < n; ++i)
-            if (const auto *entries = constraints.get_constraint_entries(rows[i]))
+          const types::global_dof_index       *dofs = reference.sorted_dofs(cell - cells.cbegin());
+          std::vector<types::global_dof_index> rows(dofs, dofs + reference.dofs_per_cell);
+          for (unsigned int i = 0; i < reference.dofs_per_cell; ++i)
+            if (const auto *entries = constraints.get_constraint_entries(dofs[i]))
               for (const auto &entry : *entries)
                 rows.push_back(entry.first);
           return rows;
@@ -705,7 +703,7 @@ namespace modal_haptics
         , owned_cells(locally_owned_cells(space.dof_handler))
         , element_dofs(space.dof_handler.get_fe())
         , reference(owned_cells, space.mapping, space.dof_handler.get_fe(), space.quadrature, element_dofs.dof)
-        , colored_cells(color_cells<Algebra, CellIterator>(owned_cells, space.constraints))
+        , colored_cells(color_cells<Algebra, CellIterator>(owned_cells, reference, space.constraints))
         , cell_energy(owned_cells.size())
         , through_constraints(cells_through_constraints<Algebra>(reference, owned_cells.size(), space.constraints))
       {
@@ -797,11 +795,10 @@ namespace modal_haptics
             if (inverted.load(std::memory_order_relaxed))
               return; // the assembly has failed: the rest is not needed
             const std::size_t c = part.cell = cell - owned_cells.cbegin();
-            const types::global_dof_index *dofs     = reference.dofs(c);
-            const unsigned short          *position = reference.positions(c);
+            const unsigned short *position = reference.positions(c);
             part.dof_indices.assign(reference.sorted_dofs(c), reference.sorted_dofs(c) + dofs_per_cell);
             for (unsigned int i = 0; i < dofs_per_cell; ++i)
-              scratch.u[i] = u_read(dofs[i]);
+              scratch.u[i] = u_read(part.dof_indices[position[i]]);
             part.rhs    = 0.;
             part.energy = 0.;
             if (with_tangent)
