@@ -64,6 +64,10 @@ namespace modal_haptics
       unsigned int max_iterations = 20;  // Newton iterations per load level
       double       tolerance      = 1e-8; // on |R| / |f|: residual over the load of the level (its rounding
                                           // floor on a slender steel beam: 2.5e-10)
+      // Or on the felt displacement d = l^T u, the one number a level keeps: its error l^T T^-1 R,
+      // estimated as u1^T R (u1 = K^-1 l, the adjoint at zero load; T's differs from it by the
+      // curve's departure), relative to d. 0: the residual alone decides.
+      double       felt_tolerance = 1e-7;
     };
 
     // The linear algebra of a space's backend as the nonlinear solve uses it: its vectors and
@@ -86,7 +90,8 @@ namespace modal_haptics
     // What the solve reads of a space: its FE space (the triangulation's communicator: the
     // processes, one in a serial run), its supports (constraints, homogeneous, and this process's
     // elastic faces), the pattern of its K, the layouts of its vectors, and its factorization of K
-    // (null: none, or not a direct one), which preconditions CG on the tangent systems when use_cg.
+    // (null: none, or not a direct one), which preconditions CG on the tangent systems when use_cg,
+    // and K, the tangent at the unloaded state.
     template <typename Algebra>
     struct SpaceView
     {
@@ -100,6 +105,8 @@ namespace modal_haptics
       typename Algebra::Vector                 ghosted_layout; // zero, readable at its cells' DoFs
       typename Algebra::Inverse               *linear_factorization = nullptr;
       bool                                     use_cg               = false;
+      // K itself (with the supports), the tangent at u = 0 (null: assembled there like any other).
+      const typename Algebra::Matrix          *stiffness            = nullptr;
     };
 
     // The Lame constants of the part's material: {mu, lambda} [Pa].

@@ -427,6 +427,7 @@ namespace modal_haptics
                               {"displacement_m", c.displacements},
                               {"newton_iterations", c.newton_iterations},
                               {"newton_residuals", c.newton_residuals},
+                              {"newton_felt_errors", c.newton_felt_errors},
                               {"seconds", c.seconds},
                               {"second_order_exact", estimate_json(c.estimate_exact, c)},
                               {"second_order_modal", estimate_json(c.estimate_modal, c)},

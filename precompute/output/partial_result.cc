@@ -60,7 +60,7 @@ namespace boost::serialization
   void serialize(Archive &ar, modal_haptics::ValidityCurve &c, const unsigned int)
   {
     ar &c.vertex &c.direction &c.material &c.linear_compliance &c.forces &c.displacements &c.newton_iterations;
-    ar &c.newton_residuals &c.force_limit &c.force_reached &c.stop_reason &c.validity_force &c.seconds;
+    ar &c.newton_residuals &c.newton_felt_errors &c.force_limit &c.force_reached &c.stop_reason &c.validity_force &c.seconds;
     ar &c.estimate_exact &c.estimate_modal &c.estimate_third_order &c.estimate_seconds &c.cubic_term_check
       &c.modal_cubic_check &c.quadratic_term_check;
   }
@@ -99,7 +99,7 @@ namespace modal_haptics
   namespace
   {
     // The first line of every partial result file; a new layout of the archive gets a new number.
-    const std::string format_line = "modal-haptics partial result, format 5";
+    const std::string format_line = "modal-haptics partial result, format 6";
   } // namespace
 
   std::string partial_result_file(const std::string &directory, const std::string &scenario)

@@ -125,7 +125,7 @@ namespace modal_haptics
         DistributedInverse *factor_of_K = (amg == nullptr && shift == 0.) ? inverse.get() : nullptr;
         return {dof_handler,  mapping,        quadrature,  constraints,
                 stiffness_matrix, supports.elastic_faces, owned_layout, ghosted_layout,
-                factor_of_K,  scene.contact.validity_cg};
+                factor_of_K,  scene.contact.validity_cg, &stiffness_matrix};
       }
       // A free-floating part is refused before assembly (setup_system): no load needs relief.
       void relieve_load(Field &) const {}

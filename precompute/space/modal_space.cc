@@ -357,7 +357,7 @@ namespace modal_haptics
     {
       Factorization *factor_of_K = (amg_inverse() == nullptr && shift == 0.) ? factorization.get() : nullptr;
       return {dof_handler, mapping,           quadrature,   constraints, sparsity_pattern, supports.elastic_faces,
-              zero_field(), zero_field(), factor_of_K, scene.contact.validity_cg};
+              zero_field(), zero_field(), factor_of_K, scene.contact.validity_cg, &stiffness_matrix};
     }
 
     void SerialSpace::finish()

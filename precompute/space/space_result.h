@@ -72,6 +72,8 @@ namespace modal_haptics
     std::vector<double>   displacements; // [m] d^T W^T u at each: the felt displacement
     std::vector<unsigned int> newton_iterations;            // per converged level
     std::vector<std::vector<double>> newton_residuals;      // per converged level: |R| / |f| per iteration
+    std::vector<double> newton_felt_errors; // per converged level: the felt displacement's estimated error
+                                            // |u1^T R| / |d| at its last iterate (LoadRamp::felt_tolerance)
     double      force_limit   = 0.; // [N] 'Contact/Force limit'
     double      force_reached = 0.; // [N] the last converged level (= force_limit when complete)
     std::string stop_reason;        // empty when the limit was reached; else why the solve stopped
