@@ -822,7 +822,7 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
           }
       return;
     }
-  auto load_corners = [this](const Contact &c, LoadCorner corners[3]) {
+  auto load_corners = [](const Contact &c, LoadCorner corners[3]) {
     if (!c.proxy.active)
       {
         corners[0] = {c.candidate, 1.0};
