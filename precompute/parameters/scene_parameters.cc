@@ -325,7 +325,7 @@ namespace modal_haptics
                       "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
                       "the force-displacement curve and the forces up to which the linear felt compliance "
                       "stays within 1, 5 and 10 %, and the second-order estimate there against it. Off by "
-                      "default: a point takes 5-7 s on the default scene on a 2-core machine (5 tangent "
+                      "default: a point takes 5-6 s on the default scene on a 2-core machine (5 tangent "
                       "assemblies of up to 164k DoFs, about 22 CG iterations with K's factorization; "
                       "docs/performance.md). Units: none.");
     prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
