@@ -1207,14 +1207,16 @@ namespace modal_haptics
         // held up by stiff components that barely move the point pressed: one Newton iteration from
         // the quadratic predictor leaves 1e-7 to 7e-6 of the load on the default scene's ribs, and
         // 3e-9 to 3e-8 of the felt displacement).
+        // Once per iterate (two collective dot products under MPI).
         const auto converged = [&]() {
           outcome.felt_error = std::abs(linear_response * rhs) / std::abs(load * trial);
           return residual <= ramp.tolerance || outcome.felt_error <= ramp.felt_tolerance;
         };
+        bool at_solution = converged();
         for (unsigned int iteration = 0;; ++iteration)
           {
             outcome.residuals.push_back(residual);
-            if (converged())
+            if (at_solution)
               {
                 u                 = trial;
                 outcome.converged = true;
@@ -1262,7 +1264,9 @@ namespace modal_haptics
                   }
               }
             // The tangent at the new iterate, unless it is the solution.
-            if (accepted && !converged())
+            if (accepted)
+              at_solution = converged();
+            if (accepted && !at_solution)
               {
                 ++counts.tangent_assemblies;
                 assemble(trial, force, load, true);
