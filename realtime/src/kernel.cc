@@ -164,6 +164,8 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
         contacts_[h].proxy.rows[k].buffer = proxy_rows_.data() + (std::size_t(h) * proxy_row_slots + k) * 3 * R;
       contacts_[h].proxy.grams = proxy_grams_.data() + std::size_t(h) * proxy_slot_pairs;
     }
+  if (def.contact_mode == MODALRT_CONTACT_PROXY)
+    make_candidate_grams();
   observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;

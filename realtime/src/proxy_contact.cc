@@ -17,6 +17,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 using namespace modalrt;
 
@@ -230,27 +232,103 @@ std::uint32_t modalrt_kernel::add_row_entries(ProxyRow &row, std::uint32_t budge
   return done;
 }
 
+namespace
+{
+  // Adds the modes [first, last) of the pair block of rows a and b (a == b: a row's own block) in
+  // chunks of proxy_gram_chunk counted from mode 0, so that a block is the same sum whoever makes it.
+  void add_gram_chunks(const double *a, const double *b, const double *g1, const double *g2, std::uint32_t r,
+                       std::uint32_t first, std::uint32_t last, double M[9], double N[9]) noexcept
+  {
+    for (std::uint32_t begin = first; begin < last; begin += proxy_gram_chunk)
+      {
+        const std::uint32_t end = std::min(r, begin + proxy_gram_chunk);
+        if (a == b)
+          add_own_gram(a, g1, g2, r, begin, end, M, N);
+        else
+          add_pair_gram(a, b, g1, g2, r, begin, end, M, N);
+      }
+  }
+} // namespace
+
+// The pair blocks of every two candidates of a space that share a display triangle, and of each
+// candidate with itself (CandidateGrams), for every space: 24 r multiply-adds each, at creation.
+void modalrt_kernel::make_candidate_grams()
+{
+  const std::uint32_t nv = basis.vertex_count;
+  candidate_grams_.resize(basis.space_count());
+  for (std::uint32_t s = 0; s < basis.space_count(); ++s)
+    {
+      const ModalSpace      &space      = basis.spaces[s];
+      const ModalIntegrator &integrator = integrators_[s];
+      const std::uint32_t    r          = space.mode_count;
+      CandidateGrams        &store      = candidate_grams_[s];
+      // The pairs (a, b), a <= b, both candidates, sharing a triangle (or a == b), sorted.
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+      for (std::uint32_t c = 0; c < space.candidate_count; ++c)
+        pairs.emplace_back(space.candidates[c], space.candidates[c]);
+      for (std::uint32_t t = 0; t < basis.triangle_count; ++t)
+        for (int k = 0; k < 3; ++k)
+          {
+            const std::uint32_t a = basis.triangles[3 * std::size_t(t) + k];
+            const std::uint32_t b = basis.triangles[3 * std::size_t(t) + (k + 1) % 3];
+            if (space.candidate_index(a) >= 0 && space.candidate_index(b) >= 0)
+              pairs.emplace_back(std::min(a, b), std::max(a, b));
+          }
+      std::sort(pairs.begin(), pairs.end());
+      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      store.first.assign(std::size_t(nv) + 1, 0);
+      store.neighbour.resize(pairs.size());
+      store.blocks.assign(18 * pairs.size(), 0.0);
+      for (std::size_t e = 0; e < pairs.size(); ++e)
+        {
+          const auto [a, b] = pairs[e];
+          ++store.first[a + 1];
+          store.neighbour[e] = b;
+          const double *Ba = &space.candidate_modes[3 * std::size_t(r) * std::size_t(space.candidate_index(a))];
+          const double *Bb = &space.candidate_modes[3 * std::size_t(r) * std::size_t(space.candidate_index(b))];
+          double       *M  = &store.blocks[18 * e];
+          add_gram_chunks(Ba, Bb, integrator.g1(), integrator.g2(), r, 0, r, M, M + 9);
+        }
+      for (std::uint32_t v = 0; v < nv; ++v)
+        store.first[v + 1] += store.first[v];
+    }
+}
+
 // Adds chunks of modes to the pair block of slots i and j (both rows ready) until it is ready or
 // `budget` modes are spent (the last chunk may go over); returns the modes added. The chunks are the
-// same whoever adds them (the look-ahead or a crossing that found the block unprepared), so the
-// block does not depend on when it was made.
+// same whoever adds them (the look-ahead, a crossing that found the block unprepared, or the kernel's
+// creation for two candidates: then it is copied, transposed if slot i's vertex is the larger, and
+// no mode is spent), so the block does not depend on when it was made.
 std::uint32_t modalrt_kernel::add_gram_modes(ProxyState &proxy, std::uint32_t i, std::uint32_t j,
                                              std::uint32_t budget) const noexcept
 {
   ProxyGram             &g = proxy.gram(i, j);
   const ModalIntegrator &integrator = integrators_[space_];
   const std::uint32_t    r = integrator.mode_count();
-  const double          *a = proxy.rows[std::min(i, j)].B, *b = proxy.rows[std::max(i, j)].B;
+  const ProxyRow        &low = proxy.rows[std::min(i, j)], &high = proxy.rows[std::max(i, j)];
+  if (g.built == 0 && low.candidate >= 0 && high.candidate >= 0 && space_ < candidate_grams_.size())
+    if (const double *stored = candidate_grams_[space_].find(std::min(low.vertex, high.vertex),
+                                                               std::max(low.vertex, high.vertex)))
+      {
+        const bool transposed = low.vertex > high.vertex;
+        for (int row = 0; row < 3; ++row)
+          for (int column = 0; column < 3; ++column)
+            {
+              const int from        = transposed ? 3 * column + row : 3 * row + column;
+              g.M[3 * row + column] = stored[from];
+              g.N[3 * row + column] = stored[9 + from];
+            }
+        g.built = r;
+        g.ready = true;
+        return 0;
+      }
   if (g.built == 0)
     std::fill_n(g.M, 9, 0.0), std::fill_n(g.N, 9, 0.0);
   std::uint32_t done = 0;
   while (done < budget && g.built < r)
     {
       const std::uint32_t first = g.built, last = std::min(r, first + proxy_gram_chunk);
-      if (i == j)
-        add_own_gram(a, integrator.g1(), integrator.g2(), r, first, last, g.M, g.N);
-      else
-        add_pair_gram(a, b, integrator.g1(), integrator.g2(), r, first, last, g.M, g.N);
+      add_gram_chunks(low.B, i == j ? low.B : high.B, integrator.g1(), integrator.g2(), r, first, last, g.M, g.N);
       g.built = last;
       done += last - first;
     }

@@ -84,6 +84,29 @@ namespace modalrt
     void clear() { built = 0, ready = false; }
   };
 
+  // The pair blocks of a space's candidates that share a display triangle, and each candidate's own,
+  // made at kernel creation for sliding contacts: a crossing between candidates (every vertex of the
+  // precompute's default bases) copies its blocks instead of summing over the modes in the tick
+  // (realtime/README.md, "Cost"). Entry e of vertex a holds the pair (a, neighbour[e]) with
+  // neighbour[e] >= a: M then N of ProxyGram with B_a on the left, summed in the look-ahead's chunks.
+  struct CandidateGrams
+  {
+    modalrt::Vector<std::uint32_t> first;     // per display vertex, its first entry (vertex_count + 1)
+    modalrt::Vector<std::uint32_t> neighbour; // per entry
+    modalrt::Vector<double>        blocks;    // 18 per entry
+
+    // M and N of the pair (a, b), a <= b, or null when they are not candidates sharing a triangle.
+    const double *find(std::uint32_t a, std::uint32_t b) const
+    {
+      if (first.empty())
+        return nullptr;
+      for (std::uint32_t e = first[a]; e < first[a + 1]; ++e)
+        if (neighbour[e] == b)
+          return &blocks[18 * std::size_t(e)];
+      return nullptr;
+    }
+  };
+
   // A triangle's edges e1 = Y1 - Y0, e2 = Y2 - Y0 and their normal equations (the proxy's walk).
   struct TriangleSystem
   {
