@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 
@@ -69,6 +70,18 @@ namespace modalrt
         for (int e = 0; e < 9; ++e)
           out[e] += sum[e];
       }
+  }
+
+  // Asks for `bytes` from `data` on to be brought into the cache (a hint; nothing where the compiler
+  // has no prefetch instruction).
+  inline void prefetch(const void *data, std::size_t bytes)
+  {
+#if defined(__GNUC__)
+    for (std::size_t offset = 0; offset < bytes; offset += 64)
+      __builtin_prefetch(static_cast<const char *>(data) + offset);
+#else
+    (void)data, (void)bytes;
+#endif
   }
 
   // Two dot products sharing their first vector, in one pass over it: (a . x, a . y).

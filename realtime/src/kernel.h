@@ -148,6 +148,7 @@ private:
                                std::uint32_t budget) const noexcept;
   void  pack_triangle(Contact &contact) noexcept;
   void  make_candidate_grams();
+  std::ptrdiff_t stored_pair(const modalrt::ProxyRow &a, const modalrt::ProxyRow &b) const noexcept;
   void  prepare_proxy(Contact &contact) noexcept;
   void  proxy_coupling_block(const Contact &contact, double S[9], double Sv[9]) const noexcept;
   void  compose_proxy(Contact &contact, bool reload) noexcept;

@@ -210,6 +210,9 @@ int modalrt_kernel::acquire_row(Contact &c, std::uint32_t vertex, const std::uin
     {
       row.B     = &space.candidate_modes[3 * std::size_t(space.mode_count) * std::size_t(row.candidate)];
       row.ready = true;
+      // Most rows are taken by the look-ahead: fetched into the cache now, the crossing that reaches
+      // them (B q, the blended row) does not wait for memory.
+      prefetch(row.B, 3 * sizeof(double) * std::size_t(space.mode_count));
     }
   else
     {
@@ -278,20 +281,33 @@ void modalrt_kernel::make_candidate_grams()
       pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
       store.first.assign(std::size_t(nv) + 1, 0);
       store.neighbour.resize(pairs.size());
-      store.blocks.assign(18 * pairs.size(), 0.0);
+      store.coupled.assign(pairs.size(), 0);
+      store.blocks.assign(CandidateGrams::entry_doubles * pairs.size(), 0.0);
       for (std::size_t e = 0; e < pairs.size(); ++e)
         {
           const auto [a, b] = pairs[e];
           ++store.first[a + 1];
           store.neighbour[e] = b;
-          const double *Ba = &space.candidate_modes[3 * std::size_t(r) * std::size_t(space.candidate_index(a))];
-          const double *Bb = &space.candidate_modes[3 * std::size_t(r) * std::size_t(space.candidate_index(b))];
-          double       *M  = &store.blocks[18 * e];
+          const auto    ca = std::uint32_t(space.candidate_index(a)), cb = std::uint32_t(space.candidate_index(b));
+          const double *Ba = &space.candidate_modes[3 * std::size_t(r) * ca];
+          const double *Bb = &space.candidate_modes[3 * std::size_t(r) * cb];
+          double       *M  = &store.blocks[CandidateGrams::entry_doubles * e];
           add_gram_chunks(Ba, Bb, integrator.g1(), integrator.g2(), r, 0, r, M, M + 9);
+          store.coupled[e] = space.residual_coupling(ca, cb, M + 18) != ModalSpace::Coupling::none;
+          space.residual_coupling(cb, ca, M + 27);
         }
       for (std::uint32_t v = 0; v < nv; ++v)
         store.first[v + 1] += store.first[v];
     }
+}
+
+// The CandidateGrams entry of two rows of the active space, -1 if either is not a candidate or they
+// share no triangle.
+std::ptrdiff_t modalrt_kernel::stored_pair(const ProxyRow &a, const ProxyRow &b) const noexcept
+{
+  if (a.candidate < 0 || b.candidate < 0 || space_ >= candidate_grams_.size())
+    return -1;
+  return candidate_grams_[space_].find(std::min(a.vertex, b.vertex), std::max(a.vertex, b.vertex));
 }
 
 // Adds chunks of modes to the pair block of slots i and j (both rows ready) until it is ready or
@@ -306,22 +322,21 @@ std::uint32_t modalrt_kernel::add_gram_modes(ProxyState &proxy, std::uint32_t i,
   const ModalIntegrator &integrator = integrators_[space_];
   const std::uint32_t    r = integrator.mode_count();
   const ProxyRow        &low = proxy.rows[std::min(i, j)], &high = proxy.rows[std::max(i, j)];
-  if (g.built == 0 && low.candidate >= 0 && high.candidate >= 0 && space_ < candidate_grams_.size())
-    if (const double *stored = candidate_grams_[space_].find(std::min(low.vertex, high.vertex),
-                                                               std::max(low.vertex, high.vertex)))
-      {
-        const bool transposed = low.vertex > high.vertex;
-        for (int row = 0; row < 3; ++row)
-          for (int column = 0; column < 3; ++column)
-            {
-              const int from        = transposed ? 3 * column + row : 3 * row + column;
-              g.M[3 * row + column] = stored[from];
-              g.N[3 * row + column] = stored[9 + from];
-            }
-        g.built = r;
-        g.ready = true;
-        return 0;
-      }
+  if (const std::ptrdiff_t e = g.built == 0 ? stored_pair(low, high) : -1; e >= 0)
+    {
+      const double *stored     = candidate_grams_[space_].gram(e);
+      const bool    transposed = low.vertex > high.vertex;
+      for (int row = 0; row < 3; ++row)
+        for (int column = 0; column < 3; ++column)
+          {
+            const int from        = transposed ? 3 * column + row : 3 * row + column;
+            g.M[3 * row + column] = stored[from];
+            g.N[3 * row + column] = stored[9 + from];
+          }
+      g.built = r;
+      g.ready = true;
+      return 0;
+    }
   if (g.built == 0)
     std::fill_n(g.M, 9, 0.0), std::fill_n(g.N, 9, 0.0);
   std::uint32_t done = 0;
@@ -385,6 +400,10 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
   // weighted by w_k.
   const ModalSpace &space = basis.spaces[space_];
   proxy.residual_any      = false;
+  std::ptrdiff_t entry[3][3]; // the corner pairs' CandidateGrams entries, looked up once
+  for (int k = 0; k < 3; ++k)
+    for (int l = k; l < 3; ++l)
+      entry[k][l] = entry[l][k] = stored_pair(proxy.corner(k), proxy.corner(l));
   for (int k = 0; k < 3; ++k)
     for (int l = 0; l < 3; ++l)
       {
@@ -395,7 +414,17 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
           continue;
         if (space.couples_distinct_candidates())
           {
-            if (space.residual_coupling(std::uint32_t(ck), std::uint32_t(cl), pair.C) != ModalSpace::Coupling::none)
+            const ProxyRow      &a = proxy.corner(k), &b = proxy.corner(l);
+            const std::ptrdiff_t e = entry[k][l];
+            bool                 coupled;
+            if (e >= 0)
+              {
+                coupled = candidate_grams_[space_].coupled[std::size_t(e)] != 0;
+                std::copy_n(candidate_grams_[space_].residual(e, a.vertex <= b.vertex), 9, pair.C);
+              }
+            else
+              coupled = space.residual_coupling(std::uint32_t(ck), std::uint32_t(cl), pair.C) != ModalSpace::Coupling::none;
+            if (coupled)
               pair.kind = ProxyResidual::pair, proxy.residual_any = true;
           }
         else if (k == l)

@@ -7,6 +7,7 @@
 
 #include <modalrt/modalrt.h>
 
+#include <cstddef>
 #include <cstdint>
 
 namespace modalrt
@@ -84,27 +85,36 @@ namespace modalrt
     void clear() { built = 0, ready = false; }
   };
 
-  // The pair blocks of a space's candidates that share a display triangle, and each candidate's own,
-  // made at kernel creation for sliding contacts: a crossing between candidates (every vertex of the
-  // precompute's default bases) copies its blocks instead of summing over the modes in the tick
-  // (realtime/README.md, "Cost"). Entry e of vertex a holds the pair (a, neighbour[e]) with
-  // neighbour[e] >= a: M then N of ProxyGram with B_a on the left, summed in the look-ahead's chunks.
+  // What a sliding contact reads of two candidates of a space that share a display triangle (or of a
+  // candidate with itself), made at kernel creation: their pair blocks and their residual coupling.
+  // A crossing between candidates (every vertex of the precompute's default bases) then copies
+  // what the look-ahead has already touched, instead of summing over the modes or searching the
+  // cross rows in the tick (realtime/README.md, "Cost"). Entry e of vertex a is the pair
+  // (a, neighbour[e]) with neighbour[e] >= a.
   struct CandidateGrams
   {
+    // Per entry: M and N of ProxyGram with B_a on the left (summed in the look-ahead's chunks), then
+    // the residual coupling C_ab and C_ba as ModalSpace::residual_coupling gives them.
+    static constexpr std::size_t entry_doubles = 36;
+
     modalrt::Vector<std::uint32_t> first;     // per display vertex, its first entry (vertex_count + 1)
     modalrt::Vector<std::uint32_t> neighbour; // per entry
-    modalrt::Vector<double>        blocks;    // 18 per entry
+    modalrt::Vector<std::uint8_t>  coupled;   // per entry: 1 if residual_coupling is not none
+    modalrt::Vector<double>        blocks;    // entry_doubles per entry
 
-    // M and N of the pair (a, b), a <= b, or null when they are not candidates sharing a triangle.
-    const double *find(std::uint32_t a, std::uint32_t b) const
+    // The entry of the pair (a, b), a <= b, or -1 when they are not candidates sharing a triangle.
+    std::ptrdiff_t find(std::uint32_t a, std::uint32_t b) const
     {
       if (first.empty())
-        return nullptr;
+        return -1;
       for (std::uint32_t e = first[a]; e < first[a + 1]; ++e)
         if (neighbour[e] == b)
-          return &blocks[18 * std::size_t(e)];
-      return nullptr;
+          return std::ptrdiff_t(e);
+      return -1;
     }
+    const double *gram(std::ptrdiff_t e) const { return &blocks[entry_doubles * std::size_t(e)]; }
+    // C_ab if `forward`, else C_ba.
+    const double *residual(std::ptrdiff_t e, bool forward) const { return gram(e) + (forward ? 18 : 27); }
   };
 
   // A triangle's edges e1 = Y1 - Y0, e2 = Y2 - Y0 and their normal equations (the proxy's walk).
