@@ -662,7 +662,7 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
   for (int k = 0; k < 3; ++k)
     if (proxy.corner(k).u_stamp != state_stamp_)
       dot_rows3(proxy.corner(k).B, q_.data(), r, proxy.corner(k).u), proxy.corner(k).u_stamp = state_stamp_;
-  const std::uint32_t region_before = basis.region[c.vertex];
+  const std::uint32_t region_before = basis.region[c.vertex], crossings_before = proxy.crossings;
   const double        K = def.coupling_stiffness, D = def.coupling_damping;
   double              relative_velocity[3];
   if (proxy.bv_stamp == state_stamp_)
@@ -709,7 +709,12 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     compose_proxy(c, false);
   if (basis.region[c.vertex] != region_before)
     proxy_region_changed_ = true;
-  prepare_proxy(c);
+  // The tick that entered a triangle has done the crossing's own work: the look-ahead of the new
+  // triangle waits for the next tick (once: a proxy crossing at every tick still gets it).
+  const bool entered  = proxy.crossings != crossings_before;
+  proxy.lookahead_due = entered && !proxy.lookahead_due;
+  if (!proxy.lookahead_due)
+    prepare_proxy(c);
 }
 
 // The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest
