@@ -213,8 +213,7 @@ namespace
         constant_work(1000);
         t = elapsed_ns(start, Clock::now());
       }
-    std::nth_element(ns.begin(), ns.begin() + long(ns.size() / 2), ns.end());
-    const double per_step = std::max(0.1, double(ns[ns.size() / 2]) / 1000.0);
+    const double per_step = std::max(0.1, percentiles(ns).p50 / 1000.0);
     return std::max(1L, long(target_ns / per_step));
   }
 
@@ -260,11 +259,7 @@ namespace
     for (long n = -warmup; n < o.ticks; ++n)
       {
         if (n == 0)
-          {
-            std::nth_element(warmup_fixed.begin(), warmup_fixed.begin() + long(warmup_fixed.size() / 2),
-                             warmup_fixed.end());
-            floor_steps = steps_lasting(warmup_fixed[warmup_fixed.size() / 2]);
-          }
+          floor_steps = steps_lasting(percentiles(warmup_fixed).p50);
         const double travel = std::fmod(speed * 1e-3 * double(n + warmup), 2.0 * span);
         in.position[0]      = x0 + (travel < span ? travel : 2.0 * span - travel);
         in.velocity[0]      = travel < span ? speed : -speed;

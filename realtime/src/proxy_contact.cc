@@ -712,8 +712,8 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
   // The tick that entered a triangle has done the crossing's own work: the look-ahead of the new
   // triangle waits for the next tick (once: a proxy crossing at every tick still gets it).
   const bool entered  = proxy.crossings != crossings_before;
-  proxy.lookahead_due = entered && !proxy.lookahead_due;
-  if (!proxy.lookahead_due)
+  proxy.lookahead_deferred = entered && !proxy.lookahead_deferred;
+  if (!proxy.lookahead_deferred)
     prepare_proxy(c);
 }
 

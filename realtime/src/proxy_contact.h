@@ -136,7 +136,7 @@ namespace modalrt
   {
     bool          active   = false;
     bool          sliding  = false; // dynamic friction (else sticking)
-    bool          lookahead_due = false; // the triangle entered this tick: its look-ahead next tick
+    bool          lookahead_deferred = false; // the triangle entered this tick: its look-ahead put off to the next
     std::uint32_t triangle = MODALRT_NONE;
     double        weights[3] = {0.0, 0.0, 0.0}; // of the triangle's corners, in the basis's order
     ProxyRow      rows[proxy_row_slots];         // rows of the vertices around the proxy, any order
@@ -169,7 +169,7 @@ namespace modalrt
     // No proxy (the rows and pair blocks keep their buffers).
     void clear()
     {
-      active = sliding = lookahead_due = false;
+      active = sliding = lookahead_deferred = false;
       triangle = rows_space = ahead_triangle = packed_triangle = face_triangle = deformed.triangle = MODALRT_NONE;
       bv_stamp = 0;
       crossings = ahead_count = ahead_next = 0;
