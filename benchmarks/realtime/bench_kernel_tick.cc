@@ -299,14 +299,19 @@ namespace
       modalrt_kernel_get_stats(kernels[k], &stats[k]);
     modalrt_space_info space;
     modalrt_basis_get_space_info(basis, 0, &space);
-    const Percentiles entering_p = percentiles(entering.empty() ? within : entering), within_p = percentiles(within);
     std::printf("# slide r=%u, %u candidates in space 0: passivity observer over %ld ticks: fixed %+.6g J (lowest "
                 "%+.3g J), sliding %+.6g J (lowest %+.3g J); machine floor: %ld dependent multiply-adds; sliding "
-                "ticks entering a triangle: %zu, p50 %.0f ns, over 5 us %.0f per mille; the others p50 %.0f ns, over "
-                "5 us %.1f per mille\n",
+                "ticks entering a triangle: %zu",
                 space.mode_count, space.candidate_count, o.ticks + warmup, stats[0].passivity_energy, lowest[0],
-                stats[1].passivity_energy, lowest[1], floor_steps, entering.size(), entering_p.p50,
-                entering_p.over_5us_per_mille, within_p.p50, within_p.over_5us_per_mille);
+                stats[1].passivity_energy, lowest[1], floor_steps, entering.size());
+    for (auto *part : {&entering, &within})
+      if (!part->empty())
+        {
+          const Percentiles p = percentiles(*part);
+          std::printf("%sp50 %.0f ns, over 5 us %.1f per mille", part == &entering ? ", " : "; the others ", p.p50,
+                      p.over_5us_per_mille);
+        }
+    std::printf("\n");
     for (modalrt_kernel *k : kernels)
       modalrt_kernel_destroy(k);
     return {percentiles(ns[0]), percentiles(ns[1]), percentiles(ns[2])};
