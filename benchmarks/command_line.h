@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -33,5 +34,32 @@ namespace modal_haptics_bench
     for (const std::string &item : split(list))
       values.push_back(std::uint32_t(std::stoul(item)));
     return values;
+  }
+
+  // "FILE [--name VALUE ...]": the one positional argument into 'file' (a later one replaces it),
+  // each --name's value to option(name, value), which returns false for a name it does not know.
+  // usage(usage_text) for an unknown name, a name without a value, a value that is not a number
+  // (option's std::stoul/std::stoi throw std::logic_error) or no file.
+  template <typename Option>
+  void parse_file_and_options(const int argc, char **argv, std::string &file, const Option &option,
+                              const char *usage_text)
+  {
+    try
+      {
+        for (int k = 1; k < argc; ++k)
+          {
+            const std::string arg = argv[k];
+            if (arg.rfind("--", 0) != 0)
+              file = arg;
+            else if (k + 1 >= argc || !option(arg, std::string(argv[++k])))
+              usage(usage_text);
+          }
+      }
+    catch (const std::logic_error &)
+      {
+        usage(usage_text);
+      }
+    if (file.empty())
+      usage(usage_text);
   }
 } // namespace modal_haptics_bench

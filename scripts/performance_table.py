@@ -157,6 +157,13 @@ def correction_figure(rows):
             f"{r['one_by_one_over_blocked_median']}× faster than one by one")
 
 
+def factorization_figure(rows):
+    r = rows[0]
+    return (f"{int(r['n_dofs']):,} DoFs, {float(r['gflop']):.0f} GFLOP: ours {r['ours_s_median']} s "
+            f"({r['ours_gflops']} GFLOP/s on {r['threads']} threads), cholmod_l_factorize {r['cholmod_s_median']} s; "
+            f"{r['cholmod_over_ours_median']}× faster")
+
+
 def jitter_figure(rows):
     def median(key):
         return statistics.median(float(r[key]) for r in rows)
@@ -208,6 +215,8 @@ CASES = [
      rows_where(processes="2"), scaling_figure),
     ("static correction", "blocked solves, largest matrix", ["benchmarks/results/*/static_correction.csv"],
      largest("n_dofs"), correction_figure),
+    ("numeric factorization", "ours against cholmod_l_factorize, largest matrix",
+     ["benchmarks/results/*/factorization.csv"], largest("n_dofs"), factorization_figure),
     ("kernel tick", "admittance, r = 200, 2 HIPs, corrected", KERNEL_TICK,
      rows_where(kind="tick", scenario="admittance", r="200", hips="2", corrected="1"), tick_figure),
     ("kernel tick", "landing (contact start and space switch), r = 200", KERNEL_TICK,

@@ -44,39 +44,23 @@ namespace
     int                        repetitions = 3;
   };
 
-  [[noreturn]] void usage()
-  {
-    modal_haptics_bench::usage("bench-static-correction K.csr [--blocks 1,3,12,48,0] [--candidates N] [--repetitions N]");
-  }
-
   Options parse(int argc, char **argv)
   {
-    Options o;
-    try
-      {
-        for (int k = 1; k < argc; ++k)
-          {
-            const std::string arg = argv[k];
-            if (arg.rfind("--", 0) != 0)
-              o.matrix = arg;
-            else if (k + 1 >= argc)
-              usage();
-            else if (arg == "--blocks")
-              o.blocks = modal_haptics_bench::numbers(argv[++k]);
-            else if (arg == "--candidates")
-              o.candidates = std::stoul(argv[++k]);
-            else if (arg == "--repetitions")
-              o.repetitions = std::stoi(argv[++k]);
-            else
-              usage();
-          }
-      }
-    catch (const std::logic_error &) // stoul/stoi on a non-number
-      {
-        usage();
-      }
-    if (o.matrix.empty() || o.blocks.empty() || o.candidates == 0 || o.repetitions < 1)
-      usage();
+    const char *usage = "bench-static-correction K.csr [--blocks 1,3,12,48,0] [--candidates N] [--repetitions N]";
+    Options     o;
+    modal_haptics_bench::parse_file_and_options(argc, argv, o.matrix, [&](const std::string &name, const std::string &value) {
+      if (name == "--blocks")
+        o.blocks = modal_haptics_bench::numbers(value);
+      else if (name == "--candidates")
+        o.candidates = std::stoul(value);
+      else if (name == "--repetitions")
+        o.repetitions = std::stoi(value);
+      else
+        return false;
+      return true;
+    }, usage);
+    if (o.blocks.empty() || o.candidates == 0 || o.repetitions < 1)
+      modal_haptics_bench::usage(usage);
     return o;
   }
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Writes a small SPD matrix (tridiagonal 2, -1) in the exported CSR format, for the smoke test of
-bench-static-correction:  tridiagonal_csr.py OUT.csr [N]"""
+bench-static-correction and bench-factorization:  tridiagonal_csr.py OUT.csr [N]"""
 import struct
 import sys
 

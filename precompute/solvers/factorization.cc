@@ -1,5 +1,6 @@
 #include "solvers/factorization.h"
 
+#include "solvers/supernodal_cholesky.h"
 #include "solvers/supernodal_solve.h"
 
 #include <deal.II/base/exceptions.h>
@@ -220,15 +221,13 @@ namespace modal_haptics
         common.method[0].ordering = CHOLMOD_GIVEN;
         common.postorder          = 1;
         common.supernodal         = CHOLMOD_SUPERNODAL;
-        common.quick_return_if_not_posdef = 1;
-        // Silent: CHOLMOD would print "CHOLMOD error: matrix not positive definite" to the log for a
-        // tangent past a limit point, which the nonlinear solve handles, and for a shift above the
-        // first frequency, which the message below explains; every other failure is thrown with its
-        // status below.
+        // Silent: every failure of the analysis is thrown with its status below.
         common.print = 0;
-        stats.method              = "cholmod-supernodal-metis";
+        // CHOLMOD's supernodal analysis and layout; the numeric factorization is our own
+        // (supernodal_cholesky.h says why).
+        stats.method = "cholmod-supernodal-metis";
 
-        cholmod_sparse *A = copy_upper_triangle(K, M, shift);
+        cholmod_sparse *A = copy_matrix(K, M, shift);
         dealii::Timer timer;
         auto          ordering = node_graph_ordering(K.get_sparsity_pattern());
         factor                 = cholmod_l_analyze_p(A, ordering.data(), nullptr, 0, &common);
@@ -238,17 +237,24 @@ namespace modal_haptics
         // The supernodal analysis sizes the factor's values (xsize doubles) before any is computed.
         stats.predicted_factor_bytes = analyzed ? 8. * double(factor->xsize) : 0.;
         fits_in_memory               = stats.predicted_factor_bytes <= memory_limit;
-        int  factorization_status  = CHOLMOD_OK;
-        bool positive_definite     = false;
+        std::string factorization_error;
+        bool        positive_definite = false;
         if (analyzed && fits_in_memory)
           {
             timer.restart();
-            cholmod_l_factorize(A, factor, &common);
+            try
+              {
+                positive_definite =
+                  factorize_supernodal(*A, *factor, common, solve_threads()) == SuiteSparse_long(factor->n);
+              }
+            catch (const std::exception &error)
+              {
+                factorization_error = error.what();
+              }
             stats.factorize_seconds = timer.wall_time();
-            factorization_status    = common.status;
-            positive_definite       = factorization_status == CHOLMOD_OK && factor->minor == factor->n;
-            stats.factor_nonzeros   = common.lnz;
-            stats.factor_flops      = common.fl;
+            // The analysis counted them.
+            stats.factor_nonzeros = common.lnz;
+            stats.factor_flops    = common.fl;
           }
         cholmod_l_free_sparse(&A, &common);
         if (!positive_definite)
@@ -257,9 +263,7 @@ namespace modal_haptics
                                          ", out of memory?)."));
         if (!fits_in_memory)
           return;
-        AssertThrow(factorization_status == CHOLMOD_OK || factorization_status == CHOLMOD_NOT_POSDEF,
-                    ExcMessage("CHOLMOD's factorization failed (status " + std::to_string(factorization_status) +
-                               ", out of memory?)."));
+        AssertThrow(factorization_error.empty(), ExcMessage("The supernodal factorization failed: " + factorization_error));
         AssertThrow(positive_definite, ExcMessage(not_positive_definite_message));
         try
           {
@@ -312,37 +316,31 @@ namespace modal_haptics
         released = true;
       }
 
-      // CHOLMOD reads the upper triangle of a symmetric matrix (stype = 1): column j of the CSC
-      // form holds the rows i <= j, which by symmetry are the entries of deal.II's CSR row j with
-      // column <= j. M has K's sparsity pattern, so its entries are walked in step.
-      cholmod_sparse *copy_upper_triangle(const dealii::SparseMatrix<double> &K,
-                                          const dealii::SparseMatrix<double> *M,
-                                          const double shift)
+      // A = K - shift M with both triangles (deal.II's CSR rows are the CSC columns: the pattern is
+      // symmetric), stype 1: CHOLMOD's analysis reads the upper one, the supernodal factorization
+      // gathers a column of P A P^T from a whole column (supernodal_cholesky.h). M has K's sparsity
+      // pattern, so its entries are walked in step.
+      cholmod_sparse *copy_matrix(const dealii::SparseMatrix<double> &K, const dealii::SparseMatrix<double> *M,
+                                  const double shift)
       {
-        const auto n   = K.m();
-        std::size_t nnz = 0;
-        for (std::size_t row = 0; row < n; ++row)
-          for (auto it = K.begin(row); it != K.end(row); ++it)
-            nnz += (it->column() <= row);
-
-        cholmod_sparse *A = cholmod_l_allocate_sparse(n, n, nnz, /*sorted*/ 0, /*packed*/ 1, /*stype*/ 1,
-                                                      CHOLMOD_REAL, &common);
+        const auto      n = K.m();
+        cholmod_sparse *A = cholmod_l_allocate_sparse(n, n, K.n_nonzero_elements(), /*sorted*/ 0, /*packed*/ 1,
+                                                      /*stype*/ 1, CHOLMOD_REAL, &common);
+        AssertThrow(A != nullptr, ExcMessage("CHOLMOD could not allocate a copy of the stiffness matrix (out of memory?)."));
         auto *column_start = static_cast<SuiteSparse_long *>(A->p);
         auto *row_index    = static_cast<SuiteSparse_long *>(A->i);
         auto *values       = static_cast<double *>(A->x);
-        const bool shifted = M != nullptr && shift != 0.;
-        std::size_t k      = 0;
+        const bool  shifted = M != nullptr && shift != 0.;
+        std::size_t k       = 0;
         for (std::size_t j = 0; j < n; ++j)
           {
             column_start[j] = k;
             auto m_it       = shifted ? M->begin(j) : K.begin(j);
-            for (auto it = K.begin(j); it != K.end(j); ++it, ++m_it)
-              if (it->column() <= j)
-                {
-                  row_index[k] = it->column();
-                  values[k]    = shifted ? it->value() - shift * m_it->value() : it->value();
-                  ++k;
-                }
+            for (auto it = K.begin(j); it != K.end(j); ++it, ++m_it, ++k)
+              {
+                row_index[k] = it->column();
+                values[k]    = shifted ? it->value() - shift * m_it->value() : it->value();
+              }
           }
         column_start[n] = k;
         return A;

@@ -2,6 +2,7 @@
 // correction and the validation solves: factor once, solve many (blocks of right-hand sides).
 #pragma once
 
+#include "solvers/blas_lapack.h"
 #include "solvers/solver_statistics.h"
 #include "solvers/supernodal_solve.h"
 
@@ -17,24 +18,6 @@
 
 namespace modal_haptics
 {
-  // OpenBLAS' thread count, set for a scope and restored after it (no-op with another BLAS: the
-  // functions are looked up at run time; the system BLAS is whatever Debian's alternatives pick).
-  // The triangular solves set one: their threads are their own (supernodal_solve.h), and BLAS
-  // threads inside a supernode's small block only add synchronization (250k DoFs, loaded machine:
-  // a 4-column solve 0.73-0.80 s on 1 thread, 0.86-1.69 s on 2). The factorization and the Krylov
-  // basis' GEMMs keep every thread.
-  class BlasThreads
-  {
-  public:
-    explicit BlasThreads(int threads);
-    ~BlasThreads();
-    BlasThreads(const BlasThreads &) = delete;
-    BlasThreads &operator=(const BlasThreads &) = delete;
-
-  private:
-    const int previous;
-  };
-
   // The mesh's nodes among a matrix's rows: runs of consecutive rows with the same sparsity pattern
   // (a node's three displacement components, which deal.II numbers together). sorted_row(i) gives
   // row i's columns in increasing order. Returns each node's first row, then n_rows.
@@ -89,9 +72,6 @@ namespace modal_haptics
   // Returns the nodes in pivot order. The serial (CHOLMOD) and the distributed (MUMPS)
   // factorizations use it.
   std::vector<int> nested_dissection_of_nodes(NodeGraph &graph);
-
-  // Sets the running OpenBLAS' thread count; returns the previous one (0: the BLAS is not OpenBLAS).
-  int set_openblas_threads(int threads);
 
   // What OpenBLAS reads from the environment when it loads, before main, and what this program sets
   // there unless the user has set it, as the first line of main, before anything else has happened:

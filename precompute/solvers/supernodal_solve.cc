@@ -1,42 +1,15 @@
 #include "solvers/supernodal_solve.h"
 
 #include "solvers/blas_lapack.h"
+#include "solvers/supernode_tree.h"
 
 #include <algorithm>
-#include <functional>
 #include <numeric>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 namespace modal_haptics
 {
-  namespace
-  {
-    // Runs work(t) for t = 0 .. threads - 1, t = 0 on the calling thread. If a thread cannot be
-    // started, the ones running are joined before the error goes on.
-    void run_on_threads(const unsigned int threads, const std::function<void(unsigned int)> &work)
-    {
-      std::vector<std::thread> helpers;
-      const auto join_all = [&] {
-        for (auto &helper : helpers)
-          helper.join();
-      };
-      try
-        {
-          for (unsigned int t = 1; t < threads; ++t)
-            helpers.emplace_back(work, t);
-        }
-      catch (...)
-        {
-          join_all();
-          throw;
-        }
-      work(0);
-      join_all();
-    }
-  } // namespace
-
   SupernodalSolve::SupernodalSolve(const cholmod_factor &factor, const unsigned int threads)
     : n(factor.n)
     , n_supernodes(factor.nsuper)
@@ -49,159 +22,32 @@ namespace modal_haptics
     , values(static_cast<const double *>(factor.x))
   {
     if (!factor.is_super || !factor.is_ll || factor.xtype != CHOLMOD_REAL || factor.itype != CHOLMOD_LONG)
-      throw std::invalid_argument("SupernodalSolve needs a real supernodal L L^T factor from cholmod_l_factorize.");
+      throw std::invalid_argument("SupernodalSolve needs a real numeric supernodal L L^T factor (factorize_supernodal).");
     for (Index s = 0; s < n_supernodes; ++s)
       max_rows = std::max(max_rows, row_start[s + 1] - row_start[s]);
-    assign_subtrees(std::max(1u, threads));
+    assign_subtrees(factor, std::max(1u, threads));
   }
 
-  namespace
-  {
-    using Index = SuiteSparse_long;
-
-    // The elimination tree of the supernodes, weighed by their entries of L (what a solve reads).
-    struct SupernodeTree
-    {
-      std::vector<Index>              supernode_of_column;
-      std::vector<Index>              parent;   // -1 at a root
-      std::vector<std::vector<Index>> children;
-      std::vector<double>             entries, subtree_entries;
-      std::vector<Index>              roots;    // ascending
-      double                          total_entries = 0.;
-    };
-
-    SupernodeTree supernode_tree(const Index n, const Index n_supernodes, const Index *first_column,
-                                 const Index *row_start, const Index *rows)
-    {
-      SupernodeTree tree;
-      auto         &supernode_of_column = tree.supernode_of_column;
-      supernode_of_column.resize(n);
-      tree.parent.assign(n_supernodes, -1);
-      tree.children.resize(n_supernodes);
-      tree.entries.resize(n_supernodes);
-      for (Index s = 0; s < n_supernodes; ++s)
-        for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
-          supernode_of_column[c] = s;
-      for (Index s = 0; s < n_supernodes; ++s)
-        {
-          const Index n_columns = first_column[s + 1] - first_column[s], n_rows = row_start[s + 1] - row_start[s];
-          tree.entries[s] = double(n_rows) * n_columns;
-          tree.total_entries += tree.entries[s];
-          if (n_rows > n_columns)
-            {
-              tree.parent[s] = supernode_of_column[rows[row_start[s] + n_columns]];
-              tree.children[tree.parent[s]].push_back(s);
-            }
-          else
-            tree.roots.push_back(s);
-        }
-      // A parent comes after its children (elimination tree): one ascending pass sums the subtrees.
-      tree.subtree_entries = tree.entries;
-      for (Index s = 0; s < n_supernodes; ++s)
-        if (tree.parent[s] >= 0)
-          tree.subtree_entries[tree.parent[s]] += tree.subtree_entries[s];
-      return tree;
-    }
-
-    // Packs the subtrees of 'roots' onto the threads (sorting the roots, heaviest first, each onto
-    // the least loaded thread); returns the largest load, and each root's thread in thread_of when given.
-    double pack_subtrees(const SupernodeTree &tree, const unsigned int threads, std::vector<Index> &roots,
-                         std::vector<int> *thread_of)
-    {
-      const auto &subtree_entries = tree.subtree_entries;
-      std::sort(roots.begin(), roots.end(),
-                [&](const Index a, const Index b) { return subtree_entries[a] > subtree_entries[b]; });
-      std::vector<double> load(threads, 0.);
-      for (const Index s : roots)
-        {
-          const auto lightest = std::min_element(load.begin(), load.end()) - load.begin();
-          load[lightest] += subtree_entries[s];
-          if (thread_of != nullptr)
-            (*thread_of)[s] = int(lightest);
-        }
-      return *std::max_element(load.begin(), load.end());
-    }
-
-    // The top of the tree: again and again the heaviest subtree is cut off its root, which joins
-    // the top, and its children's subtrees are packed instead; the cut that minimizes top + the most
-    // loaded thread is kept. Cutting stops once the top alone costs more than that best (a
-    // chain-like tree has no parallelism to give). Returns the supernodes of the top, in cut order.
-    std::vector<Index> best_top(const SupernodeTree &tree, const unsigned int threads)
-    {
-      std::vector<Index> candidates = tree.roots; // roots of the subtrees outside the top
-      std::vector<Index> cuts;                    // the supernodes cut, in order
-      std::size_t        best_n_cuts = 0;
-      double             top = 0., best_cost = pack_subtrees(tree, threads, candidates, nullptr);
-      while (threads > 1 && !candidates.empty() && !tree.children[candidates.front()].empty() && top < best_cost)
-        {
-          const Index heaviest = candidates.front();
-          candidates.erase(candidates.begin());
-          candidates.insert(candidates.end(), tree.children[heaviest].begin(), tree.children[heaviest].end());
-          cuts.push_back(heaviest);
-          top += tree.entries[heaviest];
-          const double cost = top + pack_subtrees(tree, threads, candidates, nullptr);
-          if (cost < best_cost)
-            {
-              best_cost   = cost;
-              best_n_cuts = cuts.size();
-            }
-        }
-      cuts.resize(best_n_cuts);
-      return cuts;
-    }
-
-    // The thread of every supernode outside the top: the roots of the subtrees below the top are
-    // packed onto the threads, every other supernode goes with its subtree's root. Returns the most
-    // loaded thread's entries.
-    double assign_threads(const SupernodeTree &tree, const unsigned int threads, const std::vector<bool> &in_top,
-                          std::vector<int> &thread_of)
-    {
-      const Index        n_supernodes = tree.parent.size();
-      std::vector<Index> roots;
-      for (Index s = 0; s < n_supernodes; ++s)
-        if (!in_top[s] && (tree.parent[s] < 0 || in_top[tree.parent[s]]))
-          roots.push_back(s);
-      thread_of.assign(n_supernodes, -1);
-      const double largest = pack_subtrees(tree, threads, roots, &thread_of);
-      for (Index s = n_supernodes - 1; s >= 0; --s)
-        if (!in_top[s] && thread_of[s] < 0)
-          thread_of[s] = thread_of[tree.parent[s]];
-      return largest;
-    }
-  } // namespace
-
   // Splits the elimination tree of the supernodes into subtrees for the threads, weighed by their
-  // entries of L (what a solve reads). The subtrees of the roots are packed onto the threads
-  // (largest first, each onto the least loaded thread); then, again and again, the heaviest
-  // subtree is cut off its root, which joins the top (solved by one thread, after the subtrees),
-  // and its children's subtrees are packed instead. A solve then costs about top + the most
-  // loaded thread: the cut that minimizes it is kept (best_top).
-  void SupernodalSolve::assign_subtrees(const unsigned int threads)
+  // entries of L (what a solve reads): split_tree.
+  void SupernodalSolve::assign_subtrees(const cholmod_factor &factor, const unsigned int threads)
   {
-    SupernodeTree tree  = supernode_tree(n, n_supernodes, first_column, row_start, rows);
-    total_entries       = tree.total_entries;
-    supernode_of_column = std::move(tree.supernode_of_column);
-    parent_supernode    = tree.parent;
-    std::vector<bool> in_top(n_supernodes, false);
-    for (const Index s : best_top(tree, threads))
-      {
-        in_top[s] = true;
-        top_entries += tree.entries[s];
-      }
-    std::vector<int> thread_of;
-    largest_thread_entries = assign_threads(tree, threads, in_top, thread_of);
-
-    subtrees_of_thread.assign(threads, {});
-    top_position.assign(n, -1);
+    SupernodeTree       tree = supernode_tree(factor);
+    std::vector<double> entries(n_supernodes);
     for (Index s = 0; s < n_supernodes; ++s)
-      if (in_top[s])
-        {
-          top_supernodes.push_back(s);
-          for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
-            top_position[c] = n_top_columns++;
-        }
-      else
-        subtrees_of_thread[thread_of[s]].push_back(s);
+      entries[s] = double(row_start[s + 1] - row_start[s]) * double(first_column[s + 1] - first_column[s]);
+    TreeSplit split        = split_tree(tree, entries, threads);
+    total_entries          = split.total_weight;
+    top_entries            = split.top_weight;
+    largest_thread_entries = split.largest_thread_weight;
+    supernode_of_column    = std::move(tree.supernode_of_column);
+    parent_supernode       = std::move(tree.parent);
+    subtrees_of_thread     = std::move(split.subtrees_of_thread);
+    top_supernodes         = std::move(split.top);
+    top_position.assign(n, -1);
+    for (const Index s : top_supernodes)
+      for (Index c = first_column[s]; c < first_column[s + 1]; ++c)
+        top_position[c] = n_top_columns++;
   }
 
   // One supernode's block of L: its columns' diagonal triangle L11 (n_columns x n_columns, at L)

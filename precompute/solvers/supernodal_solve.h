@@ -58,7 +58,7 @@ namespace modal_haptics
     using Index = SuiteSparse_long;
     struct Block;
 
-    void assign_subtrees(unsigned int threads);
+    void assign_subtrees(const cholmod_factor &factor, unsigned int threads);
     // Marks the supernodes on the paths from the nonzero rows of the columns B to the roots in
     // on_path and appends the newly marked ones to 'path' (unsorted).
     void mark_paths(const std::vector<SparseColumn> &B, const std::vector<Index> &position_of_row,

@@ -9,6 +9,12 @@
 // columns of one to six nonzeros scattered or clustered, an empty column, groups of one column to
 // all of them with a leading block of one to all columns (each supernode solving only the columns
 // whose path it is on), every thread count.
+// factorize_supernodal (precompute/supernodal_cholesky.h) against cholmod_l_factorize on the same
+// analysis, for the same matrices and thread counts: the factor CHOLMOD's to rounding, the same bit
+// for bit when factorized again on as many threads, the first column that is not
+// positive definite CHOLMOD's (matrices shifted past their lowest eigenvalue), an entry off the
+// analysed pattern and a simplicial analysis refused.
+#include "solvers/supernodal_cholesky.h"
 #include "solvers/supernodal_solve.h"
 
 #include <cholmod.h>
@@ -32,17 +38,20 @@ namespace
     failures += !ok;
   }
 
-  // The upper triangle (CHOLMOD's stype 1) of a symmetric matrix: column(j) lists (row, value) in
-  // ascending rows; the rows i <= j are kept.
-  cholmod_sparse *upper_triangle(const Index n, const std::function<std::vector<std::pair<Index, double>>(Index)> &column,
-                                 cholmod_common &common)
+  using Column = std::function<std::vector<std::pair<Index, double>>(Index)>;
+
+  // A symmetric matrix as CHOLMOD's stype 1: column(j) lists (row, value) in ascending rows; the
+  // rows i <= j are kept (the upper triangle CHOLMOD reads), or all of them with both_triangles
+  // (what factorize_supernodal reads).
+  cholmod_sparse *symmetric_matrix(const Index n, const Column &column, cholmod_common &common,
+                                   const bool both_triangles = false)
   {
     std::vector<Index>  start{0}, row;
     std::vector<double> value;
     for (Index j = 0; j < n; ++j)
       {
         for (const auto &[i, v] : column(j))
-          if (i <= j)
+          if (both_triangles || i <= j)
             {
               row.push_back(i);
               value.push_back(v);
@@ -57,18 +66,19 @@ namespace
   }
 
   // A plate-like grid of nx x ny x nz points, 3 unknowns per point:
-  // (7-point Laplacian) x [[2,1,0],[1,2,1],[0,1,2]] + I (SPD).
-  cholmod_sparse *vector_laplacian(const Index nx, const Index ny, const Index nz, cholmod_common &common)
+  // (7-point Laplacian) x [[2,1,0],[1,2,1],[0,1,2]] + (1 - shift) I (SPD for shift < 1).
+  cholmod_sparse *vector_laplacian(const Index nx, const Index ny, const Index nz, cholmod_common &common,
+                                   const bool both_triangles = false, const double shift = 0.)
   {
     const Index points = nx * ny * nz;
-    return upper_triangle(3 * points, [&](const Index j) {
+    return symmetric_matrix(3 * points, [&](const Index j) {
       const Index p = j / 3, a = j % 3, x = p % nx, y = (p / nx) % ny, z = p / (nx * ny);
       std::vector<std::pair<Index, double>> entries;
       const auto coupling = [](const Index a, const Index b) { return a == b ? 2. : (std::abs(a - b) == 1 ? 1. : 0.); };
       const auto add_point = [&](const Index q, const double laplacian) {
         for (Index b = 0; b < 3; ++b)
           if (coupling(a, b) != 0.)
-            entries.emplace_back(3 * q + b, laplacian * coupling(a, b) + (q == p && a == b ? 1. : 0.));
+            entries.emplace_back(3 * q + b, laplacian * coupling(a, b) + (q == p && a == b ? 1. - shift : 0.));
       };
       add_point(p, 6.);
       const Index step[3] = {1, nx, nx * ny}, coordinate[3] = {x, y, z}, size[3] = {nx, ny, nz};
@@ -81,7 +91,7 @@ namespace
         }
       std::sort(entries.begin(), entries.end());
       return entries;
-    }, common);
+    }, common, both_triangles);
   }
 
   cholmod_factor *factorize(cholmod_sparse *A, cholmod_common &common, const int supernodal,
@@ -209,6 +219,103 @@ namespace
         }
     cholmod_l_free_factor(&L, &common);
   }
+  // factorize_supernodal against cholmod_l_factorize on one analysis of A (both triangles stored:
+  // CHOLMOD reads the upper one), for 1 to 7 threads: the factor to rounding of CHOLMOD's and the
+  // same bit for bit when factorized again (the split of the tree, and with it the order of some
+  // sums, depends on the number of threads, not on their timing), or, for a matrix that is not
+  // positive definite, the same first failing column.
+  void check_factorization(const std::string &name, cholmod_sparse *A, cholmod_common &common,
+                           const int ordering = CHOLMOD_METIS)
+  {
+    common.nmethods           = 1;
+    common.method[0].ordering = ordering;
+    common.supernodal         = CHOLMOD_SUPERNODAL;
+    cholmod_factor *symbolic  = cholmod_l_analyze(A, &common);
+    cholmod_factor *reference = cholmod_l_copy_factor(symbolic, &common);
+    const int       print     = common.print;
+    common.print              = 0; // CHOLMOD's warning for the matrices that are not positive definite
+    cholmod_l_factorize(A, reference, &common);
+    common.print = print;
+    const bool    positive_definite = reference->minor == reference->n;
+    const auto   *expected          = static_cast<const double *>(reference->x);
+    const Index   size              = Index(reference->xsize);
+    const double  largest = positive_definite ? std::abs(*std::max_element(expected, expected + size, [](double p, double q) {
+                                                  return std::abs(p) < std::abs(q);
+                                                }))
+                                              : 1.;
+    for (const unsigned int threads : {1u, 2u, 3u, 4u, 7u})
+      {
+        cholmod_factor *L     = cholmod_l_copy_factor(symbolic, &common);
+        const Index     minor = modal_haptics::factorize_supernodal(*A, *L, common, threads);
+        const auto     *x     = static_cast<const double *>(L->x);
+        char            line[240];
+        if (positive_definite)
+          {
+            double difference = 0.;
+            for (Index i = 0; i < size; ++i)
+              difference = std::max(difference, std::abs(x[i] - expected[i]));
+            cholmod_factor *again = cholmod_l_copy_factor(symbolic, &common);
+            modal_haptics::factorize_supernodal(*A, *again, common, threads);
+            const bool same_again = std::equal(x, x + size, static_cast<const double *>(again->x));
+            cholmod_l_free_factor(&again, &common);
+            std::snprintf(line, sizeof line, "factorization, %s, n = %ld, %u threads: %.1e of max |L|%s", name.c_str(),
+                          long(L->n), threads, difference / largest, same_again ? "" : ", NOT the same when factorized again");
+            check(minor == Index(L->n) && L->is_ll && L->minor == L->n && difference <= 1e-12 * largest && same_again,
+                  line);
+          }
+        else
+          {
+            std::snprintf(line, sizeof line, "factorization, %s, n = %ld, %u threads: not positive definite at column %ld (CHOLMOD: %ld)",
+                          name.c_str(), long(L->n), threads, long(minor), long(reference->minor));
+            check(minor == Index(reference->minor) && L->minor == reference->minor, line);
+          }
+        cholmod_l_free_factor(&L, &common);
+      }
+    cholmod_l_free_factor(&reference, &common);
+    cholmod_l_free_factor(&symbolic, &common);
+  }
+
+  // factorize_supernodal refuses what it cannot factor: an entry whose mirror the analysis of the
+  // upper triangle did not see, and a simplicial analysis.
+  void check_factorization_refusals(cholmod_common &common)
+  {
+    // A diagonal matrix with one entry below the diagonal (5, 2) and none above: each supernode
+    // holds one row, so the entry falls outside the pattern wherever the ordering puts it.
+    cholmod_sparse *lopsided = symmetric_matrix(10, [](const Index j) {
+      std::vector<std::pair<Index, double>> entries{{j, 4.}};
+      if (j == 2)
+        entries.emplace_back(5, 1.);
+      return entries;
+    }, common, true);
+    common.supernodal      = CHOLMOD_SUPERNODAL;
+    cholmod_factor *L      = cholmod_l_analyze(lopsided, &common);
+    std::string     message;
+    try
+      {
+        modal_haptics::factorize_supernodal(*lopsided, *L, common, 2);
+      }
+    catch (const std::runtime_error &error)
+      {
+        message = error.what();
+      }
+    check(message.find("outside the pattern") != std::string::npos, "an entry off the analysed pattern is refused: " + message);
+    cholmod_l_free_factor(&L, &common);
+
+    common.supernodal = CHOLMOD_SIMPLICIAL;
+    L                 = cholmod_l_analyze(lopsided, &common);
+    bool refused      = false;
+    try
+      {
+        modal_haptics::factorize_supernodal(*lopsided, *L, common, 2);
+      }
+    catch (const std::invalid_argument &)
+      {
+        refused = true;
+      }
+    check(refused, "a simplicial analysis is refused by the factorization");
+    cholmod_l_free_factor(&L, &common);
+    cholmod_l_free_sparse(&lopsided, &common);
+  }
 } // namespace
 
 int main()
@@ -221,23 +328,27 @@ int main()
 
   check_group_grams("plate-like vector Laplacian", laplacian, common);
 
-  cholmod_sparse *diagonal = upper_triangle(1000, [](Index j) {
-    return std::vector<std::pair<Index, double>>{{j, 1. + j % 7}};
-  }, common);
+  const Column diagonal_column = [](Index j) { return std::vector<std::pair<Index, double>>{{j, 1. + j % 7}}; };
+  cholmod_sparse *diagonal     = symmetric_matrix(1000, diagonal_column, common);
   compare_with_cholmod("diagonal", diagonal, common, true);
 
-  cholmod_sparse *chain = upper_triangle(5000, [](Index j) {
+  const Index  chain_length = 5000;
+  const Column chain_column = [&](Index j) {
     std::vector<std::pair<Index, double>> entries;
     if (j > 0)
       entries.emplace_back(j - 1, -1.);
     entries.emplace_back(j, 2.5);
+    if (j + 1 < chain_length)
+      entries.emplace_back(j + 1, -1.);
     return entries;
-  }, common);
+  };
+  cholmod_sparse *chain = symmetric_matrix(chain_length, chain_column, common);
   compare_with_cholmod("tridiagonal", chain, common, true);
   compare_with_cholmod("tridiagonal in the natural order", chain, common, false, CHOLMOD_NATURAL);
   check_group_grams("tridiagonal", chain, common);
 
-  cholmod_sparse *one = upper_triangle(1, [](Index) { return std::vector<std::pair<Index, double>>{{0, 4.}}; }, common);
+  const Column    one_column = [](Index) { return std::vector<std::pair<Index, double>>{{0, 4.}}; };
+  cholmod_sparse *one        = symmetric_matrix(1, one_column, common);
   compare_with_cholmod("1 x 1", one, common, false);
 
   cholmod_factor *simplicial = factorize(laplacian, common, CHOLMOD_SIMPLICIAL);
@@ -253,7 +364,27 @@ int main()
   check(refused, "a simplicial factor is refused");
   cholmod_l_free_factor(&simplicial, &common);
 
+  // The factorization reads both triangles. A shift of 1.5 puts the vector Laplacian's lowest
+  // eigenvalues (about 1 + 4 (1 - cos(pi / 49)) ... ) below zero; the diagonal matrix with one
+  // negative entry fails at that entry's column, wherever the ordering puts it.
+  std::vector<cholmod_sparse *> both_triangles{
+    vector_laplacian(48, 24, 6, common, true), symmetric_matrix(1000, diagonal_column, common, true),
+    symmetric_matrix(chain_length, chain_column, common, true), symmetric_matrix(1, one_column, common, true),
+    vector_laplacian(48, 24, 6, common, true, 1.5), symmetric_matrix(1000, [](Index j) {
+      return std::vector<std::pair<Index, double>>{{j, j == 617 ? -1. : 1. + j % 7}};
+    }, common, true)};
+  check_factorization("plate-like vector Laplacian", both_triangles[0], common);
+  check_factorization("diagonal", both_triangles[1], common);
+  check_factorization("tridiagonal", both_triangles[2], common);
+  check_factorization("tridiagonal in the natural order", both_triangles[2], common, CHOLMOD_NATURAL);
+  check_factorization("1 x 1", both_triangles[3], common);
+  check_factorization("vector Laplacian shifted past its lowest eigenvalue", both_triangles[4], common);
+  check_factorization("diagonal with a negative entry", both_triangles[5], common);
+  check_factorization_refusals(common);
+
   for (cholmod_sparse *A : {laplacian, diagonal, chain, one})
+    cholmod_l_free_sparse(&A, &common);
+  for (cholmod_sparse *A : both_triangles)
     cholmod_l_free_sparse(&A, &common);
   cholmod_l_finish(&common);
   std::printf("%d failure(s)\n", failures);
