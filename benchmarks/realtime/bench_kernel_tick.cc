@@ -22,7 +22,8 @@
 // Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
 //                          [--slide-only | --every-vertex-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
-// the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex/far-field rows).
+// the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex/far-field
+// rows; the slide along the largest flat face of space 0's region: surface_path).
 #include "bench_support.h"
 
 #include <modalrt/modalrt.h>
@@ -222,12 +223,192 @@ namespace
     Percentiles fixed, slide, machine;
   };
 
-  // One HIP 1 mm deep, moving along x over 0.2 m and back at 0.1 m/s (y fixed between vertex rows),
-  // through two kernels ticked alternately in one loop, so that the machine's load falls on both
-  // alike: a sliding proxy contact (mu_s 0.3, mu_d 0.2) and the fixed (snap) contact it starts with
-  // (auto_release off: it stays at its vertex). A third timed piece in the same loop, the machine's
-  // floor (constant_work lasting the fixed tick's median over the warm-up), says what tail the
-  // machine alone puts on code of that duration.
+  // The straight line a slide runs along, to and fro: from 'start' (on the surface at rest) along
+  // 'direction' over 'length'; 'normal' is the surface's outward normal there.
+  struct SlidePath
+  {
+    double start[3], direction[3], normal[3], length;
+  };
+
+  double dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+  // On the synthetic plate: along x over 70 % of it, y between vertex rows, on its top face.
+  SlidePath plate_path(const modalrt_basis_info &info)
+  {
+    SlidePath path{{info.bounds_min[0] + 0.15 * (info.bounds_max[0] - info.bounds_min[0]),
+                    info.bounds_min[1] + 0.4123 * (info.bounds_max[1] - info.bounds_min[1]), info.bounds_max[2]},
+                   {1., 0., 0.},
+                   {0., 0., 1.},
+                   0.7 * (info.bounds_max[0] - info.bounds_min[0])};
+    return path;
+  }
+
+  // On a basis file: over the largest flat face of space 0's region (its display vertices). Their
+  // normals are binned (0.1 per component) and the fullest bin's mean is the face's normal n; the
+  // vertices within 10 degrees of it are binned by their height along n (0.2 mm), and the fullest height bin
+  // (with its two neighbours) is the face. The line runs along the face's longest extent (the
+  // principal axis of its vertices, through the one nearest their middle, shifted by a third of an
+  // edge off the vertices), as far as it stays on the face's triangles (in steps of half a mean
+  // edge), 5 % short of either end. Empty (length 0) when no such line is 3 edges long.
+  SlidePath surface_path(const modalrt_basis *basis)
+  {
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    const double   *x = modalrt_basis_display_vertices(basis), *normals = modalrt_basis_display_normals(basis);
+    const uint32_t *regions = modalrt_basis_display_regions(basis), *triangles = modalrt_basis_display_triangles(basis);
+    std::vector<uint32_t> region; // space 0's display vertices
+    for (uint32_t v = 0; v < info.display_vertex_count; ++v)
+      if (regions[v] == 0)
+        region.push_back(v);
+    const auto      fullest    = [](const std::vector<long> &keys) {
+      std::vector<long> sorted = keys;
+      std::sort(sorted.begin(), sorted.end());
+      long best = 0, best_count = 0;
+      for (std::size_t i = 0; i < sorted.size();)
+        {
+          std::size_t j = i;
+          while (j < sorted.size() && sorted[j] == sorted[i])
+            ++j;
+          if (long(j - i) > best_count)
+            best = sorted[i], best_count = long(j - i);
+          i = j;
+        }
+      return best;
+    };
+    const auto normal_key = [&](const uint32_t v) {
+      long key = 0;
+      for (int c = 0; c < 3; ++c)
+        key = key * 64 + long(std::lround(10. * normals[3 * v + c]) + 32);
+      return key;
+    };
+    std::vector<long> keys;
+    for (const uint32_t v : region)
+      keys.push_back(normal_key(v));
+    const long normal_bin = keys.empty() ? 0 : fullest(keys);
+    SlidePath  path{{0., 0., 0.}, {0., 0., 0.}, {0., 0., 0.}, 0.};
+    for (std::size_t k = 0; k < region.size(); ++k)
+      if (keys[k] == normal_bin)
+        for (int c = 0; c < 3; ++c)
+          path.normal[c] += normals[3 * region[k] + c];
+    const double norm = std::sqrt(dot(path.normal, path.normal));
+    if (norm == 0.)
+      return path;
+    for (double &c : path.normal)
+      c /= norm;
+    std::vector<uint32_t> aligned;
+    std::vector<long>     heights;
+    for (const uint32_t v : region)
+      if (dot(&normals[3 * v], path.normal) > std::cos(10. * M_PI / 180.))
+        {
+          aligned.push_back(v);
+          heights.push_back(std::lround(dot(&x[3 * v], path.normal) / 2e-4));
+        }
+    const long           height = fullest(heights);
+    std::vector<uint32_t> face;
+    for (std::size_t k = 0; k < aligned.size(); ++k)
+      if (std::labs(heights[k] - height) <= 1)
+        face.push_back(aligned[k]);
+    // The principal axis of the face's vertices (power iteration on their covariance, kept in the plane).
+    double middle[3] = {0., 0., 0.}, covariance[9] = {};
+    for (const uint32_t v : face)
+      for (int c = 0; c < 3; ++c)
+        middle[c] += x[3 * v + c] / double(face.size());
+    for (const uint32_t v : face)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          covariance[3 * a + b] += (x[3 * v + a] - middle[a]) * (x[3 * v + b] - middle[b]);
+    double axis[3] = {std::abs(path.normal[0]) < 0.9 ? 1. : 0., std::abs(path.normal[0]) < 0.9 ? 0. : 1., 0.};
+    for (int iteration = 0; iteration < 100; ++iteration)
+      {
+        double next[3];
+        for (int a = 0; a < 3; ++a)
+          next[a] = dot(&covariance[3 * a], axis);
+        const double along_normal = dot(next, path.normal);
+        for (int a = 0; a < 3; ++a)
+          next[a] -= along_normal * path.normal[a];
+        const double length = std::sqrt(dot(next, next));
+        if (length == 0.)
+          break;
+        for (int a = 0; a < 3; ++a)
+          axis[a] = next[a] / length;
+      }
+    // The mean edge of the display triangles: the step of the walk along the line.
+    double edges = 0.;
+    for (uint32_t t = 0; t < info.display_triangle_count; ++t)
+      for (int e = 0; e < 3; ++e)
+        {
+          const double *p = &x[3 * triangles[3 * t + e]], *q = &x[3 * triangles[3 * t + (e + 1) % 3]];
+          edges += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+        }
+    const double edge = edges / std::max(1., 3. * info.display_triangle_count);
+    uint32_t     nearest_middle = face.empty() ? 0 : face[0];
+    const auto   distance_squared = [&](const uint32_t v, const double *p) {
+      double d = 0.;
+      for (int c = 0; c < 3; ++c)
+        d += (x[3 * v + c] - p[c]) * (x[3 * v + c] - p[c]);
+      return d;
+    };
+    for (const uint32_t v : face)
+      if (distance_squared(v, middle) < distance_squared(nearest_middle, middle))
+        nearest_middle = v;
+    const double across[3] = {path.normal[1] * axis[2] - path.normal[2] * axis[1],
+                              path.normal[2] * axis[0] - path.normal[0] * axis[2],
+                              path.normal[0] * axis[1] - path.normal[1] * axis[0]};
+    double origin[3];
+    for (int c = 0; c < 3; ++c)
+      origin[c] = x[3 * nearest_middle + c] + edge / 3. * across[c];
+    // Whether the line's point at s lies on one of the face's triangles (seen along n).
+    std::vector<char> in_face(info.display_vertex_count, 0);
+    for (const uint32_t v : face)
+      in_face[v] = 1;
+    std::vector<const uint32_t *> face_triangles;
+    for (uint32_t t = 0; t < info.display_triangle_count; ++t)
+      if (in_face[triangles[3 * t]] && in_face[triangles[3 * t + 1]] && in_face[triangles[3 * t + 2]])
+        face_triangles.push_back(&triangles[3 * t]);
+    const auto on_face = [&](const double s) {
+      double p[3];
+      for (int c = 0; c < 3; ++c)
+        p[c] = origin[c] + s * axis[c];
+      for (const uint32_t *t : face_triangles)
+        {
+          // The signs of the three edges' turns around p, in the plane (seen along n).
+          int positive = 0, negative = 0;
+          for (int e = 0; e < 3; ++e)
+            {
+              const double *a = &x[3 * t[e]], *b = &x[3 * t[(e + 1) % 3]];
+              const double  ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+              const double  turn[3] = {ab[1] * ap[2] - ab[2] * ap[1], ab[2] * ap[0] - ab[0] * ap[2], ab[0] * ap[1] - ab[1] * ap[0]};
+              const double  side    = dot(turn, path.normal);
+              positive += side >= 0.;
+              negative += side <= 0.;
+            }
+          if (positive == 3 || negative == 3)
+            return true;
+        }
+      return false;
+    };
+    double low = 0., high = 0.;
+    while (on_face(low - edge / 2.))
+      low -= edge / 2.;
+    while (on_face(high + edge / 2.))
+      high += edge / 2.;
+    if (high - low < 3. * edge)
+      return path;
+    for (int c = 0; c < 3; ++c)
+      {
+        path.start[c]     = origin[c] + (low + 0.05 * (high - low)) * axis[c];
+        path.direction[c] = axis[c];
+      }
+    path.length = 0.9 * (high - low);
+    return path;
+  }
+
+  // One HIP 1 mm deep, moving to and fro along a straight line at 0.1 m/s (plate_path,
+  // surface_path), through two kernels ticked alternately in one loop, so that the machine's load
+  // falls on both alike: a sliding proxy contact (mu_s 0.3, mu_d 0.2) and the fixed (snap) contact it
+  // starts with (auto_release off: it stays at its vertex). A third timed piece in the same loop, the
+  // machine's floor (constant_work lasting the fixed tick's median over the warm-up), says what tail
+  // the machine alone puts on code of that duration.
   SlideRows run_slide(const modalrt_basis *basis, const Options &o)
   {
     modalrt_kernel *kernels[2] = {nullptr, nullptr};
@@ -242,12 +423,16 @@ namespace
       }
     modalrt_basis_info info;
     modalrt_basis_get_info(basis, &info);
-    const double       x0 = info.bounds_min[0] + 0.15 * (info.bounds_max[0] - info.bounds_min[0]);
-    const double       span = 0.7 * (info.bounds_max[0] - info.bounds_min[0]), speed = 0.1;
+    const SlidePath path = o.basis_file.empty() ? plate_path(info) : surface_path(basis);
+    if (path.length == 0.)
+      {
+        std::fprintf(stderr, "bench-kernel-tick: %s: space 0's region has no flat face long enough for a slide\n",
+                     o.basis_file.c_str());
+        std::exit(1);
+      }
+    const double       span = path.length, speed = 0.1, depth = 0.001;
     modalrt_hip_input  in{};
     modalrt_hip_output out[2];
-    in.position[1] = info.bounds_min[1] + 0.4123 * (info.bounds_max[1] - info.bounds_min[1]);
-    in.position[2] = info.bounds_max[2] - 0.001;
     const long warmup = 10000;
     std::vector<std::uint32_t> ns[3], warmup_fixed;
     std::vector<std::uint32_t> entering, within; // the sliding ticks that enter a triangle, the others
@@ -261,8 +446,12 @@ namespace
         if (n == 0)
           floor_steps = steps_lasting(percentiles(warmup_fixed).p50);
         const double travel = std::fmod(speed * 1e-3 * double(n + warmup), 2.0 * span);
-        in.position[0]      = x0 + (travel < span ? travel : 2.0 * span - travel);
-        in.velocity[0]      = travel < span ? speed : -speed;
+        for (int c = 0; c < 3; ++c)
+          {
+            in.position[c] = path.start[c] + (travel < span ? travel : 2.0 * span - travel) * path.direction[c] -
+                             depth * path.normal[c];
+            in.velocity[c] = (travel < span ? speed : -speed) * path.direction[c];
+          }
         for (int piece = 0; piece < 3; ++piece) // rotate which one goes first
           {
             const int which = int((piece + n % 3 + 3) % 3);
@@ -299,10 +488,12 @@ namespace
       modalrt_kernel_get_stats(kernels[k], &stats[k]);
     modalrt_space_info space;
     modalrt_basis_get_space_info(basis, 0, &space);
-    std::printf("# slide r=%u, %u candidates in space 0: passivity observer over %ld ticks: fixed %+.6g J (lowest "
-                "%+.3g J), sliding %+.6g J (lowest %+.3g J); machine floor: %ld dependent multiply-adds; sliding "
-                "ticks entering a triangle: %zu",
-                space.mode_count, space.candidate_count, o.ticks + warmup, stats[0].passivity_energy, lowest[0],
+    std::printf("# slide r=%u, %u candidates in space 0, to and fro over %.1f mm from (%.4f, %.4f, %.4f) m along (%.3f, "
+                "%.3f, %.3f), 1 mm under the face whose normal is (%.3f, %.3f, %.3f): passivity observer over %ld ticks: fixed %+.6g J (lowest %+.3g J), sliding %+.6g J "
+                "(lowest %+.3g J); machine floor: %ld dependent multiply-adds; sliding ticks entering a triangle: %zu",
+                space.mode_count, space.candidate_count, 1e3 * path.length, path.start[0], path.start[1], path.start[2],
+                path.direction[0], path.direction[1], path.direction[2], path.normal[0], path.normal[1], path.normal[2],
+                o.ticks + warmup, stats[0].passivity_energy, lowest[0],
                 stats[1].passivity_energy, lowest[1], floor_steps, entering.size());
     for (auto *part : {&entering, &within})
       if (!part->empty())
