@@ -230,7 +230,25 @@ namespace
     double start[3], direction[3], normal[3], length;
   };
 
+  // Three-vectors of the display surface (x, y, z side by side).
   double dot(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+  void   difference(const double *a, const double *b, double *a_minus_b)
+  {
+    for (int c = 0; c < 3; ++c)
+      a_minus_b[c] = a[c] - b[c];
+  }
+  void cross(const double *a, const double *b, double *a_cross_b)
+  {
+    a_cross_b[0] = a[1] * b[2] - a[2] * b[1];
+    a_cross_b[1] = a[2] * b[0] - a[0] * b[2];
+    a_cross_b[2] = a[0] * b[1] - a[1] * b[0];
+  }
+  double distance_squared(const double *a, const double *b)
+  {
+    double d[3];
+    difference(a, b, d);
+    return dot(d, d);
+  }
 
   // On the synthetic plate: along x over 70 % of it, y between vertex rows, on its top face.
   SlidePath plate_path(const modalrt_basis_info &info)
@@ -243,149 +261,188 @@ namespace
     return path;
   }
 
-  // On a basis file: over the largest flat face of space 0's region (its display vertices). Their
-  // normals are binned (0.1 per component) and the fullest bin's mean is the face's normal n; the
-  // vertices within 10 degrees of it are binned by their height along n (0.2 mm), and the fullest height bin
-  // (with its two neighbours) is the face. The line runs along the face's longest extent (the
-  // principal axis of its vertices, through the one nearest their middle, shifted by a third of an
-  // edge off the vertices), as far as it stays on the face's triangles (in steps of half a mean
-  // edge), 5 % short of either end. Empty (length 0) when no such line is 3 edges long.
-  SlidePath surface_path(const modalrt_basis *basis)
+  // The key shared by the most of 'keys'.
+  long fullest(std::vector<long> keys)
   {
-    modalrt_basis_info info;
-    modalrt_basis_get_info(basis, &info);
+    std::sort(keys.begin(), keys.end());
+    long best = 0, best_count = 0;
+    for (std::size_t i = 0; i < keys.size();)
+      {
+        std::size_t j = i;
+        while (j < keys.size() && keys[j] == keys[i])
+          ++j;
+        if (long(j - i) > best_count)
+          best = keys[i], best_count = long(j - i);
+        i = j;
+      }
+    return best;
+  }
+
+  // A flat face of the display surface: its vertices and outward normal.
+  struct FlatFace
+  {
+    std::vector<uint32_t> vertices;
+    double                normal[3] = {0., 0., 0.};
+  };
+
+  // The largest flat face of space 0's region (its display vertices): their normals are binned
+  // (0.1 per component) and the fullest bin's mean is the face's normal n; the vertices within 10
+  // degrees of it are binned by their height along n (0.2 mm), and the fullest height bin (with its
+  // two neighbours) is the face. No vertices when the region has none.
+  FlatFace largest_flat_face(const modalrt_basis *basis, const modalrt_basis_info &info)
+  {
     const double   *x = modalrt_basis_display_vertices(basis), *normals = modalrt_basis_display_normals(basis);
-    const uint32_t *regions = modalrt_basis_display_regions(basis), *triangles = modalrt_basis_display_triangles(basis);
+    const uint32_t *regions = modalrt_basis_display_regions(basis);
     std::vector<uint32_t> region; // space 0's display vertices
+    std::vector<long>     keys;
     for (uint32_t v = 0; v < info.display_vertex_count; ++v)
       if (regions[v] == 0)
-        region.push_back(v);
-    const auto      fullest    = [](const std::vector<long> &keys) {
-      std::vector<long> sorted = keys;
-      std::sort(sorted.begin(), sorted.end());
-      long best = 0, best_count = 0;
-      for (std::size_t i = 0; i < sorted.size();)
         {
-          std::size_t j = i;
-          while (j < sorted.size() && sorted[j] == sorted[i])
-            ++j;
-          if (long(j - i) > best_count)
-            best = sorted[i], best_count = long(j - i);
-          i = j;
+          region.push_back(v);
+          long key = 0;
+          for (int c = 0; c < 3; ++c)
+            key = key * 64 + long(std::lround(10. * normals[3 * v + c]) + 32);
+          keys.push_back(key);
         }
-      return best;
-    };
-    const auto normal_key = [&](const uint32_t v) {
-      long key = 0;
-      for (int c = 0; c < 3; ++c)
-        key = key * 64 + long(std::lround(10. * normals[3 * v + c]) + 32);
-      return key;
-    };
-    std::vector<long> keys;
-    for (const uint32_t v : region)
-      keys.push_back(normal_key(v));
+    FlatFace   face;
     const long normal_bin = keys.empty() ? 0 : fullest(keys);
-    SlidePath  path{{0., 0., 0.}, {0., 0., 0.}, {0., 0., 0.}, 0.};
     for (std::size_t k = 0; k < region.size(); ++k)
       if (keys[k] == normal_bin)
         for (int c = 0; c < 3; ++c)
-          path.normal[c] += normals[3 * region[k] + c];
-    const double norm = std::sqrt(dot(path.normal, path.normal));
+          face.normal[c] += normals[3 * region[k] + c];
+    const double norm = std::sqrt(dot(face.normal, face.normal));
     if (norm == 0.)
-      return path;
-    for (double &c : path.normal)
+      return face;
+    for (double &c : face.normal)
       c /= norm;
     std::vector<uint32_t> aligned;
     std::vector<long>     heights;
     for (const uint32_t v : region)
-      if (dot(&normals[3 * v], path.normal) > std::cos(10. * M_PI / 180.))
+      if (dot(&normals[3 * v], face.normal) > std::cos(10. * M_PI / 180.))
         {
           aligned.push_back(v);
-          heights.push_back(std::lround(dot(&x[3 * v], path.normal) / 2e-4));
+          heights.push_back(std::lround(dot(&x[3 * v], face.normal) / 2e-4));
         }
-    const long           height = fullest(heights);
-    std::vector<uint32_t> face;
+    const long height = fullest(heights);
     for (std::size_t k = 0; k < aligned.size(); ++k)
       if (std::labs(heights[k] - height) <= 1)
-        face.push_back(aligned[k]);
-    // The principal axis of the face's vertices (power iteration on their covariance, kept in the plane).
-    double middle[3] = {0., 0., 0.}, covariance[9] = {};
-    for (const uint32_t v : face)
+        face.vertices.push_back(aligned[k]);
+    return face;
+  }
+
+  // The principal axis of the face's vertices in its plane (power iteration on their covariance),
+  // and in 'middle' their mean.
+  void principal_axis(const FlatFace &face, const double *x, double *axis, double *middle)
+  {
+    double covariance[9] = {};
+    for (int c = 0; c < 3; ++c)
+      middle[c] = 0.;
+    for (const uint32_t v : face.vertices)
       for (int c = 0; c < 3; ++c)
-        middle[c] += x[3 * v + c] / double(face.size());
-    for (const uint32_t v : face)
+        middle[c] += x[3 * v + c] / double(face.vertices.size());
+    for (const uint32_t v : face.vertices)
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b)
           covariance[3 * a + b] += (x[3 * v + a] - middle[a]) * (x[3 * v + b] - middle[b]);
-    double axis[3] = {std::abs(path.normal[0]) < 0.9 ? 1. : 0., std::abs(path.normal[0]) < 0.9 ? 0. : 1., 0.};
+    const bool along_x = std::abs(face.normal[0]) < 0.9;
+    axis[0] = along_x ? 1. : 0., axis[1] = along_x ? 0. : 1., axis[2] = 0.;
     for (int iteration = 0; iteration < 100; ++iteration)
       {
         double next[3];
         for (int a = 0; a < 3; ++a)
           next[a] = dot(&covariance[3 * a], axis);
-        const double along_normal = dot(next, path.normal);
+        const double along_normal = dot(next, face.normal);
         for (int a = 0; a < 3; ++a)
-          next[a] -= along_normal * path.normal[a];
+          next[a] -= along_normal * face.normal[a];
         const double length = std::sqrt(dot(next, next));
         if (length == 0.)
           break;
         for (int a = 0; a < 3; ++a)
           axis[a] = next[a] / length;
       }
-    // The mean edge of the display triangles: the step of the walk along the line.
-    double edges = 0.;
+  }
+
+  // The mean edge length of the display triangles.
+  double mean_edge(const modalrt_basis *basis, const modalrt_basis_info &info)
+  {
+    const double   *x         = modalrt_basis_display_vertices(basis);
+    const uint32_t *triangles = modalrt_basis_display_triangles(basis);
+    double          edges     = 0.;
     for (uint32_t t = 0; t < info.display_triangle_count; ++t)
       for (int e = 0; e < 3; ++e)
-        {
-          const double *p = &x[3 * triangles[3 * t + e]], *q = &x[3 * triangles[3 * t + (e + 1) % 3]];
-          edges += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
-        }
-    const double edge = edges / std::max(1., 3. * info.display_triangle_count);
-    uint32_t     nearest_middle = face.empty() ? 0 : face[0];
-    const auto   distance_squared = [&](const uint32_t v, const double *p) {
-      double d = 0.;
-      for (int c = 0; c < 3; ++c)
-        d += (x[3 * v + c] - p[c]) * (x[3 * v + c] - p[c]);
-      return d;
-    };
-    for (const uint32_t v : face)
-      if (distance_squared(v, middle) < distance_squared(nearest_middle, middle))
-        nearest_middle = v;
-    const double across[3] = {path.normal[1] * axis[2] - path.normal[2] * axis[1],
-                              path.normal[2] * axis[0] - path.normal[0] * axis[2],
-                              path.normal[0] * axis[1] - path.normal[1] * axis[0]};
-    double origin[3];
-    for (int c = 0; c < 3; ++c)
-      origin[c] = x[3 * nearest_middle + c] + edge / 3. * across[c];
-    // Whether the line's point at s lies on one of the face's triangles (seen along n).
+        edges += std::sqrt(distance_squared(&x[3 * triangles[3 * t + e]], &x[3 * triangles[3 * t + (e + 1) % 3]]));
+    return edges / std::max(1., 3. * info.display_triangle_count);
+  }
+
+  // The face's triangles (all three vertices on it).
+  std::vector<const uint32_t *> face_triangles(const modalrt_basis *basis, const modalrt_basis_info &info,
+                                               const FlatFace &face)
+  {
+    const uint32_t   *triangles = modalrt_basis_display_triangles(basis);
     std::vector<char> in_face(info.display_vertex_count, 0);
-    for (const uint32_t v : face)
+    for (const uint32_t v : face.vertices)
       in_face[v] = 1;
-    std::vector<const uint32_t *> face_triangles;
+    std::vector<const uint32_t *> on_face;
     for (uint32_t t = 0; t < info.display_triangle_count; ++t)
       if (in_face[triangles[3 * t]] && in_face[triangles[3 * t + 1]] && in_face[triangles[3 * t + 2]])
-        face_triangles.push_back(&triangles[3 * t]);
-    const auto on_face = [&](const double s) {
+        on_face.push_back(&triangles[3 * t]);
+    return on_face;
+  }
+
+  // Whether p lies on one of the triangles, seen along 'normal' (the three edges turn the same way
+  // around it).
+  bool on_triangles(const std::vector<const uint32_t *> &triangles, const double *x, const double *normal,
+                    const double *p)
+  {
+    for (const uint32_t *t : triangles)
+      {
+        int positive = 0, negative = 0;
+        for (int e = 0; e < 3; ++e)
+          {
+            double ab[3], ap[3], turn[3];
+            difference(&x[3 * t[(e + 1) % 3]], &x[3 * t[e]], ab);
+            difference(p, &x[3 * t[e]], ap);
+            cross(ab, ap, turn);
+            const double side = dot(turn, normal);
+            positive += side >= 0.;
+            negative += side <= 0.;
+          }
+        if (positive == 3 || negative == 3)
+          return true;
+      }
+    return false;
+  }
+
+  // On a basis file: over the largest flat face of space 0's region (largest_flat_face), along its
+  // longest extent (principal_axis, through the vertex nearest the face's middle, shifted by a third
+  // of an edge off the vertices), as far as the line stays on the face's triangles (in steps of half
+  // a mean edge), 5 % short of either end. Empty (length 0) when no such line is 3 edges long.
+  SlidePath surface_path(const modalrt_basis *basis)
+  {
+    modalrt_basis_info info;
+    modalrt_basis_get_info(basis, &info);
+    const double  *x    = modalrt_basis_display_vertices(basis);
+    const FlatFace face = largest_flat_face(basis, info);
+    SlidePath      path{{0., 0., 0.}, {0., 0., 0.}, {face.normal[0], face.normal[1], face.normal[2]}, 0.};
+    if (face.vertices.empty())
+      return path;
+    double axis[3], middle[3];
+    principal_axis(face, x, axis, middle);
+    const double edge           = mean_edge(basis, info);
+    uint32_t     nearest_middle = face.vertices[0];
+    for (const uint32_t v : face.vertices)
+      if (distance_squared(&x[3 * v], middle) < distance_squared(&x[3 * nearest_middle], middle))
+        nearest_middle = v;
+    double across[3], origin[3];
+    cross(face.normal, axis, across);
+    for (int c = 0; c < 3; ++c)
+      origin[c] = x[3 * nearest_middle + c] + edge / 3. * across[c];
+    const auto triangles = face_triangles(basis, info, face);
+    const auto on_face   = [&](const double s) {
       double p[3];
       for (int c = 0; c < 3; ++c)
         p[c] = origin[c] + s * axis[c];
-      for (const uint32_t *t : face_triangles)
-        {
-          // The signs of the three edges' turns around p, in the plane (seen along n).
-          int positive = 0, negative = 0;
-          for (int e = 0; e < 3; ++e)
-            {
-              const double *a = &x[3 * t[e]], *b = &x[3 * t[(e + 1) % 3]];
-              const double  ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-              const double  turn[3] = {ab[1] * ap[2] - ab[2] * ap[1], ab[2] * ap[0] - ab[0] * ap[2], ab[0] * ap[1] - ab[1] * ap[0]};
-              const double  side    = dot(turn, path.normal);
-              positive += side >= 0.;
-              negative += side <= 0.;
-            }
-          if (positive == 3 || negative == 3)
-            return true;
-        }
-      return false;
+      return on_triangles(triangles, x, face.normal, p);
     };
     double low = 0., high = 0.;
     while (on_face(low - edge / 2.))
