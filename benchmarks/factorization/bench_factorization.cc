@@ -77,17 +77,17 @@ namespace
   }
 
   // One numeric factorization on a copy of the analysis: seconds, and the factor (freed by the caller).
-  double factorize(const bool ours, cholmod_sparse *A, const cholmod_factor *analysis, const unsigned int threads,
+  double factorize(const bool ours, cholmod_sparse *A, const cholmod_factor *analysis, const Options &o,
                    cholmod_common &common, cholmod_factor *&factor)
   {
     factor           = cholmod_l_copy_factor(const_cast<cholmod_factor *>(analysis), &common);
     const auto start = std::chrono::steady_clock::now();
     const bool positive_definite =
-      ours ? modal_haptics::factorize_supernodal(*A, *factor, common, threads) == SuiteSparse_long(factor->n)
+      ours ? modal_haptics::factorize_supernodal(*A, *factor, common, o.threads) == SuiteSparse_long(factor->n)
            : cholmod_l_factorize(A, factor, &common) && factor->minor == factor->n;
     const double seconds = seconds_since(start);
     if (!positive_definite)
-      throw std::runtime_error("the matrix is not positive definite");
+      throw std::runtime_error(o.matrix + " is not positive definite (not a stiffness matrix with its supports?)");
     return seconds;
   }
 } // namespace
@@ -120,7 +120,7 @@ int main(int argc, char **argv)
           for (int j = 0; j < 2; ++j)
             {
               const bool ours   = (j + k) % 2 == 0;
-              seconds[ours]     = factorize(ours, A, analysis, o.threads, common, factors[ours]);
+              seconds[ours]     = factorize(ours, A, analysis, o, common, factors[ours]);
             }
           const auto  *x = static_cast<const double *>(factors[1]->x), *y = static_cast<const double *>(factors[0]->x);
           const std::size_t size = factors[0]->xsize;
