@@ -32,7 +32,6 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <bitset>
 #include <cmath>
 #include <iomanip>
 #include <limits>
@@ -567,50 +566,6 @@ namespace modal_haptics
         return through;
       }
 
-      // The cells in colors no two of whose cells write to a common row (their DoFs and the DoFs
-      // their constrained ones resolve to), so that WorkStream adds a color's cells on every thread at
-      // once; each entry still receives its sums in one order (the colors'), whichever thread runs.
-      // First fit in the cells' order, each row keeping the set of colors of the cells that wrote it:
-      // 44 colors for rib_a's 27,864 cells (deal.II's GraphColoring, partitions colored by DSATUR and
-      // merged: 69-77) in milliseconds, where GraphColoring took 1-1.4 s a space.
-      // Empty for a distributed tangent (Trilinos' matrices take additions from one thread), and where
-      // a cell would need a color beyond 512 (the ordered one-thread additions then).
-      template <typename Algebra, typename CellIterator>
-      std::vector<std::vector<CellIterator>> color_cells(const std::vector<DoFHandler<3>::active_cell_iterator> &cells,
-                                                         const ReferenceCells &reference,
-                                                         const AffineConstraints<double> &constraints)
-      {
-        if (!std::is_same_v<Algebra, SerialAlgebra> || cells.empty())
-          return {};
-        constexpr unsigned int                 max_colors = 512;
-        std::vector<std::bitset<max_colors>>   used(cells.front()->get_dof_handler().n_dofs());
-        std::vector<types::global_dof_index>   rows;
-        std::vector<std::vector<CellIterator>> colors;
-        for (auto cell = cells.cbegin(); cell != cells.cend(); ++cell)
-          {
-            const types::global_dof_index *dofs = reference.sorted_dofs(cell - cells.cbegin());
-            rows.assign(dofs, dofs + reference.dofs_per_cell);
-            for (unsigned int i = 0; i < reference.dofs_per_cell; ++i)
-              if (const auto *entries = constraints.get_constraint_entries(dofs[i]))
-                for (const auto &entry : *entries)
-                  rows.push_back(entry.first);
-            std::bitset<max_colors> taken;
-            for (const auto row : rows)
-              taken |= used[row];
-            unsigned int color = 0;
-            while (color < max_colors && taken[color])
-              ++color;
-            if (color == max_colors)
-              return {};
-            for (const auto row : rows)
-              used[row].set(color);
-            if (color == colors.size())
-              colors.emplace_back();
-            colors[color].push_back(cell);
-          }
-        return colors;
-      }
-
       // The converged states of a load ramp (the last three, the unloaded one while fewer levels are
       // known) and the predictors they give for the next level: the secant (the last two states
       // extrapolated; F u1 at the first level) and a quadratic (F u1 + F^2 u2 at the first level, u2
@@ -777,7 +732,6 @@ namespace modal_haptics
         const VectorElementDofs                                element_dofs;
         const ReferenceCells                                   reference;
         using CellIterator = typename std::vector<DoFHandler<3>::active_cell_iterator>::const_iterator;
-        const std::vector<std::vector<CellIterator>>           colored_cells; // serial: for parallel additions
         std::vector<double>                                    cell_energy;   // per owned cell, at the last assembly
         const std::vector<char>                                through_constraints; // per owned cell
         typename Algebra::Matrix                   tangent;
@@ -798,7 +752,6 @@ namespace modal_haptics
         , owned_cells(locally_owned_cells(space.dof_handler))
         , element_dofs(space.dof_handler.get_fe())
         , reference(owned_cells, space.mapping, space.dof_handler.get_fe(), space.quadrature, element_dofs.dof)
-        , colored_cells(color_cells<Algebra, CellIterator>(owned_cells, reference, space.constraints))
         , cell_energy(owned_cells.size())
         , through_constraints(cells_through_constraints<Algebra>(reference, owned_cells.size(), space.constraints))
       {
@@ -867,9 +820,11 @@ namespace modal_haptics
       };
 
       // A cell's part: its rows and columns in the order of its DoFs' global indices. Added by one
-      // thread at a time in the cells' order (distributed), or by every thread at once within a color
-      // (serial, color_cells): either way each entry gets its sums in an order fixed by the mesh,
-      // not by which thread ends first.
+      // thread at a time in the cells' order, so each entry gets its sums in an order fixed by the
+      // mesh, not by which thread ends first. (Colours of cells sharing no row, each added on every
+      // thread at once, were slower: 3.0-3.3 s of a default-scene contact's assemblies against 2.6 s.
+      // A colour's cells are spread over the whole matrix, where consecutive cells share rows in cache;
+      // and the integration, not the additions, is most of a cell's cost.)
       struct NonlinearCellPart
       {
         explicit NonlinearCellPart(const unsigned int dofs_per_cell)
@@ -960,10 +915,7 @@ namespace modal_haptics
         };
         const NonlinearScratch  scratch(n_scalar, dofs_per_cell);
         const NonlinearCellPart part(dofs_per_cell);
-        if (colored_cells.empty())
-          WorkStream::run(owned_cells.cbegin(), owned_cells.cend(), worker, copier, scratch, part);
-        else
-          WorkStream::run(colored_cells, worker, copier, scratch, part);
+        WorkStream::run(owned_cells.cbegin(), owned_cells.cend(), worker, copier, scratch, part);
         // The energy summed in the cells' order, whichever thread added which cell.
         for (const double e : cell_energy)
           local_energy += e;

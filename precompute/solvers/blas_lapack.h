@@ -8,6 +8,8 @@ extern "C"
 {
   void dgemm_(const char *, const char *, const int *, const int *, const int *, const double *, const double *,
               const int *, const double *, const int *, const double *, double *, const int *);
+  void dgemv_(const char *, const int *, const int *, const double *, const double *, const int *, const double *,
+              const int *, const double *, double *, const int *);
   void dsyev_(const char *, const char *, const int *, double *, const int *, double *, double *, const int *, int *);
   void dpotrf_(const char *, const int *, double *, const int *, int *);
   void dsyrk_(const char *, const char *, const int *, const int *, const double *, const double *, const int *,

@@ -23,25 +23,26 @@ namespace modal_haptics::far_field
     return probes;
   }
 
+  // Classical Gram-Schmidt twice (as good as the modified one twice), each pass two GEMVs over the
+  // columns kept so far instead of one dot product and one update per column.
   unsigned int orthonormalize_columns(std::vector<double> &Q, const std::size_t n, const unsigned int k)
   {
-    unsigned int kept = 0;
+    unsigned int        kept = 0;
+    const int           ni   = int(n), inc = 1;
+    const double        one = 1., zero = 0., minus_one = -1.;
+    std::vector<double> dots(k);
     for (unsigned int j = 0; j < k; ++j)
       {
         double *q = &Q[j * n];
         double  original = 0.;
         for (std::size_t i = 0; i < n; ++i)
           original += q[i] * q[i];
-        for (int pass = 0; pass < 2; ++pass)
-          for (unsigned int p = 0; p < kept; ++p)
-            {
-              const double *e   = &Q[p * n];
-              double        dot = 0.;
-              for (std::size_t i = 0; i < n; ++i)
-                dot += e[i] * q[i];
-              for (std::size_t i = 0; i < n; ++i)
-                q[i] -= dot * e[i];
-            }
+        const int ki = int(kept);
+        for (int pass = 0; pass < 2 && kept > 0; ++pass)
+          {
+            dgemv_("T", &ni, &ki, &one, Q.data(), &ni, q, &inc, &zero, dots.data(), &inc);
+            dgemv_("N", &ni, &ki, &minus_one, Q.data(), &ni, dots.data(), &inc, &one, q, &inc);
+          }
         double norm = 0.;
         for (std::size_t i = 0; i < n; ++i)
           norm += q[i] * q[i];
@@ -82,27 +83,18 @@ namespace modal_haptics::far_field
     if (info != 0)
       throw std::runtime_error("far field: LAPACK's dsyev failed (info " + std::to_string(info) + ")");
 
-    // Z = Y V_kept D_kept^{-1/2}, written row-major.
+    // Z = Y V_kept D_kept^{-1/2}, written row-major: Z^T = (V_kept D_kept^{-1/2})^T Y^T column-major.
     const double        largest = k > 0 ? eigenvalues.back() : 0.;
-    std::vector<unsigned int> kept;
+    std::vector<double> scaled; // k x rank, column-major
     for (unsigned int j = 0; j < k; ++j)
       if (largest > 0. && eigenvalues[j] > 1e-12 * largest)
-        kept.push_back(j);
-    rank = kept.size();
-    std::vector<double> Z(n * rank, 0.);
-    for (unsigned int t = 0; t < rank; ++t)
-      {
-        const unsigned int j     = kept[t];
-        const double       scale = 1. / std::sqrt(eigenvalues[j]);
         for (unsigned int p = 0; p < k; ++p)
-          {
-            const double  v = core[j * k + p] * scale; // eigenvector j is column j of core
-            const double *y = &Y[p * n];
-            if (v != 0.)
-              for (std::size_t i = 0; i < n; ++i)
-                Z[i * rank + t] += v * y[i];
-          }
-      }
+          scaled.push_back(core[j * k + p] / std::sqrt(eigenvalues[j])); // eigenvector j is column j of core
+    rank = scaled.size() / k;
+    std::vector<double> Z(n * rank, 0.);
+    const int           ri = int(rank);
+    if (rank > 0)
+      dgemm_("T", "T", &ri, &ni, &ki, &one, scaled.data(), &ki, Y.data(), &ni, &zero, Z.data(), &ri);
     return Z;
   }
 

@@ -132,53 +132,65 @@ namespace modal_haptics
       // The same for the columns j < count of a column-major block (n rows each), with weights and
       // averages column-major too (m = rows.size() per column): eight columns at a time through a
       // row-major copy, so that each weight of W meets the eight columns in one cache line (one
-      // column at a time, the scattered reads and writes cost more than a block's solve).
+      // column at a time, the scattered reads and writes cost more than a block's solve). The
+      // chunks of eight run on the threads (a far field's 64 columns left a core idle), each column
+      // written by one thread in one order: the same numbers whichever thread takes it.
       static constexpr unsigned int chunk = 8;
       static void add_rows_to_columns(const std::vector<const space_parts::DofWeights *> &rows, const double *weights,
                                       const unsigned int count, double *block, const std::size_t n)
       {
-        const std::size_t   m = rows.size();
-        std::vector<double> loads(n * chunk);
-        for (unsigned int first = 0; first < count; first += chunk)
-          {
-            const unsigned int width = std::min(chunk, count - first);
-            std::fill(loads.begin(), loads.end(), 0.);
-            for (std::size_t row = 0; row < m; ++row)
-              {
-                double of_row[chunk] = {};
-                for (unsigned int j = 0; j < width; ++j)
-                  of_row[j] = weights[(first + j) * m + row];
-                for (const auto &[dof, w] : *rows[row])
-                  for (unsigned int j = 0; j < chunk; ++j)
-                    loads[dof * chunk + j] += w * of_row[j];
-              }
-            for (unsigned int j = 0; j < width; ++j)
-              for (std::size_t dof = 0; dof < n; ++dof)
-                block[(first + j) * n + dof] += loads[dof * chunk + j];
-          }
+        const std::size_t m = rows.size();
+        for_chunks_of_columns(count, [&](const unsigned int first, const unsigned int width, std::vector<double> &loads) {
+          loads.assign(n * chunk, 0.);
+          for (std::size_t row = 0; row < m; ++row)
+            {
+              double of_row[chunk] = {};
+              for (unsigned int j = 0; j < width; ++j)
+                of_row[j] = weights[(first + j) * m + row];
+              for (const auto &[dof, w] : *rows[row])
+                for (unsigned int j = 0; j < chunk; ++j)
+                  loads[dof * chunk + j] += w * of_row[j];
+            }
+          for (unsigned int j = 0; j < width; ++j)
+            for (std::size_t dof = 0; dof < n; ++dof)
+              block[(first + j) * n + dof] += loads[dof * chunk + j];
+        });
       }
       static void row_averages_of_columns(const std::vector<const space_parts::DofWeights *> &rows,
                                           const double *block, const std::size_t n, const unsigned int count,
                                           double *averages)
       {
-        const std::size_t   m = rows.size();
-        std::vector<double> columns(n * chunk, 0.);
-        for (unsigned int first = 0; first < count; first += chunk)
-          {
-            const unsigned int width = std::min(chunk, count - first);
-            for (unsigned int j = 0; j < width; ++j)
-              for (std::size_t dof = 0; dof < n; ++dof)
-                columns[dof * chunk + j] = block[(first + j) * n + dof];
-            for (std::size_t row = 0; row < m; ++row)
-              {
-                double sum[chunk] = {};
-                for (const auto &[dof, w] : *rows[row])
-                  for (unsigned int j = 0; j < chunk; ++j)
-                    sum[j] += w * columns[dof * chunk + j];
-                for (unsigned int j = 0; j < width; ++j)
-                  averages[(first + j) * m + row] = sum[j];
-              }
-          }
+        const std::size_t m = rows.size();
+        for_chunks_of_columns(count, [&](const unsigned int first, const unsigned int width, std::vector<double> &columns) {
+          columns.assign(n * chunk, 0.);
+          for (unsigned int j = 0; j < width; ++j)
+            for (std::size_t dof = 0; dof < n; ++dof)
+              columns[dof * chunk + j] = block[(first + j) * n + dof];
+          for (std::size_t row = 0; row < m; ++row)
+            {
+              double sum[chunk] = {};
+              for (const auto &[dof, w] : *rows[row])
+                for (unsigned int j = 0; j < chunk; ++j)
+                  sum[j] += w * columns[dof * chunk + j];
+              for (unsigned int j = 0; j < width; ++j)
+                averages[(first + j) * m + row] = sum[j];
+            }
+        });
+      }
+      // work(first, width, scratch) for each chunk of columns [first, first + width), on the threads;
+      // scratch is the calling thread's own.
+      template <typename Work>
+      static void for_chunks_of_columns(const unsigned int count, const Work &work)
+      {
+        const unsigned int n_chunks = (count + chunk - 1) / chunk;
+        dealii::parallel::apply_to_subranges(
+          0u, n_chunks,
+          [&](const unsigned int begin, const unsigned int end) {
+            std::vector<double> scratch;
+            for (unsigned int c = begin; c < end; ++c)
+              work(c * chunk, std::min(chunk, count - c * chunk), scratch);
+          },
+          1);
       }
 
       // Appends this process's part of u at the display vertices (3 nv, component-fastest) to 'out'.
