@@ -339,18 +339,65 @@ namespace modal_haptics
         CellAssembler assembler;
       };
 
-      // A cell's part, added by one thread at a time in the cells' order.
+      // A cell's part, added by one thread at a time in the cells' order. A cell without a
+      // constrained DoF has its rows and columns put in the ascending order of its DoFs by the thread
+      // that integrated it, and goes into a serial matrix row by row; through the constraints, the
+      // one thread adding took about as long as the others integrating (rib_a of the default scene).
       struct CellContribution
       {
         explicit CellContribution(const unsigned int dofs_per_cell)
           : K(dofs_per_cell, dofs_per_cell)
           , M(dofs_per_cell, dofs_per_cell)
+          , sorted_K(dofs_per_cell, dofs_per_cell)
+          , sorted_M(dofs_per_cell, dofs_per_cell)
           , dof_indices(dofs_per_cell)
+          , sorted_dofs(dofs_per_cell)
+          , order(dofs_per_cell)
         {}
-        FullMatrix<double>                   K, M;
-        std::vector<types::global_dof_index> dof_indices;
+        FullMatrix<double>                   K, M, sorted_K, sorted_M;
+        std::vector<types::global_dof_index> dof_indices, sorted_dofs;
+        std::vector<unsigned int>            order;
+        bool                                 through_constraints = true;
         MassMoments                          moments;
+
+        // sorted_* from K, M and dof_indices.
+        void sort_by_dof()
+        {
+          std::iota(order.begin(), order.end(), 0u);
+          std::sort(order.begin(), order.end(),
+                    [&](const unsigned int i, const unsigned int j) { return dof_indices[i] < dof_indices[j]; });
+          for (unsigned int i = 0; i < order.size(); ++i)
+            {
+              sorted_dofs[i] = dof_indices[order[i]];
+              for (unsigned int j = 0; j < order.size(); ++j)
+                {
+                  sorted_K(i, j) = K(order[i], order[j]);
+                  sorted_M(i, j) = M(order[i], order[j]);
+                }
+            }
+        }
       };
+
+      // The cell's part added to K and M: row by row where no DoF is constrained (serial matrices),
+      // else through the constraints.
+      template <typename MatrixType>
+      void add_cell_contribution(const CellContribution &part, const AffineConstraints<double> &constraints,
+                                 MatrixType &K, MatrixType &M)
+      {
+        if constexpr (std::is_same_v<MatrixType, SparseMatrix<double>>)
+          if (!part.through_constraints)
+            {
+              const unsigned int n = part.sorted_dofs.size();
+              for (unsigned int i = 0; i < n; ++i)
+                {
+                  K.add(part.sorted_dofs[i], n, part.sorted_dofs.data(), &part.sorted_K(i, 0), false, true);
+                  M.add(part.sorted_dofs[i], n, part.sorted_dofs.data(), &part.sorted_M(i, 0), false, true);
+                }
+              return;
+            }
+        constraints.distribute_local_to_global(part.K, part.dof_indices, K);
+        constraints.distribute_local_to_global(part.M, part.dof_indices, M);
+      }
     } // namespace
 
     template <typename MatrixType>
@@ -364,15 +411,19 @@ namespace modal_haptics
       MassMoments total;
       WorkStream::run(
         cells.cbegin(), cells.cend(),
-        [](const CellIterator &cell, AssemblyScratch &scratch, CellContribution &part) {
+        [&](const CellIterator &cell, AssemblyScratch &scratch, CellContribution &part) {
           scratch.fe_values.reinit(*cell);
           part.moments = MassMoments();
           scratch.assembler.assemble(scratch.fe_values, part.K, part.M, part.moments);
           (*cell)->get_dof_indices(part.dof_indices);
+          part.through_constraints = !std::is_same_v<MatrixType, SparseMatrix<double>> ||
+                                     std::any_of(part.dof_indices.begin(), part.dof_indices.end(),
+                                                 [&](const auto dof) { return constraints.is_constrained(dof); });
+          if (!part.through_constraints)
+            part.sort_by_dof();
         },
         [&](const CellContribution &part) {
-          constraints.distribute_local_to_global(part.K, part.dof_indices, K);
-          constraints.distribute_local_to_global(part.M, part.dof_indices, M);
+          add_cell_contribution(part, constraints, K, M);
           total += part.moments;
         },
         AssemblyScratch(mapping, fe, quadrature, scene.material), CellContribution(fe.n_dofs_per_cell()));
