@@ -821,10 +821,10 @@ namespace modal_haptics
 
       // A cell's part: its rows and columns in the order of its DoFs' global indices. Added by one
       // thread at a time in the cells' order, so each entry gets its sums in an order fixed by the
-      // mesh, not by which thread ends first. (Colours of cells sharing no row, each added on every
-      // thread at once, were slower: 3.0-3.3 s of a default-scene contact's assemblies against 2.6 s.
-      // A colour's cells are spread over the whole matrix, where consecutive cells share rows in cache;
-      // and the integration, not the additions, is most of a cell's cost.)
+      // mesh, not by which thread ends first. (Colours of cells sharing no row, each colour added on
+      // every thread at once, were slower: a default-scene contact's assemblies 2.8-3.6 s against
+      // 2.5-2.8 s, alternately. A colour's cells are spread over the whole matrix, while consecutive
+      // cells in their order share rows in cache.)
       struct NonlinearCellPart
       {
         explicit NonlinearCellPart(const unsigned int dofs_per_cell)
