@@ -909,8 +909,7 @@ namespace modal_haptics
                 for (unsigned int i = 0; i < dofs_per_cell; ++i)
                   rhs(part.dof_indices[i]) += part.rhs(i);
                 if (with_tangent)
-                  for (unsigned int i = 0; i < dofs_per_cell; ++i)
-                    tangent.add(part.dof_indices[i], dofs_per_cell, part.dof_indices.data(), &part.K(i, 0), false, true);
+                  space_parts::add_sorted_cell_matrix(part.dof_indices, part.K, tangent);
               }
         };
         const NonlinearScratch  scratch(n_scalar, dofs_per_cell);

@@ -24,6 +24,7 @@
 #include <deal.II/grid/tria.h>
 #include <deal.II/lac/affine_constraints.h>
 #include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/sparse_matrix.h>
 
 #include <functional>
 #include <limits>
@@ -177,6 +178,11 @@ namespace modal_haptics
     // k_n (phi_i . n)(phi_j . n) + k_t (phi_i . phi_j - (phi_i . n)(phi_j . n)).
     void elastic_face_matrix(const dealii::Mapping<3> &mapping, const dealii::FiniteElement<3> &fe,
                              const ElasticFace &face, dealii::FullMatrix<double> &face_K);
+
+    // matrix += cell_matrix, whose rows and columns are the DoFs 'sorted_dofs' (ascending, none
+    // constrained): row by row, the columns found in one pass over each row of the pattern.
+    void add_sorted_cell_matrix(const std::vector<dealii::types::global_dof_index> &sorted_dofs,
+                                const dealii::FullMatrix<double> &cell_matrix, dealii::SparseMatrix<double> &matrix);
 
     // K and M from the given DoF cells (on deal.II's threads; each cell added in the cells' order)
     // and K's share of the elastic supports on the given faces; returns the cells' mass moments.

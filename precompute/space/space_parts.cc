@@ -387,18 +387,22 @@ namespace modal_haptics
         if constexpr (std::is_same_v<MatrixType, SparseMatrix<double>>)
           if (!part.through_constraints)
             {
-              const unsigned int n = part.sorted_dofs.size();
-              for (unsigned int i = 0; i < n; ++i)
-                {
-                  K.add(part.sorted_dofs[i], n, part.sorted_dofs.data(), &part.sorted_K(i, 0), false, true);
-                  M.add(part.sorted_dofs[i], n, part.sorted_dofs.data(), &part.sorted_M(i, 0), false, true);
-                }
+              add_sorted_cell_matrix(part.sorted_dofs, part.sorted_K, K);
+              add_sorted_cell_matrix(part.sorted_dofs, part.sorted_M, M);
               return;
             }
         constraints.distribute_local_to_global(part.K, part.dof_indices, K);
         constraints.distribute_local_to_global(part.M, part.dof_indices, M);
       }
     } // namespace
+
+    void add_sorted_cell_matrix(const std::vector<types::global_dof_index> &sorted_dofs,
+                                const FullMatrix<double> &cell_matrix, SparseMatrix<double> &matrix)
+    {
+      const unsigned int n = sorted_dofs.size();
+      for (unsigned int i = 0; i < n; ++i)
+        matrix.add(sorted_dofs[i], n, sorted_dofs.data(), &cell_matrix(i, 0), false, true);
+    }
 
     template <typename MatrixType>
     MassMoments assemble_elasticity(const SceneParameters &scene, const Mapping<3> &mapping, const FiniteElement<3> &fe,
