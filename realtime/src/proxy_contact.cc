@@ -395,44 +395,47 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
         }
     }
   // The residual compliance of the corner pairs, as blended_residual reads them for a load with
-  // itself (proxy_pair_compliance): per pair none, the pair's residual coupling (stored or far field)
-  // weighted by w_k w_l, or (a space that couples no distinct candidates) a corner's own block
-  // weighted by w_k.
+  // itself (proxy_pair_compliance), packed per unordered pair (ProxyState::residual).
   const ModalSpace &space = basis.spaces[space_];
   proxy.residual_any      = false;
-  std::ptrdiff_t entry[3][3]; // the corner pairs' CandidateGrams entries, looked up once
-  for (int k = 0; k < 3; ++k)
-    for (int l = k; l < 3; ++l)
-      entry[k][l] = entry[l][k] = stored_pair(proxy.corner(k), proxy.corner(l));
-  for (int k = 0; k < 3; ++k)
-    for (int l = 0; l < 3; ++l)
-      {
-        const int ck = proxy.corner(k).candidate, cl = proxy.corner(l).candidate;
-        ProxyResidual &pair = proxy.residual[3 * k + l];
-        pair.kind           = ProxyResidual::none;
-        if (!def.use_static_correction || ck < 0 || cl < 0)
+  proxy.residual_linear   = !space.couples_distinct_candidates();
+  for (double(&block)[9] : proxy.residual)
+    std::fill_n(block, 9, 0.0);
+  for (int p = 0; p < 6 && def.use_static_correction; ++p)
+    {
+      const int k = pairs[p][0], l = pairs[p][1];
+      const int ck = proxy.corner(k).candidate, cl = proxy.corner(l).candidate;
+      if (ck < 0 || cl < 0)
+        continue;
+      double *packed = proxy.residual[p];
+      if (proxy.residual_linear)
+        {
+          if (k == l)
+            std::copy_n(&space.candidate_compliance[9 * std::size_t(ck)], 9, packed), proxy.residual_any = true;
           continue;
-        if (space.couples_distinct_candidates())
-          {
-            const ProxyRow      &a = proxy.corner(k), &b = proxy.corner(l);
-            const std::ptrdiff_t e = entry[k][l];
-            bool                 coupled;
-            if (e >= 0)
-              {
-                coupled = candidate_grams_[space_].coupled[std::size_t(e)] != 0;
-                std::copy_n(candidate_grams_[space_].residual(e, a.vertex <= b.vertex), 9, pair.C);
-              }
-            else
-              coupled = space.residual_coupling(std::uint32_t(ck), std::uint32_t(cl), pair.C) != ModalSpace::Coupling::none;
-            if (coupled)
-              pair.kind = ProxyResidual::pair, proxy.residual_any = true;
-          }
-        else if (k == l)
-          {
-            std::copy_n(&space.candidate_compliance[9 * std::size_t(ck)], 9, pair.C);
-            pair.kind = ProxyResidual::own, proxy.residual_any = true;
-          }
-      }
+        }
+      const ProxyRow      &a = proxy.corner(k), &b = proxy.corner(l);
+      const std::ptrdiff_t e = stored_pair(a, b); // the CandidateGrams entry: C_kl and C_lk stored
+      for (int order = 0; order < (k == l ? 1 : 2); ++order)
+        {
+          const ProxyRow &from = order == 0 ? a : b, &to = order == 0 ? b : a;
+          double          C[9];
+          bool            coupled;
+          if (e >= 0)
+            {
+              coupled = candidate_grams_[space_].coupled[std::size_t(e)] != 0;
+              std::copy_n(candidate_grams_[space_].residual(e, from.vertex <= to.vertex), 9, C);
+            }
+          else
+            coupled = space.residual_coupling(std::uint32_t(from.candidate), std::uint32_t(to.candidate), C) !=
+                      ModalSpace::Coupling::none;
+          if (!coupled)
+            continue;
+          for (int i = 0; i < 9; ++i)
+            packed[i] += C[i];
+          proxy.residual_any = true;
+        }
+    }
   proxy.packed_triangle = proxy.triangle;
 }
 
@@ -651,8 +654,8 @@ void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 // the blended vertex normal: near a sharp edge (a rib's top, 1.8 mm wide) the blended normal tilts
 // towards the side face, and its tangential part of a straight press walked the proxy over the edge
 // and down the side. The proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
-// mu_d when sliding); else it slides along F_t until |F_t| = mu_d F_n (a few passes follow the
-// surface's curvature).
+// mu_d when sliding); else it slides along F_t until |F_t| = mu_d F_n, to proxy_friction_tolerance
+// (a few passes follow the surface's curvature).
 void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
 {
   // The corners' displacements and the load point's velocity as the last tick's outputs left them
@@ -695,7 +698,7 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
             break;
         }
       const double excess = across - def.dynamic_friction * std::max(0.0, normal);
-      if (excess <= 1e-12 * across)
+      if (excess <= proxy_friction_tolerance * across)
         break;
       for (int d = 0; d < 3; ++d) // K times this step takes the excess off F_t
         F[d] *= excess / (K * across);
@@ -918,20 +921,15 @@ void modalrt_kernel::proxy_pair_compliance(const Contact &a, const Contact &b, d
     {
       if (!a.proxy.residual_any)
         return;
-      // blended_residual's sum over the pairs of its triangle's corners, the blocks read once per
-      // triangle (pack_triangle): the same terms in the same order.
-      const double *w = a.proxy.weights;
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l)
-          {
-            const ProxyResidual &pair = a.proxy.residual[3 * k + l];
-            const double         ww   = w[k] * w[l];
-            if (pair.kind == ProxyResidual::none || ww == 0.0)
-              continue;
-            const double scale = pair.kind == ProxyResidual::pair ? ww : w[k];
-            for (int e = 0; e < 9; ++e)
-              C[e] += scale * pair.C[e];
-          }
+      // blended_residual's sum over the pairs of its triangle's corners, from the blocks packed once
+      // per triangle (pack_triangle): 54 multiply-adds, no branch.
+      const double *w       = a.proxy.weights;
+      const double  c[6]    = {a.proxy.residual_linear ? w[0] : w[0] * w[0], a.proxy.residual_linear ? w[1] : w[1] * w[1],
+                               a.proxy.residual_linear ? w[2] : w[2] * w[2], w[0] * w[1], w[0] * w[2], w[1] * w[2]};
+      const double(&R)[6][9] = a.proxy.residual;
+#pragma omp simd
+      for (int e = 0; e < 9; ++e)
+        C[e] = c[0] * R[0][e] + c[1] * R[1][e] + c[2] * R[2][e] + c[3] * R[3][e] + c[4] * R[4][e] + c[5] * R[5][e];
       return;
     }
   auto load_corners = [](const Contact &c, LoadCorner corners[3]) {

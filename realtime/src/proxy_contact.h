@@ -20,6 +20,11 @@ namespace modalrt
   // Friction passes per tick: the first decides stick or slide, the others follow the curvature of
   // the deformed surface to the friction cone's edge.
   constexpr int proxy_passes = 3;
+  // A sliding proxy has reached the cone's edge once the tangential force exceeds mu_d F_n by at most
+  // this fraction of itself. One step leaves about 1e-4 (the walk is on the deformed triangle, the
+  // force split along its normal at rest), so a flat stretch takes one walk a tick, not three; 1e-3
+  // of the friction force is far below what a hand tells apart (realtime/README.md, "Cost").
+  constexpr double proxy_friction_tolerance = 1e-3;
   // The look-ahead of a proxy on triangle t: the triangles it is expected to enter next, whose
   // corners' rows and pair blocks are prepared before it gets there. With a heading (its last step
   // over the surface) the next proxy_lookahead triangles that a straight line from the proxy along
@@ -151,8 +156,13 @@ namespace modalrt
     // The triangle's pair blocks packed for the coupling: per corner pair (00, 11, 22, 01, 02, 12)
     // the upper triangle of M_kk (or of M_kl + M_kl^T), then of N.
     double        packed[6][12];
-    ProxyResidual residual[9];                    // corner pairs (k, l) at 3 k + l
-    bool          residual_any = false;           // any of them not none
+    // The residual compliance of the triangle's own load, packed like `packed`: per corner pair
+    // (00, 11, 22, 01, 02, 12) C_kk, or C_kl + C_lk, each the pair's residual coupling (stored or far
+    // field; zero where there is none), weighted by w_k w_l; or, in a space that couples no distinct
+    // candidates (residual_linear), each corner's own C_k weighted by w_k (the pairs 01, 02, 12 zero).
+    double        residual[6][9];
+    bool          residual_any    = false;        // any of them not zero
+    bool          residual_linear = false;
     std::uint32_t packed_triangle = MODALRT_NONE; // the triangle both were made for
     double        face[3] = {0.0, 0.0, 0.0};      // face_normal of face_triangle
     std::uint32_t face_triangle = MODALRT_NONE;
