@@ -713,11 +713,13 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
   if (basis.region[c.vertex] != region_before)
     proxy_region_changed_ = true;
   // The tick that entered a triangle has done the crossing's own work: the look-ahead of the new
-  // triangle waits for the next tick (once: a proxy crossing at every tick still gets it).
+  // triangle waits for the next tick (up to proxy_lookahead_deferrals such ticks in a row: a proxy
+  // crossing at every tick still gets it).
   const bool entered  = proxy.crossings != crossings_before;
-  proxy.lookahead_deferred = entered && !proxy.lookahead_deferred;
-  if (!proxy.lookahead_deferred)
-    prepare_proxy(c);
+  if (entered && proxy.lookahead_deferrals < proxy_lookahead_deferrals)
+    ++proxy.lookahead_deferrals;
+  else
+    proxy.lookahead_deferrals = 0, prepare_proxy(c);
 }
 
 // The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest

@@ -30,6 +30,12 @@ namespace modalrt
   // over the surface) the next proxy_lookahead triangles that a straight line from the proxy along
   // it crosses into (at rest); without one (a start) the triangles across t's edges.
   constexpr std::uint32_t proxy_lookahead = 3;
+  // A tick that enters a triangle does the crossing's own work and puts the look-ahead off to the
+  // next tick; a proxy that enters triangles on consecutive ticks (a path past a vertex, or along
+  // the short side of thin triangles) gets it after this many such ticks in a row. With one, 43 % of
+  // the ticks entering a triangle on bench-kernel-tick's plates also made the look-ahead (the
+  // crossings come in pairs there: an edge of a cell, then its diagonal).
+  constexpr std::uint8_t proxy_lookahead_deferrals = 3;
   // Rows a sliding contact keeps (its buffers are sized at kernel creation): the three corners, one
   // new corner per look-ahead triangle, and six more, so that the rows of the triangles just left
   // stay while they are not needed elsewhere (a proxy going back finds them).
@@ -141,7 +147,7 @@ namespace modalrt
   {
     bool          active   = false;
     bool          sliding  = false; // dynamic friction (else sticking)
-    bool          lookahead_deferred = false; // the triangle entered this tick: its look-ahead put off to the next
+    std::uint8_t  lookahead_deferrals = 0; // ticks in a row that entered a triangle and put off the look-ahead
     std::uint32_t triangle = MODALRT_NONE;
     double        weights[3] = {0.0, 0.0, 0.0}; // of the triangle's corners, in the basis's order
     ProxyRow      rows[proxy_row_slots];         // rows of the vertices around the proxy, any order
@@ -179,7 +185,8 @@ namespace modalrt
     // No proxy (the rows and pair blocks keep their buffers).
     void clear()
     {
-      active = sliding = lookahead_deferred = false;
+      active = sliding = false;
+      lookahead_deferrals = 0;
       triangle = rows_space = ahead_triangle = packed_triangle = face_triangle = deformed.triangle = MODALRT_NONE;
       bv_stamp = 0;
       crossings = ahead_count = ahead_next = 0;
