@@ -93,7 +93,8 @@
  *     it (F_t; the plane the proxy walks in, so a press straight in does not slide it off a narrow
  *     face whose blended vertex normals tilt towards its edges): a
  *     sticking proxy stays while |F_t| <= static_friction F_n; then it slides, moved along F_t so
- *     that |F_t| = dynamic_friction F_n, until |F_t| falls within that cone, when it sticks again.
+ *     that |F_t| = dynamic_friction F_n (to within 1e-3 of |F_t|), until |F_t| falls within that
+ *     cone, when it sticks again.
  *     0 and 0 is frictionless (the tangential force vanishes). At a boundary edge of the surface
  *     the proxy stops. Admittance ticks do not move the proxy.
  *   - Release as the snap contact (outward beyond release_distance, or release_drag_distance across).
