@@ -35,7 +35,6 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
-#include <numeric>
 #include <sstream>
 #include <tuple>
 #include <type_traits>
@@ -517,10 +516,7 @@ namespace modal_haptics
                         gradients[(c * n_q + q) * n_scalar + a] = fe_values.shape_grad(dof[a][0], q);
                     }
                   cells[c]->get_dof_indices(indices);
-                  std::iota(order.begin(), order.end(), 0u);
-                  std::sort(order.begin(), order.end(), [&](const unsigned int i, const unsigned int j) {
-                    return indices[i] < indices[j];
-                  });
+                  space_parts::ascending_dof_order(indices, order);
                   for (unsigned int k = 0; k < dofs_per_cell; ++k)
                     {
                       sorted_dof_indices[c * dofs_per_cell + k]     = indices[order[k]];

@@ -179,6 +179,10 @@ namespace modal_haptics
     void elastic_face_matrix(const dealii::Mapping<3> &mapping, const dealii::FiniteElement<3> &fe,
                              const ElasticFace &face, dealii::FullMatrix<double> &face_K);
 
+    // The permutation that puts a cell's DoFs in ascending order: dofs[order[0]] < dofs[order[1]] < ...
+    // (the order add_sorted_cell_matrix takes a cell's rows and columns in).
+    void ascending_dof_order(const std::vector<dealii::types::global_dof_index> &dofs, std::vector<unsigned int> &order);
+
     // matrix += cell_matrix, whose rows and columns are the DoFs 'sorted_dofs' (ascending, none
     // constrained): row by row, the columns found in one pass over each row of the pattern.
     void add_sorted_cell_matrix(const std::vector<dealii::types::global_dof_index> &sorted_dofs,

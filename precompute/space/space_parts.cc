@@ -363,9 +363,7 @@ namespace modal_haptics
         // sorted_* from K, M and dof_indices.
         void sort_by_dof()
         {
-          std::iota(order.begin(), order.end(), 0u);
-          std::sort(order.begin(), order.end(),
-                    [&](const unsigned int i, const unsigned int j) { return dof_indices[i] < dof_indices[j]; });
+          ascending_dof_order(dof_indices, order);
           for (unsigned int i = 0; i < order.size(); ++i)
             {
               sorted_dofs[i] = dof_indices[order[i]];
@@ -395,6 +393,13 @@ namespace modal_haptics
         constraints.distribute_local_to_global(part.M, part.dof_indices, M);
       }
     } // namespace
+
+    void ascending_dof_order(const std::vector<types::global_dof_index> &dofs, std::vector<unsigned int> &order)
+    {
+      order.resize(dofs.size());
+      std::iota(order.begin(), order.end(), 0u);
+      std::sort(order.begin(), order.end(), [&](const unsigned int i, const unsigned int j) { return dofs[i] < dofs[j]; });
+    }
 
     void add_sorted_cell_matrix(const std::vector<types::global_dof_index> &sorted_dofs,
                                 const FullMatrix<double> &cell_matrix, SparseMatrix<double> &matrix)
