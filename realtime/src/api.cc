@@ -406,7 +406,7 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.grasp                  = 0;    // a contact pushes, it does not pull
   d.validity_clamp         = 0; // the force is not limited to the validity force
   d.contact_mode           = MODALRT_CONTACT_SNAP;
-  d.reserved_proxy         = 0;
+  d.proxy_row_memory       = 0;
   d.static_friction        = 0.3; // a dry finger on a moulded plastic part, roughly
   d.dynamic_friction       = 0.2;
   return d;

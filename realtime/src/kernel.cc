@@ -110,9 +110,8 @@ namespace
     require(d.grasp <= 1, MODALRT_ERROR_INVALID_ARGUMENT, cat("grasp = ", d.grasp, ", expected 0 or 1"));
     require(d.validity_clamp <= 1, MODALRT_ERROR_INVALID_ARGUMENT,
             cat("validity_clamp = ", d.validity_clamp, ", expected 0 or 1"));
-    require(d.contact_mode <= MODALRT_CONTACT_PROXY && d.reserved_proxy == 0, MODALRT_ERROR_INVALID_ARGUMENT,
-            cat("contact_mode = ", d.contact_mode, " (expected MODALRT_CONTACT_SNAP or _PROXY), reserved_proxy = ",
-                d.reserved_proxy, " (must be 0)"));
+    require(d.contact_mode <= MODALRT_CONTACT_PROXY, MODALRT_ERROR_INVALID_ARGUMENT,
+            cat("contact_mode = ", d.contact_mode, " (expected MODALRT_CONTACT_SNAP or _PROXY)"));
     require(std::isfinite(d.static_friction) && d.dynamic_friction >= 0.0 && d.dynamic_friction <= d.static_friction &&
               d.static_friction <= 10.0,
             MODALRT_ERROR_INVALID_ARGUMENT,
@@ -165,7 +164,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
       contacts_[h].proxy.grams = proxy_grams_.data() + std::size_t(h) * proxy_slot_pairs;
     }
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
-    make_candidate_grams();
+    make_stored_rows();
   observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;

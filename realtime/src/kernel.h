@@ -147,7 +147,8 @@ private:
   std::uint32_t add_gram_modes(modalrt::ProxyState &proxy, std::uint32_t i, std::uint32_t j,
                                std::uint32_t budget) const noexcept;
   void  pack_triangle(Contact &contact) noexcept;
-  void  make_candidate_grams();
+  void  make_stored_rows();
+  const double *stored_row(std::uint32_t space, std::uint32_t vertex) const noexcept;
   std::ptrdiff_t stored_pair(const modalrt::ProxyRow &a, const modalrt::ProxyRow &b) const noexcept;
   void  prepare_proxy(Contact &contact) noexcept;
   void  proxy_coupling_block(const Contact &contact, double S[9], double Sv[9]) const noexcept;
@@ -186,7 +187,8 @@ private:
   modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
   modalrt::Vector<double>            proxy_rows_;    // hip_capacity x proxy_row_slots x 3 x max_modes
   modalrt::Vector<modalrt::ProxyGram> proxy_grams_;  // hip_capacity x proxy_slot_pairs
-  modalrt::Vector<modalrt::CandidateGrams> candidate_grams_; // per space (sliding contacts only)
+  modalrt::Vector<modalrt::StoredRows>  stored_rows_;  // per space (sliding contacts only)
+  modalrt::Vector<modalrt::StoredGrams> stored_grams_; // per space (sliding contacts only)
   modalrt::Vector<double>            observed_positions_; // 3 hip_capacity: the HIPs at the last observed tick [m] world
   std::uint32_t                  observed_count_ = 0; // HIPs observed at the last tick (0: not primed)
   bool                           proxy_region_changed_ = false; // a proxy's nearest vertex changed region

@@ -181,8 +181,9 @@ void modalrt_kernel::begin_proxy(std::uint32_t hip, bool at_hip) noexcept
 
 // A slot for `vertex`'s row, taken from a vertex that is not wanted: never a corner of `keep` (the
 // triangle the proxy is on or entering); an empty slot first, else the one wanted longest ago (the
-// look-ahead's rows carry the current stamp). A candidate's row is its stored block, ready at once;
-// a patch row starts empty and is accumulated by add_row_entries. The slot's pair blocks are void.
+// look-ahead's rows carry the current stamp). A stored row (StoredRows) is read in place, ready at
+// once; any other patch row starts empty and is accumulated by add_row_entries. The slot's pair
+// blocks are void.
 int modalrt_kernel::acquire_row(Contact &c, std::uint32_t vertex, const std::uint32_t *keep) noexcept
 {
   ProxyState &proxy = c.proxy;
@@ -206,10 +207,11 @@ int modalrt_kernel::acquire_row(Contact &c, std::uint32_t vertex, const std::uin
   row.vertex    = vertex;
   row.candidate = space.candidate_index(vertex);
   row.stamp     = proxy.crossings;
-  if (row.candidate >= 0)
+  if (const double *stored = stored_row(space_, vertex))
     {
-      row.B     = &space.candidate_modes[3 * std::size_t(space.mode_count) * std::size_t(row.candidate)];
-      row.ready = true;
+      row.B      = stored;
+      row.ready  = true;
+      row.stored = true;
       // Most rows are taken by the look-ahead: fetched into the cache now, the crossing that reaches
       // them (B q, the blended row) does not wait for memory.
       prefetch(row.B, 3 * sizeof(double) * std::size_t(space.mode_count));
@@ -253,67 +255,119 @@ namespace
   }
 } // namespace
 
-// The pair blocks of every two candidates of a space that share a display triangle, and of each
-// candidate with itself (CandidateGrams), for every space: 24 r multiply-adds each, at creation.
-void modalrt_kernel::make_candidate_grams()
+// The contact row of `vertex` in `space` that the kernel holds (StoredRows), nullptr if none.
+const double *modalrt_kernel::stored_row(std::uint32_t space_index, std::uint32_t vertex) const noexcept
+{
+  const ModalSpace &space = basis.spaces[space_index];
+  if (const int c = space.candidate_index(vertex); c >= 0)
+    return &space.candidate_modes[3 * std::size_t(space.mode_count) * std::size_t(c)];
+  if (space_index >= stored_rows_.size() || stored_rows_[space_index].patch_row_of.empty())
+    return nullptr;
+  const StoredRows   &stored = stored_rows_[space_index];
+  const std::uint32_t k      = stored.patch_row_of[vertex];
+  return k == MODALRT_NONE ? nullptr : &stored.patch_rows[3 * std::size_t(space.mode_count) * k];
+}
+
+namespace
+{
+  // The pairs (a, b), a <= b, of display vertices that share a triangle, and each vertex with itself,
+  // sorted, whose rows `has_row` says are stored.
+  template <typename HasRow>
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> triangle_pairs(const modalrt_basis &basis, HasRow has_row)
+  {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    for (std::uint32_t v = 0; v < basis.vertex_count; ++v)
+      if (has_row(v))
+        pairs.emplace_back(v, v);
+    for (std::uint32_t t = 0; t < basis.triangle_count; ++t)
+      for (int k = 0; k < 3; ++k)
+        {
+          const std::uint32_t a = basis.triangles[3 * std::size_t(t) + k];
+          const std::uint32_t b = basis.triangles[3 * std::size_t(t) + (k + 1) % 3];
+          if (has_row(a) && has_row(b))
+            pairs.emplace_back(std::min(a, b), std::max(a, b));
+        }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    return pairs;
+  }
+} // namespace
+
+// For every space, at creation: the patch rows of its display vertices that are not candidates
+// (StoredRows; a space whose rows and pair blocks would take the memory past def.proxy_row_memory
+// keeps only its candidates'), then the pair blocks and residual couplings of every two vertices
+// with stored rows that share a triangle, and of each with itself (StoredGrams): 24 r multiply-adds
+// a pair, once.
+void modalrt_kernel::make_stored_rows()
 {
   const std::uint32_t nv = basis.vertex_count;
-  candidate_grams_.resize(basis.space_count());
+  stored_rows_.resize(basis.space_count());
+  stored_grams_.resize(basis.space_count());
+  const std::size_t limit = def.proxy_row_memory == MODALRT_PROXY_ROWS_IN_TICKS ? 0
+                            : std::size_t(def.proxy_row_memory == 0 ? proxy_default_row_memory_mib : def.proxy_row_memory)
+                                  << 20;
+  std::size_t memory = 0;
   for (std::uint32_t s = 0; s < basis.space_count(); ++s)
     {
       const ModalSpace      &space      = basis.spaces[s];
       const ModalIntegrator &integrator = integrators_[s];
       const std::uint32_t    r          = space.mode_count;
-      CandidateGrams        &store      = candidate_grams_[s];
-      // The pairs (a, b), a <= b, both candidates, sharing a triangle (or a == b), sorted.
-      std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-      for (std::uint32_t c = 0; c < space.candidate_count; ++c)
-        pairs.emplace_back(space.candidates[c], space.candidates[c]);
-      for (std::uint32_t t = 0; t < basis.triangle_count; ++t)
-        for (int k = 0; k < 3; ++k)
-          {
-            const std::uint32_t a = basis.triangles[3 * std::size_t(t) + k];
-            const std::uint32_t b = basis.triangles[3 * std::size_t(t) + (k + 1) % 3];
-            if (space.candidate_index(a) >= 0 && space.candidate_index(b) >= 0)
-              pairs.emplace_back(std::min(a, b), std::max(a, b));
-          }
-      std::sort(pairs.begin(), pairs.end());
-      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      // Every vertex stored: its pairs are at most one a vertex and one an edge (three a triangle).
+      const std::size_t patch_vertices = nv - space.candidate_count;
+      const std::size_t all_pairs      = std::size_t(nv) + 3 * std::size_t(basis.triangle_count);
+      const std::size_t need           = sizeof(double) * (3 * std::size_t(r) * patch_vertices +
+                                                           StoredGrams::entry_doubles * all_pairs);
+      if (patch_vertices > 0 && memory + need <= limit)
+        {
+          StoredRows &stored = stored_rows_[s];
+          stored.patch_row_of.assign(nv, MODALRT_NONE);
+          stored.patch_rows.assign(3 * std::size_t(r) * patch_vertices, 0.0);
+          std::uint32_t k = 0;
+          for (std::uint32_t v = 0; v < nv; ++v)
+            if (space.candidate_index(v) < 0)
+              {
+                stored.patch_row_of[v] = k;
+                patch_row(basis, space, v, 0, r, &stored.patch_rows[3 * std::size_t(r) * k++]);
+              }
+          memory += need;
+        }
+      const auto pairs = triangle_pairs(basis, [&](std::uint32_t v) { return stored_row(s, v) != nullptr; });
+      StoredGrams &store = stored_grams_[s];
       store.first.assign(std::size_t(nv) + 1, 0);
       store.neighbour.resize(pairs.size());
       store.coupled.assign(pairs.size(), 0);
-      store.blocks.assign(CandidateGrams::entry_doubles * pairs.size(), 0.0);
+      store.blocks.assign(StoredGrams::entry_doubles * pairs.size(), 0.0);
       for (std::size_t e = 0; e < pairs.size(); ++e)
         {
           const auto [a, b] = pairs[e];
           ++store.first[a + 1];
           store.neighbour[e] = b;
-          const auto    ca = std::uint32_t(space.candidate_index(a)), cb = std::uint32_t(space.candidate_index(b));
-          const double *Ba = &space.candidate_modes[3 * std::size_t(r) * ca];
-          const double *Bb = &space.candidate_modes[3 * std::size_t(r) * cb];
-          double       *M  = &store.blocks[CandidateGrams::entry_doubles * e];
-          add_gram_chunks(Ba, Bb, integrator.g1(), integrator.g2(), r, 0, r, M, M + 9);
-          store.coupled[e] = space.residual_coupling(ca, cb, M + 18) != ModalSpace::Coupling::none;
-          space.residual_coupling(cb, ca, M + 27);
+          double *M = &store.blocks[StoredGrams::entry_doubles * e];
+          add_gram_chunks(stored_row(s, a), stored_row(s, b), integrator.g1(), integrator.g2(), r, 0, r, M, M + 9);
+          const int ca = space.candidate_index(a), cb = space.candidate_index(b);
+          if (ca < 0 || cb < 0)
+            continue;
+          store.coupled[e] = space.residual_coupling(std::uint32_t(ca), std::uint32_t(cb), M + 18) != ModalSpace::Coupling::none;
+          space.residual_coupling(std::uint32_t(cb), std::uint32_t(ca), M + 27);
         }
       for (std::uint32_t v = 0; v < nv; ++v)
         store.first[v + 1] += store.first[v];
     }
 }
 
-// The CandidateGrams entry of two rows of the active space, -1 if either is not a candidate or they
+// The StoredGrams entry of two rows of the active space, -1 if either row is not stored or they
 // share no triangle.
 std::ptrdiff_t modalrt_kernel::stored_pair(const ProxyRow &a, const ProxyRow &b) const noexcept
 {
-  if (a.candidate < 0 || b.candidate < 0 || space_ >= candidate_grams_.size())
+  if (!a.stored || !b.stored || space_ >= stored_grams_.size())
     return -1;
-  return candidate_grams_[space_].find(std::min(a.vertex, b.vertex), std::max(a.vertex, b.vertex));
+  return stored_grams_[space_].find(std::min(a.vertex, b.vertex), std::max(a.vertex, b.vertex));
 }
 
 // Adds chunks of modes to the pair block of slots i and j (both rows ready) until it is ready or
 // `budget` modes are spent (the last chunk may go over); returns the modes added. The chunks are the
 // same whoever adds them (the look-ahead, a crossing that found the block unprepared, or the kernel's
-// creation for two candidates: then it is copied, transposed if slot i's vertex is the larger, and
+// creation for two stored rows: then it is copied, transposed if slot i's vertex is the larger, and
 // no mode is spent), so the block does not depend on when it was made.
 std::uint32_t modalrt_kernel::add_gram_modes(ProxyState &proxy, std::uint32_t i, std::uint32_t j,
                                              std::uint32_t budget) const noexcept
@@ -324,7 +378,7 @@ std::uint32_t modalrt_kernel::add_gram_modes(ProxyState &proxy, std::uint32_t i,
   const ProxyRow        &low = proxy.rows[std::min(i, j)], &high = proxy.rows[std::max(i, j)];
   if (const std::ptrdiff_t e = g.built == 0 ? stored_pair(low, high) : -1; e >= 0)
     {
-      const double *stored     = candidate_grams_[space_].gram(e);
+      const double *stored     = stored_grams_[space_].gram(e);
       const bool    transposed = low.vertex > high.vertex;
       for (int row = 0; row < 3; ++row)
         for (int column = 0; column < 3; ++column)
@@ -415,7 +469,7 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
           continue;
         }
       const ProxyRow      &a = proxy.corner(k), &b = proxy.corner(l);
-      const std::ptrdiff_t e = stored_pair(a, b); // the CandidateGrams entry: C_kl and C_lk stored
+      const std::ptrdiff_t e = stored_pair(a, b); // the StoredGrams entry: C_kl and C_lk stored
       for (int order = 0; order < (k == l ? 1 : 2); ++order)
         {
           const ProxyRow &from = order == 0 ? a : b, &to = order == 0 ? b : a;
@@ -423,8 +477,8 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
           bool            coupled;
           if (e >= 0)
             {
-              coupled = candidate_grams_[space_].coupled[std::size_t(e)] != 0;
-              std::copy_n(candidate_grams_[space_].residual(e, from.vertex <= to.vertex), 9, C);
+              coupled = stored_grams_[space_].coupled[std::size_t(e)] != 0;
+              std::copy_n(stored_grams_[space_].residual(e, from.vertex <= to.vertex), 9, C);
             }
           else
             coupled = space.residual_coupling(std::uint32_t(from.candidate), std::uint32_t(to.candidate), C) !=

@@ -51,6 +51,13 @@ namespace modalrt
   // (realtime/README.md, "Cost").
   constexpr std::uint32_t proxy_prepare_work = 6000;
   constexpr std::uint32_t proxy_gram_chunk   = 64;
+  // The memory a sliding kernel spends at creation by default (modalrt_kernel_def.proxy_row_memory
+  // = 0) on the contact rows of the display vertices that are not candidates (their patch averages,
+  // 3 r doubles each) and on the pair blocks of the vertices sharing a triangle (StoredGrams), over
+  // all spaces in the basis's order: about 4.8 kB a vertex at r = 200, so a basis of 11 160 display
+  // vertices whose three spaces sample their candidates takes 160 MB of rows and 39 MB of pair
+  // blocks at r = 200.
+  constexpr std::uint32_t proxy_default_row_memory_mib = 256;
 
   // A vertex's contact row B_v (3 x r) in the active space: the candidate's CANDIDATE_MODES block
   // (read in place) or the patch average, accumulated in the slot's own buffer.
@@ -58,15 +65,19 @@ namespace modalrt
   {
     std::uint32_t vertex    = MODALRT_NONE;
     int           candidate = -1; // index among the active space's candidates, -1 if none
-    const double *B         = nullptr; // the row when ready: the candidate's block, or `buffer`
+    const double *B         = nullptr; // the row when ready: stored (StoredRows), or `buffer`
     double       *buffer    = nullptr; // this slot's 3 x max_modes doubles (the kernel's)
     std::uint32_t built     = 0; // patch entries accumulated into buffer so far
     bool          ready     = false;
+    bool          stored    = false; // B is the space's stored row: its pair blocks are in StoredGrams
     std::uint32_t stamp     = 0; // the proxy's crossing count when last wanted (eviction order)
     double        u[3]      = {0.0, 0.0, 0.0}; // B_v q: kept for the triangle's corners
     std::uint64_t u_stamp   = 0; // the kernel's state stamp u was taken at (0: never)
 
-    void clear() { vertex = MODALRT_NONE, candidate = -1, B = nullptr, built = 0, ready = false, stamp = 0, u_stamp = 0; }
+    void clear()
+    {
+      vertex = MODALRT_NONE, candidate = -1, B = nullptr, built = 0, ready = stored = false, stamp = 0, u_stamp = 0;
+    }
   };
 
   // The residual compliance of a pair of a triangle's corners as a proxy's own load reads it.
@@ -96,16 +107,25 @@ namespace modalrt
     void clear() { built = 0, ready = false; }
   };
 
-  // What a sliding contact reads of two candidates of a space that share a display triangle (or of a
-  // candidate with itself), made at kernel creation: their pair blocks and their residual coupling.
-  // A crossing between candidates (every vertex of the precompute's default bases) then copies
-  // what the look-ahead has already touched, instead of summing over the modes or searching the
-  // cross rows in the tick (realtime/README.md, "Cost"). Entry e of vertex a is the pair
-  // (a, neighbour[e]) with neighbour[e] >= a.
-  struct CandidateGrams
+  // The contact rows of a space's display vertices that a sliding kernel holds without building
+  // them in a tick: a candidate's CANDIDATE_MODES block (in the basis), and, made at creation within
+  // modalrt_kernel_def.proxy_row_memory, every other vertex's patch average (patch_row's, to the last bit).
+  struct StoredRows
+  {
+    modalrt::Vector<std::uint32_t> patch_row_of; // per display vertex: its index in patch_rows, or MODALRT_NONE
+    modalrt::Vector<double>        patch_rows;   // 3 r doubles per vertex that is not a candidate
+  };
+
+  // What a sliding contact reads of two vertices of a space with stored rows that share a display
+  // triangle (or of such a vertex with itself), made at kernel creation: their pair blocks and their
+  // residual coupling. A crossing between them then copies what the look-ahead has already touched,
+  // instead of summing over the modes or searching the cross rows in the tick (realtime/README.md,
+  // "Cost"). Entry e of vertex a is the pair (a, neighbour[e]) with neighbour[e] >= a.
+  struct StoredGrams
   {
     // Per entry: M and N of ProxyGram with B_a on the left (summed in the look-ahead's chunks), then
-    // the residual coupling C_ab and C_ba as ModalSpace::residual_coupling gives them.
+    // the residual coupling C_ab and C_ba as ModalSpace::residual_coupling gives them (zero unless
+    // both are candidates).
     static constexpr std::size_t entry_doubles = 36;
 
     modalrt::Vector<std::uint32_t> first;     // per display vertex, its first entry (vertex_count + 1)
@@ -113,7 +133,7 @@ namespace modalrt
     modalrt::Vector<std::uint8_t>  coupled;   // per entry: 1 if residual_coupling is not none
     modalrt::Vector<double>        blocks;    // entry_doubles per entry
 
-    // The entry of the pair (a, b), a <= b, or -1 when they are not candidates sharing a triangle.
+    // The entry of the pair (a, b), a <= b, or -1 when they share no triangle or a row is not stored.
     std::ptrdiff_t find(std::uint32_t a, std::uint32_t b) const
     {
       if (first.empty())

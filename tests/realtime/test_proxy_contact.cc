@@ -385,24 +385,34 @@ namespace
   }
 
   // 3b. The same over vertices without a stored block (one vertex in four a candidate), in
-  // circles (turns: look-ahead missed), r = 70: their patch rows are prepared ahead of the proxy a
-  // bounded amount per tick, and its coupling comes from its triangle's pair blocks. The felt normal
+  // circles (turns: look-ahead missed), r = 70, twice: with their patch rows and pair blocks made at
+  // the kernel's creation (the default, proxy_row_memory = 0), and with every such row built in the
+  // ticks, a bounded amount ahead of the proxy (MODALRT_PROXY_ROWS_IN_TICKS). The felt normal
   // compliance where the proxy is equals the compliance of the blended load
-  // (modalrt_basis_point_compliance), and the ticks allocate nothing.
-  void stiffness_over_patch_rows()
+  // (modalrt_basis_point_compliance), the ticks allocate nothing, and the two kernels render the
+  // same forces (to round-off: a pair block summed with its rows in the other order).
+  struct CircleRun
+  {
+    std::vector<double> forces; // 3 per tick
+    double              worst = 0.0;
+    int                 probes = 0, uncorrected = 0, failed_ticks = 0;
+    std::uint64_t       allocations = 0;
+  };
+
+  CircleRun circles_over_patch_rows(std::uint32_t row_memory)
   {
     LatticeOptions o   = plate_options();
     o.all_candidates   = false;
     o.candidate_stride = 4; // a candidate in four: the others' rows are patch rows
     o.modes            = {70, 90}; // pair blocks in two chunks, spread over ticks by the budget
-    modalrt_basis  *b  = test::load(modalrt::make_lattice_cantilever(o));
-    modalrt_kernel *k = test::create(b, proxy_def(0.3, 0.2));
+    modalrt_basis     *b   = test::load(modalrt::make_lattice_cantilever(o));
+    modalrt_kernel_def def = proxy_def(0.3, 0.2);
+    def.proxy_row_memory   = row_memory;
+    modalrt_kernel    *k   = test::create(b, def);
     const double    radius = 0.02, omega = 0.1 / radius, centre[2] = {0.08, 0.025}, z_top = top(o);
     modalrt_hip_input  in{};
     modalrt_hip_output out;
-    double             worst = 0.0;
-    int                probes = 0, uncorrected = 0, failed_ticks = 0;
-    std::uint64_t      allocations = 0;
+    CircleRun          run;
     for (int tick = 0; tick < 3000; ++tick)
       {
         const double t = tick * T, press = std::min(1.0, t / 0.3);
@@ -411,9 +421,10 @@ namespace
         in.position[2] = z_top + 0.001 - 0.003 * press, in.velocity[2] = 0.0;
         const std::uint64_t before = modalrt_tool::counted_allocations();
         modalrt_tool::count_allocations_in_this_thread(tick >= 100);
-        failed_ticks += modalrt_kernel_tick_impedance(k, &in, 1, &out) != MODALRT_OK; // (ENSURE allocates)
+        run.failed_ticks += modalrt_kernel_tick_impedance(k, &in, 1, &out) != MODALRT_OK; // (ENSURE allocates)
         modalrt_tool::count_allocations_in_this_thread(false);
-        allocations += modalrt_tool::counted_allocations() - before;
+        run.allocations += modalrt_tool::counted_allocations() - before;
+        run.forces.insert(run.forces.end(), out.force, out.force + 3);
         if (tick < 600 || tick % 97 != 0 || !out.in_contact)
           continue;
         const auto felt = probe(k, 1, {0.0, 0.0, -1.0});
@@ -422,17 +433,36 @@ namespace
         ENSURE(modalrt_basis_point_compliance(b, felt[0].space, felt[0].proxy_triangle, felt[0].proxy_weights, G,
                                               &full_fe) == MODALRT_OK);
         const auto rest = rest_of(b, load_of(b, felt[0]));
-        worst = std::max(worst, std::fabs(-(felt[0].position[2] - rest[2]) - G[8]) / G[8]);
-        uncorrected += full_fe == 0;
-        ++probes;
+        run.worst = std::max(run.worst, std::fabs(-(felt[0].position[2] - rest[2]) - G[8]) / G[8]);
+        run.uncorrected += full_fe == 0;
+        ++run.probes;
       }
-    std::printf("  circles over patch rows prepared ahead: %d points (%d not all candidates) within %.1e of the blended "
-                "load's compliance; %llu allocations in 2900 ticks\n",
-                probes, uncorrected, worst, (unsigned long long)allocations);
-    ENSURE(failed_ticks == 0 && probes >= 20 && uncorrected >= 10);
-    ENSURE(worst < 1e-9 && allocations == 0);
     modalrt_kernel_destroy(k);
     modalrt_basis_destroy(b);
+    return run;
+  }
+
+  void stiffness_over_patch_rows()
+  {
+    const CircleRun stored = circles_over_patch_rows(0), in_ticks = circles_over_patch_rows(MODALRT_PROXY_ROWS_IN_TICKS);
+    double force_difference = 0.0, largest = 0.0;
+    for (std::size_t i = 0; i < stored.forces.size(); ++i)
+      {
+        force_difference = std::max(force_difference, std::fabs(stored.forces[i] - in_ticks.forces[i]));
+        largest          = std::max(largest, std::fabs(stored.forces[i]));
+      }
+    for (const CircleRun *run : {&stored, &in_ticks})
+      {
+        std::printf("  circles over patch rows %s: %d points (%d not all candidates) within %.1e of the blended "
+                    "load's compliance; %llu allocations in 2900 ticks\n",
+                    run == &stored ? "made at creation" : "built in the ticks", run->probes, run->uncorrected,
+                    run->worst, (unsigned long long)run->allocations);
+        ENSURE(run->failed_ticks == 0 && run->probes >= 20 && run->uncorrected >= 10);
+        ENSURE(run->worst < 1e-9 && run->allocations == 0);
+      }
+    std::printf("  the two kernels' forces over 3000 ticks: largest difference %.1e N (largest force %.2f N)\n",
+                force_difference, largest);
+    ENSURE(stored.forces.size() == in_ticks.forces.size() && largest > 0.1 && force_difference <= 1e-12 * largest);
   }
 
   // 3c. The coupling a sliding contact takes from its triangle's pair blocks (ProxyGram, summed in

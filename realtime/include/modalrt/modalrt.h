@@ -161,9 +161,14 @@ extern "C" {
  * 5 % level, no clamp; a 3.1 application that left them 0 gets the flag and nothing else).
  * 3.3: reads .mrt 1.3 (the far field, FAR_COMPLIANCE: two candidates without a stored cross block are
  * coupled by Z_a Z_b^T instead of the modes alone); modalrt_basis_pair_coupling and the
- * MODALRT_COUPLING_* values; modalrt_space_info's former `reserved` is far_rank (0: no far field). */
+ * MODALRT_COUPLING_* values; modalrt_space_info's former `reserved` is far_rank (0: no far field).
+ * 3.4: modalrt_kernel_def's former `reserved_proxy` is proxy_row_memory (0 by default: a sliding
+ * kernel makes the contact rows of the vertices that are not candidates at creation, within 256 MiB;
+ * what it renders is the same to round-off (a pair block summed with its rows in the other order),
+ * only no tick builds a row any more where they fit);
+ * MODALRT_PROXY_ROWS_IN_TICKS. */
 #define MODALRT_VERSION_MAJOR 3
-#define MODALRT_VERSION_MINOR 3
+#define MODALRT_VERSION_MINOR 4
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
@@ -456,6 +461,10 @@ enum
   MODALRT_CONTACT_PROXY = 1  /* a proxy slides over the deformed surface with friction (see the top) */
 };
 
+/* modalrt_kernel_def.proxy_row_memory: make no contact row at creation (every row of a vertex that is
+ * not a candidate is built in the ticks, ahead of the proxy). */
+#define MODALRT_PROXY_ROWS_IN_TICKS 0xFFFFFFFFu
+
 enum
 {
   MODALRT_SWITCH_AT_CONTACT_START = 0, /* change space when a contact starts (default) */
@@ -503,7 +512,12 @@ typedef struct modalrt_kernel_def
                                      follows the contact at most force_rate_limit per tick, so it never steps);
                                      0: no such limit [0] (API 3.2; before: reserved2, 0) */
   uint32_t contact_mode;          /* MODALRT_CONTACT_SNAP or MODALRT_CONTACT_PROXY [SNAP] */
-  uint32_t reserved_proxy;        /* must be 0 [0] */
+  uint32_t proxy_row_memory;      /* [MiB] proxy: memory for the contact rows (3 r doubles) of the display vertices
+                                     that are not candidates and the pair blocks of vertices sharing a triangle,
+                                     made at creation so that no tick builds them; spaces in order, a space that
+                                     would pass the limit builds its rows ahead of the proxy in the ticks; 0 means
+                                     256; MODALRT_PROXY_ROWS_IN_TICKS: none at creation [0: 256 MiB]
+                                     (API 3.4; before: reserved_proxy, 0) */
   double   static_friction;       /* [-] proxy: Coulomb static coefficient mu_s, 0 .. 10, >= dynamic_friction [0.3] */
   double   dynamic_friction;      /* [-] proxy: Coulomb dynamic coefficient mu_d, 0 .. static_friction [0.2] */
 } modalrt_kernel_def;
