@@ -644,6 +644,7 @@ namespace modal_haptics
                          {"distance_m", check.distance},
                          {"rel_error_corrected", check.rel_error_corrected},
                          {"far", check.far},
+                         {"named", check.named},
                          {"rel_error_without_cross", check.rel_error_without_cross}});
       space["timings_s"] = Json(s.timings_s);
       return space;

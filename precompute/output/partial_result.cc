@@ -41,7 +41,7 @@ namespace boost::serialization
   template <class Archive>
   void serialize(Archive &ar, modal_haptics::TwoContactCheck &c, const unsigned int)
   {
-    ar &c.vertices &c.distance &c.rel_error_corrected &c.far &c.rel_error_without_cross;
+    ar &c.vertices &c.distance &c.rel_error_corrected &c.far &c.named &c.rel_error_without_cross;
   }
 
   template <class Archive>

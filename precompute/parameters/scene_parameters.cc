@@ -312,6 +312,19 @@ namespace modal_haptics
     prm.declare_entry("Validation points", "", Patterns::Anything(),
                       "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
                       "of each becomes a static-correction candidate." + geometry_units);
+    prm.declare_entry("Exact pair points", "", Patterns::Anything(),
+                      "Anticipated two-contact presses, 'x,y,z : x,y,z; ...' (two hands, or two fingers, farther "
+                      "apart than 'Cross compliance radius'): in every space, the residual cross compliance "
+                      "between each candidate within 'Exact pair reach' of the first point (and the one nearest "
+                      "to it, with the candidates sharing a display triangle with that one) and each such "
+                      "candidate of the second is stored, so that two HIPs there (snapped or sliding) feel the "
+                      "full-FE answer instead of the far field's; the nearest pair is validated against one full "
+                      "static solve (report.json: two_contact_checks, 'named'). Needs 'Cross compliance'."
+                      + geometry_units);
+    prm.declare_entry("Exact pair reach", text(c.exact_pair_reach), Patterns::Double(0.),
+                      "The distance from each of 'Exact pair points' within which candidates are coupled exactly "
+                      "to those around the other point: a HIP's contact load spreads over its triangle's corners "
+                      "(sliding) and lands near, not at, the point." + geometry_units);
     prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
                       "The display correction field of a contact is kept where it exceeds this fraction of "
                       "its maximum (it is local); the validation reports the error this truncation leaves. "
@@ -373,6 +386,19 @@ namespace modal_haptics
     correction_field_tolerance = prm.get_double("Correction field tolerance");
     for (const auto &point : dealii::Utilities::split_string_list(prm.get("Validation points"), ';'))
       validation_points.push_back(parse_point(point, "Contact/Validation points"));
+    exact_pairs.clear();
+    for (const auto &pair : dealii::Utilities::split_string_list(prm.get("Exact pair points"), ';'))
+      {
+        const auto ends = dealii::Utilities::split_string_list(pair, ':');
+        AssertThrow(ends.size() == 2, dealii::ExcMessage("'Contact/Exact pair points': '" + pair +
+                                                         "' is not a pair 'x,y,z : x,y,z'."));
+        exact_pairs.push_back({{parse_point(ends[0], "Contact/Exact pair points"),
+                                parse_point(ends[1], "Contact/Exact pair points")}});
+      }
+    exact_pair_reach = prm.get_double("Exact pair reach");
+    AssertThrow(exact_pairs.empty() || cross_compliance,
+                dealii::ExcMessage("'Contact/Exact pair points' needs 'Contact/Cross compliance' = true: the pairs' "
+                                   "cross blocks are stored with the cross compliance."));
     force_limit          = prm.get_double("Force limit");
     AssertThrow(force_limit > 0., dealii::ExcMessage("'Contact/Force limit' is " + prm.get("Force limit") +
                                                      " N: it must be above 0."));

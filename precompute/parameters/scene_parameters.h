@@ -124,6 +124,12 @@ namespace modal_haptics
     // Anticipated contact points [geometry units]: the nearest display vertex becomes a candidate of
     // the space whose VOI holds it and is validated in every space.
     std::vector<meshing::Point3> validation_points;
+    // Anticipated multi-contact presses [geometry units]: two points each; in every space, the cross
+    // blocks between every candidate within exact_pair_reach of one point (and the one nearest to
+    // it, with its triangle neighbours) and every such candidate of the other are stored, so that
+    // two hands there feel the full-FE answer however far apart.
+    std::vector<std::array<meshing::Point3, 2>> exact_pairs;
+    double       exact_pair_reach      = 4.;  // [geometry units]
     // Where linear stops being true (precompute/nonlinear/large_deformation.h): at each validation
     // point, a geometrically nonlinear solve of the patch load ramped up to force_limit.
     double       force_limit         = 10.;  // [N] the kernel's default device.max_force (realtime/src/api.cc)

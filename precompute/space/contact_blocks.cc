@@ -51,6 +51,14 @@ namespace modal_haptics
         sum += std::pow(positions[3 * a + c] - positions[3 * b + c], 2);
       return sum;
     }
+
+    double distance_to(const std::vector<double> &positions, const unsigned int v, const std::array<double, 3> &x)
+    {
+      double sum = 0.;
+      for (unsigned int c = 0; c < 3; ++c)
+        sum += std::pow(positions[3 * v + c] - x[c], 2);
+      return std::sqrt(sum);
+    }
   } // namespace
 
   namespace
@@ -76,13 +84,17 @@ namespace modal_haptics
   // A uniform grid of cells of the radius' size: a candidate's neighbours lie in the 27 cells
   // around its own.
   CandidateNeighbours candidate_neighbours(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
-                                           const std::vector<unsigned int> &candidates, const double radius)
+                                           const std::vector<unsigned int> &candidates, const double radius,
+                                           const std::vector<std::array<unsigned int, 2>> &links)
   {
     CandidateNeighbours result;
     result.offsets.assign(candidates.size() + 1, 0);
     if (radius < 0. || candidates.size() < 2)
       return result;
-    const auto adjacent = triangle_neighbours(triangles, candidates, positions.size() / 3);
+    auto adjacent = triangle_neighbours(triangles, candidates, positions.size() / 3);
+    for (const auto &[a, b] : links)
+      if (a != b)
+        adjacent[a].push_back(b), adjacent[b].push_back(a);
     const Box  box  = bounding_box(positions, candidates);
     const auto cell = [&](const unsigned int v, const unsigned int c) {
       return std::int64_t(std::floor((positions[3 * v + c] - box.lower[c]) / radius));
@@ -123,10 +135,11 @@ namespace modal_haptics
   ContactBlockPlan plan_contact_blocks(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
                                        const std::vector<unsigned int> &vertices,
                                        const std::vector<unsigned int> &candidates, const double radius,
-                                       const unsigned int group_size)
+                                       const unsigned int group_size,
+                                       const std::vector<std::array<unsigned int, 2>> &links)
   {
     ContactBlockPlan plan;
-    plan.neighbours = candidate_neighbours(positions, triangles, candidates, radius);
+    plan.neighbours = candidate_neighbours(positions, triangles, candidates, radius, links);
     if (vertices.empty())
       return plan;
     const Box                                          box = bounding_box(positions, vertices);
@@ -166,5 +179,60 @@ namespace modal_haptics
         plan.groups.push_back(std::move(group));
       }
     return plan;
+  }
+
+  int nearest_candidate(const std::vector<double> &positions, const std::vector<unsigned int> &candidates,
+                        const std::array<double, 3> &x, const double reach)
+  {
+    int    nearest          = -1;
+    double nearest_distance = reach;
+    for (unsigned int a = 0; a < candidates.size(); ++a)
+      if (const double d = distance_to(positions, candidates[a], x); d <= nearest_distance)
+        nearest_distance = d, nearest = int(a);
+    return nearest;
+  }
+
+  namespace
+  {
+    // The candidates (indices) a contact pressing at x may load: those within 'reach', the nearest
+    // and the ones sharing a display triangle with it; empty if none is within reach.
+    std::vector<unsigned int> candidates_around(const std::vector<double> &positions,
+                                                const std::vector<unsigned int> &candidates,
+                                                const std::vector<std::vector<unsigned int>> &adjacent,
+                                                const std::array<double, 3> &x, const double reach)
+    {
+      const int nearest = nearest_candidate(positions, candidates, x, reach);
+      if (nearest < 0)
+        return {};
+      std::vector<unsigned int> around(adjacent[nearest].begin(), adjacent[nearest].end());
+      for (unsigned int a = 0; a < candidates.size(); ++a)
+        if (distance_to(positions, candidates[a], x) <= reach)
+          around.push_back(a);
+      std::sort(around.begin(), around.end());
+      around.erase(std::unique(around.begin(), around.end()), around.end());
+      return around;
+    }
+  } // namespace
+
+  std::vector<std::array<unsigned int, 2>> exact_pair_links(const std::vector<double> &positions,
+                                                            const std::vector<unsigned int> &triangles,
+                                                            const std::vector<unsigned int> &candidates,
+                                                            const std::vector<std::array<std::array<double, 3>, 2>> &points,
+                                                            const double reach)
+  {
+    std::vector<std::array<unsigned int, 2>> links;
+    if (points.empty())
+      return links;
+    const auto adjacent = triangle_neighbours(triangles, candidates, positions.size() / 3);
+    for (const auto &pair : points)
+      {
+        const auto first  = candidates_around(positions, candidates, adjacent, pair[0], reach);
+        const auto second = candidates_around(positions, candidates, adjacent, pair[1], reach);
+        for (const unsigned int a : first)
+          for (const unsigned int b : second)
+            if (a != b)
+              links.push_back({{a, b}});
+      }
+    return links;
   }
 } // namespace modal_haptics

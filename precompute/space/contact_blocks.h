@@ -39,11 +39,30 @@ namespace modal_haptics
   // Members are grouped along a space-filling curve, so that a group lies close together in the
   // part (its loads share most of their elimination-tree paths), at most 'group_size' members each.
   // triangles: 3 display vertices each; radius < 0: no neighbours (no cross compliance).
+  // links: more pairs of candidates (indices) that are neighbours whatever their distance (each
+  // way), exact_pair_links' (with radius >= 0 only).
   ContactBlockPlan plan_contact_blocks(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
                                        const std::vector<unsigned int> &vertices,
                                        const std::vector<unsigned int> &candidates, double radius,
-                                       unsigned int group_size);
+                                       unsigned int group_size,
+                                       const std::vector<std::array<unsigned int, 2>> &links = {});
 
   CandidateNeighbours candidate_neighbours(const std::vector<double> &positions, const std::vector<unsigned int> &triangles,
-                                           const std::vector<unsigned int> &candidates, double radius);
+                                           const std::vector<unsigned int> &candidates, double radius,
+                                           const std::vector<std::array<unsigned int, 2>> &links = {});
+
+  // The candidate (index) nearest to x within 'reach' (same units as positions), -1 if none.
+  int nearest_candidate(const std::vector<double> &positions, const std::vector<unsigned int> &candidates,
+                        const std::array<double, 3> &x, double reach);
+
+  // The pairs of candidates (indices) that two hands pressing at 'points' (two each, same units as
+  // positions) may load: every candidate within 'reach' of the first point, the candidate nearest
+  // to it and those sharing a display triangle with that one, against the same set of the second
+  // point (a candidate in both sets is not paired with itself). None for a point farther than
+  // 'reach' from every candidate.
+  std::vector<std::array<unsigned int, 2>> exact_pair_links(const std::vector<double> &positions,
+                                                            const std::vector<unsigned int> &triangles,
+                                                            const std::vector<unsigned int> &candidates,
+                                                            const std::vector<std::array<std::array<double, 3>, 2>> &points,
+                                                            double reach);
 } // namespace modal_haptics

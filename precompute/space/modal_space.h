@@ -334,6 +334,12 @@ namespace modal_haptics
     constexpr std::array<std::array<double, 3>, 2> two_contact_forces = {{{{0., 0., 1.}}, {{0., 1., 0.}}}};
     // 'count' pairs (a, b) of candidates, b a neighbour of a, drawn with a fixed seed.
     std::vector<std::array<unsigned int, 2>> two_contact_pairs(const ModalSpaceResult &result, unsigned int count);
+    // The scene's 'Exact pair points' in metres.
+    std::vector<std::array<std::array<double, 3>, 2>> exact_pair_points(const SceneParameters &scene);
+    // Per pair of 'Exact pair points', the candidates nearest to its two points (display vertices),
+    // where both lie within 'Exact pair reach' and differ: the pairs the exact links were made for.
+    std::vector<std::array<unsigned int, 2>> named_contact_pairs(const ModalSpaceResult &result, const SceneParameters &scene,
+                                                                 const ContactSurface &display);
     // 'count' pairs of candidates without a stored cross block (the far field couples them), drawn
     // with a fixed seed; none when the space has no far field.
     std::vector<std::array<unsigned int, 2>> far_contact_pairs(const ModalSpaceResult &result, unsigned int count);

@@ -538,14 +538,18 @@ namespace modal_haptics
         }
     }
 
-    // Two hands on one space: pairs of neighbouring candidates (space_parts::two_contact_pairs)
-    // pushed at once (in z and y), a fresh full solve each against the kernel's formula with the
-    // cross compliance, u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
+    // Two hands on one space: pairs of neighbouring candidates (space_parts::two_contact_pairs), the
+    // nearest candidates of each pair of 'Exact pair points' and pairs farther apart pushed at once
+    // (in z and y), a fresh full solve each against the kernel's formula with the cross compliance,
+    // u_a = B_a Lambda^-1 (B_a^T F_a + B_b^T F_b) + C_aa F_a + C_ab F_b.
     template <typename Backend>
     void validate_two_contacts(Backend &b, const PhaseInputs &in, ModalSpaceResult &result)
     {
       auto       pairs = space_parts::two_contact_pairs(result, in.scene.contact.validation_pairs);
+      const auto named = space_parts::named_contact_pairs(result, in.scene, in.display);
       const auto far   = space_parts::far_contact_pairs(result, in.scene.contact.validation_pairs);
+      const std::size_t first_named = pairs.size(), first_far = first_named + named.size();
+      pairs.insert(pairs.end(), named.begin(), named.end());
       pairs.insert(pairs.end(), far.begin(), far.end());
       if (pairs.empty())
         return;
@@ -578,7 +582,8 @@ namespace modal_haptics
           check.distance = std::hypot(x[pairs[k][0]][0] - x[pairs[k][1]][0], x[pairs[k][0]][1] - x[pairs[k][1]][1],
                                       x[pairs[k][0]][2] - x[pairs[k][1]][2]);
           const std::array<std::array<double, 3>, 2> full = {{{{u[0], u[1], u[2]}}, {{u[3], u[4], u[5]}}}};
-          check.far                     = k >= pairs.size() - far.size();
+          check.named                   = k >= first_named && k < first_far;
+          check.far                     = k >= first_far;
           check.rel_error_corrected     = space_parts::two_contact_error(result, pairs[k], full);
           check.rel_error_without_cross = space_parts::two_contact_error(result, pairs[k], full, false);
           if (!check.far) // the exact pairs' worst; the far ones are approximations, reported per pair

@@ -69,10 +69,12 @@ namespace modal_haptics
       plan.normals.resize(3 * std::size_t(nv));
       mrt::area_weighted_normals(positions.data(), nv, triangles.data(), display.triangles.size(), plan.normals.data());
       const double radius = scene.contact.cross_compliance ? scene.contact.cross_compliance_radius * scene.length_unit : -1.;
+      const auto   links  = exact_pair_links(positions, triangles, result.candidates, exact_pair_points(scene),
+                                             scene.contact.exact_pair_reach * scene.length_unit);
       // 64 loads (192 columns) a group, with their halo: wide enough for the BLAS, close enough
       // together to share their paths in the elimination tree, and the halo (the members'
       // neighbours, solved again) a smaller share than with smaller groups.
-      plan.blocks = plan_contact_blocks(positions, triangles, plan.loads, result.candidates, radius, 64);
+      plan.blocks = plan_contact_blocks(positions, triangles, plan.loads, result.candidates, radius, 64, links);
 
       result.candidate_modes.assign(3 * std::size_t(nc) * result.eigenvalues.size(), 0.);
       result.candidate_compliance.assign(9 * std::size_t(nc), 0.);
@@ -328,6 +330,37 @@ namespace modal_haptics
       return pairs;
     }
 
+    std::vector<std::array<std::array<double, 3>, 2>> exact_pair_points(const SceneParameters &scene)
+    {
+      std::vector<std::array<std::array<double, 3>, 2>> points;
+      for (const auto &pair : scene.contact.exact_pairs)
+        {
+          auto &ends = points.emplace_back();
+          for (unsigned int e = 0; e < 2; ++e)
+            for (unsigned int c = 0; c < 3; ++c)
+              ends[e][c] = pair[e][c] * scene.length_unit;
+        }
+      return points;
+    }
+
+    std::vector<std::array<unsigned int, 2>> named_contact_pairs(const ModalSpaceResult &result, const SceneParameters &scene,
+                                                                 const ContactSurface &display)
+    {
+      std::vector<double> positions;
+      for (const auto &x : display.vertices)
+        positions.insert(positions.end(), {x[0], x[1], x[2]});
+      std::vector<std::array<unsigned int, 2>> pairs;
+      const double reach = scene.contact.exact_pair_reach * scene.length_unit;
+      for (const auto &ends : exact_pair_points(scene))
+        {
+          const int a = nearest_candidate(positions, result.candidates, ends[0], reach);
+          const int b = nearest_candidate(positions, result.candidates, ends[1], reach);
+          if (a >= 0 && b >= 0 && a != b)
+            pairs.push_back({{result.candidates[a], result.candidates[b]}});
+        }
+      return pairs;
+    }
+
     std::vector<std::array<unsigned int, 2>> far_contact_pairs(const ModalSpaceResult &result, const unsigned int count)
     {
       std::vector<std::array<unsigned int, 2>> pairs;
@@ -406,6 +439,11 @@ namespace modal_haptics
       if (n_far > 0)
         line << "; " << n_far << " pairs farther apart pressed together: error with the far field up to " << worst_far
              << " (without it " << worst_without << ")";
+      for (const auto &check : result.two_contact_checks)
+        if (check.named)
+          line << "; exact pair points at vertices " << check.vertices[0] << " and " << check.vertices[1] << " ("
+               << check.distance * 1e3 << " mm apart) pressed together: error " << check.rel_error_corrected
+               << " (the modes alone between them " << check.rel_error_without_cross << ")";
       return line.str();
     }
   } // namespace space_parts

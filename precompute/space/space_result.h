@@ -21,14 +21,16 @@ namespace modal_haptics
     std::string  reason;
   };
 
-  // Two neighbouring candidates pressed together (z at the first, y at the second), one full static
-  // FE solve against the kernel's formula with the stored cross compliance.
+  // Two candidates pressed together (z at the first, y at the second): neighbours, the nearest to a
+  // pair of 'Exact pair points', or a pair farther apart; one full static FE solve against the
+  // kernel's formula with the stored cross compliance (or the far field).
   struct TwoContactCheck
   {
     std::array<unsigned int, 2> vertices{}; // display vertices
     double distance = 0.;                   // between them [m]
     double rel_error_corrected = 0.;        // the worse of the two contacts' relative errors
     bool   far = false;                     // no stored cross block: the far field couples them
+    bool   named = false;                   // the nearest candidates of a pair of 'Exact pair points'
     double rel_error_without_cross = 0.;    // the same with the pair's residual coupling left out
   };
 

@@ -102,6 +102,11 @@ CASES = [
     ("lobpcg-amg with a positive shift", scene_with(section("Modes", "set Eigensolver = lobpcg-amg", "set Shift = 50")),
      ["lobpcg-amg", "Modes/Shift", "50 Hz"]),
     ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
+    ("exact pair with one point", scene_with(section("Contact", "set Exact pair points = 0, 0, 10")),
+     ["Exact pair points", "0, 0, 10"]),
+    ("exact pair without cross compliance",
+     scene_with(section("Contact", "set Exact pair points = 0, 0, 10 : 5, 0, 10", "set Cross compliance = false")),
+     ["Exact pair points", "Cross compliance"]),
     ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["subsection", "missing_subsection_end.prm"]),
 ]
 

@@ -11,7 +11,11 @@ inside each VOI and 20 outside (global space):
 * 10 random pairs of neighbouring candidates per space pressed together equal one full solve each
   (the kernel's formula with the stored cross compliance, 1e-8);
 * the far field (check_far_field): never more than a candidate's own residual compliance, and 10
-  random pairs farther apart pressed together are nearer the full solve with it than without.
+  random pairs farther apart pressed together are nearer the full solve with it than without;
+* 'Exact pair points' (check_exact_pair): the two random vertices of one VOI farthest apart, given as
+  a pair: every candidate within 'Exact pair reach' (4 mm) of one point is stored as a neighbour of
+  every such candidate of the other, and the nearest two pressed together equal one full solve (1e-8)
+  though the far field alone would couple them.
 The first run (no validation) gives the display surface and its regions; the second reuses its meshes.
 """
 import os
@@ -87,6 +91,24 @@ def check_far_field(space, g, expect):
            f"{with_far:.3f} with the far field < {without:.3f} with the modes alone")
 
 
+def check_exact_pair(space, g, x, ends, expect):
+    """The cross rows of an exact pair (module docstring): the candidates within 4 mm (the default
+    'Exact pair reach') of each end, all linked; the nearest pair validated against one full solve."""
+    candidates = g["candidate_vertices"][:]
+    offsets, neighbours = g["cross_offsets"][:], g["cross_neighbours"][:]
+    around = [np.flatnonzero(np.linalg.norm(x[candidates] - x[v], axis=1) <= 4e-3) for v in ends]
+    missing = sum(b not in neighbours[offsets[a]:offsets[a + 1]] for a in around[0] for b in around[1] if a != b)
+    expect(len(around[0]) >= 3 and len(around[1]) >= 3 and missing == 0,
+           f"{space['name']}: {len(around[0])} x {len(around[1])} candidates around the exact pair's two points "
+           f"({1e3 * np.linalg.norm(x[ends[0]] - x[ends[1]]):.1f} mm apart) all stored as neighbours ({missing} missing)")
+    named = [p for p in space["two_contact_checks"] if p["named"]]
+    expect(len(named) == 1 and sorted(named[0]["vertices"]) == sorted(int(v) for v in ends)
+           and not named[0]["far"] and named[0]["rel_error_corrected"] <= 1e-8,
+           f"{space['name']}: the exact pair pressed together vs one full solve: "
+           + (f"error {named[0]['rel_error_corrected']:.2e} <= 1e-8 (the modes alone between them "
+              f"{named[0]['rel_error_without_cross']:.2e})" if named else "no check"))
+
+
 def main():
     args = binary_and_fresh_workdir(required=("--modal-rt",))
     first = os.path.join(args.workdir, "surface")
@@ -102,11 +124,19 @@ def main():
     random = np.random.default_rng(36)
     picked = np.concatenate([random.choice(np.flatnonzero((region == s) & reachable), SAMPLES_PER_REGION,
                                            replace=False) for s in np.unique(region)])
-    points = "; ".join(", ".join(f"{1e3 * c:.12g}" for c in x[v]) for v in picked)  # the scene is in mm
+    def mm(v):  # the scene is in mm
+        return ", ".join(f"{1e3 * c:.12g}" for c in x[v])
+    points = "; ".join(mm(v) for v in picked)
+    # The exact pair: the two random vertices of the last VOI farthest apart (display vertices, so
+    # each end's nearest candidate is that vertex).
+    in_voi = picked[region[picked] == region.max()]
+    distances = np.linalg.norm(x[in_voi][:, None] - x[in_voi][None], axis=2)
+    ends = in_voi[list(np.unravel_index(distances.argmax(), distances.shape))]
 
     folder = os.path.join(args.workdir, "exact")
     report, _ = run_precompute(args.binary, folder, scene_text([
-        "set Validation samples = 0", f"set Validation pairs = {PAIRS_PER_SPACE}", f"set Validation points = {points}"]),
+        "set Validation samples = 0", f"set Validation pairs = {PAIRS_PER_SPACE}", f"set Validation points = {points}",
+        f"set Exact pair points = {mm(ends[0])} : {mm(ends[1])}"]),
         meshes_from=first)
     expect = Checks()
 
@@ -132,12 +162,14 @@ def main():
             expect(corrected <= 1e-8, f"{space['name']}: corrected felt compliance vs full FE, worst {corrected:.2e} <= 1e-8")
             expect(worst_map <= 1e-8, f"{space['name']}: felt-stiffness map vs full FE normal stiffness, worst "
                                       f"{worst_map:.2e} <= 1e-8")
-            pairs = [p for p in space["two_contact_checks"] if not p["far"]]
+            pairs = [p for p in space["two_contact_checks"] if not p["far"] and not p["named"]]
             worst_pair = max((p["rel_error_corrected"] for p in pairs), default=np.inf)
             expect(len(pairs) == PAIRS_PER_SPACE and worst_pair <= 1e-8,
                    f"{space['name']}: {len(pairs)} pairs of neighbours pressed together vs one full solve each, worst "
                    f"{worst_pair:.2e} <= 1e-8 (up to {1e3 * max(p['distance_m'] for p in pairs):.2f} mm apart)")
             check_far_field(space, g, expect)
+            if space["index"] == region.max():
+                check_exact_pair(space, g, x, ends, expect)
     verify = subprocess.run([args.modal_rt, "verify", "--basis", os.path.join(folder, "small_block.mrt")],
                             capture_output=True, text=True)
     print(verify.stdout[-1500:])
