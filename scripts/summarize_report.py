@@ -46,6 +46,12 @@ def main(path):
                    if pairs else "")
         print(f"far field, {s['name']} (rank {far['rank']}): coupling error median by distance (modes alone): {bands}{pressed}")
     for s in report["spaces"]:
+        for p in s["two_contact_checks"]:
+            if p.get("named"):
+                print(f"exact pair points, {s['name']}: vertices {p['vertices'][0]} and {p['vertices'][1]} "
+                      f"({1e3 * p['distance_m']:.1f} mm apart) pressed together: {p['rel_error_corrected']:.2g} off "
+                      f"the full solve ({100 * p['rel_error_without_cross']:.2g} % with the modes alone)")
+    for s in report["spaces"]:
         for c in s.get("validity", []):
             def forces(node, missing="never"):  # the full solve's missing ones lie above its force limit
                 return " / ".join(missing if node[k] is None else f"{node[k]:.3g}"

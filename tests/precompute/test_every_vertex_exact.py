@@ -15,7 +15,8 @@ inside each VOI and 20 outside (global space):
 * 'Exact pair points' (check_exact_pair): the two random vertices of one VOI farthest apart, given as
   a pair: every candidate within 'Exact pair reach' (4 mm) of one point is stored as a neighbour of
   every such candidate of the other, and the nearest two pressed together equal one full solve (1e-8)
-  though the far field alone would couple them.
+  though the far field alone would couple them; scripts/summarize_report.py (scripts/demo's summary)
+  prints that check.
 The first run (no validation) gives the display surface and its regions; the second reuses its meshes.
 """
 import os
@@ -170,6 +171,12 @@ def main():
             check_far_field(space, g, expect)
             if space["index"] == region.max():
                 check_exact_pair(space, g, x, ends, expect)
+    summary = subprocess.run([sys.executable, os.path.join(HERE, "..", "..", "scripts", "summarize_report.py"),
+                              os.path.join(folder, "report.json")], capture_output=True, text=True)
+    voi = next(space["name"] for space in report["spaces"] if space["index"] == region.max())
+    named = [line for line in summary.stdout.splitlines() if line.startswith(f"exact pair points, {voi}: ")]
+    expect(summary.returncode == 0 and len(named) == 1 and f"vertices {ends[0]} and {ends[1]}" in named[0],
+           f"scripts/summarize_report.py prints the exact pair's check in '{voi}': {named}")
     verify = subprocess.run([args.modal_rt, "verify", "--basis", os.path.join(folder, "small_block.mrt")],
                             capture_output=True, text=True)
     print(verify.stdout[-1500:])
