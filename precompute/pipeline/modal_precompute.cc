@@ -329,6 +329,38 @@ namespace modal_haptics
     return best;
   }
 
+  namespace
+  {
+    // Each point of 'Contact/Exact pair points' on the part: its nearest display vertex within 'Exact
+    // pair reach' (a point off the surface would link no candidate, silently).
+    void check_exact_pair_points(const ContactSurface &display, const SceneParameters &scene, const bool verbose)
+    {
+      const double unit = scene.length_unit, reach = scene.contact.exact_pair_reach;
+      for (const auto &pair : scene.contact.exact_pairs)
+        {
+          std::array<unsigned int, 2> nearest{};
+          for (unsigned int e = 0; e < 2; ++e)
+            {
+              const auto        &point = pair[e];
+              const unsigned int v     = nearest_display_vertex(display, point, unit);
+              const double       distance = std::hypot(display.vertices[v][0] - point[0] * unit,
+                                                       display.vertices[v][1] - point[1] * unit,
+                                                       display.vertices[v][2] - point[2] * unit) / unit;
+              std::ostringstream message;
+              message << "'Contact/Exact pair points': the point (" << point[0] << ", " << point[1] << ", " << point[2]
+                      << ") lies " << distance << " (geometry units) from the nearest display vertex, beyond "
+                      << "'Contact/Exact pair reach' = " << reach << ": it is not on the part's surface.";
+              AssertThrow(distance <= reach, ExcMessage(message.str()));
+              nearest[e] = v;
+            }
+          if (verbose)
+            std::cout << "[contacts] exact pair (" << pair[0][0] << ", " << pair[0][1] << ", " << pair[0][2] << ") : ("
+                      << pair[1][0] << ", " << pair[1][1] << ", " << pair[1][2] << ") -> display vertices " << nearest[0]
+                      << " and " << nearest[1] << std::endl;
+        }
+    }
+  } // namespace
+
   // A VOI space's candidates are the display vertices inside its VOI; the global space's are every
   // n-th vertex outside all VOIs (none by default): "model only what a scene requires".
   void ModalPrecompute::plan_contacts()
@@ -383,6 +415,7 @@ namespace modal_haptics
           std::cout << "[contacts] validation point (" << point[0] << ", " << point[1] << ", " << point[2]
                     << ") -> display vertex " << v << " in space '" << task.name << "'" << std::endl;
       }
+    check_exact_pair_points(display, scene, verbose);
     std::sort(shared.begin(), shared.end());
     shared.erase(std::unique(shared.begin(), shared.end()), shared.end());
     for (auto &task : results.tasks)

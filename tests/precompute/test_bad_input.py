@@ -104,6 +104,8 @@ CASES = [
     ("inverted tet", scene_with(section("Geometry", "set Source = inverted.msh")), ["inverted"]),
     ("exact pair with one point", scene_with(section("Contact", "set Exact pair points = 0, 0, 10")),
      ["Exact pair points", "0, 0, 10"]),
+    ("exact pair point off the part", scene_with(section("Contact", "set Exact pair points = 0, 0, 10 : 0, 0, 90")),
+     ["Exact pair points", "0, 0, 90", "Exact pair reach"]),
     ("exact pair without cross compliance",
      scene_with(section("Contact", "set Exact pair points = 0, 0, 10 : 5, 0, 10", "set Cross compliance = false")),
      ["Exact pair points", "Cross compliance"]),
