@@ -91,23 +91,6 @@ namespace modal_haptics
         }
     }
 
-    std::vector<double> flatten(const std::vector<meshing::Point3> &points)
-    {
-      std::vector<double> flat;
-      for (const auto &p : points)
-        flat.insert(flat.end(), p.begin(), p.end());
-      return flat;
-    }
-
-    template <std::size_t N>
-    std::vector<unsigned int> flatten(const std::vector<std::array<unsigned int, N>> &rows)
-    {
-      std::vector<unsigned int> flat;
-      for (const auto &row : rows)
-        flat.insert(flat.end(), row.begin(), row.end());
-      return flat;
-    }
-
     // The nonlinear force-displacement curve of each validity contact: a group per contact.
     void write_validity(dealii::HDF5::Group &space, const ModalSpaceResult &s, const Writers &w)
     {

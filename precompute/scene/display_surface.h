@@ -35,6 +35,25 @@ namespace modal_haptics
     unsigned int n_vertices() const { return vertices.size(); }
   };
 
+  // Rows of 3 (points, triangles) as one flat array, row after row: the layout of the .h5, the
+  // .mrt and the geometry helpers that take positions[3 v + c].
+  inline std::vector<double> flatten(const std::vector<meshing::Point3> &points)
+  {
+    std::vector<double> flat;
+    for (const auto &p : points)
+      flat.insert(flat.end(), p.begin(), p.end());
+    return flat;
+  }
+
+  template <std::size_t N>
+  std::vector<unsigned int> flatten(const std::vector<std::array<unsigned int, N>> &rows)
+  {
+    std::vector<unsigned int> flat;
+    for (const auto &row : rows)
+      flat.insert(flat.end(), row.begin(), row.end());
+    return flat;
+  }
+
   // A point of a quadrature over the display surface [m] and its weight [-].
   struct SurfacePoint
   {

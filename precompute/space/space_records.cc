@@ -59,13 +59,8 @@ namespace modal_haptics
       for (unsigned int k = 0; k < plan.loads.size(); ++k)
         plan.load_of_vertex[plan.loads[k]] = int(k);
 
-      std::vector<double> positions(3 * std::size_t(nv));
-      for (unsigned int v = 0; v < nv; ++v)
-        for (unsigned int c = 0; c < 3; ++c)
-          positions[3 * v + c] = display.vertices[v][c];
-      std::vector<unsigned int> triangles;
-      for (const auto &triangle : display.triangles)
-        triangles.insert(triangles.end(), triangle.begin(), triangle.end());
+      const std::vector<double>       positions = flatten(display.vertices);
+      const std::vector<unsigned int> triangles = flatten(display.triangles);
       plan.normals.resize(3 * std::size_t(nv));
       mrt::area_weighted_normals(positions.data(), nv, triangles.data(), display.triangles.size(), plan.normals.data());
       const double radius = scene.contact.cross_compliance ? scene.contact.cross_compliance_radius * scene.length_unit : -1.;
@@ -346,9 +341,7 @@ namespace modal_haptics
     std::vector<std::array<unsigned int, 2>> named_contact_pairs(const ModalSpaceResult &result, const SceneParameters &scene,
                                                                  const ContactSurface &display)
     {
-      std::vector<double> positions;
-      for (const auto &x : display.vertices)
-        positions.insert(positions.end(), {x[0], x[1], x[2]});
+      const std::vector<double>                positions = flatten(display.vertices);
       std::vector<std::array<unsigned int, 2>> pairs;
       const double reach = scene.contact.exact_pair_reach * scene.length_unit;
       for (const auto &ends : exact_pair_points(scene))
