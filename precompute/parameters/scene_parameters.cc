@@ -324,7 +324,8 @@ namespace modal_haptics
     prm.declare_entry("Exact pair reach", text(c.exact_pair_reach), Patterns::Double(0.),
                       "The distance from each of 'Exact pair points' within which candidates are coupled exactly "
                       "to those around the other point: a HIP's contact load spreads over its triangle's corners "
-                      "(sliding) and lands near, not at, the point." + geometry_units);
+                      "(sliding) and lands near, not at, the point. 0 (the default): twice 'Patch radius', so that "
+                      "it follows the model's units with the patch." + geometry_units);
     prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
                       "The display correction field of a contact is kept where it exceeds this fraction of "
                       "its maximum (it is local); the validation reports the error this truncation leaves. "
@@ -396,6 +397,11 @@ namespace modal_haptics
                                 parse_point(ends[1], "Contact/Exact pair points")}});
       }
     exact_pair_reach = prm.get_double("Exact pair reach");
+    if (exact_pair_reach == 0.)
+      exact_pair_reach = 2. * patch_radius;
+    AssertThrow(exact_pairs.empty() || exact_pair_reach > 0.,
+                dealii::ExcMessage("'Contact/Exact pair reach' is 0 and so is 'Contact/Patch radius' (a single-vertex "
+                                   "load): set the reach for 'Contact/Exact pair points' (geometry units)."));
     AssertThrow(exact_pairs.empty() || cross_compliance,
                 dealii::ExcMessage("'Contact/Exact pair points' needs 'Contact/Cross compliance' = true: the pairs' "
                                    "cross blocks are stored with the cross compliance."));

@@ -129,7 +129,7 @@ namespace modal_haptics
     // it, with its triangle neighbours) and every such candidate of the other are stored, so that
     // two hands there feel the full-FE answer however far apart.
     std::vector<std::array<meshing::Point3, 2>> exact_pairs;
-    double       exact_pair_reach      = 4.;  // [geometry units]
+    double       exact_pair_reach      = 0.;  // [geometry units]; 0: twice patch_radius (resolved when parsed)
     // Where linear stops being true (precompute/nonlinear/large_deformation.h): at each validation
     // point, a geometrically nonlinear solve of the patch load ramped up to force_limit.
     double       force_limit         = 10.;  // [N] the kernel's default device.max_force (realtime/src/api.cc)

@@ -13,7 +13,8 @@ inside each VOI and 20 outside (global space):
 * the far field (check_far_field): never more than a candidate's own residual compliance, and 10
   random pairs farther apart pressed together are nearer the full solve with it than without;
 * 'Exact pair points' (check_exact_pair): the two random vertices of one VOI farthest apart, given as
-  a pair: every candidate within 'Exact pair reach' (4 mm) of one point is stored as a neighbour of
+  a pair: every candidate within 'Exact pair reach' (by default twice 'Patch radius': 3 mm here) of
+  one point is stored as a neighbour of
   every such candidate of the other, and the nearest two pressed together equal one full solve (1e-8)
   though the far field alone would couple them; scripts/summarize_report.py (scripts/demo's summary)
   prints that check.
@@ -31,6 +32,7 @@ from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
 HERE = os.path.dirname(os.path.abspath(__file__))
 SAMPLES_PER_REGION = 20
 PAIRS_PER_SPACE = 10
+DEFAULT_REACH_M = 2 * 1.5e-3  # twice small_scene.prm's 'Patch radius' (1.5 mm)
 
 
 def scene_text(extra_contact):
@@ -93,11 +95,11 @@ def check_far_field(space, g, expect):
 
 
 def check_exact_pair(space, g, x, ends, expect):
-    """The cross rows of an exact pair (module docstring): the candidates within 4 mm (the default
-    'Exact pair reach') of each end, all linked; the nearest pair validated against one full solve."""
+    """The cross rows of an exact pair (module docstring): the candidates within the default 'Exact
+    pair reach' of each end, all linked; the nearest pair validated against one full solve."""
     candidates = g["candidate_vertices"][:]
     offsets, neighbours = g["cross_offsets"][:], g["cross_neighbours"][:]
-    around = [np.flatnonzero(np.linalg.norm(x[candidates] - x[v], axis=1) <= 4e-3) for v in ends]
+    around = [np.flatnonzero(np.linalg.norm(x[candidates] - x[v], axis=1) <= DEFAULT_REACH_M) for v in ends]
     missing = sum(b not in neighbours[offsets[a]:offsets[a + 1]] for a in around[0] for b in around[1] if a != b)
     expect(len(around[0]) >= 3 and len(around[1]) >= 3 and missing == 0,
            f"{space['name']}: {len(around[0])} x {len(around[1])} candidates around the exact pair's two points "
