@@ -20,8 +20,10 @@ namespace modal_haptics
   };
 
   // A group of display vertices whose loads are solved together: its members (whose own
-  // compliance, and whose cross blocks with their neighbours, the group records), then the
-  // neighbours of its member candidates that are not members (the halo: loaded, not recorded).
+  // compliance, and whose cross blocks with their neighbours in this group or in its halo, the group
+  // records), then the neighbours of its member candidates that are members of a later group (the
+  // halo: loaded, not recorded). A pair of neighbours in two groups is solved in the earlier one
+  // only; the later one's block is its transpose (W_b^T R W_a = (W_a^T R W_b)^T).
   struct ContactGroup
   {
     std::vector<unsigned int> vertices; // display vertices: members first, then the halo

@@ -300,10 +300,14 @@ namespace modal_haptics
     // Records what the solves K^-1 W_v e_d of load number 'load' (vertex v) give: its full
     // compliance (the felt-stiffness map; the shared vertices' full_compliance), and at a candidate
     // its residual compliance and its cross compliance with each neighbour.
-    // averaged(vertex, d) = W_vertex^T K^-1 W_v e_d for v itself and its neighbours.
-    void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const StaticCorrectionPlan &plan,
-                                unsigned int load,
-                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged);
+    // averaged(vertex, d) = W_vertex^T K^-1 W_v e_d for v itself and its neighbours; nullopt at a
+    // neighbour whose block comes from the neighbour's own solve (complete_cross_blocks).
+    void record_static_response(
+      ModalSpaceResult &result, const SpaceTask &task, const StaticCorrectionPlan &plan, unsigned int load,
+      const std::function<std::optional<std::array<double, 3>>(unsigned int, unsigned int)> &averaged);
+    // Fills each cross block that no solve recorded with the transpose of its pair's block (K is
+    // symmetric); throws if neither was recorded.
+    void complete_cross_blocks(ModalSpaceResult &result);
     // The display vertices whose responses a load's solve must give: the load itself, then (at a
     // candidate) its neighbours.
     std::vector<unsigned int> response_vertices(const ModalSpaceResult &result, const StaticCorrectionPlan &plan,

@@ -341,8 +341,12 @@ namespace modal_haptics
             position[vertices[k]] = k;
           for (unsigned int p = 0; p < plan.blocks.groups[g].n_members; ++p)
             space_parts::record_static_response(
-              result, in.task, plan, plan.load_of_vertex[vertices[p]], [&](const unsigned int target, const unsigned int d) {
-                const std::size_t     q = position.at(target);
+              result, in.task, plan, plan.load_of_vertex[vertices[p]],
+              [&](const unsigned int target, const unsigned int d) -> std::optional<std::array<double, 3>> {
+                const auto found = position.find(target);
+                if (found == position.end()) // a member of an earlier group, whose halo held vertices[p]
+                  return std::nullopt;
+                const std::size_t     q = found->second;
                 std::array<double, 3> u;
                 for (unsigned int c = 0; c < 3; ++c)
                   u[c] = grams[g][(3 * p + d) * m + 3 * q + c];
@@ -391,7 +395,8 @@ namespace modal_haptics
           b.sum_over_processes(averages);
           for (unsigned int k = 0; k < count; ++k)
             space_parts::record_static_response(
-              result, in.task, plan, first + k, [&](const unsigned int vertex, const unsigned int d) {
+              result, in.task, plan, first + k,
+              [&](const unsigned int vertex, const unsigned int d) -> std::optional<std::array<double, 3>> {
                 const std::size_t t = std::find(targets[k].begin(), targets[k].end(), vertex) - targets[k].begin();
                 std::array<double, 3> u;
                 std::copy_n(&averages[start[k] + 3 * (d * targets[k].size() + t)], 3, u.begin());
@@ -442,6 +447,7 @@ namespace modal_haptics
       const double modal_rows = timer.wall_time();
       if (!record_from_group_grams(b, in, result, plan))
         record_from_block_solves(b, in, result, plan, timer);
+      space_parts::complete_cross_blocks(result);
       result.correction_seconds_per_candidate = plan.loads.empty() ? 0. : timer.wall_time() / plan.loads.size();
       in.log(space_parts::static_correction_summary(result, plan.loads.size()) + " (patch loads " +
              std::to_string(loads_built) + " s, modal rows " + std::to_string(modal_rows - loads_built) + " s, solves " +

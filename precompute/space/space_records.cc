@@ -80,7 +80,8 @@ namespace modal_haptics
         {
           result.cross_offsets    = plan.blocks.neighbours.offsets;
           result.cross_neighbours = plan.blocks.neighbours.neighbours;
-          result.cross_blocks.assign(9 * result.cross_neighbours.size(), 0.);
+          // NaN until recorded: a block left out of every solve is found by complete_cross_blocks.
+          result.cross_blocks.assign(9 * result.cross_neighbours.size(), std::numeric_limits<double>::quiet_NaN());
         }
       result.felt_stiffness.assign(nv, 0.);
       result.modal_only_stiffness.assign(nv, 0.);
@@ -131,21 +132,24 @@ namespace modal_haptics
 
     void record_static_response(ModalSpaceResult &result, const SpaceTask &task, const StaticCorrectionPlan &plan,
                                 const unsigned int load,
-                                const std::function<std::array<double, 3>(unsigned int, unsigned int)> &averaged)
+                                const std::function<std::optional<std::array<double, 3>>(unsigned int, unsigned int)> &averaged)
     {
       const unsigned int r = result.eigenvalues.size(), vertex = plan.loads[load];
       const double      *B = &plan.load_modes[3 * std::size_t(r) * load];
-      const auto compliance_with = [&](const unsigned int target) { // W_target^T K^-1 W_v, row-major
+      // W_target^T K^-1 W_v, row-major, where the solve gives the response at target.
+      const auto compliance_with = [&](const unsigned int target) -> std::optional<std::array<double, 9>> {
         std::array<double, 9> G{};
         for (unsigned int d = 0; d < 3; ++d)
           {
             const auto u = averaged(target, d);
+            if (!u)
+              return std::nullopt;
             for (unsigned int c = 0; c < 3; ++c)
-              G[3 * c + d] = u[c];
+              G[3 * c + d] = (*u)[c];
           }
         return G;
       };
-      const std::array<double, 9> G     = compliance_with(vertex);
+      const std::array<double, 9> G     = compliance_with(vertex).value();
       const std::array<double, 9> modal = modal_compliance(result, B, B);
       result.felt_stiffness[vertex]       = normal_stiffness(G, &plan.normals[3 * std::size_t(vertex)]);
       result.modal_only_stiffness[vertex] = normal_stiffness(modal, &plan.normals[3 * std::size_t(vertex)]);
@@ -163,13 +167,38 @@ namespace modal_haptics
       // d to a's load along c, the transpose of what this load's solve reads at b.
       for (unsigned int k = result.cross_offsets[a]; k < result.cross_offsets[a + 1]; ++k)
         {
-          const unsigned int target = result.candidates[result.cross_neighbours[k]];
-          const double *Bt = &plan.load_modes[3 * std::size_t(r) * plan.load_of_vertex[target]];
-          const auto    at_target = compliance_with(target), modal_ab = modal_compliance(result, B, Bt);
+          const unsigned int target    = result.candidates[result.cross_neighbours[k]];
+          const auto         at_target = compliance_with(target);
+          if (!at_target) // solved with the target's load: complete_cross_blocks
+            continue;
+          const double *Bt       = &plan.load_modes[3 * std::size_t(r) * plan.load_of_vertex[target]];
+          const auto    modal_ab = modal_compliance(result, B, Bt);
           for (unsigned int c = 0; c < 3; ++c)
             for (unsigned int d = 0; d < 3; ++d)
-              result.cross_blocks[9 * std::size_t(k) + 3 * c + d] = at_target[3 * d + c] - modal_ab[3 * c + d];
+              result.cross_blocks[9 * std::size_t(k) + 3 * c + d] = (*at_target)[3 * d + c] - modal_ab[3 * c + d];
         }
+    }
+
+    void complete_cross_blocks(ModalSpaceResult &result)
+    {
+      const auto &offsets = result.cross_offsets, &neighbours = result.cross_neighbours;
+      for (unsigned int a = 0; a + 1 < offsets.size(); ++a)
+        for (unsigned int k = offsets[a]; k < offsets[a + 1]; ++k)
+          {
+            double *block = &result.cross_blocks[9 * std::size_t(k)];
+            if (!std::isnan(block[0]))
+              continue;
+            const unsigned int b       = neighbours[k];
+            const auto         first   = neighbours.begin() + offsets[b], last = neighbours.begin() + offsets[b + 1];
+            const auto         reverse = std::lower_bound(first, last, a);
+            AssertThrow(reverse != last && *reverse == a && !std::isnan(result.cross_blocks[9 * (reverse - neighbours.begin())]),
+                        dealii::ExcMessage("Internal error: the cross block of candidates " + std::to_string(a) + " and " +
+                                           std::to_string(b) + " was solved from neither of them."));
+            const double *transposed = &result.cross_blocks[9 * std::size_t(reverse - neighbours.begin())];
+            for (unsigned int c = 0; c < 3; ++c)
+              for (unsigned int d = 0; d < 3; ++d)
+                block[3 * c + d] = transposed[3 * d + c];
+          }
     }
 
     std::string static_correction_summary(const ModalSpaceResult &result, const std::size_t n_loads)

@@ -6,6 +6,7 @@
 //   below the (k+1)-th eigenvalue's scale times a small factor; no direction at all gives rank 0;
 // * error_by_distance: with the exact R and Z of it, the errors are rounding and the modes-alone
 //   figures |R_ab| / sqrt(|C_aa| |C_bb|); stored neighbour pairs are left out.
+#include "checks.h"
 #include "space/far_field.h"
 
 #include <algorithm>
@@ -16,17 +17,10 @@
 #include <vector>
 
 using namespace modal_haptics;
+using testing::check;
 
 namespace
 {
-  int failures = 0;
-
-  void check(const bool ok, const std::string &what)
-  {
-    std::printf("%s: %s\n", ok ? "ok" : "FAILED", what.c_str());
-    failures += !ok;
-  }
-
   // R = sum_j s_j v_j v_j^T (n x n, column-major) with random orthonormal v_j.
   std::vector<double> psd_matrix(const std::size_t n, const std::vector<double> &spectrum, const unsigned int seed)
   {
@@ -179,6 +173,5 @@ int main()
           "error_by_distance: candidate 0 against 2 and 3 (1 is a stored neighbour): " + std::to_string(pairs) +
             " pairs, errors " + std::to_string(worst) + ", modes alone rms " + std::to_string(measured.rms_modes_alone));
   }
-  std::printf("%d failed\n", failures);
-  return failures == 0 ? 0 : 1;
+  return testing::exit_code();
 }
