@@ -204,6 +204,18 @@ namespace modal_haptics
       return permutation;
     }
 
+  } // namespace
+
+  FillOrdering cholmod_fill_ordering(const dealii::SparsityPattern &pattern)
+  {
+    dealii::Timer timer;
+    FillOrdering  ordering{node_graph_ordering(pattern), 0.};
+    ordering.seconds = timer.wall_time();
+    return ordering;
+  }
+
+  namespace
+  {
     class CholmodFactorization : public Factorization
     {
     public:
@@ -212,7 +224,8 @@ namespace modal_haptics
       CholmodFactorization(const dealii::SparseMatrix<double> &K,
                            const dealii::SparseMatrix<double> *M,
                            const double shift,
-                           const double memory_limit)
+                           const double memory_limit,
+                           FillOrdering ordering)
       {
         cholmod_l_start(&common);
         // One ordering, METIS nested dissection (the fill-reducing ordering that pays on 3D
@@ -228,12 +241,16 @@ namespace modal_haptics
         stats.method = "cholmod-supernodal-metis";
 
         cholmod_sparse *A = copy_matrix(K, M, shift);
+        if (ordering.permutation.empty())
+          ordering = cholmod_fill_ordering(K.get_sparsity_pattern());
+        AssertThrow(ordering.permutation.size() == K.m(),
+                    ExcMessage("Internal error: a fill-reducing ordering of " + std::to_string(ordering.permutation.size()) +
+                               " rows for a matrix of " + std::to_string(K.m())));
         dealii::Timer timer;
-        auto          ordering = node_graph_ordering(K.get_sparsity_pattern());
-        factor                 = cholmod_l_analyze_p(A, ordering.data(), nullptr, 0, &common);
+        factor                     = cholmod_l_analyze_p(A, ordering.permutation.data(), nullptr, 0, &common);
         const int  analysis_status = common.status;
         const bool analyzed        = factor != nullptr && analysis_status == CHOLMOD_OK;
-        stats.analyze_seconds      = timer.wall_time();
+        stats.analyze_seconds      = ordering.seconds + timer.wall_time();
         // The supernodal analysis sizes the factor's values (xsize doubles) before any is computed.
         stats.predicted_factor_bytes = analyzed ? 8. * double(factor->xsize) : 0.;
         fits_in_memory               = stats.predicted_factor_bytes <= memory_limit;
@@ -398,17 +415,18 @@ namespace modal_haptics
 
   std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
-                                                            const double shift)
+                                                            const double shift, FillOrdering ordering)
   {
-    return std::make_unique<CholmodFactorization>(K, M, shift, std::numeric_limits<double>::infinity());
+    return std::make_unique<CholmodFactorization>(K, M, shift, std::numeric_limits<double>::infinity(),
+                                                  std::move(ordering));
   }
 
   std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
                                                                    const dealii::SparseMatrix<double> *M,
                                                                    const double shift, const double memory_limit,
-                                                                   double &predicted_factor_bytes)
+                                                                   double &predicted_factor_bytes, FillOrdering ordering)
   {
-    auto factorization     = std::make_unique<CholmodFactorization>(K, M, shift, memory_limit);
+    auto factorization     = std::make_unique<CholmodFactorization>(K, M, shift, memory_limit, std::move(ordering));
     predicted_factor_bytes = factorization->statistics().predicted_factor_bytes;
     if (!factorization->fits())
       return nullptr;

@@ -127,18 +127,32 @@ namespace modal_haptics
     FactorizationStatistics stats;
   };
 
+  // A fill-reducing ordering of a matrix's rows as CHOLMOD takes it (permutation[k]: the row that
+  // comes k-th) and the seconds it took.
+  struct FillOrdering
+  {
+    std::vector<SuiteSparse_long> permutation;
+    double                        seconds = 0.;
+  };
+  // The ordering make_cholmod_factorization computes for a matrix of this sparsity pattern (METIS's
+  // nested dissection of the node graph). It needs the pattern only, so a space computes it on a
+  // thread of its own while it assembles K and M, and hands it over.
+  FillOrdering cholmod_fill_ordering(const dealii::SparsityPattern &pattern);
+
   // Factorizes K - shift M (shift in rad^2/s^2; M may be null when shift = 0). Throws ExcMessage
   // when the matrix is not positive definite (a shift above the first eigenvalue, a part that is
-  // not clamped), naming what to change.
+  // not clamped), naming what to change. ordering: cholmod_fill_ordering of K's pattern, or empty
+  // (then computed here).
   std::unique_ptr<Factorization> make_cholmod_factorization(const dealii::SparseMatrix<double> &K,
                                                             const dealii::SparseMatrix<double> *M,
-                                                            double shift);
+                                                            double shift, FillOrdering ordering = {});
   // The same, only when the analysis predicts a factor of at most memory_limit bytes; otherwise
   // nullptr, without factorizing (predicted_factor_bytes says what it would have taken).
   std::unique_ptr<Factorization> make_cholmod_factorization_within(const dealii::SparseMatrix<double> &K,
                                                                    const dealii::SparseMatrix<double> *M,
                                                                    double shift, double memory_limit,
-                                                                   double &predicted_factor_bytes);
+                                                                   double &predicted_factor_bytes,
+                                                                   FillOrdering ordering = {});
 
   // MemAvailable of /proc/meminfo (infinity where there is none).
   double available_memory_bytes();

@@ -35,6 +35,7 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <future>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -129,6 +130,7 @@ namespace modal_haptics
       {
         read_mesh();
         setup_system();
+        start_fill_ordering();
         assemble_system();
       }
       void after_assembly() override
@@ -142,6 +144,13 @@ namespace modal_haptics
       void read_mesh();
       void setup_system();
       void assemble_system();
+      // What the solver choice knows once the supports are set up (their free motions, where it
+      // asks for them).
+      solver_choice::Known known_with_supports() const;
+      // Where the choice factorizes with CHOLMOD: its fill-reducing ordering, on a thread of its
+      // own while K and M are assembled (METIS needs the sparsity pattern only, and the assembly
+      // leaves part of a core idle). factorize_as_chosen takes it.
+      void            start_fill_ordering();
       void            factorize_as_chosen();
       EigenSolution   solve_with_lobpcg_amg();
       void select_modes();
@@ -167,6 +176,7 @@ namespace modal_haptics
       // The rigid-body motions the supports leave free, M-orthonormal, and M times each.
       std::vector<Vector<double>> rigid_modes, mass_times_rigid;
       mutable std::unique_ptr<space_parts::PointLocator> point_locator; // built on first use
+      std::future<FillOrdering> fill_ordering; // start_fill_ordering's, until factorize_as_chosen
     };
 
     // The mesh comes from gmsh in geometry units; we compute in SI. Inverted or degenerate tets are a
@@ -228,16 +238,27 @@ namespace modal_haptics
     // The solver choice (solver_choice.h) carried out: once the supports are known, CHOLMOD's analysis
     // against 'Modes/Factor memory limit' when the choice waits for it, then the factorization of
     // K - shift M it names (CHOLMOD or UMFPACK), none for LOBPCG + AMG or when it hands the space to MUMPS.
+    solver_choice::Known SerialSpace::known_with_supports() const
+    {
+      solver_choice::Known known{space_parts::solver_settings(scene), /*distributed*/ false, {}, {}, {}};
+      if (solver_choice::choose(known).needs == solver_choice::Needs::supports)
+        known.free_motions = !supports.free_motions(Point<3>()).motions.empty();
+      return known;
+    }
+
+    void SerialSpace::start_fill_ordering()
+    {
+      if (solver_choice::choose(known_with_supports()).factor == solver_choice::Factor::cholmod)
+        fill_ordering = std::async(std::launch::async, [this] { return cholmod_fill_ordering(sparsity_pattern); });
+    }
+
     void SerialSpace::factorize_as_chosen()
     {
       using solver_choice::Factor;
-      solver_choice::Known known{space_parts::solver_settings(scene), /*distributed*/ false, {}, {}, {}};
-      choice = solver_choice::choose(known);
-      if (choice.needs == solver_choice::Needs::supports)
-        {
-          known.free_motions = !supports.free_motions(Point<3>()).motions.empty();
-          choice             = solver_choice::choose(known);
-        }
+      solver_choice::Known known = known_with_supports();
+      choice                     = solver_choice::choose(known);
+      // The ordering started beside the assembly, if any (an empty one is computed by the factorization).
+      const auto take_fill_ordering = [this] { return fill_ordering.valid() ? fill_ordering.get() : FillOrdering{}; };
       if (choice.factor == Factor::none && choice.needs == solver_choice::Needs::nothing)
         return;
       log("factorizing K (" + std::string(choice.factor == Factor::umfpack ? "UMFPACK" : "CHOLMOD") + ")");
@@ -245,7 +266,8 @@ namespace modal_haptics
         {
           const double limit     = memory_budget_bytes(scene.modes.factor_memory_limit);
           double       predicted = 0.;
-          factorization = make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted);
+          factorization =
+            make_cholmod_factorization_within(stiffness_matrix, &mass_matrix, shift, limit, predicted, take_fill_ordering());
           known.cholmod = solver_choice::CholmodAnalysis{predicted, limit};
           choice        = solver_choice::choose(known);
           Assert((factorization != nullptr) == (predicted <= limit), ExcInternalError());
@@ -257,7 +279,7 @@ namespace modal_haptics
       if (!factorization)
         factorization = choice.factor == Factor::umfpack ?
                           make_umfpack_factorization(stiffness_matrix, &mass_matrix, shift) :
-                          make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift);
+                          make_cholmod_factorization(stiffness_matrix, &mass_matrix, shift, take_fill_ordering());
       const auto &f = factorization->statistics();
       std::ostringstream line;
       line << "factor: " << f.factor_nonzeros << " nonzeros, analyze " << f.analyze_seconds << " s, factorize "
