@@ -45,7 +45,7 @@ def sample(command, period):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--window", type=float, default=0.5, help="seconds per printed line")
     parser.add_argument("--cores", type=int, default=os.cpu_count(), help="cores the run may use")
     parser.add_argument("command", nargs=argparse.REMAINDER)

@@ -235,9 +235,6 @@ namespace modal_haptics
       moments.set_mass_properties(result);
     }
 
-    // The solver choice (solver_choice.h) carried out: once the supports are known, CHOLMOD's analysis
-    // against 'Modes/Factor memory limit' when the choice waits for it, then the factorization of
-    // K - shift M it names (CHOLMOD or UMFPACK), none for LOBPCG + AMG or when it hands the space to MUMPS.
     solver_choice::Known SerialSpace::known_with_supports() const
     {
       solver_choice::Known known{space_parts::solver_settings(scene), /*distributed*/ false, {}, {}, {}};
@@ -252,6 +249,9 @@ namespace modal_haptics
         fill_ordering = std::async(std::launch::async, [this] { return cholmod_fill_ordering(sparsity_pattern); });
     }
 
+    // The solver choice (solver_choice.h) carried out: once the supports are known, CHOLMOD's analysis
+    // against 'Modes/Factor memory limit' when the choice waits for it, then the factorization of
+    // K - shift M it names (CHOLMOD or UMFPACK), none for LOBPCG + AMG or when it hands the space to MUMPS.
     void SerialSpace::factorize_as_chosen()
     {
       using solver_choice::Factor;

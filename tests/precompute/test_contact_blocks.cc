@@ -13,8 +13,6 @@
 #include "space/contact_blocks.h"
 #include "space/modal_space.h"
 
-#include <cmath>
-#include <cstdio>
 #include <limits>
 #include <map>
 #include <set>
