@@ -104,11 +104,12 @@ namespace
     dealii::Timer       timer;
     if (block == 0)
       {
-        std::vector<std::vector<modal_haptics::SparseColumn>> W(1, std::vector<modal_haptics::SparseColumn>(loads));
+        std::vector<modal_haptics::GramGroup> W(1);
+        W[0].columns.resize(loads);
         for (unsigned int load = 0; load < loads; ++load)
-          W[0][load].emplace_back(loaded_dof(n, candidates, load), 1.);
+          W[0].columns[load].emplace_back(loaded_dof(n, candidates, load), 1.);
         std::vector<std::vector<double>> grams;
-        if (!factorization.group_grams(W, {loads}, grams))
+        if (!factorization.group_grams(W, grams))
           throw std::runtime_error("group_grams declined");
         return timer.wall_time();
       }

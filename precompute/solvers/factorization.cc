@@ -309,15 +309,15 @@ namespace modal_haptics
         stats.n_solved_vectors += n_rhs;
       }
 
-      bool group_grams(const std::vector<std::vector<SparseColumn>> &groups, const std::vector<std::size_t> &leading,
-                       std::vector<std::vector<double>> &grams) override
+      // The groups' kept solves may take half the memory available then (beside the factor).
+      bool group_grams(const std::vector<GramGroup> &groups, std::vector<std::vector<double>> &grams) override
       {
         dealii::Timer     timer;
         const BlasThreads one_blas_thread(1);
-        grams = triangular_solves->group_grams(groups, leading);
+        grams = triangular_solves->group_grams(groups, 0.5 * available_memory_bytes());
         stats.solve_seconds += timer.wall_time();
         for (const auto &group : groups)
-          stats.n_solved_vectors += group.size();
+          stats.n_solved_vectors += group.columns.size();
         return true;
       }
 

@@ -108,12 +108,11 @@ namespace modal_haptics
     // length n). A block is much cheaper per column than single solves: the factor is read once.
     virtual void solve_block(double *columns, unsigned int n_rhs) = 0;
 
-    // The Gram matrices G_g = B_g^T A^-1 B_g[:, 0 .. leading[g]) of groups of sparse columns
-    // (column-major; SupernodalSolve::group_grams), when the
-    // factorization gives them without a full solve per column (CHOLMOD's:
-    // SupernodalSolve::group_grams); false otherwise, and the caller solves.
-    virtual bool group_grams(const std::vector<std::vector<SparseColumn>> & /*groups*/,
-                             const std::vector<std::size_t> & /*leading*/, std::vector<std::vector<double>> & /*grams*/)
+    // The Gram matrices G_g = [B_g C_g]^T A^-1 B_g of groups of sparse columns with the columns
+    // they borrow from other groups (column-major; SupernodalSolve::group_grams), when the
+    // factorization gives them without a full solve per column (CHOLMOD's); false otherwise, and
+    // the caller solves.
+    virtual bool group_grams(const std::vector<GramGroup> & /*groups*/, std::vector<std::vector<double>> & /*grams*/)
     {
       return false;
     }

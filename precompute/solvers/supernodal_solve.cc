@@ -4,6 +4,8 @@
 #include "solvers/supernode_tree.h"
 
 #include <algorithm>
+#include <array>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -459,7 +461,8 @@ namespace modal_haptics
   }
 
   std::vector<double> SupernodalSolve::group_gram(const std::vector<SparseColumn> &B, const std::size_t leading,
-                                                  const std::vector<Index> &position_of_row, GroupScratch &scratch) const
+                                                  const std::vector<Index> &position_of_row, GroupScratch &scratch,
+                                                  SolvedGroup *solved) const
   {
     const int          width = int(B.size());
     auto              &local_row = scratch.local_row;
@@ -492,22 +495,146 @@ namespace modal_haptics
       if (!active[i].empty())
         forward_local(path[i], X.data(), ld, local_row.data(), active[i].data(), int(active[i].size()), own.data(),
                       workspace.data(), gram);
+    if (solved != nullptr)
+      {
+        solved->offset.resize(path.size());
+        for (std::size_t i = 0; i < path.size(); ++i)
+          solved->offset[i] = local_row[first_column[path[i]]];
+        solved->path = std::move(path);
+        solved->ld   = ld;
+        solved->Y    = std::move(X);
+      }
     return std::move(gram.G);
   }
 
-  std::vector<std::vector<double>>
-  SupernodalSolve::group_grams(const std::vector<std::vector<SparseColumn>> &groups,
-                               const std::vector<std::size_t> &leading) const
+  double SupernodalSolve::solved_groups_bytes(const std::vector<GramGroup> &groups,
+                                              const std::vector<Index> &position_of_row) const
+  {
+    std::vector<char>  on_path(n_supernodes, 0);
+    std::vector<Index> path;
+    double             bytes = 0.;
+    for (const auto &group : groups)
+      {
+        path.clear();
+        mark_paths(group.columns, position_of_row, on_path, path);
+        Index rows_of_Y = 0;
+        for (const Index s : path)
+          {
+            on_path[s] = 0;
+            rows_of_Y += first_column[s + 1] - first_column[s];
+          }
+        bytes += 8. * double(std::max<Index>(rows_of_Y, 1)) * double(group.columns.size());
+      }
+    return bytes;
+  }
+
+  void SupernodalSolve::add_borrowed_rows(const GramGroup &group, const SolvedGroup &own,
+                                          const std::vector<SolvedGroup> &solved, std::vector<double> &gram) const
+  {
+    const int width = int(group.columns.size()), rows_of_G = width + int(group.borrowed.size());
+    // The borrowed columns by lending group: one product per lender, with the own columns that
+    // any of them is wanted with (the default scene: about a third of the group's).
+    std::map<std::size_t, std::vector<int>> by_lender; // lender -> positions in group.borrowed
+    for (int k = 0; k < int(group.borrowed.size()); ++k)
+      by_lender[group.borrowed[k].first].push_back(k);
+    std::vector<double> mine, theirs, product;
+    std::vector<int>    wanted;
+    for (const auto &[lender, positions] : by_lender)
+      {
+        wanted.clear();
+        for (const int k : positions)
+          wanted.insert(wanted.end(), group.wanted[k].begin(), group.wanted[k].end());
+        std::sort(wanted.begin(), wanted.end());
+        wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+        // The rows both Y may be nonzero on: the supernodes on both paths (each ascending).
+        const SolvedGroup &other = solved[lender];
+        std::vector<std::array<Index, 3>> shared; // supernode's first row in own Y, in other's Y, row count
+        Index rows_shared = 0;
+        for (std::size_t i = 0, j = 0; i < own.path.size() && j < other.path.size();)
+          if (own.path[i] < other.path[j])
+            ++i;
+          else if (other.path[j] < own.path[i])
+            ++j;
+          else
+            {
+              const Index s = own.path[i];
+              shared.push_back({{own.offset[i], other.offset[j], first_column[s + 1] - first_column[s]}});
+              rows_shared += shared.back()[2];
+              ++i, ++j;
+            }
+        const int k = int(positions.size()), w = int(wanted.size()), m = int(std::max<Index>(rows_shared, 1));
+        if (rows_shared == 0 || w == 0) // paths apart: the products are zero
+          continue;
+        mine.resize(std::size_t(m) * w);
+        theirs.resize(std::size_t(m) * k);
+        Index row = 0;
+        for (const auto &[at_own, at_other, count] : shared)
+          {
+            for (int c = 0; c < w; ++c)
+              std::copy_n(&own.Y[at_own + std::size_t(wanted[c]) * own.ld], count, &mine[row + std::size_t(c) * m]);
+            for (int c = 0; c < k; ++c)
+              std::copy_n(&other.Y[at_other + group.borrowed[positions[c]].second * std::size_t(other.ld)], count,
+                          &theirs[row + std::size_t(c) * m]);
+            row += count;
+          }
+        // The borrowed rows of G: theirs^T mine (k x w).
+        product.resize(std::size_t(k) * w);
+        const double one = 1., zero = 0.;
+        dgemm_("T", "N", &k, &w, &m, &one, theirs.data(), &m, mine.data(), &m, &zero, product.data(), &k);
+        for (int j = 0; j < w; ++j)
+          for (int c = 0; c < k; ++c)
+            gram[width + positions[c] + std::size_t(wanted[j]) * rows_of_G] = product[c + std::size_t(j) * k];
+      }
+  }
+
+  std::vector<std::vector<double>> SupernodalSolve::group_grams(const std::vector<GramGroup> &groups,
+                                                               const double storage_limit) const
   {
     std::vector<Index> position_of_row(n);
     for (Index i = 0; i < n; ++i)
       position_of_row[permutation[i]] = i;
     std::vector<std::vector<double>> grams(groups.size());
     const unsigned int               threads = n_threads();
+    bool borrows = false;
+    for (const auto &group : groups)
+      borrows = borrows || !group.borrowed.empty();
+    if (borrows && solved_groups_bytes(groups, position_of_row) > storage_limit)
+      {
+        // Each borrowed column solved again in the group that borrows it.
+        run_on_threads(threads, [&](const unsigned int t) {
+          GroupScratch scratch(*this);
+          for (std::size_t g = t; g < groups.size(); g += threads)
+            {
+              std::vector<SparseColumn> B = groups[g].columns;
+              for (const auto &[lender, column] : groups[g].borrowed)
+                B.push_back(groups[lender].columns[column]);
+              grams[g] = group_gram(B, groups[g].columns.size(), position_of_row, scratch, nullptr);
+            }
+        });
+        return grams;
+      }
+    std::vector<SolvedGroup> solved(borrows ? groups.size() : 0);
     run_on_threads(threads, [&](const unsigned int t) {
       GroupScratch scratch(*this);
       for (std::size_t g = t; g < groups.size(); g += threads)
-        grams[g] = group_gram(groups[g], leading[g], position_of_row, scratch);
+        grams[g] = group_gram(groups[g].columns, groups[g].columns.size(), position_of_row, scratch,
+                              borrows ? &solved[g] : nullptr);
+    });
+    if (!borrows)
+      return grams;
+    run_on_threads(threads, [&](const unsigned int t) {
+      for (std::size_t g = t; g < groups.size(); g += threads)
+        {
+          if (groups[g].borrowed.empty())
+            continue;
+          // The own Gram's rows, then room for the borrowed ones.
+          const std::size_t   width = groups[g].columns.size(), rows_of_G = width + groups[g].borrowed.size();
+          std::vector<double> G(rows_of_G * width, 0.);
+          for (std::size_t j = 0; j < width; ++j)
+            std::copy_n(&grams[g][j * width], width, &G[j * rows_of_G]);
+          add_borrowed_rows(groups[g], solved[g], solved, G);
+          grams[g] = std::move(G);
+        }
     });
     return grams;
   }

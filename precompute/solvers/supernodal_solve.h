@@ -21,6 +21,17 @@ namespace modal_haptics
   // A sparse column: (row, value) pairs in the matrix's own numbering.
   using SparseColumn = std::vector<std::pair<std::size_t, double>>;
 
+  // A group of sparse columns for SupernodalSolve::group_grams: its own columns, and columns of
+  // other groups whose products with some of them it needs.
+  struct GramGroup
+  {
+    std::vector<SparseColumn>                        columns;  // B_g
+    std::vector<std::pair<std::size_t, std::size_t>> borrowed; // C_g: (group, its column)
+    // Per borrowed column, the own columns (ascending) whose products with it are wanted: G's
+    // other entries in its row are not computed where the borrowed solves are kept (zero).
+    std::vector<std::vector<std::size_t>> wanted;
+  };
+
   class SupernodalSolve
   {
   public:
@@ -31,21 +42,26 @@ namespace modal_haptics
     // Solves A X = B in place for n_rhs columns of length n, one after the other (column-major).
     void solve(double *columns, unsigned int n_rhs) const;
 
-    // The Gram matrices G_g = B_g^T A^-1 B_g[:, 0 .. k_g) of groups of sparse columns with their
-    // first k_g columns (each |B_g| x k_g, column-major; k_g = leading[g]): the entries of A^-1
-    // between loads that lie close together in the part (a contact's own compliance, and between
-    // neighbouring contacts) without a full solve. With
-    // P A P^T = L L^T, G_g = Y^T Y for Y = L^-1 P B_g: a forward solve only, over the supernodes on
-    // the elimination tree's paths from the group's nonzero rows to a root (Y is zero elsewhere).
-    // Columns close together share the upper part of their paths; below, each supernode of the
-    // union solves only the columns whose own path it is on (the union is 3.5x the own paths' work
-    // on the default scene's rib_b). Groups go to the threads in turn; the caller keeps the BLAS on
-    // one thread. Memory per thread: the group's path times its width. The top of the tree (the last
-    // separators, large and dense), which every path crosses, is solved for every group too: the
-    // dense inverse of its last 3,000 columns, read instead (C^T (L22 L22^T)^-1 C), was no faster
-    // once each supernode solved only its own columns (docs/performance.md).
-    std::vector<std::vector<double>> group_grams(const std::vector<std::vector<SparseColumn>> &groups,
-                                                 const std::vector<std::size_t> &leading) const;
+    // The Gram matrices G_g = [B_g C_g]^T A^-1 B_g of groups of sparse columns B_g (|B_g| + |C_g|
+    // rows, |B_g| columns, column-major): the entries of A^-1 between loads that lie close together
+    // in the part (a contact's own compliance, and between neighbouring contacts) without a full
+    // solve. C_g's columns are other groups' columns (GramGroup::borrowed). With P A P^T = L L^T,
+    // G = Y^T Y for Y = L^-1 P B: a forward solve only, over the supernodes on the elimination
+    // tree's paths from the group's nonzero rows to a root (Y is zero elsewhere). Columns close
+    // together share the upper part of their paths; below, each supernode of the union solves only
+    // the columns whose own path it is on (the union is 3.5x the own paths' work on the default
+    // scene's rib_b). Groups go to the threads in turn; the caller keeps the BLAS on one thread.
+    //
+    // A borrowed column is solved once, in its own group: every group's Y is kept, and a borrowed
+    // row of G is the product of the two groups' Y on the supernodes their paths share (the default
+    // scene's group solves took 30 % less time than solving each borrowed column again in the group
+    // that borrows it). Where the kept Y of all groups would take more than storage_limit bytes,
+    // the borrowed columns are solved again instead (memory per thread: a group's path times its
+    // width). The top of the tree (the last separators, large and dense), which every path
+    // crosses, is solved for every group too: the dense inverse of its last 3,000 columns, read
+    // instead (C^T (L22 L22^T)^-1 C), was no faster once each supernode solved only its own columns
+    // (docs/performance.md).
+    std::vector<std::vector<double>> group_grams(const std::vector<GramGroup> &groups, double storage_limit) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }
 
@@ -77,10 +93,24 @@ namespace modal_haptics
       std::vector<char>  on_path;       // per supernode, while paths are marked
       std::vector<Index> path_position; // per supernode: its index in the group's path, or -1
     };
-    // One group of group_grams. X is local: the rows of the group's path, in the order of its
-    // supernodes.
+    // A group's Y = L^-1 P B, kept for the groups that borrow its columns: its rows are those of
+    // the supernodes on its path (ascending), each supernode's consecutive from offset[i] on.
+    struct SolvedGroup
+    {
+      std::vector<Index>  path, offset;
+      int                 ld = 1;
+      std::vector<double> Y; // ld x |B|, column-major
+    };
+    // One group of group_grams: G = B^T A^-1 B[:, 0 .. leading), and its Y in 'solved' when given.
+    // X is local: the rows of the group's path, in the order of its supernodes.
     std::vector<double> group_gram(const std::vector<SparseColumn> &B, std::size_t leading,
-                                   const std::vector<Index> &position_of_row, GroupScratch &scratch) const;
+                                   const std::vector<Index> &position_of_row, GroupScratch &scratch,
+                                   SolvedGroup *solved) const;
+    // The bytes the groups' Y would take (their paths' rows times their widths).
+    double solved_groups_bytes(const std::vector<GramGroup> &groups, const std::vector<Index> &position_of_row) const;
+    // G's borrowed rows of a group (own: its Y; gram: |B| + |C| rows) from the lending groups' Y.
+    void add_borrowed_rows(const GramGroup &group, const SolvedGroup &own, const std::vector<SolvedGroup> &solved,
+                           std::vector<double> &gram) const;
     // Per supernode of the group's path, the columns of B whose own path it is on:
     // a column's solution is zero on every other supernode of the union. Ascending.
     std::vector<std::vector<int>> active_columns(const std::vector<SparseColumn> &B, const std::vector<Index> &path,

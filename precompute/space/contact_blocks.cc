@@ -155,6 +155,7 @@ namespace modal_haptics
     // half of a group's columns (the default scene: 357 columns for 64 members).
     const std::size_t size = std::max(1u, group_size);
     std::vector<int>  member_group(positions.size() / 3, -1), in_halo_of(positions.size() / 3, -1);
+    std::vector<unsigned int> halo_position(positions.size() / 3, 0); // in the group in_halo_of says
     for (std::size_t k = 0; k < ordered.size(); ++k)
       member_group[ordered[k].second] = int(k / size);
     for (std::size_t first = 0; first < ordered.size(); first += size)
@@ -173,11 +174,16 @@ namespace modal_haptics
             for (unsigned int k = plan.neighbours.offsets[a]; k < plan.neighbours.offsets[a + 1]; ++k)
               {
                 const unsigned int vb = candidates[plan.neighbours.neighbours[k]];
-                if (member_group[vb] > g && in_halo_of[vb] != g)
+                if (member_group[vb] <= g)
+                  continue;
+                if (in_halo_of[vb] != g)
                   {
+                    halo_position[vb] = group.vertices.size() - group.n_members;
                     group.vertices.push_back(vb);
+                    group.halo_neighbours_of.emplace_back();
                     in_halo_of[vb] = g;
                   }
+                group.halo_neighbours_of[halo_position[vb]].push_back(m);
               }
           }
         plan.groups.push_back(std::move(group));

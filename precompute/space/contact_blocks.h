@@ -22,12 +22,17 @@ namespace modal_haptics
   // A group of display vertices whose loads are solved together: its members (whose own
   // compliance, and whose cross blocks with their neighbours in this group or in its halo, the group
   // records), then the neighbours of its member candidates that are members of a later group (the
-  // halo: loaded, not recorded). A pair of neighbours in two groups is solved in the earlier one
-  // only; the later one's block is its transpose (W_b^T R W_a = (W_a^T R W_b)^T).
+  // halo: not recorded; with a Cholesky factor of K their solves are borrowed from their own group,
+  // SupernodalSolve::group_grams, else solved again here). A pair of neighbours in two groups is
+  // recorded in the earlier one only; the later one's block is its transpose
+  // (W_b^T R W_a = (W_a^T R W_b)^T).
   struct ContactGroup
   {
     std::vector<unsigned int> vertices; // display vertices: members first, then the halo
     unsigned int              n_members = 0;
+    // Per halo vertex (in the order of vertices), the members (positions in vertices, ascending)
+    // it is a neighbour of: the only blocks with it the group records.
+    std::vector<std::vector<unsigned int>> halo_neighbours_of;
   };
 
   struct ContactBlockPlan

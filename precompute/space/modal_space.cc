@@ -619,16 +619,34 @@ namespace modal_haptics
     {
       if (shift != 0. || !rigid_modes.empty())
         return false;
-      std::vector<std::vector<SparseColumn>> columns(groups.size());
-      std::vector<std::size_t>               members(groups.size());
+      // A halo vertex is a member of a later group: its three columns are borrowed from there, wanted
+      // with the members it is a neighbour of.
+      std::map<unsigned int, std::pair<std::size_t, std::size_t>> member_column; // vertex -> (group, first column)
+      for (std::size_t g = 0; g < groups.size(); ++g)
+        for (unsigned int m = 0; m < groups[g].n_members; ++m)
+          member_column[groups[g].vertices[m]] = {g, 3 * m};
+      std::vector<GramGroup> columns(groups.size());
       for (std::size_t g = 0; g < groups.size(); ++g)
         {
-          for (const unsigned int v : groups[g].vertices)
-            for (const auto &direction : surface.patch_loads.at(v))
-              columns[g].emplace_back(direction.begin(), direction.end());
-          members[g] = 3 * groups[g].n_members;
+          const auto &group = groups[g];
+          for (unsigned int m = 0; m < group.n_members; ++m)
+            for (const auto &direction : surface.patch_loads.at(group.vertices[m]))
+              columns[g].columns.emplace_back(direction.begin(), direction.end());
+          for (unsigned int h = 0; h < group.halo_neighbours_of.size(); ++h)
+            {
+              std::vector<std::size_t> wanted;
+              for (const unsigned int m : group.halo_neighbours_of[h])
+                for (std::size_t d = 0; d < 3; ++d)
+                  wanted.push_back(3 * m + d);
+              const auto [lender, first] = member_column.at(group.vertices[group.n_members + h]);
+              for (std::size_t d = 0; d < 3; ++d)
+                {
+                  columns[g].borrowed.emplace_back(lender, first + d);
+                  columns[g].wanted.push_back(wanted);
+                }
+            }
         }
-      return factorization->group_grams(columns, members, grams);
+      return factorization->group_grams(columns, grams);
     }
 
     void SerialSpace::add_patch_loads(Block &X, const unsigned int first_column, const unsigned int vertex) const

@@ -68,7 +68,7 @@ namespace modal_haptics
                                              scene.contact.exact_pair_reach * scene.length_unit);
       // 64 loads (192 columns) a group, with their halo: wide enough for the BLAS, close enough
       // together to share their paths in the elimination tree, and the halo (the members'
-      // neighbours, solved again) a smaller share than with smaller groups.
+      // neighbours in later groups) a smaller share than with smaller groups.
       plan.blocks = plan_contact_blocks(positions, triangles, plan.loads, result.candidates, radius, 64, links);
 
       result.candidate_modes.assign(3 * std::size_t(nc) * result.eigenvalues.size(), 0.);

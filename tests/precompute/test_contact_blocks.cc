@@ -6,13 +6,15 @@
 // * a group's halo holds only candidates that are members of a later group;
 // * every pair of neighbouring candidates is solved in exactly one group (the one holding both, with
 //   the earlier one's member loaded), the linked far pair too;
-// * the halo is at most 0.6 of what solving each pair in both groups would load (about half);
+// * the halo is at most 0.6 of what solving each pair in both groups would load (about half), and
+//   each halo vertex lists exactly the members it is a neighbour of;
 // * complete_cross_blocks fills each block no solve recorded with its pair's transpose, leaves the
 //   recorded ones as they are, and throws when neither of a pair's blocks was recorded.
 #include "checks.h"
 #include "space/contact_blocks.h"
 #include "space/modal_space.h"
 
+#include <algorithm>
 #include <limits>
 #include <map>
 #include <set>
@@ -108,6 +110,32 @@ namespace
     check(pairs > 0 && solved_once == pairs,
           std::to_string(solved_once) + " of " + std::to_string(pairs) +
             " neighbour pairs (the linked corners among them) solved in exactly one group");
+    // Each halo vertex names exactly the members it is a neighbour of (the blocks the group records).
+    std::map<unsigned int, unsigned int> candidate_index;
+    for (unsigned int a = 0; a < grid.candidates.size(); ++a)
+      candidate_index[grid.candidates[a]] = a;
+    const auto are_neighbours = [&](const unsigned int va, const unsigned int vb) {
+      const auto a = candidate_index.find(va), b = candidate_index.find(vb);
+      if (a == candidate_index.end() || b == candidate_index.end())
+        return false;
+      const auto first = neighbours.neighbours.begin() + neighbours.offsets[a->second],
+                 last  = neighbours.neighbours.begin() + neighbours.offsets[a->second + 1];
+      return std::binary_search(first, last, b->second);
+    };
+    bool halo_lists_exact = true;
+    for (const auto &group : plan.groups)
+      {
+        halo_lists_exact = halo_lists_exact && group.halo_neighbours_of.size() == group.vertices.size() - group.n_members;
+        for (std::size_t h = 0; h < group.halo_neighbours_of.size() && halo_lists_exact; ++h)
+          {
+            std::vector<unsigned int> expected;
+            for (unsigned int m = 0; m < group.n_members; ++m)
+              if (are_neighbours(group.vertices[m], group.vertices[group.n_members + h]))
+                expected.push_back(m);
+            halo_lists_exact = group.halo_neighbours_of[h] == expected;
+          }
+      }
+    check(halo_lists_exact, "each halo vertex lists exactly the members it is a neighbour of");
     std::size_t old_halo_size = 0;
     for (const auto &halo : both_sides_halo)
       old_halo_size += halo.size();

@@ -4,11 +4,12 @@
 // plate-like vector Laplacian (a tree with deep, wide subtrees, like the parts' stiffness), a
 // diagonal matrix (a forest of single supernodes), a tridiagonal one (METIS makes its path a
 // balanced tree; in the natural order it is a chain, with no parallelism to find) and a 1 x 1
-// matrix; a simplicial factor is refused. group_grams (B_g^T A^-1 B_g[:, :k] of groups of sparse
-// columns by forward solves on their elimination-tree paths) against B^T of the full solve, for
-// columns of one to six nonzeros scattered or clustered, an empty column, groups of one column to
-// all of them with a leading block of one to all columns (each supernode solving only the columns
-// whose path it is on), every thread count.
+// matrix; a simplicial factor is refused. group_grams ([B_g C_g]^T A^-1 B_g of groups of sparse
+// columns by forward solves on their elimination-tree paths, C_g borrowed from the other groups)
+// against B^T of the full solve, for columns of one to six nonzeros scattered or clustered, an empty
+// column, groups of one column to all of them (each supernode solving only the columns whose path
+// it is on), every third column of the other groups borrowed, their solves kept or (a storage
+// limit of 0) solved again in the borrowing group, every thread count.
 // factorize_supernodal (precompute/supernodal_cholesky.h) against cholmod_l_factorize on the same
 // analysis, for the same matrices and thread counts: the factor CHOLMOD's to rounding, the same bit
 // for bit when factorized again on as many threads, the first column that is not
@@ -23,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -185,37 +187,58 @@ namespace
                   expected[i + j * m] += dense[r + i * n] * X[r + j * n];
                 largest = std::max(largest, std::abs(expected[i + j * m]));
               }
-          // Groups of 'size' consecutive columns (the last one shorter), each with its first 'leading'.
+          // Groups of 'size' consecutive columns (the last one shorter), each borrowing every
+          // third column of the other groups; their products kept (no limit) or solved again (0).
           for (const std::size_t size : {std::size_t(1), std::size_t(5), m})
             for (const unsigned int threads : {1u, 2u, 3u})
-              {
-                std::vector<std::vector<modal_haptics::SparseColumn>> groups;
-                std::vector<std::size_t>                              leading, first;
-                for (std::size_t start = 0; start < m; start += size)
-                  {
-                    groups.emplace_back(B.begin() + start, B.begin() + std::min(m, start + size));
-                    leading.push_back(std::max<std::size_t>(1, groups.back().size() / 2));
-                    first.push_back(start);
-                  }
-                const auto grams = modal_haptics::SupernodalSolve(*L, threads).group_grams(groups, leading);
-                double     difference = grams.size() == groups.size() ? 0. : 1.;
-                for (std::size_t g = 0; g < grams.size(); ++g)
-                  {
-                    const std::size_t width = groups[g].size();
-                    if (grams[g].size() != width * leading[g])
-                      difference = 1.;
-                    else
-                      for (std::size_t j = 0; j < leading[g]; ++j)
-                        for (std::size_t i = 0; i < width; ++i)
-                          difference = std::max(difference, std::abs(grams[g][i + j * width] -
-                                                                     expected[first[g] + i + (first[g] + j) * m]));
-                  }
-                char line[240];
-                std::snprintf(line, sizeof line, "group_grams, %s, %s columns, m = %zu in groups of %zu, %u threads: %.1e of max |G|",
-                              name.c_str(), cluster ? "clustered" : "scattered", m, size, threads,
-                              difference / std::max(largest, 1e-300));
-                check(difference <= 1e-12 * std::max(largest, 1e-300), line);
-              }
+              for (const double storage_limit : {std::numeric_limits<double>::infinity(), 0.})
+                {
+                  std::vector<modal_haptics::GramGroup> groups;
+                  std::vector<std::size_t>              first;
+                  for (std::size_t start = 0; start < m; start += size)
+                    {
+                      groups.push_back({{B.begin() + start, B.begin() + std::min(m, start + size)}, {}, {}});
+                      first.push_back(start);
+                    }
+                  // Each borrowed column wanted with every second own column from its position on.
+                  for (std::size_t g = 0; g < groups.size(); ++g)
+                    for (std::size_t h = 0; h < groups.size(); ++h)
+                      for (std::size_t c = 0; c < groups[h].columns.size() && h != g; c += 3)
+                        {
+                          groups[g].borrowed.emplace_back(h, c);
+                          groups[g].wanted.emplace_back();
+                          for (std::size_t j = groups[g].borrowed.size() % 2; j < groups[g].columns.size(); j += 2)
+                            groups[g].wanted.back().push_back(j);
+                        }
+                  const auto grams = modal_haptics::SupernodalSolve(*L, threads).group_grams(groups, storage_limit);
+                  double     difference = grams.size() == groups.size() ? 0. : 1.;
+                  for (std::size_t g = 0; g < grams.size(); ++g)
+                    {
+                      const std::size_t width = groups[g].columns.size(), rows = width + groups[g].borrowed.size();
+                      // G's row i: column first[g] + i of B, or the borrowed column's.
+                      const auto column_of_row = [&](const std::size_t i) {
+                        if (i < width)
+                          return first[g] + i;
+                        const auto [h, c] = groups[g].borrowed[i - width];
+                        return first[h] + c;
+                      };
+                      if (grams[g].size() != rows * width)
+                        difference = 1.;
+                      else
+                        for (std::size_t j = 0; j < width; ++j)
+                          for (std::size_t i = 0; i < rows; ++i)
+                            if (i < width || std::binary_search(groups[g].wanted[i - width].begin(),
+                                                                groups[g].wanted[i - width].end(), j))
+                              difference = std::max(difference, std::abs(grams[g][i + j * rows] -
+                                                                         expected[column_of_row(i) + (first[g] + j) * m]));
+                    }
+                  char line[260];
+                  std::snprintf(line, sizeof line,
+                                "group_grams, %s, %s columns, m = %zu in groups of %zu, %u threads, borrowed columns %s: %.1e of max |G|",
+                                name.c_str(), cluster ? "clustered" : "scattered", m, size, threads,
+                                storage_limit > 0. ? "kept" : "solved again", difference / std::max(largest, 1e-300));
+                  check(difference <= 1e-12 * std::max(largest, 1e-300), line);
+                }
         }
     cholmod_l_free_factor(&L, &common);
   }
