@@ -53,9 +53,10 @@ namespace modal_haptics
     // scene's rib_b). Groups go to the threads in turn; the caller keeps the BLAS on one thread.
     //
     // A borrowed column is solved once, in its own group: every group's Y is kept, and a borrowed
-    // row of G is the product of the two groups' Y on the supernodes their paths share (the default
-    // scene's group solves took 30 % less time than solving each borrowed column again in the group
-    // that borrows it). Where the kept Y of all groups would take more than storage_limit bytes,
+    // row of G is the product of the two groups' Y on the supernodes their paths share, for the own
+    // columns GramGroup::wanted names (the default scene's static correction: 8.0-8.6 -> 6.5-7.5 s
+    // against solving each borrowed column again in the group that borrows it, docs/performance.md;
+    // the products 0.1-0.2 s a space). Where the kept Y of all groups would take more than storage_limit bytes,
     // the borrowed columns are solved again instead (memory per thread: a group's path times its
     // width). The top of the tree (the last separators, large and dense), which every path
     // crosses, is solved for every group too: the dense inverse of its last 3,000 columns, read
