@@ -23,7 +23,7 @@ import json, sys
 r = json.load(open(sys.argv[1]))
 t = r["timings_s"]
 print(f"{sys.argv[2]}, round {sys.argv[3]}: wall {float(sys.argv[5]) - float(sys.argv[4]):.1f} s, total {t['total']:.1f} s, "
-      f"assembly {t.get('assembly', 0):.1f} s, static_correction {t.get('static_correction', 0):.1f} s, "
+      f"meshing {t.get('meshing', 0):.1f} s, assembly {t.get('assembly', 0):.1f} s, static_correction {t.get('static_correction', 0):.1f} s, "
       f"eigensolve {t['eigensolve']:.1f} s, validity_estimate {t.get('validity_estimate', 0):.1f} s, validity {t.get('validity', 0):.1f} s, "
       f"far_field {t.get('far_field', 0):.1f} s, vtu_output {t.get('vtu_output', 0):.1f} s, "
       f"BLAS kernels {r['processes'].get('blas_kernels', '?')}, "

@@ -82,6 +82,10 @@ namespace modal_haptics::meshing
     // padding) form the physical surface "clamp". A box that catches no face is an error.
     std::vector<std::array<Point3, 2>> clamp_boxes;
     int    mesh_threads = 1;          // gmsh's threads; 0: one per core this process may run on
+    // The VOIs' meshes in child processes (fork) beside this one's global mesh and display surface,
+    // where gmsh runs on one thread and the process may use more than one core. Set by a caller
+    // that may fork: modal-precompute in a run of one process (not under mpirun).
+    bool   mesh_vois_beside = false;
     double min_quality  = 0.01;       // minimum acceptable element quality (gmsh minSICN); below: error
   };
 

@@ -268,9 +268,13 @@ namespace modal_haptics
         // Process 0 meshes (or finds the cached meshes); then the others read the same files from
         // the cache, so that gmsh never writes one file from two processes. A failure on process 0
         // aborts the run (main), so the barrier cannot hang.
+        // A process alone may fork children that mesh the VOIs beside it (not under mpirun: MPI
+        // libraries forbid fork or warn about it there).
+        meshing::MeshingSettings settings = scene.meshing;
+        settings.mesh_vois_beside         = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD) == 1;
         if (writes_files)
           results.meshes =
-            meshing::mesh_scene(scene.meshing, scene.volumes_of_interest, scene.output_directory, verbose, reuse_only);
+            meshing::mesh_scene(settings, scene.volumes_of_interest, scene.output_directory, verbose, reuse_only);
         if (distributed)
           MPI_Barrier(MPI_COMM_WORLD);
         if (!writes_files)

@@ -1,8 +1,10 @@
 // Tests of the meshing stage (meshing/scene_mesher.h) on the built-in ribbed panel, coarse enough
-// to run in seconds: files, groups, grading, quality, display surface, cache, and the user errors.
+// to run in seconds: files, groups, grading, quality, display surface, cache, the VOIs meshed in
+// child processes, and the user errors.
 #include "meshing_check.h"
 #include "scene_mesher.h"
 
+#include <sched.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -194,6 +196,50 @@ namespace
           "a new fine size re-meshes the VOI and the display surface, not the global mesh");
   }
 
+  // The VOIs meshed by child processes beside the global mesh and the display surface
+  // (MeshingSettings::mesh_vois_beside; with one core allowed, in this process as before): the same
+  // scenarios in the same order, made (not reused) and cached, then reused; a VOI that cannot be
+  // meshed is still the error that names it.
+  void test_vois_beside(const fs::path &folder)
+  {
+    cpu_set_t cores;
+    CPU_ZERO(&cores);
+    const int n_cores = sched_getaffinity(0, sizeof(cores), &cores) == 0 ? CPU_COUNT(&cores) : 1;
+    std::cout << "VOIs meshed beside (" << n_cores << " cores allowed)" << std::endl;
+    MeshingSettings settings  = coarse_panel();
+    settings.mesh_vois_beside = true;
+    VolumeOfInterest second   = box_around_middle_rib();
+    second.name               = "rib_end";
+    second.box_lower          = {60., -5., -1.};
+    second.box_upper          = {100., 5., 18.};
+    const std::vector<VolumeOfInterest> vois = {box_around_middle_rib(), second};
+    const std::string                   dir  = (folder / "beside").string();
+
+    const SceneMeshes meshes = mesh_scene(settings, vois, dir, true);
+    check(meshes.scenarios.size() == 3 && meshes.scenarios[0].name == "global" &&
+            meshes.scenarios[1].name == "rib_mid" && meshes.scenarios[2].name == "rib_end",
+          "beside: scenarios are global, then the VOIs in their order");
+    bool made = true;
+    for (const auto &scenario : meshes.scenarios)
+      made = made && !scenario.statistics.reused && scenario.statistics.n_tets > 0 &&
+             scenario.statistics.min_quality > settings.min_quality &&
+             scenario.physical_surfaces.count("clamp") == 1 && fs::exists(scenario.msh_file);
+    check(made, "beside: every scenario made in this call (not reused), with its groups and quality");
+    check(!meshes.display_surface.vertices.empty() && is_closed_and_consistent(meshes.display_surface),
+          "beside: the display surface is made and closed");
+    const SceneMeshes again = mesh_scene(settings, vois, dir, false);
+    check(again.scenarios.size() == 3 && again.scenarios[1].statistics.reused && again.scenarios[2].statistics.reused &&
+            again.scenarios[2].statistics.n_tets == meshes.scenarios[2].statistics.n_tets,
+          "beside: a second call reuses the VOIs' meshes");
+
+    VolumeOfInterest above_plate = second; // inside the part's bounding box, but in the air
+    above_plate.name             = "above_plate";
+    above_plate.box_lower        = {-100., -30., 18.};
+    above_plate.box_upper        = {-90., -20., 19.};
+    check_throws([&] { mesh_scene(settings, {box_around_middle_rib(), above_plate}, dir, false); },
+                 {"VOI", "above_plate"}, "beside: a VOI that misses the part is the error naming it");
+  }
+
   void test_user_errors(const fs::path &folder)
   {
     std::cout << "user errors" << std::endl;
@@ -285,6 +331,7 @@ int main()
     {
       test_volume_of_interest_contains();
       test_ribbed_panel(folder);
+      test_vois_beside(folder);
       test_user_errors(folder);
       test_msh_input(folder);
       test_geo_input(folder);
