@@ -84,7 +84,7 @@ namespace modal_haptics::meshing
     int    mesh_threads = 1;          // gmsh's threads; 0: one per core this process may run on
     // The VOIs' meshes in child processes (fork) beside this one's global mesh and display surface,
     // where gmsh runs on one thread and the process may use more than one core. Set by a caller
-    // that may fork: modal-precompute in a run of one process (not under mpirun).
+    // that may fork: modal-precompute when no MPI launcher started it.
     bool   mesh_vois_beside = false;
     double min_quality  = 0.01;       // minimum acceptable element quality (gmsh minSICN); below: error
   };

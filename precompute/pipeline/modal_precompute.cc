@@ -3,6 +3,7 @@
 #include "output/atomic_file.h"
 #include "space/distributed_space.h"
 #include "output/partial_result.h"
+#include "solvers/mpi_launcher.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>
@@ -268,10 +269,10 @@ namespace modal_haptics
         // Process 0 meshes (or finds the cached meshes); then the others read the same files from
         // the cache, so that gmsh never writes one file from two processes. A failure on process 0
         // aborts the run (main), so the barrier cannot hang.
-        // A process alone may fork children that mesh the VOIs beside it (not under mpirun: MPI
-        // libraries forbid fork or warn about it there).
+        // A process not started by an MPI launcher may fork children that mesh the VOIs beside it
+        // (under mpirun, even with one process, MPI libraries forbid fork or warn about it).
         meshing::MeshingSettings settings = scene.meshing;
-        settings.mesh_vois_beside         = dealii::Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD) == 1;
+        settings.mesh_vois_beside         = !started_by_mpi_launcher();
         if (writes_files)
           results.meshes =
             meshing::mesh_scene(settings, scene.volumes_of_interest, scene.output_directory, verbose, reuse_only);

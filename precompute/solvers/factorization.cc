@@ -1,5 +1,7 @@
 #include "solvers/factorization.h"
 
+#include "solvers/mpi_launcher.h"
+
 #include "solvers/supernodal_cholesky.h"
 #include "solvers/supernodal_solve.h"
 
@@ -51,18 +53,13 @@ namespace modal_haptics
     return order;
   }
 
-  namespace
+  bool started_by_mpi_launcher()
   {
-    // Whether mpirun (Open MPI), a PMI launcher (MPICH's Hydra) or PMIx (srun) started this process:
-    // what they put in the environment before MPI_Init.
-    bool started_by_mpi_launcher()
-    {
-      for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
-        if (std::getenv(variable) != nullptr)
-          return true;
-      return false;
-    }
-  } // namespace
+    for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+      if (std::getenv(variable) != nullptr)
+        return true;
+    return false;
+  }
 
   namespace
   {
