@@ -597,7 +597,11 @@ namespace modal_haptics
     const unsigned int               threads = n_threads();
     bool borrows = false;
     for (const auto &group : groups)
-      borrows = borrows || !group.borrowed.empty();
+      {
+        if (group.wanted.size() != group.borrowed.size())
+          throw std::invalid_argument("group_grams: a GramGroup needs one 'wanted' list per borrowed column.");
+        borrows = borrows || !group.borrowed.empty();
+      }
     if (borrows && solved_groups_bytes(groups, position_of_row) > storage_limit)
       {
         // Each borrowed column solved again in the group that borrows it.

@@ -27,8 +27,9 @@ namespace modal_haptics
   {
     std::vector<SparseColumn>                        columns;  // B_g
     std::vector<std::pair<std::size_t, std::size_t>> borrowed; // C_g: (group, its column)
-    // Per borrowed column, the own columns (ascending) whose products with it are wanted: G's
-    // other entries in its row are not computed where the borrowed solves are kept (zero).
+    // Per borrowed column (as many lists as borrowed), the own columns (ascending) whose products
+    // with it are wanted: G's other entries in its row are not computed where the borrowed solves
+    // are kept (zero).
     std::vector<std::vector<std::size_t>> wanted;
   };
 
@@ -55,10 +56,10 @@ namespace modal_haptics
     // A borrowed column is solved once, in its own group: every group's Y is kept, and a borrowed
     // row of G is the product of the two groups' Y on the supernodes their paths share, for the own
     // columns GramGroup::wanted names (the default scene's static correction: 8.0-8.6 -> 6.5-7.5 s
-    // against solving each borrowed column again in the group that borrows it, docs/performance.md;
-    // the products 0.1-0.2 s a space). Where the kept Y of all groups would take more than storage_limit bytes,
-    // the borrowed columns are solved again instead (memory per thread: a group's path times its
-    // width). The top of the tree (the last separators, large and dense), which every path
+    // against solving each borrowed column again in the group that borrows it, the products 0.1-0.2
+    // s a space; docs/performance.md). Where the kept Y of all groups would take more than
+    // storage_limit bytes, the borrowed columns are solved again instead (memory per thread: a
+    // group's path times its width). The top of the tree (the last separators, large and dense), which every path
     // crosses, is solved for every group too: the dense inverse of its last 3,000 columns, read
     // instead (C^T (L22 L22^T)^-1 C), was no faster once each supernode solved only its own columns
     // (docs/performance.md).
