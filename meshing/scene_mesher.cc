@@ -99,7 +99,8 @@ namespace modal_haptics::meshing
         inputs = common_inputs();
 
         SceneMeshes meshes;
-        VoiQueue    queue = start_vois_beside();
+        VoiQueue    queue;
+        start_vois_beside(queue);
         meshes.scenarios.push_back(kind == InputKind::msh ? copy_global_mesh() : mesh_scenario(nullptr));
         meshes.display_surface = display_surface();
         queue.mesh_remaining(*this);
@@ -219,6 +220,13 @@ namespace modal_haptics::meshing
         statistics        = content.statistics;
         statistics.reused = true;
         return true;
+      }
+
+      // A volume mesh in the cache that is up to date and still meets the quality bound.
+      bool cached_volume_mesh(const std::string &msh, const std::string &key_file, const std::string &key,
+                              MeshStatistics &statistics) const
+      {
+        return cached(msh, key_file, key, statistics) && statistics.min_quality > settings.min_quality;
       }
 
       // With reuse_only, a mesh that would have to be made is an error naming it.
@@ -537,7 +545,7 @@ namespace modal_haptics::meshing
         const std::string key = scenario_key(voi);
 
         MeshStatistics statistics;
-        if (cached(msh, key_file, key, statistics) && statistics.min_quality > settings.min_quality)
+        if (cached_volume_mesh(msh, key_file, key, statistics))
           {
             if (meshed_this_run)
               statistics.reused = false;
@@ -575,9 +583,8 @@ namespace modal_haptics::meshing
       bool voi_cached(const VolumeOfInterest &voi) const
       {
         MeshStatistics statistics;
-        return cached(path("mesh_" + voi.name + ".msh"), path("mesh_" + voi.name + ".key"), scenario_key(&voi),
-                      statistics) &&
-               statistics.min_quality > settings.min_quality;
+        return cached_volume_mesh(path("mesh_" + voi.name + ".msh"), path("mesh_" + voi.name + ".key"),
+                                  scenario_key(&voi), statistics);
       }
 
       // The VOIs' volume meshes are independent of each other and of the global one, and gmsh meshes
@@ -593,13 +600,6 @@ namespace modal_haptics::meshing
       public:
         VoiQueue() = default;
         VoiQueue(const VoiQueue &) = delete;
-        VoiQueue(VoiQueue &&other) noexcept { *this = std::move(other); }
-        VoiQueue &operator=(VoiQueue &&other) noexcept
-        {
-          std::swap(shared, other.shared), std::swap(n, other.n), std::swap(children, other.children);
-          std::swap(pending, other.pending);
-          return *this;
-        }
         ~VoiQueue()
         {
           wait_for_children();
@@ -656,13 +656,11 @@ namespace modal_haptics::meshing
 
         void wait_for_children()
         {
+          // A child's exit status is not needed: what it made is in the cache, or made again here.
           for (const pid_t pid : children)
-            {
-              int status = 0;
-              while (waitpid(pid, &status, 0) < 0 && errno == EINTR)
-                {
-                }
-            }
+            while (waitpid(pid, nullptr, 0) < 0 && errno == EINTR)
+              {
+              }
           children.clear();
         }
 
@@ -679,22 +677,20 @@ namespace modal_haptics::meshing
 
       // Only where asked (MeshingSettings::mesh_vois_beside), with gmsh on one thread and more than
       // one core, and when a VOI's mesh is to be made.
-      VoiQueue start_vois_beside()
+      void start_vois_beside(VoiQueue &queue)
       {
-        VoiQueue queue;
         const int cores = cores_we_may_use();
         if (!settings.mesh_vois_beside || settings.mesh_threads != 1 || cores < 2 || reuse_only ||
             kind == InputKind::msh)
-          return queue;
+          return;
         std::vector<std::size_t> to_mesh;
         for (std::size_t i = 0; i < vois.size(); ++i)
           if (!voi_cached(vois[i]))
             to_mesh.push_back(i);
         if (to_mesh.empty())
-          return queue;
+          return;
         load_model();
         queue.start(*this, to_mesh, std::min<int>(cores - 1, to_mesh.size()));
-        return queue;
       }
 
       // Meshes the volume graded towards 'voi' (coarse everywhere when null) until its quality is
@@ -734,7 +730,7 @@ namespace modal_haptics::meshing
         const std::string scenario_inputs = inputs + "; global";
         const std::string key             = key_of(scenario_inputs);
         MeshStatistics    statistics;
-        if (cached(msh, key_file, key, statistics) && statistics.min_quality > settings.min_quality)
+        if (cached_volume_mesh(msh, key_file, key, statistics))
           {
             report("global", statistics);
             return scenario_result("global", msh, key, statistics);

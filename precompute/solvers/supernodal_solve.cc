@@ -562,9 +562,9 @@ namespace modal_haptics
               rows_shared += shared.back()[2];
               ++i, ++j;
             }
-        const int k = int(positions.size()), w = int(wanted.size()), m = int(std::max<Index>(rows_shared, 1));
-        if (rows_shared == 0 || w == 0) // paths apart: the products are zero
+        if (rows_shared == 0 || wanted.empty()) // paths apart: the products are zero
           continue;
+        const int k = int(positions.size()), w = int(wanted.size()), m = int(rows_shared);
         mine.resize(std::size_t(m) * w);
         theirs.resize(std::size_t(m) * k);
         Index row = 0;
