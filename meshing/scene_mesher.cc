@@ -106,7 +106,7 @@ namespace modal_haptics::meshing
         queue.mesh_remaining(*this);
         queue.wait_for_children();
         for (std::size_t i = 0; i < vois.size(); ++i)
-          meshes.scenarios.push_back(mesh_scenario(&vois[i], queue.meshed_this_run(i)));
+          meshes.scenarios.push_back(mesh_scenario(&vois[i], queue.meshed_this_run(i), queue.made_in_child(i)));
         return meshes;
       }
 
@@ -536,9 +536,11 @@ namespace modal_haptics::meshing
 
       // --- the scenarios --------------------------------------------------------------------------
 
-      // meshed_this_run: made and reported from the queue of start_vois_beside (by a child process
-      // or by this one): read from the cache, it counts as made, not reused, and is not reported again.
-      ScenarioMesh mesh_scenario(const VolumeOfInterest *voi, const bool meshed_this_run = false)
+      // meshed_this_run: made and reported from the queue of start_vois_beside (by a child process,
+      // made_in_child, or by this one): read from the cache, it counts as made, not reused, and is not
+      // reported again.
+      ScenarioMesh mesh_scenario(const VolumeOfInterest *voi, const bool meshed_this_run = false,
+                                 const bool made_in_child = false)
       {
         const std::string name = voi ? voi->name : "global";
         const std::string msh = path("mesh_" + name + ".msh"), key_file = path("mesh_" + name + ".key");
@@ -548,7 +550,7 @@ namespace modal_haptics::meshing
         if (cached_volume_mesh(msh, key_file, key, statistics))
           {
             if (meshed_this_run)
-              statistics.reused = false;
+              statistics.reused = false, statistics.made_in_child_process = made_in_child;
             else
               report(name, statistics);
             return scenario_result(name, msh, key, statistics);
@@ -627,7 +629,7 @@ namespace modal_haptics::meshing
                   int status = 0;
                   try
                     {
-                      mesh_remaining(mesher);
+                      mesh_remaining(mesher, taken_by_child);
                     }
                   catch (...)
                     {
@@ -641,15 +643,15 @@ namespace modal_haptics::meshing
             }
         }
 
-        // Meshes queued VOIs until none is left, marking each as made in this run.
-        void mesh_remaining(SceneMesher &mesher)
+        // Meshes queued VOIs until none is left, marking each as made in this run (and by whom).
+        void mesh_remaining(SceneMesher &mesher, const int taken_by = taken_by_this_process)
         {
           if (shared == nullptr)
             return;
           for (int k; (k = shared[0].fetch_add(1)) < int(pending.size());)
             {
               const std::size_t i = pending[k];
-              shared[1 + i].store(1);
+              shared[1 + i].store(taken_by);
               mesher.mesh_scenario(&mesher.vois[i]);
             }
         }
@@ -664,12 +666,14 @@ namespace modal_haptics::meshing
           children.clear();
         }
 
-        bool meshed_this_run(const std::size_t i) const { return shared != nullptr && shared[1 + i].load() == 1; }
+        bool meshed_this_run(const std::size_t i) const { return shared != nullptr && shared[1 + i].load() != 0; }
+        bool made_in_child(const std::size_t i) const { return shared != nullptr && shared[1 + i].load() == taken_by_child; }
 
       private:
         std::size_t bytes() const { return sizeof(std::atomic<int>) * (1 + n); }
 
-        std::atomic<int>        *shared = nullptr; // [0]: the next queue position; [1 + i]: VOI i taken from it
+        static constexpr int     taken_by_this_process = 1, taken_by_child = 2;
+        std::atomic<int>        *shared = nullptr; // [0]: the next queue position; [1 + i]: who took VOI i (0: nobody)
         std::size_t              n      = 0;
         std::vector<pid_t>       children;
         std::vector<std::size_t> pending;

@@ -98,6 +98,7 @@ namespace modal_haptics::meshing
     double mean_quality = 0.;
     double seconds = 0.;      // wall time spent meshing (0 when reused from the cache)
     bool   reused = false;    // true when an up-to-date mesh was found and reused
+    bool   made_in_child_process = false; // made beside this process (MeshingSettings::mesh_vois_beside)
   };
 
   struct ScenarioMesh

@@ -432,6 +432,7 @@ namespace modal_haptics
               {"mean_quality", mesh.statistics.mean_quality},
               {"max_quality", mesh.statistics.max_quality},
               {"reused", mesh.statistics.reused},
+              {"made_in_child_process", mesh.statistics.made_in_child_process},
               {"seconds", mesh.statistics.seconds}};
     }
 

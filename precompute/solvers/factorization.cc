@@ -53,12 +53,22 @@ namespace modal_haptics
     return order;
   }
 
+  namespace
+  {
+    // Read once, before main: MPI_Init without a launcher (Open MPI's singleton start) puts
+    // PMIX_RANK into this process's environment itself, so a look after it would take every run
+    // for a launched one (and keep the VOIs from being meshed beside it).
+    const bool launched_by_mpi = [] {
+      for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+        if (std::getenv(variable) != nullptr)
+          return true;
+      return false;
+    }();
+  } // namespace
+
   bool started_by_mpi_launcher()
   {
-    for (const char *variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
-      if (std::getenv(variable) != nullptr)
-        return true;
-    return false;
+    return launched_by_mpi;
   }
 
   namespace

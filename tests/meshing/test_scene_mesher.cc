@@ -225,12 +225,19 @@ namespace
              scenario.statistics.min_quality > settings.min_quality &&
              scenario.physical_surfaces.count("clamp") == 1 && fs::exists(scenario.msh_file);
     check(made, "beside: every scenario made in this call (not reused), with its groups and quality");
+    const bool children_possible = n_cores > 1 && settings.mesh_threads == 1;
+    check(!meshes.scenarios[0].statistics.made_in_child_process &&
+            (meshes.scenarios[1].statistics.made_in_child_process ||
+             meshes.scenarios[2].statistics.made_in_child_process) == children_possible,
+          "beside: a child process made a VOI's mesh exactly where more than one core is allowed");
     check(!meshes.display_surface.vertices.empty() && is_closed_and_consistent(meshes.display_surface),
           "beside: the display surface is made and closed");
     const SceneMeshes again = mesh_scene(settings, vois, dir, false);
     check(again.scenarios.size() == 3 && again.scenarios[1].statistics.reused && again.scenarios[2].statistics.reused &&
             again.scenarios[2].statistics.n_tets == meshes.scenarios[2].statistics.n_tets,
           "beside: a second call reuses the VOIs' meshes");
+    check(!again.scenarios[1].statistics.made_in_child_process && !again.scenarios[2].statistics.made_in_child_process,
+          "beside: a reused mesh was made by no child process");
 
     VolumeOfInterest above_plate = second; // inside the part's bounding box, but in the air
     above_plate.name             = "above_plate";

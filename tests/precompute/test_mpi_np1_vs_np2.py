@@ -44,6 +44,7 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   many is round-off's choice near the thresholds, so the CG iterations need only agree within 2x);
   displacements, the linear
   compliance, the validity forces and the exact second-order estimate to 1e-8, the third-order one to 1e-8;
+* mpirun -np 1 meshed the VOIs without child processes (report.json's mesh.made_in_child_process);
 * np = 1, np = 2 and the serial run ran the same OpenBLAS kernels (report.json's
   processes.blas_kernels: the restart with the CPU's kernels works under mpirun too);
 * a bad .prm, a bad clamp group, a shift above the first frequency and a missing factor directory
@@ -257,6 +258,9 @@ def main():
     serial, serial_modes = run([args.binary], os.path.join(args.workdir, "serial"), np1_dir)
     for name in [SCENE + ".h5", SCENE + ".mrt", "report.json", "modes_left.vtu"]:
         expect(os.path.getsize(os.path.join(args.workdir, "np2", name)) > 0, f"np = 2 wrote {name}")
+    # Under a launcher (even with one process) MPI forbids fork or warns about it: np = 1 meshed alone.
+    expect(not any(s["mesh"]["made_in_child_process"] for s in np1["spaces"]),
+           "mpirun -np 1 meshed every VOI in its own process (no child process)")
     # Where OpenBLAS fell back to its generic kernels the processes restart under mpirun too, with the
     # serial run's choice.
     kernels = [report["processes"]["blas_kernels"] for report in (np1, np2, serial)]

@@ -16,7 +16,10 @@
   environment sets OPENBLAS_CORETYPE) they are not the generic Prescott ones OpenBLAS falls back to
   on a model it does not know (the program then restarts with the CPU's: README, "The BLAS kernels");
   unless the environment sets OPENBLAS_THREAD_TIMEOUT, the running OpenBLAS read 20 (its idle
-  workers' spin, set by the program in its own process: report.json's processes.blas_thread_timeout).
+  workers' spin, set by the program in its own process: report.json's processes.blas_thread_timeout);
+* the VOIs' meshes: with more than one core allowed (and gmsh on one thread, the default), a child
+  process made at least one of them beside the global mesh (report.json's mesh.made_in_child_process;
+  MPI_Init's own environment once made every run look launched by mpirun, and nothing was forked).
 """
 import json
 import os
@@ -59,6 +62,10 @@ def main():
     if "OPENBLAS_THREAD_TIMEOUT" not in os.environ:
         spin = report["processes"]["blas_thread_timeout"]
         expect(spin == 20, f"OpenBLAS's idle workers spin 2^20 cycles, set in the running process (read: {spin})")
+    made_in_child = [s["mesh"]["made_in_child_process"] for s in report["spaces"]]
+    if len(os.sched_getaffinity(0)) > 1:
+        expect(not made_in_child[0] and any(made_in_child[1:]),
+               f"a child process meshed a VOI beside the global mesh (made in a child: {made_in_child})")
     for s in report["spaces"]:
         n = s["name"]
         expect(s["orthonormality_error"] < 1e-10, f"{n}: orthonormality error {s['orthonormality_error']:.2e} < 1e-10")
