@@ -700,6 +700,58 @@ namespace modal_haptics
         set_flags(flags);
       }
 
+      // What build_patches(mapping, degree) makes of DoF fields of FESystem(FE_SimplexP(degree), 3) on
+      // a linear-geometry tet mesh, read at the DoFs instead of evaluated through FEValues: a patch's
+      // points are FE_SimplexP(degree)'s support points (deal.II's choice for simplex patches of
+      // 'degree' subdivisions), where each shape function is 1 or 0, so a field's value at point j is
+      // its DoF j (a -0 written as +0, which deal.II's sum over the shape functions makes of it). Every simplex patch carries its points (deal.II stores them for any cell that is
+      // not a hypercube), v_0 N_0 + ... + v_3 N_3 as the linear mapping computes them. 'fields' are those added, in
+      // their order. The VTU phase of the default scene spent 1.2-1.4 s in build_patches; the test
+      // precompute.vtu_patches compares both VTU files byte for byte.
+      void build_patches_at_nodes(const dealii::DoFHandler<3>                    &dof_handler,
+                                  const std::vector<const dealii::Vector<double> *> &fields)
+      {
+        const auto &fe = dof_handler.get_fe();
+        AssertThrow(fe.n_base_elements() == 1 && fe.n_components() == 3 &&
+                      fe.base_element(0).reference_cell() == dealii::ReferenceCells::Tetrahedron,
+                    dealii::ExcMessage("build_patches_at_nodes: FESystem(FE_SimplexP, 3) on tets is expected"));
+        const auto                                   &scalar = fe.base_element(0);
+        const auto                                   &unit   = scalar.get_unit_support_points();
+        const unsigned int                            rows   = 3 * fields.size();
+        std::vector<dealii::types::global_dof_index> dofs(fe.n_dofs_per_cell());
+        this->patches.clear();
+        for (const auto &cell : dof_handler.active_cell_iterators())
+          {
+            if (!cell->is_locally_owned())
+              continue;
+            dealii::DataOutBase::Patch<3, 3> patch;
+            patch.reference_cell = cell->reference_cell();
+            patch.n_subdivisions = scalar.degree;
+            patch.patch_index    = this->patches.size();
+            for (unsigned int v = 0; v < 4; ++v)
+              patch.vertices[v] = cell->vertex(v);
+            patch.points_are_available = true;
+            patch.data.reinit(rows + 3, unit.size());
+            cell->get_dof_indices(dofs);
+            for (unsigned int i = 0; i < dofs.size(); ++i)
+              {
+                const auto [component, point] = fe.system_to_component_index(i);
+                for (unsigned int f = 0; f < fields.size(); ++f)
+                  patch.data(3 * f + component, point) = 0. + (*fields[f])[dofs[i]]; // -0 as +0, as the sum does
+              }
+            for (unsigned int j = 0; j < unit.size(); ++j)
+              {
+                const double     N[4] = {1. - unit[j][0] - unit[j][1] - unit[j][2], unit[j][0], unit[j][1], unit[j][2]};
+                dealii::Point<3> x;
+                for (unsigned int v = 0; v < 4; ++v)
+                  x += N[v] * cell->vertex(v);
+                for (unsigned int d = 0; d < 3; ++d)
+                  patch.data(rows + d, j) = x[d];
+              }
+            this->patches.push_back(std::move(patch));
+          }
+      }
+
       std::shared_ptr<const Patches> take_patches()
       {
         auto taken = std::make_shared<Patches>(
@@ -736,7 +788,17 @@ namespace modal_haptics
         data_out.add_data_vector(b.validation_fields[k],
                                  std::vector<std::string>(3, space_parts::validation_field_name(result.validation[k])),
                                  dealii::DataOut<3>::type_dof_data, vector_field);
-      data_out.build_patches(b.mapping, in.scene.element_degree);
+      if constexpr (std::is_same_v<typename Backend::Field, dealii::Vector<double>>)
+        {
+          std::vector<const dealii::Vector<double> *> fields;
+          for (const auto &field : mode_fields)
+            fields.push_back(&field);
+          for (const auto &field : b.validation_fields)
+            fields.push_back(&field);
+          data_out.build_patches_at_nodes(b.dof_handler, fields);
+        }
+      else
+        data_out.build_patches(b.mapping, in.scene.element_degree);
       // 'Output/VTU compression': none by default, since zlib on one thread took more than half of
       // the phase (docs/performance.md) for files that are only viewed.
       dealii::DataOutBase::VtkFlags flags;
