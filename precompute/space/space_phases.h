@@ -701,12 +701,13 @@ namespace modal_haptics
       }
 
       // What build_patches(mapping, degree) makes of DoF fields of FESystem(FE_SimplexP(degree), 3) on
-      // a linear-geometry tet mesh, read at the DoFs instead of evaluated through FEValues: a patch's
+      // a linear-geometry tet mesh, read at the DoFs instead of evaluated through FEValues. A patch's
       // points are FE_SimplexP(degree)'s support points (deal.II's choice for simplex patches of
       // 'degree' subdivisions), where each shape function is 1 or 0, so a field's value at point j is
-      // its DoF j (a -0 written as +0, which deal.II's sum over the shape functions makes of it). Every simplex patch carries its points (deal.II stores them for any cell that is
-      // not a hypercube), v_0 N_0 + ... + v_3 N_3 as the linear mapping computes them. 'fields' are those added, in
-      // their order. The VTU phase of the default scene spent 1.2-1.4 s in build_patches; the test
+      // its DoF j (a -0 written as +0, which deal.II's sum over the shape functions makes of it).
+      // Every simplex patch carries its points (deal.II stores them for any cell that is not a
+      // hypercube), v_0 N_0 + ... + v_3 N_3 as the linear mapping computes them. 'fields' are those
+      // added, in their order. The VTU phase of the default scene spent 1.2-1.4 s in build_patches;
       // precompute.vtu_patches compares both VTU files byte for byte.
       void build_patches_at_nodes(const dealii::DoFHandler<3>                    &dof_handler,
                                   const std::vector<const dealii::Vector<double> *> &fields)
