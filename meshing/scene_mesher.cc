@@ -106,7 +106,7 @@ namespace modal_haptics::meshing
         queue.mesh_remaining(*this);
         queue.wait_for_children();
         for (std::size_t i = 0; i < vois.size(); ++i)
-          meshes.scenarios.push_back(mesh_scenario(&vois[i], queue.meshed_this_run(i), queue.made_in_child(i)));
+          meshes.scenarios.push_back(mesh_scenario(&vois[i], queue.taken_by(i)));
         return meshes;
       }
 
@@ -536,11 +536,17 @@ namespace modal_haptics::meshing
 
       // --- the scenarios --------------------------------------------------------------------------
 
-      // meshed_this_run: made and reported from the queue of start_vois_beside (by a child process,
-      // made_in_child, or by this one): read from the cache, it counts as made, not reused, and is not
-      // reported again.
-      ScenarioMesh mesh_scenario(const VolumeOfInterest *voi, const bool meshed_this_run = false,
-                                 const bool made_in_child = false)
+      // Who took a VOI from the queue of start_vois_beside (and made its mesh in this run).
+      enum class TakenBy
+      {
+        nobody,
+        this_process,
+        child
+      };
+
+      // A mesh taken from the queue (taken_by not nobody) was made and reported then: read from the
+      // cache, it counts as made, not reused, and is not reported again.
+      ScenarioMesh mesh_scenario(const VolumeOfInterest *voi, const TakenBy taken_by = TakenBy::nobody)
       {
         const std::string name = voi ? voi->name : "global";
         const std::string msh = path("mesh_" + name + ".msh"), key_file = path("mesh_" + name + ".key");
@@ -549,8 +555,8 @@ namespace modal_haptics::meshing
         MeshStatistics statistics;
         if (cached_volume_mesh(msh, key_file, key, statistics))
           {
-            if (meshed_this_run)
-              statistics.reused = false, statistics.made_in_child_process = made_in_child;
+            if (taken_by != TakenBy::nobody)
+              statistics.reused = false, statistics.made_in_child_process = taken_by == TakenBy::child;
             else
               report(name, statistics);
             return scenario_result(name, msh, key, statistics);
@@ -629,7 +635,7 @@ namespace modal_haptics::meshing
                   int status = 0;
                   try
                     {
-                      mesh_remaining(mesher, taken_by_child);
+                      mesh_remaining(mesher, TakenBy::child);
                     }
                   catch (...)
                     {
@@ -644,14 +650,14 @@ namespace modal_haptics::meshing
         }
 
         // Meshes queued VOIs until none is left, marking each as made in this run (and by whom).
-        void mesh_remaining(SceneMesher &mesher, const int taken_by = taken_by_this_process)
+        void mesh_remaining(SceneMesher &mesher, const TakenBy taken_by = TakenBy::this_process)
         {
           if (shared == nullptr)
             return;
           for (int k; (k = shared[0].fetch_add(1)) < int(pending.size());)
             {
               const std::size_t i = pending[k];
-              shared[1 + i].store(taken_by);
+              shared[1 + i].store(int(taken_by));
               mesher.mesh_scenario(&mesher.vois[i]);
             }
         }
@@ -666,14 +672,15 @@ namespace modal_haptics::meshing
           children.clear();
         }
 
-        bool meshed_this_run(const std::size_t i) const { return shared != nullptr && shared[1 + i].load() != 0; }
-        bool made_in_child(const std::size_t i) const { return shared != nullptr && shared[1 + i].load() == taken_by_child; }
+        TakenBy taken_by(const std::size_t i) const
+        {
+          return shared != nullptr ? TakenBy(shared[1 + i].load()) : TakenBy::nobody;
+        }
 
       private:
         std::size_t bytes() const { return sizeof(std::atomic<int>) * (1 + n); }
 
-        static constexpr int     taken_by_this_process = 1, taken_by_child = 2;
-        std::atomic<int>        *shared = nullptr; // [0]: the next queue position; [1 + i]: who took VOI i (0: nobody)
+        std::atomic<int>        *shared = nullptr; // [0]: the next queue position; [1 + i]: who took VOI i (TakenBy)
         std::size_t              n      = 0;
         std::vector<pid_t>       children;
         std::vector<std::size_t> pending;
@@ -731,8 +738,7 @@ namespace modal_haptics::meshing
       ScenarioMesh copy_global_mesh()
       {
         const std::string msh = path("mesh_global.msh"), key_file = path("mesh_global.key");
-        const std::string scenario_inputs = inputs + "; global";
-        const std::string key             = key_of(scenario_inputs);
+        const std::string key = scenario_key(nullptr);
         MeshStatistics    statistics;
         if (cached_volume_mesh(msh, key_file, key, statistics))
           {
@@ -753,7 +759,7 @@ namespace modal_haptics::meshing
               throw MeshingError("cannot copy '" + settings.geometry + "' to '" + msh + "'");
           }
         statistics.seconds = seconds_since(start);
-        write_key_file(key_file, scenario_inputs, key, statistics);
+        write_key_file(key_file, scenario_inputs(nullptr), key, statistics);
         report("global", statistics);
         return scenario_result("global", msh, key, statistics);
       }

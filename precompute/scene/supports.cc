@@ -2,6 +2,8 @@
 // nodes, each node's held directions made into constraints, the elastic faces kept for assembly.
 #include "scene/supports.h"
 
+#include "scene/linear_tet.h"
+
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/utilities.h>
@@ -55,14 +57,14 @@ namespace modal_haptics
         std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
         std::vector<Point<3>>                node_points;
         for (const auto &cell : dof_handler.active_cell_iterators())
-          if (!cell->is_artificial())
-            for (const auto f : cell->face_indices())
-              if (cell->face(f)->at_boundary())
-                {
-                  cell->get_dof_indices(dofs);
-                  place_nodes(mapping, cell, fe, node_points);
+          if (!cell->is_artificial() && cell->at_boundary())
+            {
+              cell->get_dof_indices(dofs);
+              place_nodes(mapping, cell, fe, node_points);
+              for (const auto f : cell->face_indices())
+                if (cell->face(f)->at_boundary())
                   faces.push_back(make_face(cell, f, dofs, node_points, fe));
-                }
+            }
       }
 
       std::vector<BoundaryFace> faces;
@@ -70,9 +72,9 @@ namespace modal_haptics
 
     private:
       // Where the cell's FE nodes are (one point per base function, shared by its three components).
-      // A tet of linear geometry (a degree-1 MappingFE) maps them affinely from its vertices: exact,
-      // and a fraction of the cost of asking the mapping point by point (which took 0.2 s of rib_a's
-      // 1.2 s assembly phase on the default scene).
+      // A tet of linear geometry (a degree-1 MappingFE) maps them from its vertices as the mapping
+      // would (point_in_linear_tet), at a fraction of the cost of asking the mapping point by point
+      // (which took 0.2 s of rib_a's 1.2 s assembly phase on the default scene).
       static void place_nodes(const Mapping<3> &mapping, const DoFHandler<3>::active_cell_iterator &cell,
                               const FiniteElement<3> &fe, std::vector<Point<3>> &points)
       {
@@ -81,16 +83,8 @@ namespace modal_haptics
         const auto *linear = dynamic_cast<const MappingFE<3> *>(&mapping);
         const bool  affine = linear != nullptr && linear->get_degree() == 1 && cell->reference_cell().is_simplex();
         for (std::size_t j = 0; j < unit_points.size(); ++j)
-          {
-            if (!affine)
-              {
-                points[j] = mapping.transform_unit_to_real_cell(cell, unit_points[j]);
-                continue;
-              }
-            points[j] = cell->vertex(0);
-            for (unsigned int d = 0; d < 3; ++d)
-              points[j] += unit_points[j][d] * (cell->vertex(d + 1) - cell->vertex(0));
-          }
+          points[j] = affine ? point_in_linear_tet(cell, unit_points[j]) :
+                               mapping.transform_unit_to_real_cell(cell, unit_points[j]);
       }
 
       BoundaryFace make_face(const DoFHandler<3>::active_cell_iterator &cell, const unsigned int f,

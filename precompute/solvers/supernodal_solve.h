@@ -59,10 +59,10 @@ namespace modal_haptics
     // against solving each borrowed column again in the group that borrows it, the products 0.1-0.2
     // s a space; docs/performance.md). Where the kept Y of all groups would take more than
     // storage_limit bytes, the borrowed columns are solved again instead (memory per thread: a
-    // group's path times its width). The top of the tree (the last separators, large and dense), which every path
-    // crosses, is solved for every group too: the dense inverse of its last 3,000 columns, read
-    // instead (C^T (L22 L22^T)^-1 C), was no faster once each supernode solved only its own columns
-    // (docs/performance.md).
+    // group's path times its width). The top of the tree (the last separators, large and dense),
+    // which every path crosses, is solved for every group too: the dense inverse of its last 3,000
+    // columns, read instead (C^T (L22 L22^T)^-1 C), was no faster once each supernode solved only its
+    // own columns (docs/performance.md).
     std::vector<std::vector<double>> group_grams(const std::vector<GramGroup> &groups, double storage_limit) const;
 
     unsigned int n_threads() const { return subtrees_of_thread.size(); }

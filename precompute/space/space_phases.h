@@ -47,6 +47,7 @@
 #pragma once
 
 #include "nonlinear/large_deformation.h"
+#include "scene/linear_tet.h"
 #include "space/far_field.h"
 #include "space/modal_space.h"
 
@@ -706,7 +707,7 @@ namespace modal_haptics
       // 'degree' subdivisions), where each shape function is 1 or 0, so a field's value at point j is
       // its DoF j (a -0 written as +0, which deal.II's sum over the shape functions makes of it).
       // Every simplex patch carries its points (deal.II stores them for any cell that is not a
-      // hypercube), v_0 N_0 + ... + v_3 N_3 as the linear mapping computes them. 'fields' are those
+      // hypercube), as the linear mapping computes them (point_in_linear_tet). 'fields' are those
       // added, in their order. The VTU phase of the default scene spent 1.2-1.4 s in build_patches;
       // precompute.vtu_patches compares both VTU files byte for byte.
       void build_patches_at_nodes(const dealii::DoFHandler<3>                    &dof_handler,
@@ -742,10 +743,7 @@ namespace modal_haptics
               }
             for (unsigned int j = 0; j < unit.size(); ++j)
               {
-                const double     N[4] = {1. - unit[j][0] - unit[j][1] - unit[j][2], unit[j][0], unit[j][1], unit[j][2]};
-                dealii::Point<3> x;
-                for (unsigned int v = 0; v < 4; ++v)
-                  x += N[v] * cell->vertex(v);
+                const dealii::Point<3> x = point_in_linear_tet(cell, unit[j]);
                 for (unsigned int d = 0; d < 3; ++d)
                   patch.data(rows + d, j) = x[d];
               }
