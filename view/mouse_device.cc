@@ -1,9 +1,9 @@
 #include "mouse_device.h"
 
+#include "page_command.h"
+
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <sstream>
 
 namespace modalrt_view
 {
@@ -30,48 +30,20 @@ namespace modalrt_view
 
   std::string MouseDevice::command(const std::string &text)
   {
-    std::istringstream in(text);
-    std::string        verb;
-    unsigned long      hip = 0;
-    in >> verb >> hip;
-    if (!in || hip >= hips)
-      return "error: '" + text + "': expected 'press HIP VERTEX FORCE', 'slide HIP VERTEX X Y Z FORCE' or 'release HIP' with HIP < 2";
-    if (verb == "press" || verb == "slide")
+    PageCommand       c;
+    const std::string error = parse_page_command(text.data(), text.size(), hips, vertex_count_, slide_, c);
+    if (!error.empty())
+      return error;
+    requested_.pressed[c.hip] = c.verb == PageCommand::release ? 0 : 1;
+    if (c.verb != PageCommand::release)
       {
-        if (verb == "slide" && !slide_)
-          return "error: '" + text + "': sliding needs sliding contacts (modal-rt view --contact proxy)";
-        return press(hip, in, text, verb == "slide");
-      }
-    if (verb != "release")
-      return "error: '" + text + "': expected 'press HIP VERTEX FORCE', 'slide HIP VERTEX X Y Z FORCE' or 'release HIP'";
-    requested_.pressed[hip] = 0;
-    exchange_.publish(requested_);
-    return "ok";
-  }
-
-  std::string MouseDevice::press(unsigned long hip, std::istringstream &in, const std::string &text, bool slide)
-  {
-    unsigned long vertex = 0;
-    double        point[3] = {0.0, 0.0, 0.0};
-    std::string   force_text;
-    in >> vertex;
-    if (slide)
-      in >> point[0] >> point[1] >> point[2];
-    in >> force_text;
-    const char *form = slide ? "'slide HIP VERTEX X Y Z FORCE'" : "'press HIP VERTEX FORCE'";
-    if (!in || vertex >= vertex_count_)
-      return "error: '" + text + "': expected " + form + " with VERTEX < " + std::to_string(vertex_count_);
-    if (!slide)
-      std::copy_n(vertices_ + 3 * vertex, 3, point);
-    // The force magnitude [N] pushes along the inward normal. It is not range-checked here: a
-    // non-finite or absurd force (or point) reaches the kernel, which rejects it as it would any device's.
-    const double magnitude  = std::strtod(force_text.c_str(), nullptr);
-    requested_.pressed[hip] = 1;
-    requested_.vertex[hip]  = std::uint32_t(vertex);
-    for (int d = 0; d < 3; ++d)
-      {
-        requested_.force[hip][d] = -magnitude * normals_[3 * vertex + d];
-        requested_.point[hip][d] = point[d];
+        const double *point = c.verb == PageCommand::slide ? c.point : vertices_ + 3 * std::size_t(c.vertex);
+        requested_.vertex[c.hip] = c.vertex;
+        for (int d = 0; d < 3; ++d)
+          {
+            requested_.force[c.hip][d] = -c.force * normals_[3 * std::size_t(c.vertex) + d];
+            requested_.point[c.hip][d] = point[d];
+          }
       }
     exchange_.publish(requested_);
     return "ok";

@@ -21,7 +21,6 @@
 #include <modalrt/modalrt.h>
 
 #include <cstdint>
-#include <iosfwd>
 #include <string>
 
 namespace modalrt_view
@@ -58,7 +57,6 @@ namespace modalrt_view
       double        point[hips][3] = {}; // [m] slide: the surface point under the pointer
     };
 
-    std::string press(unsigned long hip, std::istringstream &in, const std::string &text, bool slide);
     // slide: the HIP's position this tick, servoed to the pressing force (haptic thread).
     void        slide_state(std::uint32_t hip, double dt, modalrt_hip_input &input);
 
