@@ -1,6 +1,7 @@
 #include "run_view.h"
 
 #include "frame_builder.h"
+#include "page_command.h"
 #include "triple_buffer.h"
 
 #include <algorithm>
@@ -78,7 +79,7 @@ namespace modalrt_view
       }
       ~RunView() override { server_.stop(); }
 
-      unsigned    port() const { return server_.port(); }
+      std::string url() const { return server_.url(); }
       std::size_t basis_bytes() const { return server_.basis_bytes(); }
 
       void ticked(const TickTiming &timing, const modalrt_hip_output *outputs, std::uint32_t hips) override
@@ -123,7 +124,8 @@ namespace modalrt_view
         if (mouse_)
           return mouse_->command(text);
         return "error: watch-only: the HIPs of `modal-rt " + context_.command + "` are driven by " +
-               (context_.command == "serve" ? "the UDP device" : "the session file") + "; '" + text + "' ignored";
+               (context_.command == "serve" ? "the UDP device" : "the session file") + "; " +
+               quoted_page_message(text.data(), text.size()) + " ignored";
       }
       std::string session_json() override
       {
@@ -176,8 +178,8 @@ namespace modalrt_view
     options.port = port;
     auto view    = start_view(context, nullptr, options, error);
     if (view)
-      std::printf("view: http://127.0.0.1:%u/ (watch-only: the browser watches `modal-rt %s`)\n", view->port(),
-                  context.command.c_str());
+      std::printf("view: %s (watch-only: the browser watches `modal-rt %s`; the token is this run's)\n",
+                  view->url().c_str(), context.command.c_str());
     std::fflush(stdout);
     return view;
   }
@@ -187,8 +189,8 @@ namespace modalrt_view
   {
     auto view = start_view(context, &mouse, options, error);
     if (view)
-      std::printf("view: http://%s:%u/ (basis %s, %zu bytes sent once per browser; Ctrl-C stops)\n",
-                  options.address.c_str(), view->port(), context.basis_path.c_str(), view->basis_bytes());
+      std::printf("view: %s (basis %s, %zu bytes sent once per browser; the token is this run's; Ctrl-C stops)\n",
+                  view->url().c_str(), context.basis_path.c_str(), view->basis_bytes());
     std::fflush(stdout);
     return view;
   }

@@ -113,7 +113,12 @@ namespace modalrt_view
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
            "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
-           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp] [--help]\n";
+           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp] [--help]\n"
+           "         Prints the page's address with this run's secret token, http://ADDRESS:PORT/?token=HEX: open\n"
+           "         that address. /ws and /api/* refuse a request without the token (401) or from another origin\n"
+           "         or Host (403), on loopback and on --address alike; there is no way to turn the token off.\n"
+           "         A client that is no browser passes it as ?token=HEX or the header X-Modal-RT-Token: HEX\n"
+           "         (view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n";
   }
 
   int view_command(int argc, char **argv)

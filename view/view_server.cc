@@ -1,5 +1,6 @@
 #include "view_server.h"
 
+#include "access_guard.h"
 #include "stiffness_map.h" // realtime/tools
 
 #include <boost/asio/ip/tcp.hpp>
@@ -223,6 +224,19 @@ namespace modalrt_view
       return j.str();
     }
 
+    // three.js's add-ons import the bare name 'three', which a browser resolves only through an import
+    // map, an inline script the page's Content-Security-Policy forbids: served with the module's
+    // path instead.
+    std::string with_three_resolved(std::string module)
+    {
+      const std::pair<const char *, const char *> paths[] = {{"from 'three'", "from '/three/build/three.module.js'"},
+                                                             {"from 'three/addons/", "from '/three/examples/jsm/"}};
+      for (const auto &[bare, path] : paths)
+        for (std::size_t at = module.find(bare); at != std::string::npos; at = module.find(bare, at))
+          module.replace(at, std::strlen(bare), path);
+      return module;
+    }
+
     const char *content_type(const std::string &path)
     {
       const auto ends = [&](const char *suffix) {
@@ -256,6 +270,8 @@ namespace modalrt_view
     std::string          basis_bytes;
     std::string          report;
     bool                 has_report = false;
+    std::string          token = random_token();
+    std::unique_ptr<AccessGuard> guard; // made once the port is bound
 
     asio::io_context                      io;
     tcp::acceptor                         acceptor{io};
@@ -289,6 +305,7 @@ namespace modalrt_view
     void start(http::request<http::string_body> request)
     {
       ws.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+      ws.read_message_max(4096); // a command is a line of text
       auto self = shared_from_this();
       ws.async_accept(request, [self](beast::error_code ec) {
         if (ec)
@@ -384,12 +401,20 @@ namespace modalrt_view
       });
     }
 
-    void reply(http::status status, std::string body, const char *type)
+    void reply(http::status status, std::string body, const char *type, const std::string &set_cookie = "")
     {
       auto response = std::make_shared<http::response<http::string_body>>(status, request.version());
       response->set(http::field::server, "modal-rt view");
       response->set(http::field::content_type, type);
       response->set(http::field::cache_control, "no-store");
+      // The page runs its own scripts only (no inline script, no eval), talks to its own server only,
+      // and is framed by no other page.
+      response->set("Content-Security-Policy",
+                    "default-src 'self'; script-src 'self'; connect-src 'self'; style-src 'self' 'unsafe-inline'; "
+                    "img-src 'self' data:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'");
+      response->set("X-Content-Type-Options", "nosniff");
+      if (!set_cookie.empty())
+        response->set(http::field::set_cookie, set_cookie);
       response->keep_alive(request.keep_alive());
       response->body() = std::move(body);
       response->prepare_payload();
@@ -402,12 +427,44 @@ namespace modalrt_view
       });
     }
 
+    RequestCredentials credentials(const std::string &query) const
+    {
+      const auto header = [this](const std::string &name) { return std::string(request[name]); };
+      RequestCredentials c;
+      c.host           = header("Host");
+      c.origin         = header("Origin");
+      c.sec_fetch_site = header("Sec-Fetch-Site");
+      c.token_header   = header("X-Modal-RT-Token");
+      c.token_query    = field_value(query, "token", '&');
+      c.cookie         = header("Cookie");
+      return c;
+    }
+
+    // The address the connection arrived at (an IPv4 client of a [::] listener as IPv4).
+    std::string local_address()
+    {
+      beast::error_code ec;
+      auto              address = stream.socket().local_endpoint(ec).address();
+      if (ec)
+        return "";
+      if (address.is_v6() && address.to_v6().is_v4_mapped())
+        address = asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6());
+      return address.to_string();
+    }
+
     void handle()
     {
-      std::string target(request.target());
-      const std::size_t query = target.find('?');
-      if (query != std::string::npos)
-        target.resize(query);
+      std::string       target(request.target());
+      const std::size_t query_start = target.find('?');
+      const std::string query       = query_start == std::string::npos ? "" : target.substr(query_start + 1);
+      if (query_start != std::string::npos)
+        target.resize(query_start);
+      const RequestCredentials request_credentials = credentials(query);
+      const bool   api    = websocket::is_upgrade(request) || target == "/ws" || target.rfind("/api/", 0) == 0;
+      const Access access = api ? server.guard->api(request_credentials, local_address())
+                                : server.guard->page(request_credentials, local_address());
+      if (access != Access::allowed)
+        return reply(http::status(access_status(access)), access_reason(access), "text/plain");
       if (websocket::is_upgrade(request))
         {
           if (target != "/ws")
@@ -436,7 +493,7 @@ namespace modalrt_view
       std::filesystem::path file;
       if (target.rfind("/three/", 0) == 0)
         file = std::filesystem::path(server.options.web_root) / "node_modules" / "three" / target.substr(7);
-      else if (target == "/index.html" || target == "/view.js" || target == "/plot.js")
+      else if (target == "/index.html" || target == "/view.js" || target == "/access.js")
         file = std::filesystem::path(server.options.web_root) / target.substr(1);
       else
         return reply(http::status::not_found, "not found: " + target + "\n", "text/plain");
@@ -446,7 +503,12 @@ namespace modalrt_view
         return reply(http::status::not_found,
                      "not found: " + file.string() + (target.rfind("/three/", 0) == 0 ? " (run scripts/setup: npm ci in view/web)\n" : "\n"),
                      "text/plain");
-      reply(http::status::ok, std::move(body), content_type(file.string()));
+      if (target.rfind("/three/examples/jsm/", 0) == 0)
+        body = with_three_resolved(std::move(body));
+      // The page's load with the right token leaves it in a cookie for its reloads.
+      const bool page_with_token = target == "/index.html" && server.guard->api(request_credentials, local_address()) == Access::allowed;
+      reply(http::status::ok, std::move(body), content_type(file.string()),
+            page_with_token ? server.guard->set_cookie() : std::string());
     }
   };
 
@@ -512,6 +574,7 @@ namespace modalrt_view
       throw std::runtime_error("view: cannot listen on " + s.options.address + ":" + std::to_string(s.options.port) +
                                ": " + ec.message());
     s.bound_port = s.acceptor.local_endpoint().port();
+    s.guard      = std::make_unique<AccessGuard>(s.token, s.bound_port, std::vector<std::string>{s.options.address});
     s.accept();
     s.thread = std::thread([&s] { s.io.run(); });
   }
@@ -531,5 +594,10 @@ namespace modalrt_view
   }
 
   unsigned    ViewServer::port() const { return impl_->bound_port; }
+  std::string ViewServer::url() const
+  {
+    return "http://" + url_host(impl_->options.address) + ":" + std::to_string(impl_->bound_port) +
+           "/?token=" + impl_->token;
+  }
   std::size_t ViewServer::basis_bytes() const { return impl_->basis_bytes.size(); }
 } // namespace modalrt_view

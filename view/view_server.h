@@ -5,6 +5,7 @@
 // beside it (/api/info, /api/report), the latest state (/api/state), and pushes each frame a
 // FrameSource builds to every WebSocket client (/ws) as soon as the source publishes it. Text messages from a client are
 // commands for the FrameSource (the mouse as a device). Nothing here runs in the haptic thread.
+// Every request passes the AccessGuard first (access_guard.h: Host, origin, this run's token).
 #pragma once
 
 #include <modalrt/modalrt.h>
@@ -58,6 +59,9 @@ namespace modalrt_view
     void     start();
     void     stop();
     unsigned port() const;
+    // After start(): the page's address with this run's token, http://ADDRESS:PORT/?token=HEX (the
+    // token, 256 random bits, is new each run; /ws and /api/* refuse a request without it).
+    std::string url() const;
     // Any thread: the source has a new frame; the server thread sends it to every browser.
     void publish();
     // Bytes of GET /api/basis (sent once per browser).

@@ -26,3 +26,18 @@ export function finish() {
   console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
   process.exit(failures ? 1 : 0);
 }
+
+// The view's address as modal-rt prints it: http://HOST:PORT/?token=HEX (the run's token, 64 hex digits).
+export const VIEW_URL = /http:\/\/[^\s/]+:[0-9]+\/\?token=[0-9a-f]{64}/;
+// Of such an address: the page to open, the API fetched with the token (the X-Modal-RT-Token header,
+// as a client that is no browser must), and the live socket's address with it.
+export function viewAddress(page) {
+  const { origin, searchParams } = new URL(page);
+  const token = searchParams.get('token');
+  return {
+    page,
+    token,
+    api: (route) => fetch(`${origin}/${route}`, { headers: { 'X-Modal-RT-Token': token } }),
+    socket: `${origin.replace('http', 'ws')}/ws?token=${token}`,
+  };
+}

@@ -3,12 +3,12 @@
 // display vertex (the value under the pointer is shown) and writes a screenshot.
 // Usage: node screenshot_stiffness.mjs --modal-rt BIN --basis FILE --vertex V --screenshot PNG
 import { spawn } from 'node:child_process';
-import { args, launchChromium } from './browser_support.mjs';
+import { args, launchChromium, VIEW_URL } from './browser_support.mjs';
 
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
 const url = await new Promise((resolve, reject) => {
   let out = '';
-  server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
+  server.stdout.on('data', (d) => { out += d; const m = out.match(VIEW_URL); if (m) resolve(m[0]); });
   server.on('exit', (code) => reject(new Error(`modal-rt view exited with ${code}: ${out}`)));
 });
 const browser = await launchChromium();

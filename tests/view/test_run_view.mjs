@@ -12,7 +12,7 @@
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
+import { args, check, fail, finish, launchChromium, VIEW_URL, viewAddress } from './browser_support.mjs';
 
 // Starts `modal-rt ARGS`; resolves with the view's address and a promise of the exit code.
 function start(commandArgs) {
@@ -20,7 +20,7 @@ function start(commandArgs) {
   let out = '';
   const exited = new Promise((resolve) => child.on('exit', (code) => resolve(code)));
   const url = new Promise((resolve, reject) => {
-    child.stdout.on('data', (d) => { out += d; const m = out.match(/view: (http:\/\/[0-9.]+:[0-9]+\/)/); if (m) resolve(m[1]); });
+    child.stdout.on('data', (d) => { out += d; const m = out.match(new RegExp(`view: (${VIEW_URL.source})`)); if (m) resolve(m[1]); });
     exited.then((code) => reject(new Error(`modal-rt ${commandArgs[0]} exited with ${code} before printing the view's address: ${out}`)));
     setTimeout(() => reject(new Error(`modal-rt ${commandArgs[0]} printed no view address in 20 s`)), 20000);
   });
@@ -62,6 +62,7 @@ try {
     '--trace-rate', String(rate), '--no-plot', '--quiet', '--view', '0']);
   const url = await run.url;
   console.log(`run's view ${url}`);
+  const view = viewAddress(url);
   const page = await browser.newPage({ viewport: { width: 900, height: 560 } });
   page.on('pageerror', (e) => { console.log(`page error: ${e.message}`); fail(); });
   const frames = [];
@@ -79,7 +80,7 @@ try {
   await page.goto(url);
   await page.waitForFunction(() => window.viewState?.ready && window.viewState.frames > 5, null, { timeout: 30000 });
 
-  const info = await (await fetch(`${url}api/info`)).json();
+  const info = await (await view.api(`api/info`)).json();
   check(info.session?.driver === 'run' && info.session.watch_only === true && info.session.hips === 2,
     `/api/info: session ${JSON.stringify(info.session)}`);
   const status = await page.evaluate(() => ({ watchOnly: window.viewState.watchOnly, status: document.getElementById('status').textContent,
@@ -87,15 +88,8 @@ try {
   check(status.watchOnly === true && /watch-only/.test(status.status) && /watch-only/.test(status.title),
     `the page says it is watch-only: "${status.status}", "${status.title}"`);
 
-  // Wait for both contacts, then sample what the page shows.
-  await page.waitForFunction(() => window.viewState.hips?.[0]?.inContact === 1 && window.viewState.hips?.[1]?.inContact === 1, null, { timeout: 20000 });
-  const shown = [];
-  for (let k = 0; k < 8; ++k) {
-    shown.push(await page.evaluate(() => window.viewState.hips.map((h) => ({ inContact: h.inContact, tick: h.tick, force: h.force }))));
-    await page.waitForTimeout(150);
-  }
-
-  // A mouse drag on the part presses nothing; a press sent by hand is refused.
+  // A mouse drag on the part presses nothing; a press sent by hand is refused (first, while the
+  // session surely runs: on a loaded machine the page's load takes seconds of its 9).
   const box = await page.evaluate(() => { const r = window.viewDebug.canvas.getBoundingClientRect(); return { x: r.left + r.width / 2, y: r.top + r.height / 2 }; });
   await page.mouse.move(box.x, box.y); await page.mouse.down();
   for (let k = 1; k <= 5; ++k) await page.mouse.move(box.x, box.y + 10 * k);
@@ -107,8 +101,16 @@ try {
     ws.onopen = () => ws.send('press 0 0 5');
     ws.onmessage = (e) => { if (typeof e.data === 'string') { resolve(e.data); ws.close(); } };
     setTimeout(() => resolve('(no reply)'), 3000);
-  }), url.replace('http', 'ws') + 'ws');
+  }), view.socket);
   check(reply.startsWith('error: watch-only'), `a press sent on the WebSocket is refused: "${reply}"`);
+
+  // Wait for both contacts, then sample what the page shows.
+  await page.waitForFunction(() => window.viewState.hips?.[0]?.inContact === 1 && window.viewState.hips?.[1]?.inContact === 1, null, { timeout: 20000 });
+  const shown = [];
+  for (let k = 0; k < 8; ++k) {
+    shown.push(await page.evaluate(() => window.viewState.hips.map((h) => ({ inContact: h.inContact, tick: h.tick, force: h.force }))));
+    await page.waitForTimeout(150);
+  }
 
   const code = await run.exited;
   check(code === 0, `modal-rt run --view exited with ${code}`);
@@ -147,7 +149,7 @@ try {
     '--port', String(47000 + (process.pid % 1000)), '--no-plot', '--quiet', '--view', '0']);
   const serveUrl = await serve.url;
   const pageHtml = await (await fetch(serveUrl)).text();
-  const serveInfo = await (await fetch(`${serveUrl}api/info`)).json();
+  const serveInfo = await (await viewAddress(serveUrl).api('api/info')).json();
   check(pageHtml.includes('modal-rt view') && serveInfo.session?.driver === 'serve' && serveInfo.session.watch_only === true,
     `serve --view serves the page at ${serveUrl}, session ${JSON.stringify(serveInfo.session)}`);
   const serveCode = await serve.exited;

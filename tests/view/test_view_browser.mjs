@@ -30,7 +30,7 @@
 import { execFileSync, spawn } from 'node:child_process';
 import { writeFileSync } from 'node:fs';
 import path from 'node:path';
-import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
+import { args, check, fail, finish, launchChromium, VIEW_URL, viewAddress } from './browser_support.mjs';
 const relative = (a, b) => Math.hypot(...a.map((x, i) => x - b[i])) / Math.max(Math.hypot(...b), 1e-300);
 
 // Rec. 709 luma of an sRGB pixel, 0..255. The background (#1d2026) has 31; the part at rest drew 22
@@ -70,11 +70,12 @@ server.stdout.on('data', (d) => { serverOut += d; });
 const serverExit = new Promise((resolve) => server.on('exit', (code) => resolve(code)));
 const url = await new Promise((resolve, reject) => {
   let out = '';
-  server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
+  server.stdout.on('data', (d) => { out += d; const m = out.match(VIEW_URL); if (m) resolve(m[0]); });
   server.on('exit', (code) => reject(new Error(`modal-rt view exited with ${code}: ${out}`)));
   setTimeout(() => reject(new Error('modal-rt view printed no address in 10 s')), 10000);
 });
 console.log(`server ${url}`);
+const view = viewAddress(url);
 
 const browser = await launchChromium();
 try {
@@ -111,7 +112,7 @@ try {
       pressed: s.pressed, hip: s.hips[0], forceShown: force ? Number(force.dataset.value) : NaN,
       uShown: u ? u.dataset.value.split(',').map(Number) : [NaN, NaN, NaN] };
   });
-  const kernel = await (await fetch(`${url}api/state`)).json();
+  const kernel = await (await view.api(`api/state`)).json();
   const k = kernel.hips[0];
   check(k.in_contact === 1 && k.vertex === vertex, `the kernel's HIP 0 is in contact at vertex ${vertex} (vertex ${k.vertex})`);
   const kernelForce = Math.hypot(...k.force);
@@ -124,7 +125,7 @@ try {
     `displacement of vertex ${vertex} on the page [${shown.uShown.map((x) => x.toExponential(6))}] m = kernel's reconstruction, relative difference ${e.toExponential(2)}`);
   const where = await page.evaluate(() => ({ at: document.getElementById('hip0-at')?.textContent, region: document.getElementById('hip0-region')?.textContent,
     labels: [...document.querySelectorAll('#hips .row span:first-child')].map((e) => e.textContent) }));
-  const info = await (await fetch(`${url}api/info`)).json();
+  const info = await (await view.api(`api/info`)).json();
   const restMm = await page.evaluate((v) => window.viewDebug.restMm(v), vertex);
   check(where.at === `(${restMm.join(', ')}) mm` && /VOI '|outside every VOI/.test(where.region ?? '') && (where.region ?? '').includes(`kernel's space ${kernel.space} '${info.spaces[kernel.space].name}'`),
     `the click says where vertex ${vertex} is: ${where.at}, ${where.region}`);
@@ -150,7 +151,7 @@ try {
 
   await page.mouse.up();
   await page.waitForTimeout(300);
-  const after = await (await fetch(`${url}api/state`)).json();
+  const after = await (await view.api(`api/state`)).json();
   check(after.hips[0].in_contact === 0, 'releasing the mouse releases the HIP');
   await checkPlotKept(page);
   await checkTabsOwnTheirState(page);
@@ -181,7 +182,7 @@ async function checkValidity(page, url, what) {
     return { hip: s.hips[0], line: s.plotValidity?.[0] ?? null, value: cell ? Number(cell.dataset.value) : NaN,
       beyondShown: cell ? cell.dataset.beyond === '1' : null, text: cell?.textContent };
   });
-  const kernel = (await (await fetch(`${url}api/state`)).json()).hips[0];
+  const kernel = (await (await view.api(`api/state`)).json()).hips[0];
   const beyond = (kernel.flags & 256) !== 0, F = Math.hypot(...kernel.force), Fv = kernel.validity_force_n;
   check(Fv > 0 && shown.value === Fv && shown.hip.validityForce === Fv && shown.line === Fv,
     `${what}: the kernel's validity force F5 ${Fv} N is the panel's (${shown.value}) and the plot's dashed line (${shown.line})`);

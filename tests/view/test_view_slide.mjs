@@ -15,7 +15,7 @@
 //   - releasing the mouse releases the HIP; Ctrl-C exits 0 with no allocation in the haptic thread.
 // Usage: node test_view_slide.mjs --modal-rt BIN --basis FILE
 import { spawn } from 'node:child_process';
-import { args, check, fail, finish, launchChromium } from './browser_support.mjs';
+import { args, check, fail, finish, launchChromium, VIEW_URL, viewAddress } from './browser_support.mjs';
 
 const mu_d = 0.2, slideForce = 0.5;
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0', '--contact', 'proxy', '--friction', `0.3,${mu_d}`],
@@ -24,18 +24,19 @@ let serverOut = '';
 server.stdout.on('data', (d) => { serverOut += d; });
 const serverExit = new Promise((resolve) => server.on('exit', (code) => resolve(code)));
 const url = await new Promise((resolve, reject) => {
-  server.stdout.on('data', () => { const m = serverOut.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
+  server.stdout.on('data', () => { const m = serverOut.match(VIEW_URL); if (m) resolve(m[0]); });
   server.on('exit', (code) => reject(new Error(`modal-rt view exited with ${code}: ${serverOut}`)));
   setTimeout(() => reject(new Error('modal-rt view printed no address in 10 s')), 10000);
 });
 console.log(`server ${url}`);
-const kernelState = async () => (await fetch(`${url}api/state`)).json();
+const view = viewAddress(url);
+const kernelState = async () => (await view.api(`api/state`)).json();
 
 const browser = await launchChromium();
 try {
   const page = await browser.newPage({ viewport: { width: 1000, height: 620 } });
   page.on('pageerror', (e) => { console.log(`page error: ${e.message}`); fail(); });
-  await page.goto(`${url}?force=${slideForce}`);
+  await page.goto(`${url}&force=${slideForce}`);
   await page.waitForFunction(() => window.viewState?.ready && window.viewState.frames > 5, null, { timeout: 30000 });
   check((await page.textContent('#hint')).includes('drag over the part: it slides'), `the hint says a drag slides: "${await page.textContent('#hint')}"`);
 

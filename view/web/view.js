@@ -1,8 +1,10 @@
 // The browser side of modal-rt view (view/README.md): the display basis is fetched once, then each
 // WebSocket frame carries the modal state q and the contacts' static corrections; a vertex shader
 // reconstructs u = Phi q (+ corrections) from a texture of Phi on the GPU.
-import * as THREE from 'three';
-import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+// three.js by its path: an import map would be an inline script, which the page's CSP forbids.
+import * as THREE from '/three/build/three.module.js';
+import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
+import { api, socketUrl } from '/access.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -19,11 +21,11 @@ const state = window.viewState = {
 };
 
 // ------------------------------------------------------------------------------------- the basis
-const info = await (await fetch('/api/info')).json();
-const basisBuffer = await (await fetch('/api/basis')).arrayBuffer();
+const info = await (await api('/api/info')).json();
+const basisBuffer = await (await api('/api/basis')).arrayBuffer();
 state.basisBytes = basisBuffer.byteLength;
 let report = null;
-try { const r = await fetch('/api/report'); if (r.ok) report = await r.json(); } catch (e) { /* none */ }
+try { const r = await api('/api/report'); if (r.ok) report = await r.json(); } catch (e) { /* none */ }
 $('file').textContent = info.file.split('/').pop();
 // Who drives the HIPs: the mouse (`modal-rt view`), or a session file / UDP device (`run`/`serve
 // --view`): then the page only watches.
@@ -317,8 +319,7 @@ showLegend('modes-legend', '|φ| (mode shape magnitude, relative to its largest)
 showLegend('validation-legend', 'contact error (relative, log scale)', (x) => errorColor(10 ** (12 * x - 12)), '1e-12', '1');
 
 // ------------------------------------------------------------------------------------- the socket
-const protocol = location.protocol === 'https:' ? 'wss' : 'ws';
-const socket = new WebSocket(`${protocol}://${location.host}/ws`);
+const socket = new WebSocket(socketUrl());
 socket.binaryType = 'arraybuffer';
 socket.onopen = () => setLiveStatus(state.watchOnly ? `watching modal-rt ${session.driver} (watch-only)` : 'live');
 socket.onclose = () => setLiveStatus('disconnected (no session): offline tabs only');
