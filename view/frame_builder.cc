@@ -3,12 +3,12 @@
 #include "stiffness_map.h" // realtime/tools
 #include "vertex_info.h"
 
+#include "view_json.h"
 #include "view_server.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 namespace modalrt_view
 {
@@ -176,28 +176,34 @@ namespace modalrt_view
 
   std::string FrameBuilder::state_json() const
   {
-    const TickStats   &t   = tick_.stats;
-    const auto         num = [](double x) { return std::isfinite(x) ? x : -1.0; }; // -1: not measured
-    std::ostringstream j;
-    j.precision(17);
-    j << "{\"tick\":" << info_.tick << ",\"haptic_tick\":" << tick_.tick << ",\"time\":" << info_.time
-      << ",\"space\":" << info_.space << ",\"rejected_ticks\":" << tick_.rejected << ",\"tick_us\":{\"p50\":"
-      << num(t.tick_p50_us) << ",\"p99\":" << num(t.tick_p99_us) << ",\"max\":" << num(t.tick_max_us)
-      << "},\"lateness_us\":{\"p50\":" << num(t.late_p50_us) << ",\"p99\":" << num(t.late_p99_us) << ",\"max\":"
-      << num(t.late_max_us) << "},\"tick_rate_hz\":" << num(t.rate_hz) << ",\"hips\":[";
-    for (std::uint32_t h = 0; h < hips_; ++h)
+    const TickStats &t      = tick_.stats;
+    const auto       num    = [](double x) { return std::isfinite(x) ? Json(x) : Json(-1.0); }; // -1: not measured
+    const auto       vector = [](const double v[3]) { return Json{Json(v[0]), Json(v[1]), Json(v[2])}; };
+    Json             j;
+    j["tick"]           = info_.tick;
+    j["haptic_tick"]    = tick_.tick;
+    j["time"]           = info_.time;
+    j["space"]          = info_.space;
+    j["rejected_ticks"] = tick_.rejected;
+    j["tick_us"]        = {{"p50", num(t.tick_p50_us)}, {"p99", num(t.tick_p99_us)}, {"max", num(t.tick_max_us)}};
+    j["lateness_us"]    = {{"p50", num(t.late_p50_us)}, {"p99", num(t.late_p99_us)}, {"max", num(t.late_max_us)}};
+    j["tick_rate_hz"]   = num(t.rate_hz);
+    Json &hips          = j["hips"] = Json::array();
+    for (const Hip &hip : hip_)
       {
-        const Hip &hip = hip_[h];
-        j << (h ? "," : "") << "{\"in_contact\":" << hip.in_contact << ",\"vertex\":"
-          << (hip.in_contact ? double(hip.vertex) : -1.0) << ",\"full_fe\":" << hip.full_fe << ",\"force\":["
-          << hip.force[0] << "," << hip.force[1] << "," << hip.force[2] << "],\"displacement\":["
-          << hip.displacement[0] << "," << hip.displacement[1] << "," << hip.displacement[2] << "],\"felt\":["
-          << hip.felt[0] << "," << hip.felt[1] << "," << hip.felt[2] << "],\"static_stiffness_n_per_m\":"
-          << (std::isfinite(hip.static_stiffness) ? hip.static_stiffness : -1.0)
-          << ",\"validity_force_n\":" << hip.validity_force << ",\"flags\":" << hip.flags
-          << ",\"position\":[" << hip.position[0] << "," << hip.position[1] << "," << hip.position[2] << "]}";
+        Json h;
+        h["in_contact"]               = hip.in_contact;
+        h["vertex"]                   = hip.in_contact ? std::int64_t(hip.vertex) : std::int64_t(-1);
+        h["full_fe"]                  = hip.full_fe;
+        h["force"]                    = vector(hip.force);
+        h["displacement"]             = vector(hip.displacement);
+        h["felt"]                     = vector(hip.felt);
+        h["static_stiffness_n_per_m"] = num(hip.static_stiffness);
+        h["validity_force_n"]         = hip.validity_force;
+        h["flags"]                    = hip.flags;
+        h["position"]                 = vector(hip.position);
+        hips.push_back(std::move(h));
       }
-    j << "]}";
-    return j.str();
+    return dump_json(j);
   }
 } // namespace modalrt_view

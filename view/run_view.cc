@@ -3,6 +3,7 @@
 #include "frame_builder.h"
 #include "page_command.h"
 #include "triple_buffer.h"
+#include "view_json.h"
 
 #include <algorithm>
 #include <chrono>
@@ -74,7 +75,7 @@ namespace modalrt_view
           server_(context.basis, context.basis_path, *this, options)
       {
         // Until the first snapshot the page gets no frame, and /api/state says so.
-        state_ = "{\"tick\":null}";
+        state_ = dump_json(Json{{"tick", nullptr}});
         server_.start();
       }
       ~RunView() override { server_.stop(); }
@@ -129,11 +130,14 @@ namespace modalrt_view
       }
       std::string session_json() override
       {
-        return "{\"driver\":\"" + (mouse_ ? std::string("mouse") : context_.command) +
-               "\",\"watch_only\":" + (mouse_ ? "false" : "true") + ",\"hips\":" + std::to_string(context_.hips) +
-               ",\"contact\":\"" + (context_.proxy ? "proxy" : "snap") +
-               "\",\"validity_level\":" + std::to_string(context_.validity_level) +
-               ",\"validity_clamp\":" + (context_.validity_clamp ? "true" : "false") + "}";
+        Json j;
+        j["driver"]         = mouse_ ? std::string("mouse") : context_.command;
+        j["watch_only"]     = mouse_ == nullptr;
+        j["hips"]           = context_.hips;
+        j["contact"]        = context_.proxy ? "proxy" : "snap";
+        j["validity_level"] = context_.validity_level;
+        j["validity_clamp"] = context_.validity_clamp;
+        return dump_json(j);
       }
 
     private:

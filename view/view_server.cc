@@ -1,6 +1,7 @@
 #include "view_server.h"
 
 #include "access_guard.h"
+#include "view_json.h"
 #include "stiffness_map.h" // realtime/tools
 
 #include <boost/asio/ip/tcp.hpp>
@@ -55,30 +56,6 @@ namespace modalrt_view
     }
 
     void append_u32(std::vector<unsigned char> &bytes, std::uint32_t value) { append(bytes, &value, 1); }
-
-    std::string json_number(double x)
-    {
-      if (!std::isfinite(x))
-        return "null";
-      char text[32];
-      std::snprintf(text, sizeof text, "%.17g", x);
-      return text;
-    }
-
-    std::string json_string(const std::string &s)
-    {
-      std::string out = "\"";
-      for (char c : s)
-        {
-          if (c == '"' || c == '\\')
-            out += '\\', out += c;
-          else if (static_cast<unsigned char>(c) < 0x20)
-            out += ' ';
-          else
-            out += c;
-        }
-      return out + "\"";
-    }
 
     std::string read_file(const std::filesystem::path &path, bool &ok)
     {
@@ -181,47 +158,58 @@ namespace modalrt_view
       return bytes;
     }
 
-    // What the page needs to know about the basis, as JSON: counts, spaces (frequencies,
-    // candidates, validation cases with the kernel's own self-check error), scene scalars.
-    std::string basis_json(const modalrt_basis *basis, const std::string &path, std::size_t basis_bytes)
+    // A number as the page reads it: a non-finite one as null.
+    Json number(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
+
+    Json space_json(const modalrt_basis *basis, std::uint32_t s, std::uint32_t &case_index)
+    {
+      modalrt_space_info space{};
+      modalrt_basis_get_space_info(basis, s, &space);
+      const double   *lambda     = modalrt_basis_eigenvalues(basis, s);
+      const uint32_t *candidates = modalrt_basis_candidates(basis, s);
+      Json            j;
+      j["name"]  = space.name;
+      j["modes"] = space.mode_count;
+      j["cross"] = space.cross_count > 0;
+      Json &frequencies = j["frequencies_hz"] = Json::array();
+      for (std::uint32_t i = 0; i < space.mode_count; ++i)
+        frequencies.push_back(number(std::sqrt(std::max(0.0, lambda[i])) / (2.0 * M_PI)));
+      j["candidates"] = std::vector<std::uint32_t>(candidates, candidates + space.candidate_count);
+      Json &validation = j["validation"] = Json::array();
+      for (std::uint32_t c = 0; c < space.validation_count; ++c, ++case_index)
+        {
+          modalrt_verify_case vc{};
+          modalrt_basis_verify_case(basis, case_index, &vc);
+          validation.push_back({{"vertex", vc.vertex}, {"direction", vc.direction}, {"kernel_rel_error", number(vc.relative_error)}});
+        }
+      return j;
+    }
+
+    // What the page needs to know about the basis (GET /api/info, view/README.md): counts, spaces
+    // (frequencies, candidates, validation cases with the kernel's own self-check error), scene
+    // scalars, and `session`, what drives the HIPs.
+    std::string info_json(const modalrt_basis *basis, const std::string &path, std::size_t basis_bytes,
+                          const std::string &session)
     {
       modalrt_basis_info info{};
       modalrt_basis_get_info(basis, &info);
-      std::ostringstream j;
-      j << "{\"file\":" << json_string(path) << ",\"vertices\":" << info.display_vertex_count
-        << ",\"triangles\":" << info.display_triangle_count << ",\"mode_scalar_bytes\":" << info.mode_scalar_bytes
-        << ",\"patch_radius_m\":" << json_number(info.patch_radius) << ",\"basis_bytes\":" << basis_bytes
-        << ",\"felt_stiffness_map\":" << (modalrt_tool::has_felt_stiffness_map(basis) ? "true" : "false")
-        << ",\"validity_map\":" << (modalrt_tool::has_validity_map(basis) ? "true" : "false")
-        << ",\"bounds_min\":[" << json_number(info.bounds_min[0]) << "," << json_number(info.bounds_min[1]) << ","
-        << json_number(info.bounds_min[2]) << "],\"bounds_max\":[" << json_number(info.bounds_max[0]) << ","
-        << json_number(info.bounds_max[1]) << "," << json_number(info.bounds_max[2]) << "],\"spaces\":[";
+      Json j;
+      j["file"]               = path;
+      j["vertices"]           = info.display_vertex_count;
+      j["triangles"]          = info.display_triangle_count;
+      j["mode_scalar_bytes"]  = info.mode_scalar_bytes;
+      j["patch_radius_m"]     = number(info.patch_radius);
+      j["basis_bytes"]        = basis_bytes;
+      j["felt_stiffness_map"] = modalrt_tool::has_felt_stiffness_map(basis);
+      j["validity_map"]       = modalrt_tool::has_validity_map(basis);
+      j["bounds_min"] = {number(info.bounds_min[0]), number(info.bounds_min[1]), number(info.bounds_min[2])};
+      j["bounds_max"] = {number(info.bounds_max[0]), number(info.bounds_max[1]), number(info.bounds_max[2])};
+      Json         &spaces     = j["spaces"] = Json::array();
       std::uint32_t case_index = 0;
       for (std::uint32_t s = 0; s < info.space_count; ++s)
-        {
-          modalrt_space_info space{};
-          modalrt_basis_get_space_info(basis, s, &space);
-          const double   *lambda     = modalrt_basis_eigenvalues(basis, s);
-          const uint32_t *candidates = modalrt_basis_candidates(basis, s);
-          j << (s ? "," : "") << "{\"name\":" << json_string(space.name) << ",\"modes\":" << space.mode_count
-            << ",\"cross\":" << (space.cross_count > 0 ? "true" : "false") << ",\"frequencies_hz\":[";
-          for (std::uint32_t i = 0; i < space.mode_count; ++i)
-            j << (i ? "," : "") << json_number(std::sqrt(std::max(0.0, lambda[i])) / (2.0 * M_PI));
-          j << "],\"candidates\":[";
-          for (std::uint32_t c = 0; c < space.candidate_count; ++c)
-            j << (c ? "," : "") << candidates[c];
-          j << "],\"validation\":[";
-          for (std::uint32_t c = 0; c < space.validation_count; ++c, ++case_index)
-            {
-              modalrt_verify_case vc{};
-              modalrt_basis_verify_case(basis, case_index, &vc);
-              j << (c ? "," : "") << "{\"vertex\":" << vc.vertex << ",\"direction\":" << vc.direction
-                << ",\"kernel_rel_error\":" << json_number(vc.relative_error) << "}";
-            }
-          j << "]}";
-        }
-      j << "]}";
-      return j.str();
+        spaces.push_back(space_json(basis, s, case_index));
+      j["session"] = Json::parse(session);
+      return dump_json(j);
     }
 
     // three.js's add-ons import the bare name 'three', which a browser resolves only through an import
@@ -543,9 +531,7 @@ namespace modalrt_view
       impl_->options.web_root = default_web_root();
     const std::vector<unsigned char> bytes = basis_binary(basis, basis_path);
     impl_->basis_bytes.assign(bytes.begin(), bytes.end());
-    impl_->info_json = basis_json(basis, basis_path, bytes.size());
-    impl_->info_json.pop_back(); // the closing brace: the session joins the basis's description
-    impl_->info_json += ",\"session\":" + source.session_json() + "}";
+    impl_->info_json = info_json(basis, basis_path, bytes.size(), source.session_json());
     const auto report = std::filesystem::path(basis_path).parent_path() / "report.json";
     impl_->report     = read_file(report, impl_->has_report);
   }
