@@ -9,6 +9,8 @@
 //   - frames arrive at >= 30 per second (the issue's figure; how many of them software GL draws on a
 //     loaded 2-core machine is printed, not asserted: it measures the machine, see benchmarks/view);
 //   - a screenshot is not blank (it is written to --screenshot for the README);
+//   - the address without its token: refused in a browser without the cookie (the page says so), live
+//     in the browser whose load with the token set it;
 // and what a user sees (docs/reliability.md, "What a user sees"):
 //   - the part at rest is visible: the mean luminance of its pixels >= PART_LUMA_MIN;
 //   - no request of the page is answered 404 (the favicon; report.json is written beside the basis);
@@ -148,6 +150,19 @@ try {
   await second.goto(url);
   await second.waitForFunction(() => window.viewState?.frames > 5 && window.viewState.hips?.[0]?.inContact === 1, null, { timeout: 30000 });
   check(true, 'a second browser sees the same contact');
+
+  // The token: the bare address in a browser without the cookie is refused, and the page says so;
+  // the second browser, whose load with the token set the cookie, reloads the bare address live.
+  const bare = url.split('?')[0];
+  const stranger = await browser.newPage();
+  await stranger.goto(bare);
+  await stranger.waitForFunction(() => /refused/.test(document.getElementById('status').textContent), null, { timeout: 10000 }).catch(() => {});
+  const refusal = await stranger.evaluate(() => document.getElementById('status').textContent);
+  check(/refused: no token/.test(refusal), `the address without the token, no cookie: "${refusal}"`);
+  await stranger.close();
+  await second.goto(bare);
+  const reloaded = await second.waitForFunction(() => window.viewState?.frames > 5, null, { timeout: 30000 }).then(() => true, () => false);
+  check(reloaded, 'the address without the token, with the cookie of its load with the token: frames arrive');
 
   await page.mouse.up();
   await page.waitForTimeout(300);

@@ -7,6 +7,8 @@ import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
 import { api, socketUrl } from '/access.js';
 
 const $ = (id) => document.getElementById(id);
+// Text from the basis or report.json (names) as HTML text: a crafted name stays text.
+const escaped = (text) => String(text).replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
 const params = new URLSearchParams(location.search);
 // The mouse is a device through a virtual spring: a drag of s metres (the pointer's travel, measured
 // in the scene at the pressed point's depth) pushes along the inward normal with F = k s.
@@ -451,7 +453,7 @@ function hipPanel(h, hip, space) {
   const where = whereText(v);
   return `<div style="color:#${hipColors[h].toString(16)}"><b>HIP ${h}</b> vertex ${v}</div>
     <div class="row"><span>at rest</span><span class="num" id="hip${h}-at">${where.at}</span></div>
-    <div class="row"><span>region</span><span id="hip${h}-region">${where.voi}; kernel's space ${spaceName(space)}</span></div>
+    <div class="row"><span>region</span><span id="hip${h}-region">${escaped(where.voi)}; kernel's space ${escaped(spaceName(space))}</span></div>
     <div class="row"><span>force</span><span class="num" id="hip${h}-force" data-value="${F}">${F.toFixed(4)} N</span></div>
     <div class="row"><span>|u| (magnitude)</span><span class="num" id="hip${h}-u" data-value="${hip.js.join(',')}">${formatMm(Math.hypot(...hip.js), live.scaleMax)}</span></div>
     <div class="row"><span>u·n (along the surface normal)</span><span class="num" id="hip${h}-un">${formatMm(along, live.scaleMax)}</span></div>
@@ -701,7 +703,7 @@ renderer.domElement.addEventListener('pointermove', (event) => {
 function reportTables() {
   let html = '<table><tr><th>space</th><th>r</th><th>f [Hz]</th><th>cand.</th><th>cross</th></tr>';
   info.spaces.forEach((s) => {
-    html += `<tr><td>${s.name}</td><td>${s.modes}</td><td>${s.frequencies_hz[0].toFixed(1)}–${s.frequencies_hz[s.modes - 1].toFixed(1)}</td><td>${s.candidates.length}</td><td>${s.cross ? 'yes' : 'no'}</td></tr>`;
+    html += `<tr><td>${escaped(s.name)}</td><td>${s.modes}</td><td>${s.frequencies_hz[0].toFixed(1)}–${s.frequencies_hz[s.modes - 1].toFixed(1)}</td><td>${s.candidates.length}</td><td>${s.cross ? 'yes' : 'no'}</td></tr>`;
   });
   html += '</table>';
   if (report) {
@@ -709,10 +711,10 @@ function reportTables() {
     for (const s of report.spaces ?? []) {
       const v = s.validation ?? [];
       const m = Math.max(0, ...v.map((x) => x.contact_rel_error_modal)), c = Math.max(0, ...v.map((x) => x.contact_rel_error_corrected));
-      html += `<tr><td>${s.name}</td><td>${s.n_dofs}</td><td>${fmt(m, 3)}</td><td>${fmt(c, 3)}</td></tr>`;
+      html += `<tr><td>${escaped(s.name)}</td><td>${escaped(s.n_dofs)}</td><td>${fmt(m, 3)}</td><td>${fmt(c, 3)}</td></tr>`;
     }
     html += '</table>';
-    if (report.timings_s) html += '<table>' + Object.entries(report.timings_s).map(([k, t]) => `<tr><td>${k}</td><td>${Number(t).toFixed(2)} s</td></tr>`).join('') + '</table>';
+    if (report.timings_s) html += '<table>' + Object.entries(report.timings_s).map(([k, t]) => `<tr><td>${escaped(k)}</td><td>${Number(t).toFixed(2)} s</td></tr>`).join('') + '</table>';
   } else html += '<small>no report.json beside the basis</small><br>';
   html += `<small>basis: ${info.vertices} vertices, ${info.triangles} triangles, ${(state.basisBytes / 1e6).toFixed(2)} MB sent once</small>`;
   $('report').innerHTML = html;
