@@ -16,14 +16,14 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const server = spawn(args['modal-rt'], ['view', '--basis', args.basis, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
 const url = await new Promise((resolve, reject) => {
   let out = '';
-  server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[0-9.]+:[0-9]+\//); if (m) resolve(m[0]); });
+  server.stdout.on('data', (d) => { out += d; const m = out.match(/http:\/\/[^\s/]+:[0-9]+\/\?token=[0-9a-f]{64}/); if (m) resolve(m[0]); });
   server.on('exit', (code) => reject(new Error(`modal-rt view exited with ${code}`)));
 });
 
 // Tick statistics: the server's per-second windows, sampled `n` times.
 async function tickWindows(n) {
   const rows = [];
-  for (let k = 0; k < n; ++k) { await sleep(1100); rows.push(await (await fetch(`${url}api/state`)).json()); }
+  for (let k = 0; k < n; ++k) { await sleep(1100); rows.push(await (await fetch(`${new URL(url).origin}/api/state`, { headers: { 'X-Modal-RT-Token': new URL(url).searchParams.get('token') } })).json()); }
   const median = (xs) => xs.sort((a, b) => a - b)[Math.floor(xs.length / 2)];
   return { tick_p50_us: median(rows.map((r) => r.tick_us.p50)), tick_p99_us: median(rows.map((r) => r.tick_us.p99)),
     tick_max_us: Math.max(...rows.map((r) => r.tick_us.max)), late_p99_us: median(rows.map((r) => r.lateness_us.p99)),
