@@ -130,6 +130,14 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
       {"--peer-timeout", for_serve, "S", "1",
        [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
+      {"--token", for_serve, "HEX", nullptr, // the device's secret (realtime/README.md); default: 128 random bits
+       [](RunOptions &o, const std::string &n, const char *v) {
+         if (!udp::parse_token(v, o.udp.token))
+           throw UsageError{n + " is not " + std::to_string(2 * udp::token_size) + " hexadecimal digits"};
+         o.udp.token_given = true;
+       }},
+      {"--token-file", for_serve, "PATH", "$XDG_RUNTIME_DIR/modal-rt/serve-PORT.token",
+       [](RunOptions &o, const std::string &, const char *v) { o.udp.token_file = v; }},
       {"--contact", for_serve, "snap|proxy", "snap", // run: the session's `proxy` row
        [](RunOptions &o, const std::string &n, const char *v) { o.proxy = !first_of_two(n, v, "snap", "proxy"); }},
       {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",

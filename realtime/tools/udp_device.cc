@@ -4,10 +4,14 @@
 #include <arpa/inet.h>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
 #include <netinet/in.h>
+#include <sys/random.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace modalrt_tool
@@ -15,6 +19,52 @@ namespace modalrt_tool
   namespace
   {
     using udp::HipState;
+
+    // A directory for token files: made 0700 if missing; it must be ours and writable by nobody
+    // else (another user could otherwise replace the file before the device reads it).
+    bool private_directory(const std::string &directory, std::string &error)
+    {
+      struct stat status{};
+      if ((mkdir(directory.c_str(), 0700) != 0 && errno != EEXIST) || lstat(directory.c_str(), &status) != 0)
+        error = "cannot make the token directory " + directory + ": " + std::strerror(errno);
+      else if (!S_ISDIR(status.st_mode) || status.st_uid != getuid() || (status.st_mode & 077) != 0)
+        error = "the token directory " + directory + " is not a directory of this user's alone (mode 0700)";
+      return error.empty();
+    }
+
+    // Writes the token as hexadecimal digits to `path`, atomically: a temporary file made by mkstemp
+    // (mode 0600, O_EXCL) in the same directory, then renamed, so a reader never sees half a token
+    // and no other user can have opened the file before it held the token.
+    bool write_token_file(const std::string &path, const udp::Token &token, std::string &error)
+    {
+      std::string temporary = path + ".XXXXXX";
+      const int   file      = mkstemp(&temporary[0]);
+      if (file < 0)
+        {
+          error = "cannot create the token file " + path + ": " + std::strerror(errno);
+          return false;
+        }
+      char hex[2 * udp::token_size + 1];
+      udp::format_token(token, hex);
+      hex[2 * udp::token_size] = '\n';
+      const bool written       = fchmod(file, 0600) == 0 && ::write(file, hex, sizeof hex) == ssize_t(sizeof hex) &&
+                           fsync(file) == 0;
+      ::close(file);
+      if (!written || rename(temporary.c_str(), path.c_str()) != 0)
+        {
+          error = "cannot write the token file " + path + ": " + std::strerror(errno);
+          unlink(temporary.c_str());
+          return false;
+        }
+      return true;
+    }
+
+    std::string address_text(const sockaddr_in &address)
+    {
+      char text[INET_ADDRSTRLEN] = "?";
+      inet_ntop(AF_INET, &address.sin_addr, text, sizeof text);
+      return std::string(text) + ":" + std::to_string(ntohs(address.sin_port));
+    }
 
     class UdpDevice final : public Device
     {
@@ -26,7 +76,6 @@ namespace modalrt_tool
         spec_ = DeviceSpec{"udp bridge (" + settings.bind_address + ":" + std::to_string(settings.port) + ")",
                            d.max_force, d.max_stiffness, d.max_damping, d.physical_damping};
         timeout_ticks_ = std::max<std::uint64_t>(1, std::uint64_t(std::llround(settings.peer_timeout * settings.rate)));
-        takeover_ticks_ = std::max<std::uint64_t>(1, std::uint64_t(std::llround(settings.takeover_silence * settings.rate)));
         for (HipState &s : parked_)
           for (int k = 0; k < 3; ++k)
             s.position[k] = settings.park[k], s.velocity[k] = 0.0, s.force[k] = 0.0;
@@ -52,6 +101,11 @@ namespace modalrt_tool
             close();
             return false;
           }
+        if (!prepare_token(error))
+          {
+            close();
+            return false;
+          }
         return true;
       }
 
@@ -60,6 +114,14 @@ namespace modalrt_tool
         if (socket_ >= 0)
           ::close(socket_);
         socket_ = -1;
+        if (!token_path_.empty())
+          unlink(token_path_.c_str());
+        token_path_.clear();
+        if (token_refusals_ > 0 && !refusals_logged_)
+          std::printf("modal-rt serve: refused %llu packets without the bridge's token (the first from %s at tick %llu)\n",
+                      (unsigned long long)token_refusals_, address_text(first_intruder_).c_str(),
+                      (unsigned long long)first_intruder_tick_);
+        refusals_logged_ = token_refusals_ > 0;
       }
 
       const DeviceSpec &spec() const override { return spec_; }
@@ -125,10 +187,42 @@ namespace modalrt_tool
                 {"refusals_sent", refusals_},    {"sessions", sessions_},        {"hellos", hellos_},
                 {"byes", byes_},                 {"peer_timeouts", peer_timeouts_}, {"takeovers", takeovers_},
                 {"restarts", restarts_},         {"missing_ticks", missing_},   {"commands_sent", sent_},
-                {"send_errors", send_errors_}};
+                {"send_errors", send_errors_},   {"token_refusals", token_refusals_}};
       }
 
     private:
+      // The token: --token's, or 128 bits from the kernel's random source; written to the token file
+      // unless it was given without --token-file.
+      bool prepare_token(std::string &error)
+      {
+        token_ = settings_.token;
+        if (!settings_.token_given && getrandom(token_.bytes, sizeof token_.bytes, 0) != ssize_t(sizeof token_.bytes))
+          {
+            error = std::string("cannot draw a random token: ") + std::strerror(errno);
+            return false;
+          }
+        if (settings_.token_given && settings_.token_file.empty())
+          {
+            std::printf("modal-rt serve: udp %s:%u, the token given by --token\n", settings_.bind_address.c_str(),
+                        unsigned(settings_.port));
+            std::fflush(stdout);
+            return true;
+          }
+        const std::string path = settings_.token_file.empty() ? default_token_file(settings_.port) : settings_.token_file;
+        if (path.empty())
+          {
+            error = "no private directory for the token file (give --token-file PATH)";
+            return false;
+          }
+        if (!write_token_file(path, token_, error))
+          return false;
+        token_path_ = path;
+        std::printf("modal-rt serve: udp %s:%u, token in %s (mode 0600, removed at exit)\n",
+                    settings_.bind_address.c_str(), unsigned(settings_.port), path.c_str());
+        std::fflush(stdout);
+        return true;
+      }
+
       void send(const sockaddr_in &to, std::size_t size)
       {
         if (sendto(socket_, buffer_, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr *>(&to), sizeof to) ==
@@ -157,11 +251,14 @@ namespace modalrt_tool
         const bool    from_peer = has_peer_ && same_sender(from, peer_);
         std::uint32_t sequence = 0, flags = 0;
         HipState      decoded[udp::max_hips];
-        switch (udp::decode_state(buffer_, size, settings_.hips, sequence, flags, decoded))
+        switch (udp::decode_state(buffer_, size, settings_.hips, token_, sequence, flags, decoded))
           {
             case udp::Verdict::bad_version:
               ++bad_version_;
               refuse(from, udp::sequence_of(buffer_, size), udp::command_bad_version);
+              return false;
+            case udp::Verdict::bad_token:
+              refuse_intruder(from, udp::sequence_of(buffer_, size));
               return false;
             case udp::Verdict::bad:
               ++bad_;
@@ -169,15 +266,15 @@ namespace modalrt_tool
             case udp::Verdict::good:
               break;
           }
-        const bool hello = (flags & udp::state_hello) != 0;
+        const bool hello = (flags & udp::state_hello) != 0, bye = (flags & udp::state_bye) != 0;
         hellos_ += hello ? 1 : 0;
-        if (has_peer_ && !from_peer && !takes_over(hello))
+        if (has_peer_ && !from_peer && (!hello || bye))
           {
             ++foreign_;
             refuse(from, sequence, udp::command_refused);
             return false;
           }
-        if (flags & udp::state_bye)
+        if (bye)
           {
             if (from_peer)
               end_session(byes_);
@@ -188,6 +285,9 @@ namespace modalrt_tool
             ++stale_;
             return false;
           }
+        // A HELLO with the token from another address or port is the user's own driver restarted on
+        // a new socket: it replaces the peer at once.
+        takeovers_ += has_peer_ && !from_peer ? 1 : 0;
         if (!from_peer || hello)
           start_session();
         restart_run_ = 0;
@@ -199,15 +299,13 @@ namespace modalrt_tool
         return true;
       }
 
-      // A HELLO from another sender takes the slot over when the peer has been silent for
-      // takeover_silence: a driver that restarted (new socket, new port) is served at once, while a
-      // second device's HELLO during the peer's ordinary traffic is refused.
-      bool takes_over(bool hello)
+      // A well-formed packet without the bridge's token: refused and counted, never served; the first
+      // sender is kept for the log (written at close, not in the tick).
+      void refuse_intruder(const sockaddr_in &from, std::uint32_t sequence)
       {
-        if (!hello || ticks_since_fresh_ < takeover_ticks_)
-          return false;
-        ++takeovers_;
-        return true;
+        if (token_refusals_++ == 0)
+          first_intruder_ = from, first_intruder_tick_ = tick_;
+        refuse(from, sequence, udp::command_bad_token);
       }
 
       // The peer restarted its counter without HELLO: `restart_length` consecutive numbers (each one
@@ -259,7 +357,12 @@ namespace modalrt_tool
       std::uint32_t         sequence_ = 0;
       std::uint64_t         tick_     = 0;
       std::uint64_t         ticks_since_fresh_ = 0;
-      std::uint64_t         timeout_ticks_     = 1, takeover_ticks_ = 1;
+      std::uint64_t         timeout_ticks_     = 1;
+      udp::Token            token_{};
+      std::string           token_path_; // the token file written at open, removed at close
+      sockaddr_in           first_intruder_{};
+      std::uint64_t         first_intruder_tick_ = 0, token_refusals_ = 0;
+      bool                  refusals_logged_     = false;
       bool                  session_changed_   = false;
       std::uint32_t         restart_run_ = 0, restart_last_ = 0; // consecutive numbers outside the window
       std::uint64_t received_ = 0, accepted_ = 0, stale_ = 0, foreign_ = 0, bad_ = 0, bad_version_ = 0, refusals_ = 0,
@@ -267,6 +370,20 @@ namespace modalrt_tool
                     send_errors_ = 0, takeovers_ = 0, restarts_ = 0;
     };
   } // namespace
+
+  std::string default_token_file(std::uint16_t port)
+  {
+    const char *runtime   = std::getenv("XDG_RUNTIME_DIR");
+    std::string directory = runtime && *runtime ? std::string(runtime) + "/modal-rt"
+                                                : "/tmp/modal-rt-" + std::to_string(getuid());
+    std::string error;
+    if (!private_directory(directory, error))
+      {
+        std::fprintf(stderr, "modal-rt serve: %s\n", error.c_str());
+        return "";
+      }
+    return directory + "/serve-" + std::to_string(port) + ".token";
+  }
 
   std::unique_ptr<Device> make_udp_device(const UdpSettings &settings) { return std::make_unique<UdpDevice>(settings); }
 } // namespace modalrt_tool

@@ -30,14 +30,52 @@ namespace modalrt_tool
       }
     } // namespace
 
-    Verdict decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, std::uint32_t &sequence,
-                         std::uint32_t &flags, HipState *states)
+    bool same_token(const unsigned char *a, const unsigned char *b)
+    {
+      unsigned difference = 0;
+      for (std::size_t k = 0; k < token_size; ++k)
+        difference |= unsigned(a[k] ^ b[k]);
+      return difference == 0;
+    }
+
+    bool parse_token(const char *hex, Token &token)
+    {
+      Token read{};
+      for (std::size_t k = 0; k < 2 * token_size; ++k)
+        {
+          const char c     = hex[k];
+          const int  digit = c >= '0' && c <= '9' ? c - '0'
+                             : c >= 'a' && c <= 'f' ? c - 'a' + 10
+                             : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                                    : -1;
+          if (digit < 0) // also the terminating zero of a shorter text
+            return false;
+          read.bytes[k / 2] = (unsigned char)(read.bytes[k / 2] << 4 | digit);
+        }
+      if (hex[2 * token_size] != '\0')
+        return false;
+      token = read;
+      return true;
+    }
+
+    void format_token(const Token &token, char (&hex)[2 * token_size + 1])
+    {
+      const char digits[] = "0123456789abcdef";
+      for (std::size_t k = 0; k < token_size; ++k)
+        hex[2 * k] = digits[token.bytes[k] >> 4], hex[2 * k + 1] = digits[token.bytes[k] & 15];
+      hex[2 * token_size] = '\0';
+    }
+
+    Verdict decode_state(const unsigned char *packet, std::size_t size, std::uint32_t hips, const Token &token,
+                         std::uint32_t &sequence, std::uint32_t &flags, HipState *states)
     {
       if (size >= 8 && std::memcmp(packet, "MRTS", 4) == 0 && load<std::uint16_t>(packet + 4) != version)
         return Verdict::bad_version;
       if (size != state_header + hips * state_per_hip || std::memcmp(packet, "MRTS", 4) != 0 ||
           load<std::uint16_t>(packet + 6) != hips || (load<std::uint32_t>(packet + 12) & ~state_flags) != 0)
         return Verdict::bad;
+      if (!same_token(packet + token_offset, token.bytes))
+        return Verdict::bad_token;
       // Every number is checked before any is copied: a refused packet changes nothing.
       for (std::size_t k = 0; k < 9 * hips; ++k)
         if (!std::isfinite(load<double>(packet + state_header + 8 * k)))

@@ -36,18 +36,30 @@ namespace
     return value;
   }
 
-  // The layout, read independently of the decoder: "MRTS", u16 version 2, u16 HIP count, u32
-  // sequence, u32 flags (bits 0 HELLO and 1 BYE only), then 9 finite f64 per HIP. An "MRTS" packet
-  // of at least 8 bytes with another version is told apart (the sender gets a refusal).
+  // The token the harness's bridge holds: the seed corpus's packets carry it (16 bytes 0x5A).
+  udp::Token harness_token()
+  {
+    udp::Token t;
+    std::memset(t.bytes, 0x5A, sizeof t.bytes);
+    return t;
+  }
+
+  // The layout, read independently of the decoder: "MRTS", u16 version 3, u16 HIP count, u32
+  // sequence, u32 flags (bits 0 HELLO and 1 BYE only), the 16-byte token, then 9 finite f64 per HIP.
+  // An "MRTS" packet of at least 8 bytes with another version is told apart (the sender gets a
+  // refusal), and so is a well-formed packet with another token (checked before the numbers).
   udp::Verdict documented_verdict(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
   {
-    if (size >= 8 && std::memcmp(data, "MRTS", 4) == 0 && get<std::uint16_t>(data, 4) != 2)
+    if (size >= 8 && std::memcmp(data, "MRTS", 4) == 0 && get<std::uint16_t>(data, 4) != 3)
       return udp::Verdict::bad_version;
-    if (size != 16 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 6) != hips ||
+    if (size != 32 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 6) != hips ||
         get<std::uint32_t>(data, 12) > 3u)
       return udp::Verdict::bad;
+    for (std::size_t k = 16; k < 32; ++k)
+      if (data[k] != 0x5A)
+        return udp::Verdict::bad_token;
     for (std::size_t k = 0; k < 9 * std::size_t(hips); ++k)
-      if (!std::isfinite(get<double>(data, 16 + 8 * k)))
+      if (!std::isfinite(get<double>(data, 32 + 8 * k)))
         return udp::Verdict::bad;
     return udp::Verdict::good;
   }
@@ -58,7 +70,7 @@ namespace
     udp::HipState states[udp::max_hips];
     std::memset(states, 0xA5, sizeof states);
     std::uint32_t      sequence = 0xDEADBEEF, flags = 0xDEADBEEF;
-    const udp::Verdict verdict  = udp::decode_state(data, size, hips, sequence, flags, states);
+    const udp::Verdict verdict  = udp::decode_state(data, size, hips, harness_token(), sequence, flags, states);
     expect(verdict == documented_verdict(data, size, hips), "the verdict differs from the documented layout");
     if (verdict != udp::Verdict::good)
       {
@@ -73,14 +85,14 @@ namespace
     for (std::uint32_t h = 0; h < hips; ++h)
       for (int k = 0; k < 3; ++k)
         {
-          const std::size_t at = 16 + 72 * std::size_t(h) + 8 * std::size_t(k);
+          const std::size_t at = 32 + 72 * std::size_t(h) + 8 * std::size_t(k);
           expect(states[h].position[k] == get<double>(data, at) && states[h].velocity[k] == get<double>(data, at + 24) &&
                    states[h].force[k] == get<double>(data, at + 48),
                  "a decoded number is not the packet's");
         }
     // The sequence window: a number is never fresh after itself, of two numbers at most one is fresh
     // after the other, and exactly 1 .. 65536 ahead is fresh (wrapping).
-    const std::uint32_t other = get<std::uint32_t>(data, 16) ^ get<std::uint32_t>(data, 20);
+    const std::uint32_t other = get<std::uint32_t>(data, 32) ^ get<std::uint32_t>(data, 36);
     expect(!udp::in_window(sequence, sequence), "a sequence number is fresh after itself");
     expect(!(udp::in_window(sequence, other) && udp::in_window(other, sequence)), "two sequence numbers are each fresh");
     const std::uint32_t ahead = other - sequence;

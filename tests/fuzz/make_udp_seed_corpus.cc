@@ -25,13 +25,14 @@ namespace
     std::memcpy(bytes.data() + offset, &value, sizeof value);
   }
 
-  // "MRTS", u16 version 2, u16 HIP count, u32 sequence, u32 flags, then per HIP position, velocity
-  // and force (f64), each HIP a little apart from the previous one.
+  // "MRTS", u16 version 3, u16 HIP count, u32 sequence, u32 flags, the token (16 bytes 0x5A, the
+  // harness's), then per HIP position, velocity and force (f64), each HIP a little apart.
   Bytes state_packet(std::uint16_t hips, std::uint32_t sequence, std::uint32_t flags = 0)
   {
-    Bytes p(16 + 72 * std::size_t(hips), 0);
+    Bytes p(32 + 72 * std::size_t(hips), 0);
     std::memcpy(p.data(), "MRTS", 4);
-    put<std::uint16_t>(p, 4, 2);
+    put<std::uint16_t>(p, 4, 3);
+    std::memset(p.data() + 16, 0x5A, 16);
     put<std::uint32_t>(p, 12, flags);
     put<std::uint16_t>(p, 6, hips);
     put<std::uint32_t>(p, 8, sequence);
@@ -39,7 +40,7 @@ namespace
       {
         const double values[9] = {0.1 + 0.01 * h, 0.025, 0.015, 0.0, 0.0, -0.05, 0.0, 0.0, -1.5};
         for (int k = 0; k < 9; ++k)
-          put<double>(p, 16 + 72 * std::size_t(h) + 8 * std::size_t(k), values[k]);
+          put<double>(p, 32 + 72 * std::size_t(h) + 8 * std::size_t(k), values[k]);
       }
     return p;
   }
@@ -62,8 +63,12 @@ int main(int argc, char **argv)
   ok &= save(dir, "bye.bin", state_packet(1, 20, 2u));
   ok &= save(dir, "bad_flag.bin", state_packet(1, 21, 1u << 5));
   Bytes old_client = state_packet(1, 22);
-  put<std::uint16_t>(old_client, 4, 1); // protocol version 1: refused with BAD_VERSION
+  put<std::uint16_t>(old_client, 4, 2); // protocol version 2 (no token): refused with BAD_VERSION
+  old_client.erase(old_client.begin() + 16, old_client.begin() + 32);
   ok &= save(dir, "old_version.bin", old_client);
+  Bytes wrong_token = state_packet(1, 23, 1u);
+  wrong_token[31] ^= 1u; // a HELLO one bit off the token: refused with BAD_TOKEN
+  ok &= save(dir, "bad_token_hello.bin", wrong_token);
 
   Bytes short_packet = state_packet(1, 8);
   short_packet.resize(short_packet.size() - 1);
@@ -75,16 +80,16 @@ int main(int argc, char **argv)
   magic[3] = 'C'; // a command packet's magic sent back
   ok &= save(dir, "bad_magic.bin", magic);
   Bytes version = state_packet(1, 11);
-  put<std::uint16_t>(version, 4, 3);
+  put<std::uint16_t>(version, 4, 4);
   ok &= save(dir, "bad_version.bin", version);
   Bytes count = state_packet(1, 12);
   put<std::uint16_t>(count, 6, 2); // declares two HIPs, carries one
   ok &= save(dir, "bad_hip_count.bin", count);
   Bytes nan_force = state_packet(1, 13);
-  put<double>(nan_force, 16 + 64, std::nan(""));
+  put<double>(nan_force, 32 + 64, std::nan(""));
   ok &= save(dir, "bad_nan_force.bin", nan_force);
   Bytes inf_position = state_packet(2, 14);
-  put<double>(inf_position, 16 + 72, std::numeric_limits<double>::infinity());
+  put<double>(inf_position, 32 + 72, std::numeric_limits<double>::infinity());
   ok &= save(dir, "bad_inf_position.bin", inf_position);
   ok &= save(dir, "bad_empty.bin", Bytes{});
   return ok ? 0 : 1;

@@ -1,19 +1,24 @@
 // modal-rt serve, the UDP bridge, on loopback with a synthetic basis. Packets are encoded here from
-// the layout documented in realtime/README.md (protocol version 2), not with the tool's code.
+// the layout documented in realtime/README.md (protocol version 3), not with the tool's code. The
+// bridge writes its token to serve_token.txt (mode 0600, removed at exit); the client reads it there.
 //   1. A client says HELLO and presses the lattice's tip; while pressing, its HIP teleports 1 m into
 //      the part (the force stays within the device's limit), packets arrive out of order, twice,
 //      with an infinite position or with an unknown flag bit (ignored and counted).
 //   2. Lock-outs that must not happen: a packet 2^31 - 1 ahead is stale, not adopted (the next
 //      ordinary packet is accepted); a counter restarted at 0 with HELLO is accepted at once.
 //      Restarts (issue 39): the counter restarted mid-press on the same port without HELLO is
-//      recognized after 3 packets; a driver restarted on a new port says HELLO and takes over at
-//      once (the peer silent for 50 ms). Each is a new session: the contact is released, its force
-//      ramps to zero at the kernel's rate limit (no step), no command has zero force in contact.
-//   3. A second device gets a refusal packet (REFUSED) echoing its sequence number; an old client
-//      (version 1) gets BAD_VERSION.
+//      recognized after 3 packets; a driver restarted on a new port 20 ms after its last state,
+//      HELLO once then one state per tick (the README's minimal client), is served within 0.1 s.
+//      Each is a new session: the contact is released, its force ramps to zero at the kernel's rate
+//      limit (no step), no command has zero force in contact.
+//   3. A sender without the token (HELLO and states, while the device presses) gets BAD_TOKEN
+//      refusals and is never served; the device's contact goes on untouched. A second device with
+//      the token gets REFUSED echoing its sequence number; an old client (a version 2 HELLO, no
+//      token) gets BAD_VERSION.
 //   4. The client falls silent mid-press: every command from the next tick on carries the FAIL_SAFE
 //      flag; the force is held, then ramps down to zero without a step; commands keep coming at the
-//      loop's rate until the peer timeout (1 s) frees the slot.
+//      loop's rate until the peer timeout (1 s) frees the slot. A sender without the token says HELLO
+//      during the silence and after it (the slot free): refused each time, never served.
 //   5. The second device (a restart on another port) then takes the slot (no contact carried over
 //      from the client's press), leaves with BYE, and the first client comes back with a counter
 //      restarted at 0 without HELLO: accepted (slot free), its first command not in contact.
@@ -36,6 +41,7 @@
 #include <netinet/in.h>
 #include <sstream>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -45,7 +51,7 @@ namespace
   using test::json_number;
   using test::read_text;
 
-  constexpr std::uint32_t fail_safe_flag = 1u, refused_flag = 2u, bad_version_flag = 4u;
+  constexpr std::uint32_t fail_safe_flag = 1u, refused_flag = 2u, bad_version_flag = 4u, bad_token_flag = 8u;
   constexpr std::uint32_t hello = 1u, bye = 2u;
   constexpr std::uint32_t ramping_flag = 64u, released_flag = 2u, contact_started_flag = 1u;
 
@@ -71,14 +77,33 @@ namespace
     return s;
   }
 
-  // A state packet for one HIP: "MRTS", u16 version 2, u16 HIP count, u32 sequence, u32 flags, then
-  // position, velocity, force as f64 (little endian).
+  using Token = std::array<unsigned char, 16>;
+  Token bridge_token{}; // the token of the bridge being driven: read from its token file or given by --token
+
+  // A state packet for one HIP: "MRTS", u16 version 3, u16 HIP count, u32 sequence, u32 flags, the
+  // 16-byte token, then position, velocity, force as f64 (little endian).
   std::vector<unsigned char> state_packet(std::uint32_t sequence, const double position[3], std::uint32_t flags = 0,
-                                          std::uint16_t version = 2)
+                                          const Token &token = bridge_token)
+  {
+    std::vector<unsigned char> p(32 + 72, 0);
+    std::memcpy(p.data(), "MRTS", 4);
+    const std::uint16_t version = 3, hips = 1;
+    std::memcpy(&p[4], &version, 2);
+    std::memcpy(&p[6], &hips, 2);
+    std::memcpy(&p[8], &sequence, 4);
+    std::memcpy(&p[12], &flags, 4);
+    std::memcpy(&p[16], token.data(), 16);
+    std::memcpy(&p[32], position, 24);
+    return p;
+  }
+
+  // A client of protocol version 2 (no token): "MRTS", u16 2, u16 HIP count, u32 sequence, u32 flags,
+  // then the HIP's numbers.
+  std::vector<unsigned char> old_state_packet(std::uint32_t sequence, const double position[3], std::uint32_t flags)
   {
     std::vector<unsigned char> p(16 + 72, 0);
     std::memcpy(p.data(), "MRTS", 4);
-    const std::uint16_t hips = 1;
+    const std::uint16_t version = 2, hips = 1;
     std::memcpy(&p[4], &version, 2);
     std::memcpy(&p[6], &hips, 2);
     std::memcpy(&p[8], &sequence, 4);
@@ -90,8 +115,36 @@ namespace
   // The packet with its k-th number (0..8: position, velocity, force) replaced by `value`.
   std::vector<unsigned char> with_number(std::vector<unsigned char> packet, int k, double value)
   {
-    std::memcpy(&packet[16 + 8 * k], &value, 8);
+    std::memcpy(&packet[32 + 8 * k], &value, 8);
     return packet;
+  }
+
+  // 32 hexadecimal digits as the token's bytes (false: not a token).
+  bool parse_hex(const std::string &hex, Token &token)
+  {
+    if (hex.size() < 32)
+      return false;
+    for (std::size_t k = 0; k < 16; ++k)
+      {
+        unsigned value = 0;
+        if (std::sscanf(hex.c_str() + 2 * k, "%2x", &value) != 1)
+          return false;
+        token[k] = static_cast<unsigned char>(value);
+      }
+    return true;
+  }
+
+  // The token the bridge wrote to `path` when it started: the file must appear (mode 0600, only
+  // its user may read it) holding 32 hexadecimal digits.
+  Token read_token_file(const std::string &path)
+  {
+    Token       token{};
+    struct stat status{};
+    for (int k = 0; k < 4000 && stat(path.c_str(), &status) != 0; ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ENSURE((status.st_mode & 0777) == 0600);
+    ENSURE(parse_hex(read_text(path), token));
+    return token;
   }
 
   double norm(const double f[3]) { return std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]); }
@@ -125,7 +178,7 @@ namespace
         std::memcpy(&r.sequence, buffer + 8, 4);
         std::memcpy(&r.flags, buffer + 12, 4);
         std::memcpy(&r.tick, buffer + 16, 8);
-        if (r.size != 24 + 88 * std::size_t(r.hips) || r.version != 2)
+        if (r.size != 24 + 88 * std::size_t(r.hips) || r.version != 3)
           {
             test::report(false, __FILE__, __LINE__, "command packet of the wrong size or version");
             continue;
@@ -341,14 +394,15 @@ namespace
     c.press_again();
   }
 
-  // The driver restarts on a new port (a new socket) with HELLO after 60 ms of silence: served at
-  // once (it used to be refused for 0.98 s), released, the force ramping down without a step. The
-  // restarted driver is the client from here on.
+  // The driver restarts on a new port (a new socket) 20 ms after its last state and says HELLO once,
+  // then one state per 0.5 ms (the README's minimal client): served at once (it used to be refused
+  // for 0.98 s, until the peer timeout), released, the force ramping down without a step, never
+  // zero in contact. The restarted driver is the client from here on.
   void restart_on_new_port(Clients &c)
   {
     drain(c.client, c.replies);
     const std::size_t before = c.replies.size();
-    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
     drain(c.client, c.replies);
     const auto start = std::chrono::steady_clock::now();
     c.sequence       = 1;
@@ -374,18 +428,70 @@ namespace
     ENSURE(first_new < c.replies.size() && c.replies[first_new].in_contact == 0 &&
            !(c.replies[first_new].hip_flags & contact_started_flag));
     const Steps steps = force_steps(c.replies, first_new, c.replies.size());
-    std::printf("restart on a new port with HELLO: served after %.1f ms, %zu refusals, largest force step %.4f N\n",
-                1e3 * served_after, refusals, steps.largest);
+    ENSURE(steps.zero_in_contact == 0);
+    std::printf("restart on a new port 20 ms later, HELLO once: served after %.1f ms, %zu refusals, largest force "
+                "step %.4f N, %zu zero-force commands in contact\n",
+                1e3 * served_after, refusals, steps.largest, steps.zero_in_contact);
     std::swap(c.client, c.restarted);
     c.press_again();
   }
 
-  // 3. A second device is refused with a packet saying so; an old client (version 1) too. A refusal
-  // echoes the refused packet's sequence number and carries the bridge's tick count.
+  // Another token than the bridge's: what a local process of another user (or one on the network)
+  // sends without having read the token file.
+  Token guessed_token()
+  {
+    Token t = bridge_token;
+    t[15] ^= 1u; // one bit off: a byte-by-byte comparison would reach the last byte
+    return t;
+  }
+
+  // Every reply to a sender without the token is a BAD_TOKEN refusal echoing its sequence number;
+  // returns how many there were.
+  std::size_t check_intruder_refused(const std::vector<Reply> &replies, std::uint32_t first, std::uint32_t last)
+  {
+    for (const Reply &r : replies)
+      ENSURE(r.hips == 0 && r.flags == bad_token_flag && r.sequence >= first && r.sequence <= last);
+    return replies.size();
+  }
+
+  // 3. A sender without the token, while the device presses: HELLO (which, with the token, would
+  // take the slot over) and ordinary states, interleaved with the device's. Each is refused with
+  // BAD_TOKEN; the device goes on pressing, every command to it in contact, none released.
+  std::size_t intruder_while_pressing(Clients &c)
+  {
+    const int         intruder = udp_socket();
+    std::vector<Reply> intruder_replies;
+    const std::size_t before = c.replies.size();
+    for (std::uint32_t k = 0; k < 200; ++k)
+      {
+        send_to(c.client, c.server, state_packet(++c.sequence, c.x));
+        send_to(intruder, c.server, state_packet(500 + k, c.x, k % 10 == 0 ? hello : 0u, guessed_token()));
+        pause_and_drain(c.client, c.replies, 500);
+        drain(intruder, intruder_replies);
+      }
+    c.hold(c.x, 20);
+    drain(intruder, intruder_replies);
+    close(intruder);
+    const std::size_t refused = check_intruder_refused(intruder_replies, 500, 699);
+    std::size_t       served  = 0, released = 0;
+    for (std::size_t k = before; k < c.replies.size(); ++k)
+      if (c.replies[k].hips == 1)
+        ++served, released += c.replies[k].in_contact == 1 && !(c.replies[k].hip_flags & released_flag) ? 0 : 1;
+    std::printf("a sender without the token while the device presses: %zu of 200 packets answered BAD_TOKEN; the "
+                "device got %zu commands, %zu of them out of contact or released\n",
+                refused, served, released);
+    ENSURE(refused >= 150); // loopback may drop a few under load, never serve one
+    ENSURE(served >= 100 && released == 0);
+    return refused;
+  }
+
+  // 3. A second device (with the token) is refused with a packet saying so; an old client (a version
+  // 2 HELLO, no token) gets BAD_VERSION. A refusal echoes the refused packet's sequence number and
+  // carries the bridge's tick count and version (3), whatever the refused packet's version.
   void refusals(Clients &c)
   {
     send_to(c.stranger, c.server, state_packet(7, c.x));
-    send_to(c.stranger, c.server, state_packet(8, c.x, 0, 1));
+    send_to(c.stranger, c.server, old_state_packet(8, c.x, hello));
     for (int k = 0; k < 20; ++k)
       pause_and_drain(c.stranger, c.stranger_replies, 500);
     const std::vector<Reply> &r = c.stranger_replies;
@@ -396,6 +502,24 @@ namespace
     ENSURE(r[1].hips == 0 && r[1].flags == bad_version_flag);
     ENSURE(r[0].sequence == 7 && r[1].sequence == 8);
     ENSURE(r[0].tick > 1000 && r[1].tick >= r[0].tick);
+  }
+
+  // A sender without the token says HELLO `count` times, one every 0.5 ms: each refused with
+  // BAD_TOKEN, none served (while the device is silent, and once the slot is free).
+  std::size_t intruder_hellos(const sockaddr_in &server, const double x[3], std::uint32_t first, int count)
+  {
+    const int          intruder = udp_socket();
+    std::vector<Reply> replies;
+    for (int k = 0; k < count; ++k)
+      {
+        send_to(intruder, server, state_packet(first + std::uint32_t(k), x, hello, guessed_token()));
+        pause_and_drain(intruder, replies, 500);
+      }
+    pause_and_drain(intruder, replies, 5000);
+    close(intruder);
+    const std::size_t refused = check_intruder_refused(replies, first, first + std::uint32_t(count) - 1);
+    ENSURE(refused >= std::size_t(count) * 3 / 4);
+    return refused;
   }
 
   // 5. The second device takes the free slot (a device restarted on another port), not in contact at
@@ -489,12 +613,14 @@ namespace
     ENSURE_RELATIVE(teleport_force, max_force, 1e-12);
   }
 
-  void check_stats()
+  void check_stats(std::size_t intruder_refusals)
   {
     const std::string stats = read_text("serve_out/stats.json");
     ENSURE(json_number(stats, "foreign_packets") == 1);
     ENSURE(json_number(stats, "bad_version_packets") == 1);
-    ENSURE(json_number(stats, "refusals_sent") == 2);
+    // The bridge counts every packet without the token; loopback may have dropped a refusal.
+    ENSURE(json_number(stats, "token_refusals") >= double(intruder_refusals));
+    ENSURE(json_number(stats, "refusals_sent") == 2 + json_number(stats, "token_refusals"));
     ENSURE(json_number(stats, "stale_packets") == 5); // 3, and the first 2 numbers of the restarted counter
     ENSURE(json_number(stats, "bad_packets") == 2);
     ENSURE(json_number(stats, "hellos") >= 2); // until the bridge answered, and the counter restart
@@ -513,6 +639,9 @@ namespace
     ENSURE(stats.find("\"stopped_by\": \"signal\"") != std::string::npos);
   }
 
+  // The token the later bridges are given with --token (no token file written).
+  constexpr char given_token_hex[] = "0123456789ABCDEFfedcba9876543210";
+
   // 6. Sliding through the bridge (--contact proxy, mu_s 0.3, mu_d 0.2): a client presses 2 mm into
   // the lattice's top face near the root and drags its HIP 40 mm along x at 0.04 m/s. The command
   // carries the proxy: its HIP flags have SLIDING (128) while it slides, its position is the proxy's
@@ -521,7 +650,8 @@ namespace
   void slide_through_the_bridge(int port, const std::vector<Reply> &snap_replies)
   {
     constexpr std::uint32_t sliding_flag = 128u;
-    const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot"});
+    const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot", "--token", given_token_hex});
+    ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.05, 0.025, 0.015};
     Greeted     g      = greet(port, 7, x);
     const int   client = g.socket;
@@ -537,7 +667,7 @@ namespace
         x[0] = 0.05 + (k < press ? 0.0 : 0.04 * (k - press) * 0.0005);
         auto packet = state_packet(++sequence, x);
         const double velocity = k < press ? 0.0 : 0.04;
-        std::memcpy(&packet[16 + 24], &velocity, 8);
+        std::memcpy(&packet[32 + 24], &velocity, 8);
         send_to(client, server, packet);
         sent.push_back({x[0], x[1], x[2]});
         pause_and_drain(client, replies, 500);
@@ -584,7 +714,8 @@ namespace
     o.damping        = {0.7, 0.7};
     o.validity_force = true;
     ENSURE(modalrt::write_basis_file("serve_validity.mrt", modalrt::make_lattice_cantilever(o)));
-    const pid_t bridge = start_bridge(port, "_validity", {"--no-plot"}, "serve_validity.mrt");
+    const pid_t bridge = start_bridge(port, "_validity", {"--no-plot", "--token", given_token_hex}, "serve_validity.mrt");
+    ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.15, 0.025, 0.015};
     Greeted     g      = greet(port, 3, x);
     for (int k = 0; k < 3000; ++k) // 0.5 ms each: down 13 mm (8 mm below the top face) and back up
@@ -632,7 +763,8 @@ int main()
   o.damping      = {0.7, 0.7};
   ENSURE(modalrt::write_basis_file("serve_lattice.mrt", modalrt::make_lattice_cantilever(o)));
   const int   port   = 20000 + int(getpid() % 20000);
-  const pid_t bridge = start_bridge(port);
+  const pid_t bridge = start_bridge(port, "", {"--frame-rate", "2", "--token-file", "serve_token.txt"});
+  bridge_token       = read_token_file("serve_token.txt");
 
   Clients c;
   c.server.sin_family      = AF_INET;
@@ -641,17 +773,23 @@ int main()
   const Teleport teleport = press_with_faults(c);
   restart_counter(c);
   restart_on_new_port(c);
-  const std::uint32_t last = c.sequence;
+  std::size_t         intruder_refusals = intruder_while_pressing(c);
+  const std::uint32_t last              = c.sequence;
   refusals(c);
 
   // 4. The client falls silent (a device unplugged mid-press): the loop keeps its rate; after the
   // peer timeout (1 s) no command is sent any more.
   const auto silence_start = std::chrono::steady_clock::now();
-  for (int k = 0; k < 2600; ++k) // 1.3 s
-    pause_and_drain(c.client, c.replies, 500);
+  for (int k = 0; k < 2600; ++k) // 1.3 s; a sender without the token says HELLO 100 ms into it
+    {
+      pause_and_drain(c.client, c.replies, 500);
+      if (k == 200)
+        intruder_refusals += intruder_hellos(c.server, c.x, 900, 40);
+    }
   const double silence_seconds =
     std::chrono::duration<double>(std::chrono::steady_clock::now() - silence_start).count();
   const std::size_t commands_at_silence_end = c.replies.size();
+  intruder_refusals += intruder_hellos(c.server, c.x, 1000, 40); // the slot free: still refused
   for (int k = 0; k < 200; ++k)
     pause_and_drain(c.client, c.replies, 500);
   ENSURE(c.replies.size() == commands_at_silence_end); // the slot is free: nobody to command
@@ -660,11 +798,16 @@ int main()
   kill(bridge, SIGINT);
   int status = 0;
   waitpid(bridge, &status, 0);
-  std::printf("%s", read_text("serve_output.txt").c_str());
+  const std::string log = read_text("serve_output.txt");
+  std::printf("%s", log.c_str());
   ENSURE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  struct stat token_status{};
+  ENSURE(stat("serve_token.txt", &token_status) != 0); // removed at exit
+  ENSURE(log.find("token in serve_token.txt") != std::string::npos);
+  ENSURE(log.find("packets without the bridge's token (the first from 127.0.0.1:") != std::string::npos);
   check_silence(c.replies, commands_at_silence_end, last, silence_seconds);
   check_teleport(c.replies, teleport);
-  check_stats();
+  check_stats(intruder_refusals);
   close(c.client);
   close(c.restarted);
   close(c.stranger);

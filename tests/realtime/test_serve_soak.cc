@@ -61,18 +61,26 @@ namespace
     return 0.0;
   }
 
-  // A state packet for one HIP (realtime/README.md, protocol version 2).
+  // The bridge's token, given to it by --token (32 hexadecimal digits: these bytes).
+  constexpr char          token_hex[] = "00112233445566778899aabbccddeeff";
+  constexpr unsigned char token[16]   = {0x00, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77,
+                                         0x88, 0x99, 0xaa, 0xbb, 0xcc, 0xdd, 0xee, 0xff};
+  constexpr std::size_t   state_size  = 32 + 72;
+
+  // A state packet for one HIP (realtime/README.md, protocol version 3): "MRTS", u16 version, u16
+  // HIP count, u32 sequence, u32 flags, the token, then position, velocity and force.
   void state_packet(unsigned char *p, std::uint32_t sequence, std::uint32_t flags, const double x[3], const double v[3])
   {
-    std::memset(p, 0, 16 + 72);
+    std::memset(p, 0, state_size);
     std::memcpy(p, "MRTS", 4);
-    const std::uint16_t version = 2, hips = 1;
+    const std::uint16_t version = 3, hips = 1;
     std::memcpy(p + 4, &version, 2);
     std::memcpy(p + 6, &hips, 2);
     std::memcpy(p + 8, &sequence, 4);
     std::memcpy(p + 12, &flags, 4);
-    std::memcpy(p + 16, x, 24);
-    std::memcpy(p + 40, v, 24);
+    std::memcpy(p + 16, token, 16);
+    std::memcpy(p + 32, x, 24);
+    std::memcpy(p + 56, v, 24);
   }
 
   struct ClientResult
@@ -90,7 +98,7 @@ namespace
   void client_loop(int socket_fd, const sockaddr_in &server, double seconds, std::atomic<bool> &stop, ClientResult &r)
   {
     const double      top = 0.01, two_pi = 6.283185307179586;
-    unsigned char     packet[16 + 72], reply[512];
+    unsigned char     packet[state_size], reply[512];
     std::uint32_t     sequence = 0;
     const auto        start    = Clock::now();
     auto              next     = start, previous_send = start;
@@ -192,7 +200,7 @@ int main(int argc, char **argv)
       const std::string p = std::to_string(port), d = std::to_string(seconds + 60.0);
       // Defaults everywhere except the port and the duration (the session is ended by SIGINT).
       execl(MODAL_RT_PROGRAM, MODAL_RT_PROGRAM, "serve", "--basis", basis.c_str(), "--output-dir", "soak_out", "--port",
-            p.c_str(), "--duration", d.c_str(), "--no-plot", static_cast<char *>(nullptr));
+            p.c_str(), "--duration", d.c_str(), "--no-plot", "--token", token_hex, static_cast<char *>(nullptr));
       _exit(127);
     }
   std::this_thread::sleep_for(std::chrono::milliseconds(500)); // the bridge loads the basis
