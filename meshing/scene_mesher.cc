@@ -602,7 +602,7 @@ namespace modal_haptics::meshing
       // memory while this process meshes the global scenario and the display surface, then takes
       // the rest too. A child writes its mesh into the cache and exits; this process then reads it
       // from there. A child that fails leaves its VOI to this process, which meshes it again and
-      // reports the error itself. The default scene's --mesh-only: 2.1-2.3 -> 1.5-1.6 s (docs/performance.md).
+      // reports the error itself. What it saves: docs/performance.md, "The VOIs meshed in child processes".
       class VoiQueue
       {
       public:

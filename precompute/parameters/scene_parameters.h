@@ -133,7 +133,7 @@ namespace modal_haptics
     // Where linear stops being true (precompute/nonlinear/large_deformation.h): at each validation
     // point, a geometrically nonlinear solve of the patch load ramped up to force_limit.
     double       force_limit         = 10.;  // [N] the kernel's default device.max_force (realtime/src/api.cc)
-    bool         validity_analysis   = false; // off: 5-6 s per point on the default scene (docs/performance.md)
+    bool         validity_analysis   = false; // off: a nonlinear full solve per point (its cost: docs/accuracy.md)
     bool         validity_neo_hookean = true; // else St. Venant-Kirchhoff
     std::optional<meshing::Point3> validity_direction; // unit; empty: the surface's inward normal
     unsigned int validity_load_steps = 5;    // first load increment = force_limit / this

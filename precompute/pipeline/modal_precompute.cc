@@ -127,8 +127,8 @@ namespace modal_haptics
     add_transfer_matrices();
     StagedFiles staged;
     // The mode shapes' VTU files, written on a thread of their own, end before the report (it
-    // holds their time) and before anything is renamed into place: the last one (1.3 s on the
-    // default scene) used to be waited for before the transfer matrices and exports (0.7 s) began.
+    // holds their time) and before anything is renamed into place, not before the transfer matrices
+    // and exports, which run while the last one is written (docs/performance.md).
     // Where an export fails, they end first too: their own failure (a full disk meets them first)
     // is the one reported, and no temporary file of theirs outlives the run.
     try

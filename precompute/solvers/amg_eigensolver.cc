@@ -810,9 +810,8 @@ namespace modal_haptics
 
     // The most modes one run may seek: all of them if their run fits half of this process's share
     // of the node's available memory, else as many as fit (at least 8). Runs after the first seek
-    // their modes in the complement of the earlier ones: smaller blocks, more iterations (P2
-    // plate, 57k DoFs, 50 modes: one run 52 iterations, 39 s, 0.93 GB peak; two runs of 25 137
-    // iterations, 48 s, 0.69 GB), but a part twice the size fits.
+    // their modes in the complement of the earlier ones: smaller blocks, more iterations and more
+    // time (docs/performance.md, "LOBPCG + AMG where no factor fits"), but a part twice the size fits.
     int modes_fitting_one_run(const int n_modes, const std::size_t n_rows, const MPI_Comm comm)
     {
       const double budget = memory_budget(comm) - double(n_modes) * n_rows * sizeof(double); // the modes found

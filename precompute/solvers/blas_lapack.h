@@ -29,8 +29,8 @@ namespace modal_haptics
   // OpenBLAS' thread count, set for a scope and restored after it (no-op with another BLAS: the
   // functions are looked up at run time; the system BLAS is whatever Debian's alternatives pick).
   // The triangular solves set one: their threads are their own (supernodal_solve.h), and BLAS
-  // threads inside a supernode's small block only add synchronization (250k DoFs, loaded machine:
-  // a 4-column solve 0.73-0.80 s on 1 thread, 0.86-1.69 s on 2); so do the factorization's subtrees
+  // threads inside a supernode's small block only add synchronization (a 4-column solve is slower on
+  // 2 BLAS threads than on 1); so do the factorization's subtrees
   // (supernodal_cholesky.h). The top of its tree and the Krylov basis' GEMMs keep every thread.
   class BlasThreads
   {

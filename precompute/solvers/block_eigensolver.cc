@@ -78,8 +78,8 @@ namespace modal_haptics
       std::size_t rows() const { return n; }
 
       // dst = M src for count columns of length n (column-major; dst must not alias src), four
-      // at a time: a fixed width lets the compiler keep the four sums in registers (twice the rate of
-      // a loop over a run-time width: 7 against 12-14 ms for 4 columns at 250k DoFs).
+      // at a time: a fixed width lets the compiler keep the four sums in registers (a loop over a
+      // run-time width does not vectorize).
       void multiply(const double *src, double *dst, const int count) const
       {
         dealii::parallel::apply_to_subranges(
@@ -170,8 +170,8 @@ namespace modal_haptics
       EigenSolution solve(const double shift)
       {
         this->shift = shift;
-        // The GEMMs on the basis run on every BLAS thread (1.6x faster on 2 than on 1 on a quiet
-        // machine: a 250k x 80 basis times 4 columns, 9-10 against 16 GB/s); the solves set their own.
+        // The GEMMs on the basis run on every BLAS thread (they are bound by reading the basis, which
+        // two threads read faster than one); the solves set their own.
         dealii::Timer     timer;
         std::vector<double> seed(std::size_t(n) * block);
         std::mt19937_64 random(20261122 + operators.process());

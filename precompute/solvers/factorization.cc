@@ -85,8 +85,8 @@ namespace modal_haptics
     // OpenBLAS (a DYNAMIC_ARCH build, as Debian's) picks its kernels by the CPU's vendor, family and
     // model, and falls back to its generic Prescott (SSE3) kernels on a model its table lacks:
     // Debian 12's 0.3.21 on Intel's family 6 model 207 (Emerald Rapids, as some of our VMs report),
-    // where DGEMM then runs about 4x slower (the default scene's rib_b: the static correction's
-    // solves 27.8 s with Prescott's kernels, 7.1 s with SkylakeX's). Only that fallback is replaced,
+    // where DGEMM then runs several times slower (docs/performance.md, "OpenBLAS's kernels on a CPU
+    // it does not know"). Only that fallback is replaced,
     // by the instruction sets the CPU and the OS support (GCC's __builtin_cpu_supports checks
     // both); a core OpenBLAS recognised is left alone. nullptr: nothing to replace.
     const char *blas_kernels_for_this_cpu()
@@ -107,8 +107,9 @@ namespace modal_haptics
     // OpenBLAS reads OPENBLAS_THREAD_TIMEOUT when it loads and when it starts its workers: read the
     // variable again and restart the workers (its exported openblas_read_env, blas_thread_shutdown_,
     // blas_thread_init; found with dlsym, absent from other BLAS libraries). In the process instead
-    // of a restart of it: starting this program again cost ~0.75 s, most of it the dynamic linker
-    // binding the ~200 libraries deal.II brings (Debian links most with BIND_NOW).
+    // of a restart of it: starting this program again is slow, the dynamic linker binding the ~200
+    // libraries deal.II brings (Debian links most with BIND_NOW; docs/performance.md, "One process
+    // start").
     bool shorten_openblas_spin_in_process()
     {
       using Call          = int (*)();

@@ -77,8 +77,8 @@ namespace modal_haptics
   // there unless the user has set it, as the first line of main, before anything else has happened:
   // - OPENBLAS_THREAD_TIMEOUT = 20. OpenBLAS's idle worker threads spin for 2^28 cycles (about 0.1 s)
   //   after every call before they sleep; on 2 cores the spinning worker takes a core from our own
-  //   threads (the triangular solves start right after the eigensolver's GEMMs on the basis: 250k
-  //   DoFs, 7.0 s of solves against 6.4 s with a short spin). The running OpenBLAS reads it again
+  //   threads (the triangular solves start right after the eigensolver's GEMMs on the basis;
+  //   docs/performance.md, "OpenBLAS's idle workers spin briefly"). The running OpenBLAS reads it again
   //   and restarts its workers. Not under an MPI launcher: there each process has one BLAS thread
   //   (no idle worker to spin).
   // - OPENBLAS_CORETYPE, only where OpenBLAS did not know the CPU and fell back to its generic

@@ -4,8 +4,7 @@
 //
 // Why not cholmod_l_factorize: it runs the supernodes one after the other and leaves the
 // parallelism to the BLAS, whose calls on the many small supernodes below the top of the tree are
-// too small to share. The default scene's rib_a (164k DoFs, 3.6e10 flops): 2.8-3.6 s with two BLAS
-// threads, 3.1-4.1 s with one; here 1.3-1.5 s (docs/performance.md). The method is CHOLMOD's
+// too small to share (bench-factorization against it: docs/performance.md). The method is CHOLMOD's
 // left-looking one: a supernode gathers its columns of P A P^T, subtracts the updates of the
 // supernodes below it whose rows reach its columns (SYRK and GEMM, scattered), then POTRF on its
 // diagonal block and TRSM below it. A supernode only reads supernodes of its own subtree, so each

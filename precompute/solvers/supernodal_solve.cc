@@ -328,9 +328,9 @@ namespace modal_haptics
   }
 
   // Up to four right-hand sides, the narrow kernels: per supernode the BLAS would run a TRSM and
-  // a GEMM a few columns wide, whose call and packing overheads bound them (250k DoFs, FACTS
-  // plate, bench-static-correction: 0.18 s for 4 columns with the BLAS, 0.16 s here; one column
-  // 0.14 against 0.12 s). Wider blocks go to the BLAS, which is faster there.
+  // a GEMM a few columns wide, whose call and packing overheads bound them (bench-static-correction:
+  // docs/performance.md, "The triangular solves on subtrees"). Wider blocks go to the BLAS, which is
+  // faster there.
   void SupernodalSolve::solve(double *columns, const unsigned int n_rhs) const
   {
     if (n_rhs == 0 || n == 0)
@@ -346,7 +346,7 @@ namespace modal_haptics
         case 3:
           {
             // Padded to four (a zero column): rows of three doubles do not fill the vectors, and
-            // width 3 was slower than 4 (0.19 against 0.16 s per solve at 250k DoFs).
+            // width 3 was slower than 4 (docs/performance.md).
             std::vector<double> padded(std::size_t(n) * 4, 0.);
             std::copy(columns, columns + std::size_t(n) * 3, padded.begin());
             solve_narrow<4>(padded.data());

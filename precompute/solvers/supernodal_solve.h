@@ -2,13 +2,13 @@
 // subtrees of the elimination tree on parallel threads.
 //
 // Why not cholmod_solve: it walks the supernodes one after the other, and per supernode runs a small
-// TRSM/GEMM on a few right-hand sides whose latency, not the memory, bounds it (250k DoFs: a
-// 4-column solve reads the 1.34 GB factor twice in 0.33 s, 8 GB/s of the 27 one thread can read).
-// Splitting the columns between two threads makes each of them read the whole factor (0.27-0.29
-// s). Here every thread takes its own subtrees, so the factor is read once for all the columns;
-// only the separators above the subtrees (the top of the tree, ~8 % of the factor on the FACTS
-// plate) are solved by one thread (0.18-0.19 s for the same solve; docs/performance.md). Up to
-// four right-hand sides go through our own narrow kernels instead of the BLAS (0.16 s).
+// TRSM/GEMM on a few right-hand sides whose latency, not the memory, bounds it (it reads the factor
+// at a fraction of the rate one thread can read). Splitting the columns between two threads makes
+// each of them read the whole factor. Here every thread takes its own subtrees, so the factor is
+// read once for all the columns; only the separators above the subtrees (the top of the tree, ~8 %
+// of the factor on the FACTS plate) are solved by one thread (docs/performance.md, "The triangular
+// solves on subtrees"). Up to four right-hand sides go through our own narrow kernels instead of
+// the BLAS.
 #pragma once
 
 #include <cholmod.h>
@@ -55,9 +55,8 @@ namespace modal_haptics
     //
     // A borrowed column is solved once, in its own group: every group's Y is kept, and a borrowed
     // row of G is the product of the two groups' Y on the supernodes their paths share, for the own
-    // columns GramGroup::wanted names (the default scene's static correction: 8.0-8.6 -> 6.5-7.5 s
-    // against solving each borrowed column again in the group that borrows it, the products 0.1-0.2
-    // s a space; docs/performance.md). Where the kept Y of all groups would take more than
+    // columns GramGroup::wanted names (faster than solving each borrowed column again in the group
+    // that borrows it; docs/performance.md). Where the kept Y of all groups would take more than
     // storage_limit bytes, the borrowed columns are solved again instead (memory per thread: a
     // group's path times its width). The top of the tree (the last separators, large and dense),
     // which every path crosses, is solved for every group too: the dense inverse of its last 3,000
