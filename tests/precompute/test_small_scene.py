@@ -14,7 +14,7 @@
   both spaces (the global space's first modes, smooth) is carried into each VOI space with < 5 % error;
 * the BLAS: report.json names OpenBLAS's kernels, and on a CPU with AVX2 and FMA (unless the test's
   environment sets OPENBLAS_CORETYPE) they are not the generic Prescott ones OpenBLAS falls back to
-  on a model it does not know (the program then restarts with the CPU's: README, "The BLAS kernels");
+  on a model it does not know (the program then restarts with the CPU's: docs/cluster.md);
   unless the environment sets OPENBLAS_THREAD_TIMEOUT, the running OpenBLAS read 20 (its idle
   workers' spin, set by the program in its own process: report.json's processes.blas_thread_timeout);
 * the VOIs' meshes: with more than one core allowed (and gmsh on one thread, the default), a child
