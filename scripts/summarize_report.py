@@ -4,6 +4,19 @@ import json
 import sys
 
 
+# The face a spot lies on, by the axis its outward normal is nearest to (the part modelled z up).
+FACES = {"+z": "the top", "-z": "the underside"}
+
+
+def facing(spot):
+    """', on a side (facing +x, normal 0.99, 0.00, 0.10: pressed along -n)'; empty without a normal."""
+    if "normal" not in spot:
+        return ""
+    n = ", ".join(f"{c:.2f}" for c in spot["normal"])
+    face = FACES.get(spot["facing"], "a side")
+    return f", on {face} (facing {spot['facing']}, normal {n}: pressed along -n)"
+
+
 def main(path):
     with open(path) as f:
         report = json.load(f)
@@ -26,7 +39,8 @@ def main(path):
         x = ", ".join(f"{1e3 * c:.1f}" for c in soft["position_m"])
         print(f"felt stiffness, {s['name']} ({m['n_vertices']} vertices): {m['min_n_per_mm']:.1f} / "
               f"{m['median_n_per_mm']:.1f} / {m['max_n_per_mm']:.3g} N/mm (min / median / max); softest at vertex "
-              f"{soft['vertex']} ({x}) mm; the modes alone: median {m['modal_only_ratio_median']:.3f} x as stiff, "
+              f"{soft['vertex']} ({x}) mm{facing(soft)}; the modes alone: median "
+              f"{m['modal_only_ratio_median']:.3f} x as stiff, "
               f"off by > 8 % at {100 * m['modal_only_off_by_more_than_8_percent']:.0f} % of the vertices")
     for s in report["spaces"]:
         far = s.get("far_field")

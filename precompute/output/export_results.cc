@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -490,6 +491,14 @@ namespace modal_haptics
       return far;
     }
 
+    // The coordinate axis nearest to a unit vector: "+z", "-x", ...
+    std::string nearest_axis(const std::array<double, 3> &n)
+    {
+      const auto by_magnitude = [](const double a, const double b) { return std::abs(a) < std::abs(b); };
+      const int  axis         = int(std::max_element(n.begin(), n.end(), by_magnitude) - n.begin());
+      return std::string(n[axis] < 0. ? "-" : "+") + "xyz"[axis];
+    }
+
     // The felt-stiffness map of a space over its own region (its VOI; the global space: outside every
     // VOI): the range, what the modes alone would give at the same vertices, the softest and the
     // stiffest spots.
@@ -509,9 +518,15 @@ namespace modal_haptics
         if (s.modal_only_stiffness[v] > 0.)
           ratios.push_back(s.modal_only_stiffness[v] / s.felt_stiffness[v]);
       std::sort(ratios.begin(), ratios.end());
-      const auto spot = [&](const unsigned int v) {
+      // Where a spot faces says which way it is pressed (along -normal): in a box region the softest
+      // spot may be on the plate's underside or on a rib's side.
+      const std::vector<double> normals = vertex_normals(display);
+      const auto                spot    = [&](const unsigned int v) {
+        const std::array<double, 3> n{{normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]}};
         return Json{{"vertex", v},
                     {"position_m", display.vertices[v]},
+                    {"normal", n},
+                    {"facing", nearest_axis(n)},
                     {"stiffness_n_per_mm", s.felt_stiffness[v] * 1e-3},
                     {"modal_only_n_per_mm", s.modal_only_stiffness[v] * 1e-3}};
       };

@@ -6,6 +6,8 @@
 
 #include "scene_mesher.h"
 
+#include <mrt/surface_normals.h>
+
 #include <array>
 #include <vector>
 
@@ -52,6 +54,18 @@ namespace modal_haptics
     for (const auto &row : rows)
       flat.insert(flat.end(), row.begin(), row.end());
     return flat;
+  }
+
+  // The outward normal at every display vertex, 3 per vertex: the one the kernel presses along
+  // (mrt::area_weighted_normals, the .mrt contract's), so a report names the direction a spot is felt in.
+  inline std::vector<double> vertex_normals(const ContactSurface &surface)
+  {
+    const std::vector<double>       positions = flatten(surface.vertices);
+    const std::vector<unsigned int> triangles = flatten(surface.triangles);
+    std::vector<double>             normals(positions.size());
+    mrt::area_weighted_normals(positions.data(), surface.n_vertices(), triangles.data(), surface.triangles.size(),
+                               normals.data());
+    return normals;
   }
 
   // A point of a quadrature over the display surface [m] and its weight [-].

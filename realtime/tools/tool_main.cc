@@ -1,8 +1,9 @@
 // modal-rt: looks into a .mrt basis file, checks the kernel against it, and plays sessions.
 //
-//   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidates, the felt-stiffness
-//                                  map per space (range, softest spots: stiffness_map.cc), the validity
-//                                  map's lowest forces per space, section sizes
+//   modal-rt info   --basis FILE   header, spaces, modes, frequencies [Hz], candidate counts, the
+//                                  felt-stiffness map per space (range, softest spots: stiffness_map.cc),
+//                                  the validity map's lowest forces per space, section sizes;
+//                                  --candidates adds, last, every space's candidate vertices
 //   modal-rt info   --basis FILE --vertex N | --near X,Y,Z
 //                                  one display vertex (by index, or the closest to a point [m]): its
 //                                  position, normal, region, candidacy and felt stiffness (vertex_info.cc)
@@ -40,7 +41,7 @@ namespace
   // with 0 for --help.
   int usage(const ToolExtensions &extensions, bool help = false)
   {
-    std::string text = "usage: modal-rt info --basis FILE [--vertex N | --near X,Y,Z]\n"
+    std::string text = "usage: modal-rt info --basis FILE [--candidates | --vertex N | --near X,Y,Z]\n"
                        "       modal-rt verify --basis FILE [--quiet]\n" +
                        modalrt_tool::run_usage() + modalrt_tool::serve_usage();
     for (const modalrt_tool::Command &command : extensions.commands)
@@ -100,14 +101,6 @@ namespace
     for (uint32_t i = 0; i < info.mode_count; ++i)
       std::printf("%s%10.4g (%.3g)", i % 6 == 0 ? "\n   " : " ", std::sqrt(lambda[i]) / two_pi, zeta[i]);
     std::printf("\n");
-    if (info.candidate_count > 0)
-      {
-        const uint32_t *candidates = modalrt_basis_candidates(basis, s);
-        std::printf("  candidates:");
-        for (uint32_t k = 0; k < info.candidate_count; ++k)
-          std::printf("%s%u", k % 16 == 0 ? "\n   " : " ", candidates[k]);
-        std::printf("\n");
-      }
     std::printf("  transfers into it from:");
     bool any = false;
     for (uint32_t j = 0; j < space_count; ++j)
@@ -117,6 +110,22 @@ namespace
           any = true;
         }
     std::printf("%s\n", any ? "" : " none");
+  }
+
+  // The corrected contacts' display vertices, 16 a line: hundreds of lines on a real scene, so only
+  // with --candidates and after everything else.
+  void print_candidates(const modalrt_basis *basis, uint32_t space_count)
+  {
+    for (uint32_t s = 0; s < space_count; ++s)
+      {
+        modalrt_space_info info;
+        modalrt_basis_get_space_info(basis, s, &info);
+        const uint32_t *candidates = modalrt_basis_candidates(basis, s);
+        std::printf("\nspace %u '%s': %u candidates (display vertices):", s, info.name, info.candidate_count);
+        for (uint32_t k = 0; k < info.candidate_count; ++k)
+          std::printf("%s%u", k % 16 == 0 ? "\n   " : " ", candidates[k]);
+        std::printf("\n");
+      }
   }
 
   void print_sections(const modalrt_basis *basis, uint32_t count)
@@ -132,7 +141,7 @@ namespace
       }
   }
 
-  int info(const modalrt_basis *basis)
+  int info(const modalrt_basis *basis, bool with_candidates)
   {
     modalrt_basis_info info;
     modalrt_basis_get_info(basis, &info);
@@ -142,6 +151,8 @@ namespace
     modalrt_tool::print_felt_stiffness_map(basis);
     modalrt_tool::print_validity_map(basis);
     print_sections(basis, info.section_count);
+    if (with_candidates)
+      print_candidates(basis, info.space_count);
     return 0;
   }
 
@@ -181,11 +192,12 @@ namespace
     return pass ? 0 : 1;
   }
 
-  // What info and verify were asked: --basis FILE [--quiet] [--vertex N | --near X,Y,Z].
+  // What info and verify were asked: --basis FILE [--quiet] [--candidates] [--vertex N | --near X,Y,Z].
   struct BasisOptions
   {
     const char *path  = nullptr;
     bool        quiet = false;
+    bool        candidates = false; // info: also list every space's candidate vertices
     const char *vertex = nullptr; // --vertex's value as given
     bool        near   = false;
     double      point[3] = {0, 0, 0}; // [m] --near
@@ -237,6 +249,8 @@ namespace
           o.path = argv[++k];
         else if (std::strcmp(argv[k], "--quiet") == 0)
           o.quiet = true;
+        else if (std::strcmp(argv[k], "--candidates") == 0)
+          o.candidates = true;
         else if (std::strcmp(argv[k], "--vertex") == 0 && k + 1 < argc)
           o.vertex = argv[++k];
         else if (std::strcmp(argv[k], "--near") == 0 && k + 1 < argc)
@@ -253,6 +267,11 @@ namespace
     if (o.vertex && o.near)
       {
         std::fprintf(stderr, "modal-rt info: --vertex and --near pick the same thing: give one\n");
+        return 2;
+      }
+    if (o.candidates && (o.vertex || o.near))
+      {
+        std::fprintf(stderr, "modal-rt info: --candidates lists the whole basis, --vertex one vertex: give one\n");
         return 2;
       }
     return o.path ? -1 : usage(extensions);
@@ -282,7 +301,7 @@ namespace
     const int    status = parse_basis_options(argc, argv, extensions, o);
     if (status >= 0)
       return status;
-    if (command != "info" && (o.vertex || o.near))
+    if (command != "info" && (o.vertex || o.near || o.candidates))
       return usage(extensions);
     Basis basis;
     if (modalrt_basis_load(o.path, &basis.handle) != MODALRT_OK)
@@ -292,7 +311,7 @@ namespace
       }
     if (o.vertex || o.near)
       return vertex_info(basis.handle, o);
-    return command == "info" ? info(basis.handle) : verify(basis.handle, o.path, o.quiet);
+    return command == "info" ? info(basis.handle, o.candidates) : verify(basis.handle, o.path, o.quiet);
   }
 } // namespace
 

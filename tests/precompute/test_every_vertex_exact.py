@@ -7,7 +7,8 @@ inside each VOI and 20 outside (global space):
   load (1e-8 relative; the random vertices are given as validation points, so the precompute solves
   each afresh, and `modal-rt verify` checks the kernel's own answer against those solves);
 * the felt-stiffness map's normal stiffness equals 1 / (n^T G n) of the full solve's compliance G
-  along the display surface's outward normal (1e-8);
+  along the display surface's outward normal (1e-8); report.json's softest and stiffest spots carry
+  that normal and the axis it faces, which the summary prints;
 * 10 random pairs of neighbouring candidates per space pressed together equal one full solve each
   (the kernel's formula with the stored cross compliance, 1e-8);
 * the far field (check_far_field): never more than a candidate's own residual compliance, and 10
@@ -59,6 +60,12 @@ def vertex_normals(x, triangles):
     for k in range(3):
         np.add.at(n, triangles[:, k], face)
     return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+def axis_faced(n):
+    """The coordinate axis nearest to a normal: '+z', '-x', ..."""
+    axis = int(np.abs(n).argmax())
+    return ("-" if n[axis] < 0 else "+") + "xyz"[axis]
 
 
 def check_far_field(space, g, expect):
@@ -170,6 +177,11 @@ def main():
             expect(len(pairs) == PAIRS_PER_SPACE and worst_pair <= 1e-8,
                    f"{space['name']}: {len(pairs)} pairs of neighbours pressed together vs one full solve each, worst "
                    f"{worst_pair:.2e} <= 1e-8 (up to {1e3 * max(p['distance_m'] for p in pairs):.2f} mm apart)")
+            spots = space["felt_stiffness"]["softest"] + space["felt_stiffness"]["stiffest"]
+            wrong = [p["vertex"] for p in spots if np.abs(np.array(p["normal"]) - normals[p["vertex"]]).max() > 1e-12
+                     or p["facing"] != axis_faced(normals[p["vertex"]])]
+            expect(not wrong, f"{space['name']}: the map's softest and stiffest spots carry the contract's normal and "
+                              f"the axis it faces (wrong at {wrong})")
             check_far_field(space, g, expect)
             if space["index"] == region.max():
                 check_exact_pair(space, g, x, ends, expect)
@@ -179,6 +191,9 @@ def main():
     named = [line for line in summary.stdout.splitlines() if line.startswith(f"exact pair points, {voi}: ")]
     expect(summary.returncode == 0 and len(named) == 1 and f"vertices {ends[0]} and {ends[1]}" in named[0],
            f"scripts/summarize_report.py prints the exact pair's check in '{voi}': {named}")
+    felt = [line for line in summary.stdout.splitlines() if line.startswith("felt stiffness, ")]
+    expect(len(felt) == len(report["spaces"]) and all(": pressed along -n)" in line for line in felt),
+           f"scripts/summarize_report.py says which way each softest spot faces: {felt}")
     verify = subprocess.run([args.modal_rt, "verify", "--basis", os.path.join(folder, "small_block.mrt")],
                             capture_output=True, text=True)
     print(verify.stdout[-1500:])

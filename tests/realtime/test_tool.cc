@@ -1,4 +1,5 @@
-// modal-rt on synthetic basis files: info prints the spaces, verify passes on consistent bases
+// modal-rt on synthetic basis files: info prints the spaces (the candidate vertices only with
+// --candidates, last), verify passes on consistent bases
 // (float64 and float32 display modes), fails on a basis whose validation responses are off, and a
 // corrupt file is reported with its name and a non-zero exit status. info --vertex / --near: a
 // vertex's felt stiffness equals 1 / (n^T (B Lambda^-1 B^T + C) n) from the basis content at a
@@ -49,6 +50,12 @@ namespace
         ENSURE(run("info --basis " + path, out) == 0);
         ENSURE(contains(out, "space 1 'tip': r = 16 modes") && contains(out, "frequencies [Hz]"));
         ENSURE(contains(out, "DISPLAY_MODES") && contains(out, float64 ? "float64" : "float32"));
+        // The candidate vertices (hundreds of lines on a real scene) only with --candidates, after the
+        // section table; the summary keeps their count.
+        ENSURE(contains(out, " candidates, ") && !contains(out, "candidates (display vertices):"));
+        ENSURE(run("info --basis " + path + " --candidates", out) == 0);
+        ENSURE(out.find("candidates (display vertices):") > out.find("DISPLAY_MODES"));
+        ENSURE(run("info --basis " + path + " --candidates --vertex 3", out) == 2 && contains(out, "give one"));
         ENSURE(run("verify --basis " + path, out) == 0);
         ENSURE(contains(out, "PASS"));
         std::printf("%s", out.substr(out.rfind('\n', out.size() - 2) + 1).c_str());
