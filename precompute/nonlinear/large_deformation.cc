@@ -9,7 +9,7 @@
 #include "solvers/blas_lapack.h"
 #include "solvers/factorization.h"
 #include "solvers/mumps_inverse.h"
-#include "space/modal_space.h"
+#include "assembly/elasticity.h"
 
 #include <mrt/surface_normals.h>
 
@@ -516,7 +516,7 @@ namespace modal_haptics
                         gradients[(c * n_q + q) * n_scalar + a] = fe_values.shape_grad(dof[a][0], q);
                     }
                   cells[c]->get_dof_indices(indices);
-                  space_parts::ascending_dof_order(indices, order);
+                  assembly::ascending_dof_order(indices, order);
                   for (unsigned int k = 0; k < dofs_per_cell; ++k)
                     {
                       sorted_dof_indices[c * dofs_per_cell + k]     = indices[order[k]];
@@ -905,7 +905,7 @@ namespace modal_haptics
                 for (unsigned int i = 0; i < dofs_per_cell; ++i)
                   rhs(part.dof_indices[i]) += part.rhs(i);
                 if (with_tangent)
-                  space_parts::add_sorted_cell_matrix(part.dof_indices, part.K, tangent);
+                  assembly::add_sorted_cell_matrix(part.dof_indices, part.K, tangent);
               }
         };
         const NonlinearScratch  scratch(n_scalar, dofs_per_cell);
@@ -923,7 +923,7 @@ namespace modal_haptics
         // Elastic supports are linear springs on the reference faces: force k u, stiffness k.
         for (const auto &face : space.elastic_faces)
           {
-            space_parts::elastic_face_matrix(space.mapping, fe, face, cell_K);
+            assembly::elastic_face_matrix(space.mapping, fe, face, cell_K);
             face.cell->get_dof_indices(dof_indices);
             for (unsigned int i = 0; i < dofs_per_cell; ++i)
               cell_u(i) = u_read(dof_indices[i]);

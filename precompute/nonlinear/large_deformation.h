@@ -9,7 +9,7 @@
 #include "parameters/scene_parameters.h"
 #include "scene/display_surface.h"
 #include "scene/supports.h"
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include <deal.II/base/quadrature.h>
 #include <deal.II/dofs/dof_handler.h>

@@ -3,7 +3,7 @@
 #include "output/atomic_file.h"
 #include "output/exporters.h"
 #include "solvers/factorization.h"
-#include "space/quantile.h"
+#include "results/quantile.h"
 
 #include <deal.II/base/hdf5.h>
 #include <deal.II/base/mpi.h>

@@ -4,7 +4,7 @@
 
 #include "parameters/scene_parameters.h"
 #include "scene/display_surface.h"
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include <deal.II/base/mpi.h>
 

@@ -8,7 +8,7 @@
 #pragma once
 
 #include "scene_mesher.h"
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include "scene_mesher.h" // meshing/: the display surface
 

@@ -3,6 +3,7 @@
 // the readers of lists and points every subsection uses (parameter_sections.h).
 #include "parameters/parameter_sections.h"
 #include "parameters/parameter_text.h"
+#include "parameters/scene_parameters.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>

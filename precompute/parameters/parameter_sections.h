@@ -3,12 +3,17 @@
 // the readers of lists and points both use.
 #pragma once
 
-#include "parameters/scene_parameters.h"
+#include "scene_mesher.h"
 
 #include <deal.II/base/parameter_handler.h>
 
 #include <string>
 #include <vector>
+
+namespace modal_haptics
+{
+  struct SceneParameters; // parameters/scene_parameters.h: declared only, as scene_parameters.cc includes this
+}
 
 namespace modal_haptics::parameter_sections
 {

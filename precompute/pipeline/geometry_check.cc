@@ -1,7 +1,7 @@
 #include "pipeline/geometry_check.h"
 
 #include "parameters/parameter_text.h"
-#include "space/modal_space.h"
+#include "space/space_parts.h"
 
 #include <deal.II/base/exceptions.h>
 

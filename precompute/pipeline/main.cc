@@ -9,7 +9,7 @@
 #include "pipeline/modal_precompute.h"
 #include "output/partial_result.h"
 #include "parameters/scene_parameters.h"
-#include "space/modal_space.h"
+#include "space/space_parts.h"
 
 #include <deal.II/base/hdf5.h>
 #include <deal.II/base/mpi.h>

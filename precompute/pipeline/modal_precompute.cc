@@ -2,6 +2,7 @@
 
 #include "output/atomic_file.h"
 #include "space/distributed_space.h"
+#include "space/modal_space.h"
 #include "output/partial_result.h"
 #include "solvers/mpi_launcher.h"
 

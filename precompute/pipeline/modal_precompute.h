@@ -13,7 +13,7 @@
 
 #include "scene/display_surface.h"
 #include "output/exporters.h"
-#include "space/space_result.h"
+#include "results/space_result.h"
 #include "parameters/scene_parameters.h"
 
 #include <deal.II/base/mpi.h>

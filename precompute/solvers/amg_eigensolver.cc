@@ -1199,6 +1199,21 @@ namespace modal_haptics
     }
   } // namespace
 
+  bool node_blocked(const dealii::DoFHandler<3> &dof_handler, const MPI_Comm comm)
+  {
+    const auto                                  &fe = dof_handler.get_fe();
+    std::vector<dealii::types::global_dof_index> dofs(fe.n_dofs_per_cell());
+    bool                                         blocked = true;
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      if (cell->is_locally_owned())
+        {
+          cell->get_dof_indices(dofs);
+          for (unsigned int i = 0; i < dofs.size(); ++i)
+            blocked = blocked && dofs[i] % 3 == fe.system_to_component_index(i).first;
+        }
+    return dealii::Utilities::MPI::min(int(blocked), comm) == 1;
+  }
+
   VertexSpaceTransfer make_vertex_space_transfer(const dealii::DoFHandler<3>             &dof_handler,
                                                  const dealii::Mapping<3>                &mapping,
                                                  const dealii::AffineConstraints<double> &constraints,
@@ -1217,7 +1232,6 @@ namespace modal_haptics
     VertexSpaceTransfer transfer;
     transfer.near_null_space.assign(6 * n_vertex, 0.);
     std::vector<bool> held(n_vertex, false); // the space's DoF at this vertex DoF is constrained
-    bool              node_blocked = true;
     DynamicSparsityPattern pattern(dof_handler.n_dofs(), vertex_dofs.n_dofs(), owned);
     std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell()), vertex_dof_indices(vertex_fe.n_dofs_per_cell());
     // Both handlers walk the same cells in the same order.
@@ -1233,7 +1247,6 @@ namespace modal_haptics
           {
             const types::global_dof_index g = vertex_dof_indices[j];
             const unsigned int c = vertex_fe.system_to_component_index(j).first;
-            node_blocked         = node_blocked && g % 3 == c;
             if (!vertex_owned.is_element(g))
               continue;
             const std::size_t k = vertex_owned.index_within_set(g);
@@ -1256,7 +1269,7 @@ namespace modal_haptics
       if (held[k])
         for (unsigned int m = 0; m < 6; ++m)
           transfer.near_null_space[m * n_vertex + k] = 0.;
-    transfer.node_blocked = Utilities::MPI::min(int(node_blocked), comm) == 1;
+    transfer.node_blocked = node_blocked(vertex_dofs, comm);
 
     transfer.prolongation = std::make_shared<TrilinosWrappers::SparseMatrix>();
     TrilinosWrappers::SparseMatrix &P = *transfer.prolongation;

@@ -67,6 +67,11 @@ namespace modal_haptics
     bool                node_blocked = false; // DoFs 3k, 3k+1, 3k+2 are one vertex's x, y, z
   };
 
+  // Whether DoFs 3k, 3k+1, 3k+2 are the x, y, z of one support point on every process's cells
+  // (deal.II's numbering of an FESystem of 3 components without renumbering), which lets ML
+  // aggregate nodes rather than single DoFs. Collective over comm.
+  bool node_blocked(const dealii::DoFHandler<3> &dof_handler, MPI_Comm comm);
+
   // The vertex space of a space of higher degree on the same mesh (linear elements, 3 components):
   // the interpolation into the space, this process's rows (dof_handler's locally owned DoFs; all
   // of them serially), and the rigid-body motions at the vertices, zero where the space's DoF at

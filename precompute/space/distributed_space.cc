@@ -3,7 +3,7 @@
 #include "solvers/amg_eigensolver.h"
 #include "solvers/mumps_inverse.h"
 
-#include "space/space_phases.h"
+#include "space/phased_space.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/index_set.h>
@@ -92,7 +92,7 @@ namespace modal_haptics
       const MPI_Comm            comm;
     };
 
-    // The distributed backend of the space phases (space_phases.h): a fully distributed mesh,
+    // The distributed backend of the space phases (space/phase_*.h): a fully distributed mesh,
     // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, the block
     // Krylov eigensolver (or PARPACK, 'Modes/Eigensolver = arpack').
     class DistributedSpace : public space_phases::PhasedSpace<DistributedSpace>
@@ -101,7 +101,7 @@ namespace modal_haptics
       DistributedSpace(const SceneParameters &scene, const ContactSurface &display, const SpaceTask &task,
                        const std::string &vtu_file, TimerOutput &timer, bool verbose, MPI_Comm comm);
 
-      // The backend of space_phases.h.
+      // The backend of the phases (space/backend.h).
       using Field = DistributedVector;
       struct Block
       {
@@ -145,7 +145,7 @@ namespace modal_haptics
         return amg ? amg->columns_fitting_one_solve(wanted) : wanted;
       }
       void solve_static(std::vector<Field> &fields);
-      // MUMPS and the AMG solve every load (space_phases.h then solves in blocks).
+      // MUMPS and the AMG solve every load (phase_static_correction.h then solves in blocks).
       bool group_grams(const std::vector<ContactGroup> &, std::vector<std::vector<double>> &) const
       {
         return false;
@@ -305,7 +305,7 @@ namespace modal_haptics
       constraints.close();
       result.supports_summary = supports.summary(scene.supports);
       coupled_constraints     = Utilities::MPI::max(int(has_coupling_constraints(constraints)), comm) > 0;
-      // The phases (space_phases.h) would handle free motions as the serial path does, by inertia
+      // The phases (space/phase_*.h) would handle free motions as the serial path does, by inertia
       // relief (relieve_load) and static_gain; what this backend lacks is the eigensolve's side: the
       // identification of the rigid-body modes against the exact free motions, and static solves
       // that keep their answers M-orthogonal to them.
@@ -340,7 +340,7 @@ namespace modal_haptics
 
     void DistributedSpace::assemble_system()
     {
-      const auto moments = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells,
+      const auto moments = assembly::assemble_elasticity(scene, mapping, fe, quadrature, owned_cells,
                                                             supports.elastic_faces, constraints, stiffness_matrix,
                                                             mass_matrix);
       stiffness_matrix.compress(VectorOperation::add);
@@ -353,7 +353,7 @@ namespace modal_haptics
           mass_matrix.set(i, i, 0.);
       mass_matrix.compress(VectorOperation::insert);
       result.n_spurious_rows = result.n_clamped_dofs;
-      moments.set_mass_properties(result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
+      space_parts::set_mass_properties(moments, result, [&](const double x) { return Utilities::MPI::sum(x, comm); });
     }
 
     // The solver choice (solver_choice.h) carried out: MUMPS factorizes K - shift M for the eigensolver
@@ -502,11 +502,9 @@ namespace modal_haptics
     void DistributedSpace::lobpcg_amg_modes(std::vector<double> &eigenvalues, std::vector<DistributedVector> &eigenvectors)
     {
       const auto motions       = rigid_body_motions(Point<3>());
-      const auto dof_component = dof_components();
       const std::size_t         n_local = owned_dofs.n_elements();
       std::vector<double>       near_null_space(6 * n_local);
       std::vector<unsigned int> constrained;
-      bool                      node_blocked = true;
       for (std::size_t k = 0; k < n_local; ++k)
         {
           const auto i = owned_dofs.nth_index_in_set(k);
@@ -514,14 +512,13 @@ namespace modal_haptics
             near_null_space[j * n_local + k] = motions[j][i];
           if (constraints.is_constrained(i))
             constrained.push_back(k);
-          node_blocked = node_blocked && dof_component.at(i) == i % 3;
         }
-      node_blocked = Utilities::MPI::min(int(node_blocked), comm) == 1;
       std::optional<VertexSpaceTransfer> vertex_space;
       if (scene.element_degree > 1)
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, comm);
       amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift, std::move(near_null_space),
-                                                constrained, node_blocked, vertex_space ? &*vertex_space : nullptr);
+                                                constrained, node_blocked(dof_handler, comm),
+                                                vertex_space ? &*vertex_space : nullptr);
       log(amg->preconditioner_name() + " set up; LOBPCG for " + space_parts::sought_modes(scene.modes) +
           ", distributed");
       Timer timer;
@@ -539,7 +536,7 @@ namespace modal_haptics
 
     void DistributedSpace::solve_eigenproblem()
     {
-      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      shift = space_parts::shift_eigenvalue(scene.modes);
       std::vector<double>            eigenvalues;
       std::vector<DistributedVector> eigenvectors;
       if (!factorize_as_chosen())

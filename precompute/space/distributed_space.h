@@ -6,7 +6,11 @@
 // process owns the cell and summed over the processes (docs/cluster.md says what that costs).
 #pragma once
 
-#include "space/modal_space.h"
+#include "parameters/scene_parameters.h"
+#include "results/space_result.h"
+#include "scene/display_surface.h"
+
+#include <deal.II/base/timer.h>
 
 #include <deal.II/base/mpi.h>
 

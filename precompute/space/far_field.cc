@@ -1,6 +1,6 @@
 #include "space/far_field.h"
 
-#include "space/quantile.h"
+#include "results/quantile.h"
 
 #include "solvers/blas_lapack.h"
 

@@ -4,10 +4,10 @@
 // Nystrom approximation with one power step: Halko, Martinsson and Tropp 2011). The kernel couples
 // two candidates without a stored cross block by Z_a Z_b^T; R - Z Z^T stays positive semi-definite,
 // so a pair's exact own blocks with that coupling never make the pair's compliance indefinite.
-// Pure linear algebra on column-major blocks (no deal.II); space_phases.h applies R.
+// Pure linear algebra on column-major blocks (no deal.II); phase_far_field.h applies R.
 #pragma once
 
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include <array>
 #include <vector>

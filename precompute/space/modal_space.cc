@@ -1,4 +1,4 @@
-// The serial space: the serial backend of the space phases (space_phases.h) over deal.II sparse
+// The serial space: the serial backend of the space phases (space/phase_*.h) over deal.II sparse
 // matrices and a CHOLMOD or UMFPACK factorization, its eigensolve (ARPACK or block Krylov, with
 // the rigid-body modes of a free part) and the CSR export of K and M for the benchmarks.
 #include "space/modal_space.h"
@@ -7,7 +7,7 @@
 #include "output/atomic_file.h"
 #include "nonlinear/large_deformation.h"
 #include "space/distributed_space.h"
-#include "space/space_phases.h"
+#include "space/phased_space.h"
 
 #include <deal.II/base/parallel.h>
 #include <deal.II/base/exceptions.h>
@@ -54,14 +54,14 @@ namespace modal_haptics
   {
     constexpr double two_pi = 2. * M_PI;
 
-    // The serial backend of the space phases (space_phases.h): deal.II sparse matrices, a CHOLMOD or
+    // The serial backend of the space phases (space/phase_*.h): deal.II sparse matrices, a CHOLMOD or
     // UMFPACK factorization of K - shift M, every DoF on this process.
     class SerialSpace : public space_phases::PhasedSpace<SerialSpace>
     {
     public:
       using PhasedSpace::PhasedSpace;
 
-      // The backend of space_phases.h.
+      // The backend of the phases (space/backend.h).
       using Field = Vector<double>;
       struct Block // columns of n DoFs, one after the other, solved together
       {
@@ -223,7 +223,7 @@ namespace modal_haptics
       std::vector<DoFHandler<3>::active_cell_iterator> cells;
       for (const auto &cell : dof_handler.active_cell_iterators())
         cells.push_back(cell);
-      const auto moments = space_parts::assemble_elasticity(scene, mapping, fe, quadrature, cells, supports.elastic_faces,
+      const auto moments = assembly::assemble_elasticity(scene, mapping, fe, quadrature, cells, supports.elastic_faces,
                                                             constraints, stiffness_matrix, mass_matrix);
 
       // distribute_local_to_global leaves a nonzero diagonal on constrained rows of both K and M,
@@ -232,7 +232,7 @@ namespace modal_haptics
       for (const auto i : result.clamped_dofs)
         mass_matrix.set(i, i, 0.);
       result.n_spurious_rows = result.clamped_dofs.size();
-      moments.set_mass_properties(result);
+      space_parts::set_mass_properties(moments, result);
     }
 
     solver_choice::Known SerialSpace::known_with_supports() const
@@ -290,16 +290,13 @@ namespace modal_haptics
     // LOBPCG + AMG (amg_eigensolver.h); its CG solves then stand in for the factorization's.
     EigenSolution SerialSpace::solve_with_lobpcg_amg()
     {
-      const auto component    = dof_components();
-      bool       node_blocked = true;
-      for (std::size_t i = 0; i < component.size(); ++i)
-        node_blocked = node_blocked && component[i] == i % 3;
       std::optional<VertexSpaceTransfer> vertex_space;
       if (scene.element_degree > 1)
         vertex_space = make_vertex_space_transfer(dof_handler, mapping, constraints, MPI_COMM_SELF);
       auto amg = std::make_unique<AmgShiftedInverse>(stiffness_matrix, mass_matrix, shift,
                                                      rigid_body_motions(Point<3>()), result.clamped_dofs,
-                                                     node_blocked, vertex_space ? &*vertex_space : nullptr);
+                                                     node_blocked(dof_handler, MPI_COMM_SELF),
+                                                     vertex_space ? &*vertex_space : nullptr);
       std::ostringstream line;
       line << amg->preconditioner_name() << " set up in " << amg->statistics().analyze_seconds
            << " s; LOBPCG for " << space_parts::sought_modes(scene.modes);
@@ -315,7 +312,7 @@ namespace modal_haptics
 
     void SerialSpace::solve_eigenproblem()
     {
-      shift = std::copysign(std::pow(two_pi * scene.modes.shift, 2), scene.modes.shift);
+      shift = space_parts::shift_eigenvalue(scene.modes);
       factorize_as_chosen();
       if (choice.backend != solver_choice::Backend::serial)
         return; // handed over: SpaceBase::run ends here

@@ -1,7 +1,7 @@
 // What the static correction and the validation of a space record, whatever its linear algebra
 // (space_parts in modal_space.h): the loads' plan, the compliances read off each solve, the
 // refinement of shifted static solves, the validation errors and their summaries.
-#include "space/modal_space.h"
+#include "space/space_parts.h"
 
 #include <mrt/cross_rows.h>
 #include <mrt/surface_normals.h>

@@ -1,5 +1,5 @@
 // truncate_modal_space (modal_space.h): a space with fewer modes, for modal-study.
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include <deal.II/base/exceptions.h>
 

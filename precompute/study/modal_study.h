@@ -6,7 +6,7 @@
 // sweep itself, which needs the precompute, is modal_study.cc.
 #pragma once
 
-#include "space/space_result.h"
+#include "results/space_result.h"
 
 #include <array>
 #include <cmath>

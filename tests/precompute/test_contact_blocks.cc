@@ -12,7 +12,7 @@
 //   recorded ones as they are, and throws when neither of a pair's blocks was recorded.
 #include "checks.h"
 #include "space/contact_blocks.h"
-#include "space/modal_space.h"
+#include "space/space_parts.h"
 
 #include <algorithm>
 #include <limits>

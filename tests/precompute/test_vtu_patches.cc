@@ -4,7 +4,7 @@
 // P2 and three vector fields of random values (one with entries -0, as a mode flipped in sign has
 // where it is clamped).
 #include "checks.h"
-#include "space/space_phases.h"
+#include "space/phase_output.h"
 
 #include <deal.II/dofs/dof_handler.h>
 #include <deal.II/fe/fe_simplex_p.h>

@@ -146,7 +146,7 @@ namespace modal_haptics
     std::vector<double>       cross_blocks;
     // The residual coupling of candidates without a stored block: R_ab ~ Z_a Z_b^T, Z_a the 3 x k
     // rows (3a + i) k + j of far_compliance [sqrt(m/N)], k = far_rank (0: none), a Nystrom factor of
-    // the residual compliance between all candidates (space_phases.h, compute_far_field).
+    // the residual compliance between all candidates (space/phase_far_field.h).
     std::vector<double> far_compliance;
     unsigned int        far_rank = 0;
     // The felt-stiffness map: the normal stiffness 1 / (n^T W_v^T K^-1 W_v n) [N/m] of the patch load
