@@ -11,6 +11,17 @@ foreach(feature ARPACK HDF5 TRILINOS UMFPACK MPI)
   endif()
 endforeach()
 
+# Debian's deal.II carries the distribution's own build flags in DEAL_II_CXX_FLAGS, '-g' among them,
+# which DEAL_II_SETUP_TARGET passes to every translation unit of ours: debug information makes each
+# deal.II unit about a quarter slower to compile and ten times larger (docs/performance.md, "No debug
+# information in Release"). A Debug build gets '-ggdb' from DEAL_II_CXX_FLAGS_DEBUG all the same.
+option(MODAL_HAPTICS_DEBUG_INFO "Keep '-g' from deal.II's flags in the offline targets" OFF)
+if(NOT MODAL_HAPTICS_DEBUG_INFO)
+  separate_arguments(_deal_ii_flags UNIX_COMMAND "${DEAL_II_CXX_FLAGS}")
+  list(REMOVE_ITEM _deal_ii_flags "-g")
+  string(JOIN " " DEAL_II_CXX_FLAGS ${_deal_ii_flags})
+endif()
+
 find_path(GMSH_INCLUDE_DIR gmsh.h)
 find_library(GMSH_LIBRARY NAMES gmsh)
 if(NOT GMSH_INCLUDE_DIR OR NOT GMSH_LIBRARY)
