@@ -287,7 +287,8 @@ namespace modal_haptics
                       "The global space corrects every display vertex inside every VOI too (true, the default): "
                       "the kernel switches to the global space when HIPs touch two regions no scenario holds "
                       "together, and a contact there then stays exact instead of falling to the modes alone. "
-                      "Costs static-correction time and .mrt size (docs/accuracy.md). Units: none.");
+                      "A validation point inside a VOI is then solved afresh in the global space too. Costs "
+                      "static-correction time and .mrt size (docs/accuracy.md). Units: none.");
     prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
                       "At most this many candidates per space (thinned evenly); the default takes every "
                       "display vertex of the space's region. Units: none.");

@@ -423,12 +423,14 @@ namespace modal_haptics
       {
         const unsigned int v = nearest_display_vertex(display, point, scene.length_unit);
         auto &task = results.tasks[display.region[v]];
-        for (auto *list : {&task.candidates, &task.validation_vertices})
-          if (std::find(list->begin(), list->end(), v) == list->end())
-            {
-              list->push_back(v);
-              std::sort(list->begin(), list->end());
-            }
+        // The global space corrects VOI vertices too: a point there is solved afresh in it as well.
+        for (auto *owner : {&task, scene.contact.global_candidates_in_vois ? &results.tasks.front() : &task})
+          for (auto *list : {&owner->candidates, &owner->validation_vertices})
+            if (std::find(list->begin(), list->end(), v) == list->end())
+              {
+                list->push_back(v);
+                std::sort(list->begin(), list->end());
+              }
         shared.push_back(v);
         if (scene.contact.validity_analysis &&
             std::find(task.validity_vertices.begin(), task.validity_vertices.end(), v) == task.validity_vertices.end())
