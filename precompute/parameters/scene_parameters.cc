@@ -283,6 +283,12 @@ namespace modal_haptics
                       "Static-correction candidates (corrected contacts) of the global space: every n-th display "
                       "vertex outside every VOI (1: all of them, the default); 0 = none. A HIP at a vertex "
                       "that is not a candidate feels the modes alone. Units: none.");
+    prm.declare_entry("Global candidates in VOIs", text(c.global_candidates_in_vois), Patterns::Bool(),
+                      "The global space corrects every display vertex inside every VOI too (true, the default): "
+                      "the kernel switches to the global space when HIPs touch two regions no scenario holds "
+                      "together, and a contact there then stays exact instead of falling to the modes alone. "
+                      "A validation point inside a VOI is then solved afresh in the global space too. Costs "
+                      "static-correction time and .mrt size (docs/accuracy.md). Units: none.");
     prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
                       "At most this many candidates per space (thinned evenly); the default takes every "
                       "display vertex of the space's region. Units: none.");
@@ -378,6 +384,7 @@ namespace modal_haptics
     prm.enter_subsection("Contact");
     patch_radius               = prm.get_double("Patch radius");
     global_candidate_stride    = prm.get_integer("Global candidate stride");
+    global_candidates_in_vois  = prm.get_bool("Global candidates in VOIs");
     maximum_candidates         = prm.get_integer("Maximum candidates");
     cross_compliance           = prm.get_bool("Cross compliance");
     cross_compliance_radius    = prm.get_double("Cross compliance radius");

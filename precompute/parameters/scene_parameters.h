@@ -114,6 +114,9 @@ namespace modal_haptics
   {
     double       patch_radius          = 2.;  // [geometry units]
     unsigned int global_candidate_stride = 1; // every n-th display vertex of the global region; 0 = none
+    // The global space also corrects every display vertex inside a VOI: it is the space two HIPs in
+    // two regions switch to (realtime/src/space_switch.cc), and there a contact must not fall to the modes.
+    bool         global_candidates_in_vois = true;
     unsigned int maximum_candidates    = 1000000; // per space, thinned evenly above this
     bool         cross_compliance      = true;
     double       cross_compliance_radius = 0.; // pairs closer than this (0: sharing a display triangle) [geometry units]

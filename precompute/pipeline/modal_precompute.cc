@@ -367,8 +367,34 @@ namespace modal_haptics
     }
   } // namespace
 
-  // A VOI space's candidates are the display vertices inside its VOI; the global space's are every
-  // n-th vertex outside all VOIs (none by default): "model only what a scene requires".
+  // A VOI space's candidates are the display vertices inside its VOI. The global space's are every
+  // n-th vertex outside all VOIs and, with 'Global candidates in VOIs', every vertex inside one: two
+  // HIPs in two regions make the kernel take the global space, whose contacts there must stay exact.
+  std::vector<unsigned int> ModalPrecompute::candidates_of_space(const unsigned int space) const
+  {
+    const auto               &display = results.display;
+    const unsigned int        stride  = scene.contact.global_candidate_stride;
+    std::vector<unsigned int> candidates;
+    unsigned int              seen_outside = 0;
+    for (unsigned int v = 0; v < display.n_vertices(); ++v)
+      {
+        const unsigned int region = display.region[v];
+        if (space > 0)
+          {
+            if (region == space)
+              candidates.push_back(v);
+          }
+        else if (region > 0)
+          {
+            if (scene.contact.global_candidates_in_vois)
+              candidates.push_back(v);
+          }
+        else if (stride > 0 && seen_outside++ % stride == 0)
+          candidates.push_back(v);
+      }
+    return candidates;
+  }
+
   void ModalPrecompute::plan_contacts()
   {
     const auto &display = results.display;
@@ -381,16 +407,7 @@ namespace modal_haptics
         task.index             = s;
         task.msh_file          = mesh.msh_file;
         task.physical_surfaces = mesh.physical_surfaces;
-        std::vector<unsigned int> in_region;
-        unsigned int              seen = 0;
-        for (unsigned int v = 0; v < display.n_vertices(); ++v)
-          if (display.region[v] == s)
-            {
-              if (s > 0 || (scene.contact.global_candidate_stride > 0 && seen % scene.contact.global_candidate_stride == 0))
-                in_region.push_back(v);
-              ++seen;
-            }
-        task.candidates          = thin_evenly(in_region, scene.contact.maximum_candidates);
+        task.candidates          = thin_evenly(candidates_of_space(s), scene.contact.maximum_candidates);
         task.validation_vertices = thin_evenly(task.candidates, scene.contact.validation_samples);
         shared.insert(shared.end(), task.validation_vertices.begin(), task.validation_vertices.end());
         results.tasks.push_back(task);
@@ -407,12 +424,14 @@ namespace modal_haptics
       {
         const unsigned int v = nearest_display_vertex(display, point, scene.length_unit);
         auto &task = results.tasks[display.region[v]];
-        for (auto *list : {&task.candidates, &task.validation_vertices})
-          if (std::find(list->begin(), list->end(), v) == list->end())
-            {
-              list->push_back(v);
-              std::sort(list->begin(), list->end());
-            }
+        // The global space corrects VOI vertices too: a point there is solved afresh in it as well.
+        for (auto *owner : {&task, scene.contact.global_candidates_in_vois ? &results.tasks.front() : &task})
+          for (auto *list : {&owner->candidates, &owner->validation_vertices})
+            if (std::find(list->begin(), list->end(), v) == list->end())
+              {
+                list->push_back(v);
+                std::sort(list->begin(), list->end());
+              }
         shared.push_back(v);
         if (scene.contact.validity_analysis &&
             std::find(task.validity_vertices.begin(), task.validity_vertices.end(), v) == task.validity_vertices.end())

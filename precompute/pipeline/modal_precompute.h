@@ -49,6 +49,7 @@ namespace modal_haptics
     void create_output_directory() const;
     void make_meshes(bool reuse_only = false);
     void plan_contacts();
+    std::vector<unsigned int> candidates_of_space(unsigned int space) const; // before thinning
     const SpaceTask &task_of_scenario(const std::string &name) const;
     // The space of 'task', its VTU written into vtu_directory.
     void solve_space(const SpaceTask &task, const std::string &vtu_directory);
