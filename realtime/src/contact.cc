@@ -115,6 +115,7 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
     begin_proxy(hip, offset != nullptr);
   contacts_changed_ = true;
   contact_started_  = true;
+  ramping_[hip]     = 1; // the force starts at force_rate_limit from the one last commanded (no step)
 }
 
 void modalrt_kernel::end_contact(std::uint32_t hip) noexcept
