@@ -30,6 +30,7 @@ namespace modalrt
     void setup(const modalrt_kernel_def &device_def, const modalrt_kernel_def &part_def, std::uint32_t hips);
 
     bool   scaled() const { return scale_ > 0.0; }
+    double haptic_scale() const { return scale_; }
     double force_scale() const { return force_scale_; }   // force commanded / force on the part
     double position_scale() const { return sigma_; }      // m of part per m of device
     double stable_stiffness() const { return stable_stiffness_; } // [N/m] at the hand

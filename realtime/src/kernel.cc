@@ -309,19 +309,29 @@ void modalrt_kernel::impedance_step() noexcept
   integrator.step_to(q_.data(), v_.data(), f_.data(), q_free_.data(), v_free_.data());
 
   const std::uint32_t n = active_count_, n3 = 3 * n;
-  const double        K = def.coupling_stiffness, D = def.coupling_damping;
+  const double        D = def.coupling_damping;
   for (std::uint32_t a = 0; a < n; ++a)
     {
       const Contact   &c  = contacts_[active_[a]];
       const BodyInput &in = body_inputs_[active_[a]];
-      double           xp[3], vp[3];
+      double           xp[3], vp[3], gap[3];
       dot_rows3_pair(c.B, q_free_.data(), v_free_.data(), r, xp, vp);
       for (int d = 0; d < 3; ++d)
-        rhs_[3 * a + d] = K * (in.x[d] - c.rest[d] - c.anchor[d] - xp[d]) + D * (in.v[d] - vp[d]);
+        gap[d] = in.x[d] - c.rest[d] - c.anchor[d] - xp[d];
+      for (int d = 0; d < 3; ++d)
+        rhs_[3 * a + d] = dot3(&c.stiffness[3 * d], gap) + D * (in.v[d] - vp[d]);
     }
+  // Row i of contact a: K_a (its 3 x 3 coupling stiffness, contact_stiffness) times the coupling rows.
   for (std::uint32_t i = 0; i < n3; ++i)
     for (std::uint32_t j = 0; j < n3; ++j)
-      system_[i * n3 + j] = (i == j ? 1.0 : 0.0) + K * coupling_[i * n3 + j] + D * coupling_velocity_[i * n3 + j];
+      {
+        const double *K = &contacts_[active_[i / 3]].stiffness[3 * (i % 3)];
+        const std::uint32_t first = i - i % 3;
+        double       KC = 0.0;
+        for (std::uint32_t k = 0; k < 3; ++k)
+          KC += K[k] * coupling_[(first + k) * n3 + j];
+        system_[i * n3 + j] = (i == j ? 1.0 : 0.0) + KC + D * coupling_velocity_[i * n3 + j];
+      }
   solve_coupling(n3);
 
   for (std::uint32_t a = 0; a < n; ++a)

@@ -55,6 +55,8 @@ namespace modalrt
                                                  // contact start [m] body: the coupling and the
                                                  // admittance output are anchored there, so a
                                                  // contact starts without a lateral jerk
+    double        stiffness[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; // [N/m] body, row-major: the coupling spring
+                                                              // (haptic_mapping.cc, contact_stiffness)
     double       *B          = nullptr;
     ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
     // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).
@@ -107,6 +109,7 @@ private:
   int  tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   void render_at_hand(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   void limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_output &out) noexcept;
+  void set_contact_stiffness(Contact &contact) const noexcept;
 
   // Tick phases, in order.
   std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
