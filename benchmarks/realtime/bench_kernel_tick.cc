@@ -119,6 +119,7 @@ namespace
   {
     admittance,
     impedance,
+    impedance_scaled, // impedance with the haptic mapping (the omega.x profile, s = 0.01)
     hover,
     landing
   };
@@ -129,6 +130,7 @@ namespace
       {
         case Scenario::admittance: return "admittance";
         case Scenario::impedance: return "impedance";
+        case Scenario::impedance_scaled: return "impedance_scaled";
         case Scenario::hover: return "hover";
         default: return "landing";
       }
@@ -566,9 +568,15 @@ namespace
   }
 
   // A kernel whose HIPs stay where their contacts begin (no switch of space, no release).
-  modalrt_kernel *create_held_kernel(const modalrt_basis *basis, std::uint32_t hips, bool corrected)
+  modalrt_kernel *create_held_kernel(const modalrt_basis *basis, std::uint32_t hips, bool corrected,
+                                     bool scaled = false)
   {
     modalrt_kernel_def def    = modalrt_kernel_default_def();
+    if (scaled)
+      {
+        modalrt_device_profile_find("omega.x", &def.device);
+        def.haptic_scale = 0.01;
+      }
     def.hip_capacity          = hips;
     def.use_static_correction = corrected ? 1 : 0;
     def.switch_rule           = MODALRT_SWITCH_NEVER;
@@ -630,7 +638,7 @@ namespace
   Percentiles run(const modalrt_basis *basis, const Options &o, Scenario scenario, std::uint32_t hips, bool corrected,
                   std::vector<std::uint32_t> &ns)
   {
-    modalrt_kernel *k = create_held_kernel(basis, hips, corrected);
+    modalrt_kernel *k = create_held_kernel(basis, hips, corrected, scenario == Scenario::impedance_scaled);
     std::uint32_t   site[4];
     contact_sites(basis, hips, site);
     modalrt_hip_input  in[4];
@@ -829,7 +837,8 @@ int main(int argc, char **argv)
     {
       modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
       const std::vector<Scenario> scenarios =
-        all ? std::vector<Scenario>{Scenario::admittance, Scenario::impedance, Scenario::hover} : std::vector<Scenario>{};
+        all ? std::vector<Scenario>{Scenario::admittance, Scenario::impedance, Scenario::impedance_scaled, Scenario::hover}
+            : std::vector<Scenario>{};
       for (Scenario scenario : scenarios)
         for (std::uint32_t hips = 1; hips <= 4; ++hips)
           for (bool corrected : {false, true})

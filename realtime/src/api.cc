@@ -371,6 +371,8 @@ modalrt_device_def modalrt_device_default_def(void)
   d.max_stiffness    = 3000.0; // N/m at 1 kHz
   d.max_damping      = 10.0;   // N s/m
   d.physical_damping = 0.0;    // unknown
+  d.rate             = 1000.0; // Hz
+  d.kind             = MODALRT_DEVICE_IMPEDANCE;
   return d;
 }
 
@@ -409,6 +411,10 @@ modalrt_kernel_def modalrt_kernel_default_def(void)
   d.proxy_row_memory       = 0;
   d.static_friction        = 0.3; // a dry finger on a moulded plastic part, roughly
   d.dynamic_friction       = 0.2;
+  d.haptic_scale           = 0.0; // no scale: the coupling spring in series with the part
+  d.workspace_scale        = 0.0; // 1: the device's metre is the part's
+  d.coupling_multiple      = 0.0; // 200 with a scale
+  d.passivity_control      = 1;   // no device publishes its physical damping: b = 0 fails Colgate & Schenkel
   return d;
 }
 
@@ -443,6 +449,14 @@ int modalrt_kernel_tick_impedance(modalrt_kernel *kernel, const modalrt_hip_inpu
                                   modalrt_hip_output *outputs)
 {
   return kernel ? kernel->tick(inputs, count, outputs, true) : null_kernel("modalrt_kernel_tick_impedance: null kernel");
+}
+
+int modalrt_kernel_get_haptic_mapping(const modalrt_kernel *kernel, modalrt_haptic_mapping *mapping)
+{
+  if (!kernel || !mapping)
+    return invalid("modalrt_kernel_get_haptic_mapping: null argument");
+  kernel->mapping().describe(*mapping, kernel->def);
+  return MODALRT_OK;
 }
 
 int modalrt_kernel_tick_missing(modalrt_kernel *kernel, uint32_t count, modalrt_hip_output *outputs)

@@ -70,8 +70,12 @@ bool modalrt_kernel::detect_contacts(std::uint32_t count) noexcept
       const bool    found = find_snap_vertex(body_inputs_[h].x, vertex, gap, signed_distance);
       if (!c.armed)
         {
-          // After a release the HIP must leave the surface before it may snap again.
-          if (found && signed_distance <= def.release_distance)
+          // After a release the HIP must leave the surface before it may snap again, unless it presses
+          // in again from inside: it does not fall through the part (the new contact's force starts at
+          // force_rate_limit, begin_contact).
+          const bool pressing_in =
+            found && signed_distance <= 0.0 && dot3(body_inputs_[h].v, &basis.normals[3 * std::size_t(vertex)]) < 0.0;
+          if (found && signed_distance <= def.release_distance && !pressing_in)
             continue;
           c.armed = true;
         }
@@ -113,8 +117,10 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
   build_row(c);
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
     begin_proxy(hip, offset != nullptr);
+  set_contact_stiffness(c);
   contacts_changed_ = true;
   contact_started_  = true;
+  ramping_[hip]     = 1; // the force starts at force_rate_limit from the one last commanded (no step)
 }
 
 void modalrt_kernel::end_contact(std::uint32_t hip) noexcept

@@ -55,19 +55,14 @@ namespace
     require(std::isfinite(dev.max_stiffness) && dev.max_stiffness >= 0.0 && std::isfinite(dev.max_damping) &&
               dev.max_damping >= 0.0 && std::isfinite(dev.physical_damping) && dev.physical_damping >= 0.0,
             MODALRT_ERROR_INVALID_ARGUMENT, "device stiffness and damping limits must be finite and >= 0");
-    const double K = d.coupling_stiffness, D = d.coupling_damping, T = d.time_step;
+    const double K = d.coupling_stiffness, D = d.coupling_damping;
     require(std::isfinite(K) && K >= 0.0 && std::isfinite(D) && D >= 0.0, MODALRT_ERROR_INVALID_ARGUMENT,
             "coupling_stiffness and coupling_damping must be finite and >= 0");
     require(K <= dev.max_stiffness, MODALRT_ERROR_DEVICE_LIMIT,
             cat("coupling_stiffness ", K, " N/m exceeds the device's max_stiffness ", dev.max_stiffness, " N/m"));
     require(D <= dev.max_damping, MODALRT_ERROR_DEVICE_LIMIT,
             cat("coupling_damping ", D, " N s/m exceeds the device's max_damping ", dev.max_damping, " N s/m"));
-    // Sampled passivity (Colgate): a spring held over a tick of length T can generate up to K T / 2
-    // of energy per unit squared velocity, which the dampers must dissipate.
-    require(K == 0.0 || K * T / 2.0 < dev.physical_damping + D, MODALRT_ERROR_DEVICE_LIMIT,
-            cat("the virtual coupling is not passive at T = ", T, " s: K T / 2 = ", K * T / 2.0,
-                " N s/m must be below b + D = ", dev.physical_damping + D, " N s/m (largest passive K: ",
-                2.0 * (dev.physical_damping + D) / T, " N/m)"));
+    // Sampled passivity: check_sampled_passivity (haptic_mapping.cc), on the device's definition.
   }
 
   void check_definition(const modalrt_basis &basis, const modalrt_kernel_def &d)
@@ -125,9 +120,10 @@ namespace
 // =================================================================================================
 modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel_def &def_)
   : basis(basis_)
-  , def(def_)
+  , def(part_side_def(def_))
 {
   check_definition(basis, def);
+  check_sampled_passivity(def_);
   const std::uint32_t R = basis.max_modes, H = def.hip_capacity;
   integrators_.resize(basis.space_count());
   for (std::uint32_t s = 0; s < basis.space_count(); ++s)
@@ -174,13 +170,15 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   hold_ticks_ = std::uint64_t(std::llround(def.fail_safe_hold / def.time_step));
   ramp_ticks_ = std::max<std::uint64_t>(2, std::uint64_t(std::llround(def.fail_safe_ramp / def.time_step)));
   validity_level_ = validity_level_index(def.validity_level == 0 ? 5 : def.validity_level);
+  mapping_.setup(def_, def, H);
+  passivity_.setup(def_.passivity_control != 0, def.time_step, def_.device.max_damping, H);
 }
 
 // =================================================================================================
 // The tick
 // =================================================================================================
-int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs,
-                         bool impedance) noexcept
+int modalrt_kernel::tick_in_part_units(const modalrt_hip_input *inputs, std::uint32_t count,
+                                       modalrt_hip_output *outputs, bool impedance) noexcept
 {
   if ((count > 0 && (!inputs || !outputs)))
     return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_tick: null inputs or outputs with count > 0");
@@ -221,7 +219,7 @@ int modalrt_kernel::tick(const modalrt_hip_input *inputs, std::uint32_t count, m
   return MODALRT_OK;
 }
 
-int modalrt_kernel::tick_missing(std::uint32_t count, modalrt_hip_output *outputs) noexcept
+int modalrt_kernel::tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept
 {
   if (count > def.hip_capacity || (count > 0 && !outputs))
     return failed(MODALRT_ERROR_INVALID_ARGUMENT,
@@ -311,19 +309,29 @@ void modalrt_kernel::impedance_step() noexcept
   integrator.step_to(q_.data(), v_.data(), f_.data(), q_free_.data(), v_free_.data());
 
   const std::uint32_t n = active_count_, n3 = 3 * n;
-  const double        K = def.coupling_stiffness, D = def.coupling_damping;
+  const double        D = def.coupling_damping;
   for (std::uint32_t a = 0; a < n; ++a)
     {
       const Contact   &c  = contacts_[active_[a]];
       const BodyInput &in = body_inputs_[active_[a]];
-      double           xp[3], vp[3];
+      double           xp[3], vp[3], gap[3];
       dot_rows3_pair(c.B, q_free_.data(), v_free_.data(), r, xp, vp);
       for (int d = 0; d < 3; ++d)
-        rhs_[3 * a + d] = K * (in.x[d] - c.rest[d] - c.anchor[d] - xp[d]) + D * (in.v[d] - vp[d]);
+        gap[d] = in.x[d] - c.rest[d] - c.anchor[d] - xp[d];
+      for (int d = 0; d < 3; ++d)
+        rhs_[3 * a + d] = dot3(&c.stiffness[3 * d], gap) + D * (in.v[d] - vp[d]);
     }
+  // Row i of contact a: K_a (its 3 x 3 coupling stiffness, contact_stiffness) times the coupling rows.
   for (std::uint32_t i = 0; i < n3; ++i)
     for (std::uint32_t j = 0; j < n3; ++j)
-      system_[i * n3 + j] = (i == j ? 1.0 : 0.0) + K * coupling_[i * n3 + j] + D * coupling_velocity_[i * n3 + j];
+      {
+        const double *K = &contacts_[active_[i / 3]].stiffness[3 * (i % 3)];
+        const std::uint32_t first = i - i % 3;
+        double       KC = 0.0;
+        for (std::uint32_t k = 0; k < 3; ++k)
+          KC += K[k] * coupling_[(first + k) * n3 + j];
+        system_[i * n3 + j] = (i == j ? 1.0 : 0.0) + KC + D * coupling_velocity_[i * n3 + j];
+      }
   solve_coupling(n3);
 
   for (std::uint32_t a = 0; a < n; ++a)
@@ -594,6 +602,7 @@ int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count)
 {
   if (count > 0 && !inputs)
     return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_settle: null inputs with count > 0");
+  inputs = mapping_.to_part(inputs, count);
   if (validate(inputs, count, false) != 0)
     return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_settle: an input is not finite or beyond its limit "
                                        "(workspace_radius, max_input_velocity, max_input_force) or count > hip_capacity");

@@ -4,7 +4,9 @@
 
 #include "allocator.h"
 #include "basis.h"
+#include "haptic_mapping.h"
 #include "modal_integrator.h"
+#include "passivity_controller.h"
 #include "proxy_contact.h"
 #include "snapshot.h"
 
@@ -53,6 +55,8 @@ namespace modalrt
                                                  // contact start [m] body: the coupling and the
                                                  // admittance output are anchored there, so a
                                                  // contact starts without a lateral jerk
+    double        stiffness[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; // [N/m] body, row-major: the coupling spring
+                                                              // (haptic_mapping.cc, contact_stiffness)
     double       *B          = nullptr;
     ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
     // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).
@@ -89,6 +93,7 @@ struct modalrt_kernel : modalrt::HookAllocated
   modalrt_kernel_stats     stats{};
   modalrt::SnapshotExchange snapshots;
 
+  const modalrt::HapticMapping &mapping() const { return mapping_; }
   std::uint32_t active_space() const { return space_; }
   std::uint32_t mode_count() const { return basis.spaces[space_].mode_count; }
   const double *coordinates() const { return q_.data(); }
@@ -96,6 +101,15 @@ struct modalrt_kernel : modalrt::HookAllocated
 
 private:
   using Contact = modalrt::Contact;
+
+  // The ticks in the part's units; tick() and tick_missing() map the device's units around them and
+  // render the result at the hand (haptic_mapping.cc).
+  int  tick_in_part_units(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs,
+                          bool impedance) noexcept;
+  int  tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
+  void render_at_hand(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs) noexcept;
+  void limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_output &out) noexcept;
+  void set_contact_stiffness(Contact &contact) const noexcept;
 
   // Tick phases, in order.
   std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
@@ -165,6 +179,8 @@ private:
   void change_space(std::uint32_t space) noexcept;
   bool solve_coupling(std::uint32_t n) noexcept;
 
+  modalrt::HapticMapping         mapping_;
+  modalrt::PassivityController   passivity_;
   modalrt::Frame                 frame_;
   modalrt::Vector<modalrt::ModalIntegrator> integrators_; // one per space, for def.time_step
   std::uint32_t                  space_ = 0;

@@ -77,6 +77,7 @@ void modalrt_kernel::change_space(std::uint32_t target) noexcept
       if (!c.in_contact)
         continue;
       build_row(c);
+      ramping_[h] = 1; // the force follows the new space at force_rate_limit (no step)
       double after[3];
       felt_displacement(c, q_.data(), after);
       const double jump[3] = {after[0] - before[3 * h], after[1] - before[3 * h + 1], after[2] - before[3 * h + 2]};

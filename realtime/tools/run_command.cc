@@ -1,5 +1,7 @@
 #include "run_command.h"
 
+#include "haptic_scale.h"
+
 #include "devices.h"
 #include "run_loop.h"
 #include "run_outputs.h"
@@ -54,6 +56,8 @@ namespace modalrt_tool
       WatchStarter watch        = nullptr; // what serves --view (null: built without the view)
       const DeviceSession *app  = nullptr; // an app's own device and view: no session file, no outputs
       std::string command;                 // run, serve, or the app's command
+      std::string profile;                 // --device NAME / --profile NAME: a device profile ("": none)
+      double      haptic_scale  = 0.0;     // --haptic-scale: s (0: from the profile and the scene)
     };
 
     // A bad command line: one message naming the option and the value.
@@ -152,10 +156,21 @@ namespace modalrt_tool
        [](RunOptions &o, const std::string &n, const char *v) { o.duration = number_option(n, v, 1e-3, 1e6, "s"); }},
       {"--mode", for_both, "impedance|admittance", "impedance",
        [](RunOptions &o, const std::string &n, const char *v) { o.impedance = first_of_two(n, v, "impedance", "admittance"); }},
-      {"--device", for_run, "hand|probe", "hand",
+      {"--device", for_run, "hand|probe|PROFILE", "hand", // PROFILE: the simulated hand on that device
        [](RunOptions &o, const std::string &n, const char *v) {
+         modalrt_device_def spec;
+         if (modalrt_device_profile_find(v, &spec) == MODALRT_OK)
+           {
+             o.device  = DeviceKind::hand;
+             o.profile = v;
+             return;
+           }
          o.device = first_of_two(n, v, "hand", "probe") ? DeviceKind::hand : DeviceKind::probe;
        }},
+      {"--profile", for_both, "touch|omni|desktop|falcon|omega.x|sigma.7|lambda.7|admittance", nullptr,
+       [](RunOptions &o, const std::string &, const char *v) { o.profile = v; }},
+      {"--haptic-scale", for_both, "S", nullptr,
+       [](RunOptions &o, const std::string &n, const char *v) { o.haptic_scale = number_option(n, v, 1e-9, 1e3, ""); }},
       {"--hold", for_both, "S", "0.5",
        [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
       {"--ramp", for_both, "S", "0.05",
@@ -290,6 +305,9 @@ namespace modalrt_tool
       def.validity_level          = o.validity_level;
       def.validity_clamp          = o.validity_clamp ? 1 : 0;
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
+      std::string error;
+      if (!o.profile.empty() && !apply_device_profile(o.profile, o.haptic_scale, o.impedance, basis, def, error))
+        throw UsageError{"--device/--profile " + o.profile + ": " + error};
       return def;
     }
 
@@ -324,7 +342,8 @@ namespace modalrt_tool
                        const DisplayResult &display, const modalrt_basis *basis, std::uint32_t hips, std::string &error)
     {
       return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, report.validity_level, error) &&
-             write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, report.validity_level, error) &&
+             write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, report.validity_level, error,
+                           report.mapping.force_scale) &&
              write_slides(o.output_dir + "/slides.csv", haptic.slides, report.slide_margins, report.validity_level,
                           report.space_names, error) &&
              write_pvd(o.output_dir + "/frames.pvd", display.frames, error) &&
@@ -460,7 +479,10 @@ namespace modalrt_tool
       report.session    = session.path;
       report.output_dir = o.output_dir;
       report.mode       = o.impedance ? "impedance" : "admittance";
-      report.device     = live.device->spec().name;
+      report.device     = o.profile.empty() ? live.device->spec().name : live.device->spec().name + " as " + o.profile;
+      report.profile    = o.profile;
+      modalrt_kernel_get_haptic_mapping(live.kernel, &report.mapping);
+      report.scale_line = haptic_scale_line(o.profile, report.mapping, live.def);
       report.stopped_by = haptic.interrupted ? "signal" : "end of session";
       report.rate       = o.rate;
       report.duration   = duration;
@@ -485,7 +507,8 @@ namespace modalrt_tool
                       const HapticResult &haptic, const DisplayResult &display)
     {
       RunReport report = make_report(o, session, duration, live, haptic, display);
-      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level);
+      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level,
+                                      report.mapping.force_scale);
       report.slide_margins = find_slide_margins(haptic, session.hip_count, live.basis, live.def.validity_level);
       std::string error;
       if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))

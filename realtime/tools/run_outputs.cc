@@ -327,7 +327,7 @@ namespace modalrt_tool
     // force itself is often the transient of the hand landing on the surface, not a settled state.)
     // Rows the kernel held (kernel_held) are left out of both: under a jittery client a held
     // plateau above the real maximum was picked (issue 39). A press held throughout keeps its last row.
-    void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign)
+    void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign, double force_scale)
     {
       std::vector<double>      force, displacement;
       std::vector<std::size_t> rows; // the press's rows the hand pushed in
@@ -355,7 +355,12 @@ namespace modalrt_tool
       p.felt_force        = force[end];
       p.felt_displacement = displacement[end];
       const bool pushed   = p.felt_force > 0.0 && p.felt_displacement > 0.0;
-      p.felt_stiffness    = pushed ? p.felt_force / p.felt_displacement : std::nan("");
+      p.felt_stiffness    = pushed ? p.felt_force / force_scale / p.felt_displacement : std::nan("");
+      const TraceSample &s = result.trace[rows[end] * hips + p.hip];
+      const double moved[3] = {s.hip[0] - s.frame[0] - p.rest[0], s.hip[1] - s.frame[1] - p.rest[1],
+                               s.hip[2] - s.frame[2] - p.rest[2]};
+      p.hand_travel    = -dot3(moved, p.normal);
+      p.hand_stiffness = p.felt_force > 0.0 && p.hand_travel > 0.0 ? p.felt_force / p.hand_travel : std::nan("");
     }
 
     // The static answer to every HIP in contact at the press's felt time (deliverable: multi-contact
@@ -520,7 +525,7 @@ namespace modalrt_tool
   } // namespace
 
   std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
-                                  bool impedance, std::uint32_t validity_level)
+                                  bool impedance, std::uint32_t validity_level, double force_scale)
   {
     std::vector<Press> presses;
     if (hip_count == 0)
@@ -544,7 +549,7 @@ namespace modalrt_tool
         p.end   = result.trace[p.last_row * hip_count].time;
         p.space = result.trace[p.last_row * hip_count + p.hip].space;
         static_reference(p, result.trace[p.last_row * hip_count + p.hip], basis);
-        felt_response(p, result, hip_count, impedance ? 1.0 : -1.0);
+        felt_response(p, result, hip_count, impedance ? 1.0 : -1.0, force_scale);
         multi_contact_reference(p, result, hip_count, basis, reference, impedance ? 1.0 : -1.0);
         validity_of(p, result, hip_count, basis, validity_level);
       }
@@ -554,7 +559,7 @@ namespace modalrt_tool
   }
 
   bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance,
-                     std::uint32_t validity_level, std::string &error)
+                     std::uint32_t validity_level, std::string &error, double force_scale)
   {
     std::string text =
       "# modal-rt run presses: one row per contact period of a HIP (from trace.csv). Along the vertex's outward "
@@ -570,11 +575,16 @@ namespace modalrt_tool
       "FE (a pair coupled by the basis's far field says so: the answer then holds its approximation). "
       "max_force_n the largest |F| of the press; validity_force_n the validity map's force at the press's point at "
       "validity_level_pct (nan: no value); beyond_validity 1 when a row was flagged MODALRT_HIP_BEYOND_VALIDITY, "
-      "beyond_start_s its first row and beyond_force_n |F| there (nan: never)\n"
+      "beyond_start_s its first row and beyond_force_n |F| there (nan: never). felt_force_n is the force at the hand (the one "
+      "rendered), felt_stiffness_n_per_m the stiffness at the contact (the force on the part, felt_force / force_scale, "
+      "over felt_displacement); hand_travel_m the device's own travel into the surface along n at felt_time_s (device "
+      "units), stiffness_at_hand_n_per_m = felt_force / hand_travel (what the hand feels), force_scale the haptic "
+      "mapping's force at the hand / force on the part (1 without a scale)\n"
       "press,hip,space,space_name,vertex,start_s,end_s,nx,ny,nz,rest_x,rest_y,rest_z,compliance_m_per_n,full_fe,"
       "force_sign,max_contacts,felt_time_s,felt_force_n,felt_displacement_m,felt_stiffness_n_per_m,static_stiffness_n_per_m,"
       "ratio,felt_contacts,other_vertices,multi_static_stiffness_n_per_m,multi_full_fe,multi_ratio,multi_note,"
-      "max_force_n,validity_level_pct,validity_force_n,beyond_validity,beyond_start_s,beyond_force_n\n";
+      "max_force_n,validity_level_pct,validity_force_n,beyond_validity,beyond_start_s,beyond_force_n,"
+      "hand_travel_m,stiffness_at_hand_n_per_m,force_scale\n";
     char line[1024];
     for (std::size_t k = 0; k < presses.size(); ++k)
       {
@@ -593,8 +603,9 @@ namespace modalrt_tool
                       p.felt_stiffness / p.multi_stiffness, p.multi_note.c_str());
         text += line;
         text.pop_back(); // the validity columns
-        std::snprintf(line, sizeof line, ",%.9g,%u,%.9g,%d,%.9g,%.9g\n", p.max_force, validity_level,
-                      p.validity_force, p.beyond ? 1 : 0, p.beyond_time, p.beyond_force);
+        std::snprintf(line, sizeof line, ",%.9g,%u,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g\n", p.max_force, validity_level,
+                      p.validity_force, p.beyond ? 1 : 0, p.beyond_time, p.beyond_force, p.hand_travel,
+                      p.hand_stiffness, force_scale);
         text += line;
       }
     return write_file_atomically(path, text, error);
@@ -823,6 +834,28 @@ namespace modalrt_tool
     for (const auto &[name, count] : r.device_counters)
       o["device_counters"][name] = count;
     o["passivity_energy_j"] = r.kernel.passivity_energy;
+    o["at_hand"] = Json{{"profile", r.profile},
+                        {"haptic_scale", r.mapping.haptic_scale},
+                        {"force_scale", r.mapping.force_scale},
+                        {"workspace_scale", r.mapping.workspace_scale},
+                        {"band_top_stiffness_n_per_m", r.mapping.band_top_stiffness},
+                        {"part_coupling_stiffness_n_per_m", r.mapping.part_coupling_stiffness},
+                        {"series_share", r.mapping.series_share},
+                        {"passivity_energy_j", r.kernel.hand_passivity_energy},
+                        {"min_hip_passivity_energy_j", r.kernel.min_hip_passivity_energy},
+                        {"passivity_damping_energy_j", r.kernel.passivity_damping_energy},
+                        {"max_passivity_damping_n_s_per_m", r.kernel.max_passivity_damping},
+                        {"passivity_damped_ticks", r.kernel.passivity_damped_ticks},
+                        {"beyond_range_ticks", r.kernel.beyond_range_ticks}};
+    o["presses"] = Json::array();
+    for (const Press &p : r.presses)
+      o["presses"].push_back(Json{{"hip", p.hip},
+                                  {"vertex", p.vertex},
+                                  {"space", p.space_name},
+                                  {"stiffness_at_hand_n_per_m", p.hand_stiffness},
+                                  {"stiffness_at_contact_n_per_m", p.felt_stiffness},
+                                  {"static_stiffness_n_per_m", 1.0 / p.compliance},
+                                  {"full_fe", p.full_fe}});
     o["slides"]             = Json::array();
     std::uint64_t slides_beyond = 0;
     for (std::size_t k = 0; k < h.slides.size(); ++k)
@@ -873,16 +906,17 @@ namespace modalrt_tool
     {
       constexpr std::size_t shown = 12; // one screen; presses.csv has them all
       if (!presses.empty())
-        std::printf("  presses       %zu: felt = force / displacement along the normal at the end of the push\n",
+        std::printf("  presses       %zu: at the end of the push, along the normal: at the hand = the device's force / "
+                    "its own travel; at the contact = the force on the part / the contact point's displacement\n",
                     presses.size());
       for (std::size_t k = 0; k < std::min(presses.size(), shown); ++k)
         {
           const Press &p = presses[k];
-          std::printf("  press %-7zu HIP %u, %s vertex %u, %.2f-%.2f s%s: felt %.4g N/mm (%.3g N at %.2f s); %s "
-                      "%.4g N/mm; ratio %.3f\n",
+          std::printf("  press %-7zu HIP %u, %s vertex %u, %.2f-%.2f s%s: at the hand %.4g N/mm (%.3g N, %.3g mm at "
+                      "%.2f s); at the contact %.4g N/mm; %s %.4g N/mm; ratio %.3f\n",
                       k, p.hip, p.space_name.c_str(), p.vertex, p.start, p.end,
-                      p.max_contacts > 1 ? " (several HIPs in contact)" : "", 1e-3 * p.felt_stiffness, p.felt_force,
-                      p.felt_time,
+                      p.max_contacts > 1 ? " (several HIPs in contact)" : "", 1e-3 * p.hand_stiffness, p.felt_force,
+                      1e3 * p.hand_travel, p.felt_time, 1e-3 * p.felt_stiffness,
                       p.full_fe ? "full-FE static" : "modal-only static (no full-FE reference)",
                       1e-3 / p.compliance, p.felt_stiffness * p.compliance);
           if (p.felt_contacts > 1 && std::isfinite(p.multi_stiffness))
@@ -1002,6 +1036,13 @@ namespace modalrt_tool
     std::printf("modal-rt %s: %s, session %s\n", r.command.c_str(), r.basis.c_str(), r.session.c_str());
     std::printf("  mode          %s, device %s, %u HIP(s), coupling %g N/m, %g N s/m\n", r.mode.c_str(),
                 r.device.c_str(), r.hips, r.coupling_stiffness, r.coupling_damping);
+    if (!r.scale_line.empty())
+      std::printf("  haptic scale  %s\n", r.scale_line.c_str());
+    std::printf("  passivity     at the hand: observer %.3g mJ (lowest per HIP over a contact %.3g mJ), the controller "
+                "dissipated %.3g mJ in %llu HIP ticks (damping up to %.3g N s/m); %llu ticks at the stable-stiffness wall\n",
+                1e3 * r.kernel.hand_passivity_energy, 1e3 * r.kernel.min_hip_passivity_energy,
+                1e3 * r.kernel.passivity_damping_energy, (unsigned long long)r.kernel.passivity_damped_ticks,
+                r.kernel.max_passivity_damping, (unsigned long long)r.kernel.beyond_range_ticks);
     std::printf("  ticks         %llu at %g Hz: %.3f s simulated, %.3f s wall, stopped by %s\n",
                 (unsigned long long)h.ticks, r.rate, h.ticks / r.rate, h.wall_seconds, r.stopped_by.c_str());
     std::printf("  tick latency  p50 %.2f us, p99 %.2f us, p99.9 %.2f us, max %.2f us (period %.1f us)\n",

@@ -94,7 +94,12 @@ namespace modalrt_tool
                                                //     force that reaches half the press's largest force
     double        felt_force = 0.0;            // [N] normal force there
     double        felt_displacement = 0.0;     // [m] normal displacement there
-    double        felt_stiffness = 0.0;        // [N/m] felt_force / felt_displacement (NaN if not pushed in)
+    double        felt_stiffness = 0.0;        // [N/m] at the contact: the force on the part (felt_force /
+                                               //       the haptic mapping's force scale) / felt_displacement
+                                               //       (NaN if not pushed in)
+    double        hand_travel = 0.0;           // [m] the device's own travel into the surface along n there
+                                               //     (device units: -n . (hip - frame - rest))
+    double        hand_stiffness = std::nan(""); // [N/m] at the hand: felt_force / hand_travel
     // Several HIPs in contact at the felt time: the static answer to all their loads at once (the
     // forces of that trace row, each at its own vertex), u_n = n^T sum_b G_ab F_b, from a kernel
     // settled to its exact static equilibrium under them. It is the full-FE answer when every
@@ -116,12 +121,13 @@ namespace modalrt_tool
 
   // The presses of a run, in order of start time. `impedance`: the trace's force is the one
   // rendered on the device (it pushes the hand out: +n), else the one applied to the part (-n).
+  // `force_scale`: the haptic mapping's force commanded / force on the part (1 without a scale).
   std::vector<Press> find_presses(const HapticResult &result, std::uint32_t hip_count, const modalrt_basis *basis,
-                                  bool impedance, std::uint32_t validity_level);
+                                  bool impedance, std::uint32_t validity_level, double force_scale = 1.0);
 
   // presses.csv: one row per press (the columns are documented in realtime/README.md).
   bool write_presses(const std::string &path, const std::vector<Press> &presses, bool impedance,
-                     std::uint32_t validity_level, std::string &error);
+                     std::uint32_t validity_level, std::string &error, double force_scale = 1.0);
 
   // Runs scripts/`script` (plot_force_displacement.py, plot_slide_stiffness.py) on the output directory
   // with /usr/bin/python3. Returns true when it wrote `picture`; else `notice` says why and how to make it.
@@ -153,6 +159,9 @@ namespace modalrt_tool
     std::uint32_t       validity_level = 5;     // [%] the kernel's (modalrt_kernel_def.validity_level)
     bool                validity_clamp = false; // modalrt_kernel_def.validity_clamp
     bool                validity_map   = false; // the basis has a validity map (has_validity_map)
+    std::string         profile;                // --device/--profile NAME ("" none)
+    modalrt_haptic_mapping mapping{};           // the kernel's (modalrt_kernel_get_haptic_mapping)
+    std::string         scale_line;             // "1 N/mm at the hand = ..." ("" without a scale)
   };
 
   RunReport   summarize(const HapticResult &haptic, double rate);

@@ -22,19 +22,20 @@ namespace modalrt_tool
     void print_felt_stiffness(const modalrt_basis *basis, std::uint32_t vertex, std::uint32_t region,
                               std::uint32_t space_count)
     {
-      std::printf("  felt stiffness, pressing straight in along -n (static, 1 / (n^T G n)):\n");
+      std::printf("  stiffness at the contact, pressing straight in along -n (static, 1 / (n^T G n); the hand feels "
+                  "it times the haptic scale, realtime/README.md):\n");
       for (std::uint32_t s = 0; s < space_count; ++s)
         {
           double       compliance = 0.0;
           bool         full_fe    = false;
-          const char  *mark       = s == region ? "  <- its region: a contact here feels this" : "";
+          const char  *mark       = s == region ? "  <- its region: a contact here has this" : "";
           if (normal_compliance(basis, s, vertex, compliance, full_fe) != MODALRT_OK)
             {
-              std::printf("    felt in %s: none (a mode with omega = 0: a part that is not held has no "
+              std::printf("    at the contact in %s: none (a mode with omega = 0: a part that is not held has no "
                           "static stiffness)%s\n", space_label(basis, s).c_str(), mark);
               continue;
             }
-          std::printf("    felt in %s: %.12g N/mm (%s)%s\n", space_label(basis, s).c_str(), 1e-3 / compliance,
+          std::printf("    at the contact in %s: %.12g N/mm (%s)%s\n", space_label(basis, s).c_str(), 1e-3 / compliance,
                       full_fe ? "corrected: equals full FE" : "modal only: not a corrected contact", mark);
         }
     }

@@ -754,6 +754,49 @@ namespace
     ENSURE(json_number(stats, "beyond_ticks") >= double(flagged)); // every tick counted, commands sent or not
     close(g.socket);
   }
+
+
+  // 8. serve with the Touch profile: a press in to 4 mm, 20 mm deep at once (a teleport) and out; every
+  // force commanded is within the Touch's 3.3 N and the stiffness it renders (F_n over the HIP's travel
+  // below the lattice's top face at z = 0.01 m) within its 0.4 N/mm.
+  void touch_through_the_bridge(int port)
+  {
+    const pid_t bridge = start_bridge(port, "_touch", {"--profile", "touch", "--haptic-scale", "0.2", "--no-plot"});
+    double      x[3]   = {0.05, 0.025, 0.015};
+    Greeted     g      = greet(port, 11, x);
+    std::vector<std::array<double, 3>> sent;
+    const std::uint32_t first = g.sequence + 1;
+    for (int k = 0; k < 3000; ++k) // 0.5 ms each
+      {
+        const double depth = k < 1600 ? 0.004 * std::min(1.0, k / 1200.0) : k < 1700 ? 0.02 : -0.005;
+        x[2]               = 0.01 - depth;
+        send_to(g.socket, g.server, state_packet(++g.sequence, x));
+        sent.push_back({x[0], x[1], x[2]});
+        pause_and_drain(g.socket, g.replies, 500);
+      }
+    leave_and_stop(g, x, bridge);
+    double largest = 0.0, stiffest = 0.0;
+    std::size_t in_contact = 0;
+    for (const Reply &r : g.replies)
+      {
+        if (r.hips != 1 || r.sequence < first || r.sequence - first >= sent.size())
+          continue;
+        largest = std::max(largest, norm(r.force));
+        const double travel = 0.01 - sent[r.sequence - first][2];
+        if (r.in_contact && travel > 1e-4)
+          {
+            stiffest = std::max(stiffest, r.force[2] / travel);
+            ++in_contact;
+          }
+      }
+    std::printf("  the Touch through the bridge: %zu commands in contact, largest force %.4f N (limit 3.3), stiffest "
+                "%.4f N/mm rendered (limit 0.4)\n", in_contact, largest, 1e-3 * stiffest);
+    ENSURE(in_contact > 1000);
+    ENSURE(largest <= 3.3 * (1.0 + 1e-12));
+    ENSURE(stiffest <= 400.0 * (1.0 + 1e-9));
+    ENSURE(read_text("serve_out_touch/stats.json").find("\"profile\": \"touch\"") != std::string::npos);
+    close(g.socket);
+  }
 } // namespace
 
 int main()
@@ -813,5 +856,6 @@ int main()
   close(c.stranger);
   slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
   validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies);
+  touch_through_the_bridge(port + 3 >= 40000 ? port - 3 : port + 3);
   return test::finish("test_serve");
 }

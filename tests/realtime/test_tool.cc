@@ -107,11 +107,12 @@ namespace
     ENSURE(run("frobnicate", out) == 2);
     std::remove("tool_corrupt.mrt");
   }
-  // The number after "felt in <label>: " in info --vertex's output (N/mm); NaN if absent.
+  // The number after "at the contact in <label>: " in info --vertex's output (N/mm); NaN if absent.
   double felt_n_per_mm(const std::string &out, const std::string &label)
   {
-    const std::size_t at = out.find("felt in " + label + ": ");
-    return at == std::string::npos ? std::nan("") : std::atof(out.c_str() + at + label.size() + 10);
+    const std::string key = "at the contact in " + label + ": ";
+    const std::size_t at  = out.find(key);
+    return at == std::string::npos ? std::nan("") : std::atof(out.c_str() + at + key.size());
   }
 
   // 1e-3 / (n^T (B Lambda^-1 B^T + C) n) of candidate k of space s, from the content written.

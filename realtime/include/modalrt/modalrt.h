@@ -166,9 +166,17 @@ extern "C" {
  * kernel makes the contact rows of the vertices that are not candidates at creation, within 256 MiB;
  * what it renders is the same to round-off (a pair block summed with its rows in the other order),
  * only no tick builds a row any more where they fit);
- * MODALRT_PROXY_ROWS_IN_TICKS. */
-#define MODALRT_VERSION_MAJOR 3
-#define MODALRT_VERSION_MINOR 4
+ * MODALRT_PROXY_ROWS_IN_TICKS.
+ * 4.0: fields added at the end of modalrt_device_def (rate, workspace, kind), modalrt_kernel_def
+ * (haptic_scale, workspace_scale, workspace_origin, coupling_multiple, passivity_control),
+ * modalrt_kernel_stats (the passivity observer and controller at the hand); the sampled-passivity check is Colgate & Schenkel's
+ * b > K T / 2 + |B| (the former K T / 2 < b + D let a coupling through that it refuses), and a
+ * kernel whose device does not meet it needs passivity_control = 1 (the default); an impedance
+ * contact's force now starts at force_rate_limit (no step at a contact start or a switch);
+ * modalrt_device_profile_find / _name (named specs of real devices), MODALRT_HIP_BEYOND_RANGE,
+ * MODALRT_HIP_PASSIVITY_DAMPED, modalrt_kernel_get_haptic_mapping. */
+#define MODALRT_VERSION_MAJOR 4
+#define MODALRT_VERSION_MINOR 0
 
 /* Highest major and minor version of the .mrt format this library reads. */
 #define MODALRT_BASIS_FORMAT_MAJOR 1
@@ -450,10 +458,29 @@ typedef struct modalrt_device_def
   double max_stiffness;    /* [N/m] largest stiffness the device renders stably at the tick rate [3000] */
   double max_damping;      /* [N s/m] largest damping the device renders stably [10] */
   double physical_damping; /* [N s/m] the device's own viscous damping b (0 if unknown) [0] */
+  double   rate;           /* [Hz] rate at which max_stiffness and max_damping hold (API 4.0) [1000] */
+  double   workspace[3];   /* [m] extent of the device's workspace along its x, y, z (0: unknown) (API 4.0) [0] */
+  uint32_t kind;           /* MODALRT_DEVICE_IMPEDANCE or _ADMITTANCE (API 4.0) [IMPEDANCE] */
+  uint32_t reserved;       /* 0 */
 } modalrt_device_def;
+
+enum
+{
+  MODALRT_DEVICE_IMPEDANCE  = 0, /* position in, force out (Phantom, Touch, Falcon, omega, sigma, lambda) */
+  MODALRT_DEVICE_ADMITTANCE = 1  /* force in, position out (HapticMaster-like): renders any stiffness */
+};
 
 /* Returns the defaults above; never fails. */
 MODALRT_API modalrt_device_def modalrt_device_default_def(void);
+
+/* Device profiles (API 4.0): the published spec of a class of device, by name: "touch", "omni",
+ * "desktop", "falcon", "omega.x", "sigma.7", "lambda.7" (impedance; CHAI3D 3.3.0's device classes,
+ * realtime/README.md gives each figure's source) and "admittance" (a generic admittance device of the
+ * HapticMaster's class). Fills *spec. Returns: OK, ERROR_INVALID_ARGUMENT (null argument, unknown name:
+ * the message lists the names). */
+MODALRT_API int         modalrt_device_profile_find(const char *name, modalrt_device_def *spec);
+/* The name of profile `index` (0, 1, ...), NULL past the last one. */
+MODALRT_API const char *modalrt_device_profile_name(uint32_t index);
 
 enum
 {
@@ -520,6 +547,27 @@ typedef struct modalrt_kernel_def
                                      (API 3.4; before: reserved_proxy, 0) */
   double   static_friction;       /* [-] proxy: Coulomb static coefficient mu_s, 0 .. 10, >= dynamic_friction [0.3] */
   double   dynamic_friction;      /* [-] proxy: Coulomb dynamic coefficient mu_d, 0 .. static_friction [0.2] */
+  /* The haptic mapping (API 4.0; realtime/README.md, "What the hand feels"). Inputs and outputs of the
+   * ticks are in the device's units: a HIP's part position is workspace_origin + workspace_scale x its
+   * device position. With haptic_scale s > 0 (impedance) the hand feels s x the part's stiffness: the
+   * coupling on the part is coupling_multiple x device.max_stiffness / s (so its series share at the
+   * stiffest part the band holds is 1 / (1 + coupling_multiple)), coupling_stiffness is not used and
+   * coupling_damping is the damping at the hand; the force commanded is s / workspace_scale x the force
+   * on the part, device.max_force and the passivity controller apply at the hand, and the force along
+   * the contact normal is at most device.max_stiffness x the hand's travel into the surface (beyond the
+   * band: a wall at the device's stable stiffness, MODALRT_HIP_BEYOND_RANGE). s = 0: no scale, the
+   * coupling_stiffness spring in series with the part (the hand feels both). */
+  double   haptic_scale;          /* [-] s, 0 (off) or > 0 [0] */
+  double   workspace_scale;       /* [m of part per m of device] sigma, > 0; 0 means 1 [0] */
+  double   workspace_origin[3];   /* [m] world point of the part where the device's origin maps [0] */
+  double   coupling_multiple;     /* [-] with haptic_scale: the part's coupling over the band's stiffest part,
+                                     >= 10; 0 means 200 (series share <= 0.5 %) [0] */
+  uint32_t passivity_control;     /* impedance: 1 runs the passivity controller at the hand (Hannaford & Ryu
+                                     2002: per HIP the observer of the energy the hand put in over its contact,
+                                     and when it is negative a damping that dissipates it, at most
+                                     device.max_damping); required when the device does not meet Colgate &
+                                     Schenkel's b > K T / 2 + |B|; 0: off [1] */
+  uint32_t reserved_hand;         /* 0 */
 } modalrt_kernel_def;
 
 /* Returns the defaults above; never fails. */
@@ -531,10 +579,11 @@ MODALRT_API modalrt_kernel_def modalrt_kernel_default_def(void);
 typedef struct modalrt_kernel modalrt_kernel;
 
 /* Allocates every buffer the ticks will need. Checks the coupling against the device: K <= max
- * stiffness, D <= max damping, and the sampled-passivity condition K T / 2 < b + D (Colgate: the
- * energy a zero-order-held spring can generate per tick must be dissipated by the device's damping b
- * and the coupling damper, whose velocity is the device's measured one). The basis must outlive the
- * kernel. Returns: OK, ERROR_INVALID_ARGUMENT (null argument, a field out of its range),
+ * stiffness, D <= max damping, and (impedance devices) Colgate & Schenkel's sampled-passivity condition
+ * b > K T / 2 + |B|, b the device's physical_damping, K the largest stiffness the hand is rendered
+ * (coupling_stiffness; with haptic_scale, device.max_stiffness) and B the virtual damping at the hand
+ * (coupling_damping): a kernel whose device fails it is refused (naming b, K, T, B) unless
+ * passivity_control = 1. The basis must outlive the kernel. Returns: OK, ERROR_INVALID_ARGUMENT (null argument, a field out of its range),
  * ERROR_DEVICE_LIMIT (coupling beyond the device or not passive), ERROR_OUT_OF_MEMORY. */
 MODALRT_API int  modalrt_kernel_create(const modalrt_basis *basis, const modalrt_kernel_def *def, modalrt_kernel **kernel);
 MODALRT_API void modalrt_kernel_destroy(modalrt_kernel *kernel);
@@ -562,6 +611,10 @@ enum
   MODALRT_HIP_FORCE_RAMPING   = 1u << 6, /* impedance: the force is rate-limited to force_rate_limit this
                                             tick (recovery after a fault, or a release ramping to zero) */
   MODALRT_HIP_SLIDING         = 1u << 7, /* proxy contact: the proxy is sliding (dynamic friction) */
+  MODALRT_HIP_BEYOND_RANGE    = 1u << 9,  /* haptic_scale: the force at the hand was limited to
+                                            device.max_stiffness x the hand's travel (a part stiffer
+                                            than the band, or a fast press's transient) */
+  MODALRT_HIP_PASSIVITY_DAMPED = 1u << 10, /* the passivity controller added damping this tick */
   MODALRT_HIP_BEYOND_VALIDITY = 1u << 8  /* in contact, the contact force is beyond its validity force:
                                             |F| > the validity map's force at validity_level where the
                                             contact is (a proxy: its corners' blend, as
@@ -680,11 +733,38 @@ typedef struct modalrt_kernel_stats
                                    -F_(n-1) . (x_n - x_(n-1)) (F the force commanded on the device and held
                                    over the period, x the HIP's world position). The kernel gave the hand
                                    energy overall when it is negative; passive: it never falls below a small
-                                   negative number. A fail-safe tick leaves the next period unobserved. */
+                                   negative number. A fail-safe tick leaves the next period unobserved.
+                                   With a haptic mapping: in the part's units. */
+  /* At the hand (API 4.0): the device's own units, whatever the mapping. */
+  double   hand_passivity_energy;   /* [J] the observer above at the hand, summed over HIPs */
+  double   min_hip_passivity_energy; /* [J] the lowest per-HIP observer over its contact (the window: from
+                                        contact start until the force is back to zero after release) */
+  double   passivity_damping_energy; /* [J] energy the passivity controller dissipated */
+  double   max_passivity_damping;   /* [N s/m] the largest damping it added */
+  uint64_t passivity_damped_ticks;  /* [-] HIP ticks in which it acted */
+  uint64_t beyond_range_ticks;      /* [-] HIP ticks flagged MODALRT_HIP_BEYOND_RANGE */
 } modalrt_kernel_stats;
 
 /* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
 MODALRT_API int modalrt_kernel_get_stats(const modalrt_kernel *kernel, modalrt_kernel_stats *stats);
+
+/* The kernel's haptic mapping as it runs it (API 4.0). */
+typedef struct modalrt_haptic_mapping
+{
+  double haptic_scale;        /* [-] s: stiffness at the hand / stiffness of the part (1 without a scale) */
+  double workspace_scale;     /* [m of part per m of device] sigma */
+  double workspace_origin[3]; /* [m] */
+  double force_scale;         /* [-] force commanded / force on the part, s / sigma */
+  double part_coupling_stiffness; /* [N/m] the coupling spring on the part (in the part's units) */
+  double part_coupling_damping;   /* [N s/m] its damper */
+  double band_top_stiffness;  /* [N/m] the stiffest part rendered to scale (device.max_stiffness / s;
+                                 0 without a scale) */
+  double series_share;        /* [-] the coupling's share of the compliance at band_top_stiffness,
+                                 band_top / (band_top + part_coupling_stiffness) (0 without a scale) */
+} modalrt_haptic_mapping;
+
+/* Returns: OK, ERROR_INVALID_ARGUMENT (null argument). */
+MODALRT_API int modalrt_kernel_get_haptic_mapping(const modalrt_kernel *kernel, modalrt_haptic_mapping *mapping);
 
 /* ------------------------------------------------------------------------------------------------
  * Display: snapshots of the modal state and the reconstruction of the display surface
