@@ -761,7 +761,8 @@ namespace
   // below the lattice's top face at z = 0.01 m) within its 0.4 N/mm.
   void touch_through_the_bridge(int port)
   {
-    const pid_t bridge = start_bridge(port, "_touch", {"--profile", "touch", "--haptic-scale", "0.2", "--no-plot"});
+    const pid_t bridge = start_bridge(port, "_touch", {"--profile", "touch", "--haptic-scale", "0.2", "--no-plot", "--token", given_token_hex});
+    ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.05, 0.025, 0.015};
     Greeted     g      = greet(port, 11, x);
     std::vector<std::array<double, 3>> sent;
