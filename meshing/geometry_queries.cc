@@ -199,11 +199,6 @@ namespace modal_haptics::meshing::detail
                 caught.samples.push_back(sample);
         }
     });
-    if (caught.n_faces == 0 && empty_group_left_out(group_dim, name))
-      throw MeshingError("Group '" + name + "' ('Geometry/Supports' or 'Clamp groups') of geometry '" + geometry +
-                         "' is empty: the physical " + kind_name + " '" + name + "' holds no " + kind_name +
-                         " (gmsh loads an empty group such as 'Physical Surface(\"" + name +
-                         "\") = {};' without a word): give it its " + kind_name + "s or select other ones");
     if (caught.n_faces == 0)
       {
         std::string list;

@@ -87,7 +87,6 @@ namespace modal_haptics::meshing::detail
 
 
     std::set<std::pair<int, std::string>> groups_added; // by complete_physical_groups
-    std::set<std::pair<int, std::string>> groups_left_out; // empty, by require_named_groups
 
     // The physical groups of dimension 'dim' that hold no entity: gmsh loads 'Physical
     // Surface("wall") = {};' as a name without a group, which getPhysicalGroups omits.
@@ -109,16 +108,6 @@ namespace modal_haptics::meshing::detail
             empty.push_back(name);
         }
       return empty;
-    }
-
-    // Whether a physical group of any dimension that holds entities has this name.
-    bool names_a_group(const std::string &name)
-    {
-      for (int dim = 0; dim <= 3; ++dim)
-        for (const auto &group : physical_groups(dim))
-          if (group.second == name)
-            return true;
-      return false;
     }
 
     // Adds 'faces' to the surface group "free", creating it when it does not exist.
@@ -241,7 +230,7 @@ namespace modal_haptics::meshing::detail
 
   void require_named_groups(const std::string &context)
   {
-    groups_left_out.clear();
+    static const char *const kinds[4] = {"point", "curve", "surface", "volume"};
     for (int dim = 0; dim <= 3; ++dim)
       {
         for (const auto &[tag, name] : physical_groups(dim))
@@ -249,30 +238,11 @@ namespace modal_haptics::meshing::detail
             throw MeshingError(context + ": physical group of dimension " + std::to_string(dim) + " with tag " +
                                std::to_string(tag) + " has no name; name every group, e.g. Physical Surface(\"clamp\", " +
                                std::to_string(tag) + ") = {...};");
-        // An empty group's name alone would be written into the mesh files: it goes, and a support
-        // that names it is refused there (empty_group_left_out).
         for (const auto &name : empty_named_groups(dim))
-          {
-            groups_left_out.insert({dim, name});
-            if (!names_a_group(name)) // gmsh removes a name from every dimension
-              gmsh::model::removePhysicalName(name);
-          }
+          throw MeshingError(context + ": the physical " + kinds[dim] + " '" + name + "' holds no " + kinds[dim] +
+                             " (gmsh loads an empty group such as 'Physical Surface(\"" + name +
+                             "\") = {};' without a word): give it its " + kinds[dim] + "s or remove it");
       }
-  }
-
-  std::vector<std::string> empty_groups_left_out()
-  {
-    static const char *const kinds[4] = {"point", "curve", "surface", "volume"};
-    std::vector<std::string> groups;
-    for (const auto &[dim, name] : groups_left_out)
-      groups.push_back("the physical " + std::string(kinds[dim]) + " '" + name + "' holds no " + kinds[dim] +
-                       " (gmsh loads an empty group such as 'Physical Surface(\"" + name + "\") = {};' without a word)");
-    return groups;
-  }
-
-  bool empty_group_left_out(const int dim, const std::string &name)
-  {
-    return groups_left_out.count({dim, name}) > 0;
   }
 
   bool added_by_program(const int dim, const std::string &name)

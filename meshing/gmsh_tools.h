@@ -48,15 +48,9 @@ namespace modal_haptics::meshing::detail
   // written as a group without elements, which readers then silently accept).
   void add_named_group(int dim, const std::vector<int> &entities, const std::string &name, int tag);
 
-  // Every physical group of the model must be named (deal.II reads the names): throws otherwise. An
-  // empty named group (gmsh loads 'Physical Surface("wall") = {};') is left out of the model: a
-  // warning when nothing uses it, an error when a support does (inspect_group).
+  // Every physical group of the model must be named (deal.II reads the names) and hold an entity;
+  // throws otherwise.
   void require_named_groups(const std::string &context);
-
-  // The empty groups the last require_named_groups left out, each said in a sentence; whether it
-  // left out this one.
-  std::vector<std::string> empty_groups_left_out();
-  bool                     empty_group_left_out(int dim, const std::string &name);
 
   // Whether complete_physical_groups added this group (not the user's): "free", "part".
   bool added_by_program(int dim, const std::string &name);

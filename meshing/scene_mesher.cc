@@ -131,7 +131,6 @@ namespace modal_haptics::meshing
         else
           call_gmsh("loading geometry '" + settings.geometry + "'", [&] {
             load_model();
-            report.empty_groups = empty_groups_left_out();
             const auto box = bounding_box();
             report.lower   = box[0];
             report.upper   = box[1];

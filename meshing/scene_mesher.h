@@ -200,9 +200,6 @@ namespace modal_haptics::meshing
     // inside a VOI are counted in the meshing log.
     std::vector<SelectionReport> volumes_of_interest;
     std::vector<SelectionReport> regions; // one per RegionSelection: the faces whose bounding box meets it
-    // The file's empty physical groups that no support names, left out of the model: each a sentence
-    // for a warning (a support that names one is refused).
-    std::vector<std::string> empty_groups;
   };
 
   // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:

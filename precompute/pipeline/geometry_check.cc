@@ -215,10 +215,6 @@ namespace modal_haptics
                                                       selections.regions, scene.length_unit);
     if (print)
       std::cout << part_summary(scene, report) << selection_summary(scene, report) << std::flush;
-    if (print)
-      for (const auto &group : report.empty_groups)
-        std::cerr << "Warning: geometry file '" << scene.meshing.geometry << "': " << group
-                  << "; no support names it, so it is left out" << std::endl;
     check_sizes(scene, report, print);
     if (!predict_free_motions || scene.supports.empty())
       return;
