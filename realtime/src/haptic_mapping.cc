@@ -175,7 +175,13 @@ void modalrt_kernel::render_at_hand(const modalrt_hip_input *inputs, std::uint32
   for (std::uint32_t h = 0; h < count && mapping_.scaled(); ++h)
     if (outputs[h].in_contact)
       limit_to_stable_stiffness(h, outputs[h]);
-  passivity_.control(inputs, outputs, count, stats);
+  // While the part's frame moves (a carried part), the session moves the part and the hands with it:
+  // that energy is the carry's, not the coupling's, and the observer cannot tell the two apart, so
+  // it watches only the periods of a still frame (the controller would otherwise damp the carry).
+  if (frame_.moving)
+    passivity_.skip();
+  else
+    passivity_.control(inputs, outputs, count, stats);
   for (std::uint32_t h = 0; h < count; ++h)
     {
       double *F = outputs[h].force;
