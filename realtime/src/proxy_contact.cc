@@ -493,7 +493,7 @@ void modalrt_kernel::pack_triangle(Contact &c) noexcept
   proxy.packed_triangle = proxy.triangle;
 }
 
-// The look-ahead of the proxy's triangle (proxy_contact.h). The rows kept for the corners of its
+// The look-ahead of the proxy's triangle (proxy_state.h). The rows kept for the corners of its
 // triangles are stamped as wanted now.
 void modalrt_kernel::make_lookahead(Contact &c) noexcept
 {
@@ -544,7 +544,7 @@ void modalrt_kernel::make_lookahead(Contact &c) noexcept
 
 // The bounded work of an impedance tick ahead of the proxy: the look-ahead's triangles in order,
 // their corners' rows and then their pair blocks, about proxy_prepare_work multiply-adds of each
-// (proxy_contact.h). Nothing once they are all prepared, until the proxy
+// (proxy_state.h). Nothing once they are all prepared, until the proxy
 // enters another triangle.
 void modalrt_kernel::prepare_proxy(Contact &c) noexcept
 {
