@@ -17,10 +17,12 @@
 // to the vertices it shares a triangle with (issue 36's basis), and on that one with a far field of
 // rank 64 (.mrt 1.3) coupling the two HIPs, which are not neighbours; the three kernels ticked in
 // turn at the same vertices; a comment line before them gives the bases' sizes and the ratios of
-// their p50s to the sampled one's.
+// their p50s to the sampled one's; "impedance-unscaled-in-turn" and "impedance-scaled-in-turn": the
+// corrected impedance tick with 1 and 2 HIPs without and with the haptic mapping (omega.x, s = 0.01),
+// the two kernels ticked in turn, after a comment line with the ratios of their p50 and p99.
 //
 // Usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] [--basis FILE]
-//                          [--slide-only | --every-vertex-only]
+//                          [--slide-only | --every-vertex-only | --mapping-only]
 // The basis is a synthetic analytic plate (float32 modes, two spaces, 32 candidates per space), or
 // the given .mrt file (its space 0 and, for the landing row, space 1; no sampled/every-vertex/far-field
 // rows; the slide along the largest flat face of space 0's region: surface_path).
@@ -29,6 +31,7 @@
 #include <modalrt/modalrt.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -50,6 +53,7 @@ namespace
     std::string                basis_file;
     bool                       slide_only        = false; // only the "slide" and "fixed" rows
     bool                       every_vertex_only = false; // only the "sampled", "every-vertex", "far-field" rows
+    bool                       mapping_only      = false; // only the "impedance-*-in-turn" rows
   };
 
   struct Percentiles
@@ -670,44 +674,59 @@ namespace
   constexpr int compared_bases                = 3;
   const char   *basis_names[compared_bases] = {"sampled", "every-vertex", "far-field"};
 
-  std::vector<Percentiles> run_bases(const modalrt_basis *const (&bases)[compared_bases], const Options &o)
+  // Kernels ticked in turn in one loop (the machine's load falls on all alike; which one goes first
+  // rotates), each kernel's HIPs placed at `site` of its basis and pressing as press() does; the
+  // kernels are destroyed. One Percentiles per kernel, in order; `out` holds each one's last outputs.
+  using Outputs = std::vector<std::array<modalrt_hip_output, 4>>;
+  std::vector<Percentiles> tick_in_turn(const std::vector<modalrt_kernel *> &kernels,
+                                        const std::vector<const modalrt_basis *> &bases, const std::uint32_t site[4],
+                                        std::uint32_t hips, bool impedance, const Options &o, Outputs &out)
   {
-    const std::uint32_t hips = 2;
-    modalrt_kernel     *kernels[compared_bases];
-    modalrt_hip_input   in[compared_bases][4];
-    modalrt_hip_output  out[compared_bases][4];
-    std::uint32_t       site[4];
-    contact_sites(bases[0], hips, site);
-    for (int b = 0; b < compared_bases; ++b)
-      {
-        kernels[b] = create_held_kernel(bases[b], hips, true);
-        place_hips(kernels[b], bases[b], site, hips, false, in[b]);
-      }
-    const long                 warmup = 10000;
-    std::vector<std::uint32_t> ns[compared_bases];
-    for (auto &v : ns)
-      v.resize(std::size_t(o.ticks));
+    const int count = int(kernels.size());
+    std::vector<std::array<modalrt_hip_input, 4>> in(kernels.size());
+    out.assign(kernels.size(), {});
+    for (int k = 0; k < count; ++k)
+      place_hips(kernels[k], bases[k], site, hips, false, in[k].data());
+    const long                              warmup = 10000;
+    std::vector<std::vector<std::uint32_t>> ns(kernels.size(), std::vector<std::uint32_t>(std::size_t(o.ticks)));
     for (long n = -warmup; n < o.ticks; ++n)
-      for (int kernel = 0; kernel < compared_bases; ++kernel)
+      for (int turn = 0; turn < count; ++turn)
         {
-          const int which = int((kernel + (n % compared_bases + compared_bases)) % compared_bases);
-          press(n, bases[which], site, hips, in[which]);
+          const int which = int((turn + (n % count + count)) % count);
+          press(n, bases[which], site, hips, in[which].data());
           const auto start = Clock::now();
-          modalrt_kernel_tick_admittance(kernels[which], in[which], hips, out[which]);
+          if (impedance)
+            modalrt_kernel_tick_impedance(kernels[which], in[which].data(), hips, out[which].data());
+          else
+            modalrt_kernel_tick_admittance(kernels[which], in[which].data(), hips, out[which].data());
           const auto stop = Clock::now();
           if (n >= 0)
             ns[which][std::size_t(n)] = elapsed_ns(start, stop);
         }
-    for (int b = 0; b < compared_bases; ++b)
-      for (std::uint32_t h = 0; h < hips; ++h)
-        if (!out[b][h].in_contact || !(out[b][h].flags & MODALRT_HIP_CORRECTED))
-          std::fprintf(stderr, "bench-kernel-tick: HIP %u on the %s basis is not a corrected contact\n", h,
-                       basis_names[b]);
     for (modalrt_kernel *k : kernels)
       modalrt_kernel_destroy(k);
     std::vector<Percentiles> result;
     for (auto &v : ns)
       result.push_back(percentiles(v));
+    return result;
+  }
+
+  std::vector<Percentiles> run_bases(const modalrt_basis *const (&bases)[compared_bases], const Options &o)
+  {
+    const std::uint32_t hips = 2;
+    std::uint32_t       site[4];
+    contact_sites(bases[0], hips, site);
+    std::vector<modalrt_kernel *>       kernels;
+    std::vector<const modalrt_basis *> in_turn(bases, bases + compared_bases);
+    for (const modalrt_basis *basis : in_turn)
+      kernels.push_back(create_held_kernel(basis, hips, true));
+    Outputs out;
+    auto    result = tick_in_turn(kernels, in_turn, site, hips, false, o, out);
+    for (int b = 0; b < compared_bases; ++b)
+      for (std::uint32_t h = 0; h < hips; ++h)
+        if (!out[b][h].in_contact || !(out[b][h].flags & MODALRT_HIP_CORRECTED))
+          std::fprintf(stderr, "bench-kernel-tick: HIP %u on the %s basis is not a corrected contact\n", h,
+                       basis_names[b]);
     return result;
   }
 
@@ -734,6 +753,8 @@ namespace
           o.slide_only = true;
         else if (arg == "--every-vertex-only")
           o.every_vertex_only = true;
+        else if (arg == "--mapping-only")
+          o.mapping_only = true;
         else if (arg == "--basis" && k + 1 < argc)
           o.basis_file = argv[++k];
         else if (arg == "--modes" && k + 1 < argc)
@@ -749,13 +770,13 @@ namespace
         else
           {
             std::fprintf(stderr, "usage: bench-kernel-tick [--ticks N] [--vertices-per-side N] [--modes r1,r2,...] "
-                                 "[--basis FILE] [--slide-only | --every-vertex-only]\n");
+                                 "[--basis FILE] [--slide-only | --every-vertex-only | --mapping-only]\n");
             std::exit(2);
           }
       }
-    if (o.slide_only && o.every_vertex_only)
+    if (int(o.slide_only) + int(o.every_vertex_only) + int(o.mapping_only) > 1)
       {
-        std::fprintf(stderr, "bench-kernel-tick: --slide-only and --every-vertex-only exclude each other\n");
+        std::fprintf(stderr, "bench-kernel-tick: --slide-only, --every-vertex-only and --mapping-only exclude each other\n");
         std::exit(2);
       }
     return o;
@@ -766,6 +787,27 @@ namespace
     std::printf("tick,%s,%u,%u,%d,%.0f,%.0f,%.0f,%.0f,%.1f,%.2f\n", scenario, r, hips, corrected ? 1 : 0, p.p50, p.p99,
                 p.p999, p.max, p.mean, p.over_5us_per_mille);
     std::fflush(stdout);
+  }
+
+  // The cost of the haptic mapping: the corrected impedance tick with 1 and 2 HIPs, a kernel without
+  // a scale and one with the omega.x profile at s = 0.01 ticked in turn on one basis; a comment line
+  // with the ratios of their p50 and p99, then the rows "impedance-unscaled-in-turn" and
+  // "impedance-scaled-in-turn".
+  void print_mapping(const modalrt_basis *basis, const Options &o, std::uint32_t r)
+  {
+    for (std::uint32_t hips = 1; hips <= 2; ++hips)
+      {
+        std::uint32_t site[4];
+        contact_sites(basis, hips, site);
+        Outputs    out;
+        const auto p = tick_in_turn({create_held_kernel(basis, hips, true), create_held_kernel(basis, hips, true, true)},
+                                    {basis, basis}, site, hips, true, o, out);
+        std::printf("# mapping r=%u, %u HIP(s), corrected impedance ticked in turn without and with the haptic mapping "
+                    "(omega.x, s = 0.01): scaled/unscaled p50 %.3f, p99 %.3f\n",
+                    r, hips, p[1].p50 / p[0].p50, p[1].p99 / p[0].p99);
+        print_row("impedance-unscaled-in-turn", r, hips, true, p[0]);
+        print_row("impedance-scaled-in-turn", r, hips, true, p[1]);
+      }
   }
 
   // The "sampled", "every-vertex" and "far-field" rows of one r, after a comment line with the bases'
@@ -832,7 +874,7 @@ int main(int argc, char **argv)
     }
   std::printf("kind,scenario,r,hips,corrected,p50_ns,p99_ns,p99.9_ns,max_ns,mean_ns,over_5us_per_mille\n");
   std::vector<std::uint32_t> ns;
-  const bool all = !o.slide_only && !o.every_vertex_only;
+  const bool all = !o.slide_only && !o.every_vertex_only && !o.mapping_only;
   for (std::uint32_t r : o.modes)
     {
       modalrt_basis *basis = o.basis_file.empty() ? make_basis(o, r) : load_basis_file(o.basis_file);
@@ -851,6 +893,8 @@ int main(int argc, char **argv)
         print_slide(basis, o, r);
       if (all)
         print_row(name(Scenario::landing), r, 1, true, run_landings(basis, o, true, ns));
+      if (all || o.mapping_only)
+        print_mapping(basis, o, r);
       if ((all || o.every_vertex_only) && o.basis_file.empty())
         print_bases(basis, o, r);
       modalrt_basis_destroy(basis);

@@ -35,6 +35,8 @@ namespace modalrt
     double position_scale() const { return sigma_; }      // m of part per m of device
     double stable_stiffness() const { return stable_stiffness_; } // [N/m] at the hand
     double max_force() const { return max_force_; }       // [N] at the hand
+    // A stiffness at the hand [N/m] in the part's units (the hand feels s x the part's).
+    double stiffness_to_part(double at_hand) const { return at_hand / (force_scale_ * sigma_); }
     void   describe(modalrt_haptic_mapping &out, const modalrt_kernel_def &part_def) const;
 
     // The inputs in the part's units (the same pointer when the mapping is the identity, or when

@@ -149,7 +149,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
   snap_candidates_.resize(def.snap_candidate_budget);
-  // A sliding contact's row slots and their pair blocks (proxy_contact.h): the corners of its
+  // A sliding contact's row slots and their pair blocks (proxy_state.h): the corners of its
   // triangle and the rows prepared ahead of it.
   proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_row_slots * 3 * R : 0, 0.0);
   proxy_grams_.resize(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_slot_pairs : 0);
@@ -172,6 +172,9 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   validity_level_ = validity_level_index(def.validity_level == 0 ? 5 : def.validity_level);
   mapping_.setup(def_, def, H);
   passivity_.setup(def_.passivity_control != 0, def.time_step, def_.device.max_damping, H);
+  // The plane at the stiffness the device renders stably (a scale), else at the coupling's.
+  const double plane_at_hand = mapping_.scaled() ? mapping_.stable_stiffness() : def_.coupling_stiffness;
+  fail_safe_plane_.setup(H, mapping_.stiffness_to_part(plane_at_hand), def.force_rate_limit, def.time_step);
 }
 
 // =================================================================================================
@@ -189,7 +192,7 @@ int modalrt_kernel::tick_in_part_units(const modalrt_hip_input *inputs, std::uin
     {
       ++stats.rejected_ticks;
       stats.last_reject_reasons = reasons;
-      return fail_safe(std::min(count, def.hip_capacity), outputs);
+      return fail_safe(std::min(count, def.hip_capacity), outputs, count <= def.hip_capacity ? inputs : nullptr);
     }
   if (stats.fail_safe_run > 0) // the recovery after a fault: the force returns at the rate limit
     std::fill(ramping_.begin(), ramping_.end(), 1u);
@@ -197,6 +200,7 @@ int modalrt_kernel::tick_in_part_units(const modalrt_hip_input *inputs, std::uin
 
   std::fill(flags_.begin(), flags_.end(), 0u);
   to_body(inputs, count);
+  fail_safe_plane_.remember(inputs, count, impedance);
   apply_release_rules(count, impedance);
   detect_contacts(count);
   if (impedance)
@@ -231,21 +235,27 @@ int modalrt_kernel::tick_missing_in_part_units(std::uint32_t count, modalrt_hip_
 }
 
 // The state does not move; the device gets the last outputs that were safe, flagged, with their
-// force held for fail_safe_hold and then ramped linearly to zero over fail_safe_ramp.
-int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept
+// force held for fail_safe_hold and then ramped linearly to zero over fail_safe_ramp, and in
+// impedance at most the share of it that the fail-safe plane gives the hand (fail_safe_plane.h).
+int modalrt_kernel::fail_safe(std::uint32_t count, modalrt_hip_output *outputs, const modalrt_hip_input *inputs) noexcept
 {
   ++stats.fail_safe_ticks;
   ++stats.fail_safe_run;
   observed_count_ = 0; // the passivity observer skips the period after a fail-safe tick
   const std::uint64_t n     = stats.fail_safe_run;
   const double        scale = n <= hold_ticks_ ? 1.0 : std::max(0.0, 1.0 - double(n - hold_ticks_) / double(ramp_ticks_));
+  if (n == 1)
+    fail_safe_plane_.begin_run();
   bool held_force = false;
   for (std::uint32_t h = 0; h < count; ++h)
     {
       held_force = held_force || norm3(last_outputs_[h].force) > 0.0;
       outputs[h] = last_outputs_[h];
+      // A hand whose own position is absurd is not where it says: its plane takes it as unknown.
+      const bool   trusted = inputs && finite3(inputs[h].position) && norm3(inputs[h].position) <= def.workspace_radius;
+      const double share   = fail_safe_plane_.share(h, last_outputs_[h].force, trusted ? inputs[h].position : nullptr, n);
       for (int d = 0; d < 3; ++d)
-        outputs[h].force[d] *= scale;
+        outputs[h].force[d] *= std::min(scale, share);
       outputs[h].flags = MODALRT_HIP_FAIL_SAFE;
       if (outputs[h].in_contact && beyond_validity(contacts_[h], outputs[h].force))
         outputs[h].flags |= MODALRT_HIP_BEYOND_VALIDITY; // the force held is still beyond it
@@ -649,5 +659,6 @@ void modalrt_kernel::reset() noexcept
   stats.fail_safe_run = 0;
   contact_started_   = false;
   observed_count_    = 0;
+  fail_safe_plane_.forget();
   refresh_contact_set();
 }

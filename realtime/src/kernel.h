@@ -4,10 +4,11 @@
 
 #include "allocator.h"
 #include "basis.h"
+#include "fail_safe_plane.h"
 #include "haptic_mapping.h"
 #include "modal_integrator.h"
 #include "passivity_controller.h"
-#include "proxy_contact.h"
+#include "proxy_state.h"
 #include "snapshot.h"
 
 #include <modalrt/modalrt.h>
@@ -56,7 +57,7 @@ namespace modalrt
                                                  // admittance output are anchored there, so a
                                                  // contact starts without a lateral jerk
     double        stiffness[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; // [N/m] body, row-major: the coupling spring
-                                                              // (haptic_mapping.cc, contact_stiffness)
+                                                              // (hand_rendering.cc, set_contact_stiffness)
     double       *B          = nullptr;
     ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
     // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).
@@ -103,7 +104,7 @@ private:
   using Contact = modalrt::Contact;
 
   // The ticks in the part's units; tick() and tick_missing() map the device's units around them and
-  // render the result at the hand (haptic_mapping.cc).
+  // render the result at the hand (hand_rendering.cc).
   int  tick_in_part_units(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs,
                           bool impedance) noexcept;
   int  tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
@@ -122,8 +123,11 @@ private:
   void          update_corrections() noexcept;
   void          write_outputs(std::uint32_t count, modalrt_hip_output *outputs, bool impedance) noexcept;
   void          publish_snapshot() noexcept;
-  // The fail-safe rule (modalrt.h): the last safe outputs, force held then ramped, flagged.
-  int           fail_safe(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
+  // The fail-safe rule (modalrt.h): the last safe outputs, force held then ramped, flagged; in
+  // impedance the force is at most what the fail-safe plane gives the hand at `inputs` (part units;
+  // null: unknown).
+  int           fail_safe(std::uint32_t count, modalrt_hip_output *outputs,
+                          const modalrt_hip_input *inputs = nullptr) noexcept;
   // No step of the kernel's own (modalrt.h): the commanded force of a ramping HIP moves by at most
   // force_rate_limit per tick, towards the coupling's force in contact, towards zero after a release.
   void          limit_contact_force(std::uint32_t hip) noexcept;
@@ -181,6 +185,7 @@ private:
 
   modalrt::HapticMapping         mapping_;
   modalrt::PassivityController   passivity_;
+  modalrt::FailSafePlane         fail_safe_plane_;
   modalrt::Frame                 frame_;
   modalrt::Vector<modalrt::ModalIntegrator> integrators_; // one per space, for def.time_step
   std::uint32_t                  space_ = 0;

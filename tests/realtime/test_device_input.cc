@@ -6,6 +6,7 @@
 // it at zero; good input ends the run.
 #include "test_support.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 
@@ -186,6 +187,82 @@ namespace
     modalrt_basis_destroy(basis);
   }
 
+  // The fail-safe plane (modalrt.h): during a fault the hand is not pushed with the held force
+  // whatever it does; the force comes from a plane held where the hand was, across the last safe
+  // force F0, at the coupling's stiffness k (no haptic scale). `kind`: 0 the hand withdraws at
+  // 20 mm/s behind inputs rejected for their velocity (their positions are trusted); 1 the input
+  // stops arriving as the hand withdraws at 20 mm/s (its last velocity carries it on); 2 the hand
+  // presses on at 20 mm/s; 3 a trusted input jumps 5 cm out. Withdrawing: F0 (1 - k s / F0), zero
+  // long before the hold ends, at most the work F0^2 / (2 k) given to the hand (the hold gave
+  // F0 x the distance); pressing on: F0, no more; the jump: down at the rate limit, no step.
+  void fail_safe_plane(int kind)
+  {
+    modalrt_basis     *basis = test::load(modalrt::make_lattice_cantilever());
+    modalrt_kernel_def d     = modalrt_kernel_default_def();
+    d.hip_capacity           = 1;
+    modalrt_kernel    *k     = test::create(basis, d);
+    const double      *x     = modalrt_basis_display_vertices(basis);
+    modalrt_hip_input  good  = test::hip_at(x + 3 * 15, 0.0, 0.0, 0.0);
+    good.position[2] -= 0.002;
+    modalrt_hip_output out{};
+    for (int n = 0; n < 50; ++n)
+      modalrt_kernel_tick_impedance(k, &good, 1, &out);
+    const double speed = kind == 2 ? -0.02 : 0.02; // [m/s] along the force: out of the part
+    double       along[3], F0[3];
+    const double held = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
+    for (int i = 0; i < 3; ++i)
+      along[i] = out.force[i] / held;
+    if (kind == 1) // the last accepted tick knows the hand's velocity
+      {
+        for (int i = 0; i < 3; ++i)
+          good.velocity[i] = speed * along[i];
+        modalrt_kernel_tick_impedance(k, &good, 1, &out);
+      }
+    std::copy_n(out.force, 3, F0);
+    const double f0 = std::sqrt(F0[0] * F0[0] + F0[1] * F0[1] + F0[2] * F0[2]);
+    ENSURE(out.in_contact == 1 && f0 > 0.5);
+    // The hand moves along the force before that tick; the damper may turn F0 a little off it.
+    const double aligned   = (along[0] * F0[0] + along[1] * F0[1] + along[2] * F0[2]) / f0;
+    const double stiffness = d.coupling_stiffness, rate = d.force_rate_limit;
+    const int    hold_ticks = int(std::lround(d.fail_safe_hold / d.time_step));
+    double       previous = f0, largest_step = 0.0, work = 0.0, worst_error = 0.0;
+    int          first_zero = -1;
+    for (int n = 1; n <= hold_ticks; ++n)
+      {
+        modalrt_hip_input hand = good;
+        hand.velocity[0]       = 101.0; // rejected, its position trusted
+        const double s         = kind == 3 ? 0.05 : speed * n * d.time_step;
+        for (int i = 0; i < 3; ++i)
+          hand.position[i] = good.position[i] + s * along[i];
+        const int status = kind == 1 ? modalrt_kernel_tick_missing(k, 1, &out) : modalrt_kernel_tick_impedance(k, &hand, 1, &out);
+        ENSURE(status == MODALRT_INPUT_REJECTED && (out.flags & MODALRT_HIP_FAIL_SAFE) && test::finite(out));
+        const double f = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
+        const double expected = kind == 3 ? std::max(0.0, f0 - n * rate)
+                                          : f0 * std::clamp(1.0 - stiffness * s * aligned / f0, 0.0, 1.0);
+        worst_error  = std::max(worst_error, std::fabs(f - expected));
+        largest_step = std::max(largest_step, std::fabs(previous - f));
+        if (kind < 2)
+          work += f * std::fabs(speed) * d.time_step * aligned; // along the force
+        if (f == 0.0 && first_zero < 0)
+          first_zero = n;
+        previous = f;
+      }
+    ENSURE(worst_error <= 1e-12 * f0);
+    ENSURE(largest_step <= rate * (1.0 + 1e-12));
+    if (kind == 2)
+      ENSURE(first_zero < 0 && previous == f0);
+    else
+      ENSURE(first_zero > 0 && first_zero < hold_ticks / 2);
+    if (kind < 2)
+      ENSURE(work <= f0 * f0 / (2.0 * stiffness));
+    const char *what[] = {"withdrawing, inputs rejected", "withdrawing, input missing", "pressing on", "input jumps 5 cm out"};
+    std::printf("  fail-safe plane (%s): %.3f N, zero after %d ticks, largest step %.4f N, work on the hand %.3g J "
+                "(the hold: %.3g J)\n",
+                what[kind], f0, first_zero, largest_step, work, kind < 2 ? f0 * std::fabs(speed) * d.fail_safe_hold : 0.0);
+    modalrt_kernel_destroy(k);
+    modalrt_basis_destroy(basis);
+  }
+
   // API misuse fails safely.
   void misuse()
   {
@@ -213,6 +290,8 @@ int main()
   bad_inputs(true);
   for (int kind = 0; kind < 3; ++kind)
     fail_safe_timeline(kind);
+  for (int kind = 0; kind < 4; ++kind)
+    fail_safe_plane(kind);
   misuse();
   return test::finish("test_device_input");
 }

@@ -30,6 +30,16 @@
  * Fail-safe tick n of a run (n = 1, 2, ...) scales the last safe force by 1 while n <= H, then by
  * max(0, 1 - (n - H) / R), with H = round(fail_safe_hold / time_step) and
  * R = max(2, round(fail_safe_ramp / time_step)) ticks.
+ * In impedance the force is, in addition, at most what a spring plane held at the hand's last
+ * accepted position gives it (the fail-safe plane): with F0 the last safe force and s the hand's
+ * travel since then along F0 (out of the part), the share 1 - k s / |F0| of F0, clamped to 0 .. 1,
+ * k the device's stable stiffness with a haptic scale (device.max_stiffness at the hand), else the
+ * coupling's. The hand is at the tick's own input when that input is finite and within
+ * workspace_radius (a rejected velocity, a rejected other HIP), else (a missing input, an absurd
+ * position) where its last accepted velocity carries it. The share changes by at most
+ * force_rate_limit per tick. A withdrawing hand is so given at most |F0|^2 / (2 k), as from a real
+ * surface, never the held force over the whole hold; a hand pressing on gets no more than F0; a still
+ * hand gets the hold and ramp above exactly. Admittance outputs are held and ramped only.
  * The call returns MODALRT_INPUT_REJECTED; modalrt_kernel_stats counts rejected and missing ticks
  * and the current run of fail-safe ticks. The next accepted tick ends the run.
  *
