@@ -119,20 +119,41 @@ namespace
     modalrt_basis_destroy(run.basis);
   }
 
+  // One HIP pressed 2 mm into the lattice's vertex 15 for 50 impedance ticks (the default definition,
+  // one HIP): the start of every fail-safe case below.
+  struct Pressed
+  {
+    modalrt_basis     *basis;
+    modalrt_kernel_def d;
+    modalrt_kernel    *k;
+    modalrt_hip_input  good;
+    modalrt_hip_output out;
+  };
+
+  Pressed press_lattice()
+  {
+    Pressed p{};
+    p.basis          = test::load(modalrt::make_lattice_cantilever());
+    p.d              = modalrt_kernel_default_def();
+    p.d.hip_capacity = 1;
+    p.k              = test::create(p.basis, p.d);
+    p.good           = test::hip_at(modalrt_basis_display_vertices(p.basis) + 3 * 15, 0.0, 0.0, 0.0);
+    p.good.position[2] -= 0.002;
+    for (int n = 0; n < 50; ++n)
+      modalrt_kernel_tick_impedance(p.k, &p.good, 1, &p.out);
+    return p;
+  }
+
   // The fail-safe rule over time, for one kind of bad input (`kind`: 0 a position of 1e30 m, 1 a
   // velocity of 101 m/s, 2 no input at all) in impedance while pressing.
   void fail_safe_timeline(int kind)
   {
-    modalrt_basis     *basis = test::load(modalrt::make_lattice_cantilever());
-    modalrt_kernel_def d     = modalrt_kernel_default_def();
-    d.hip_capacity           = 1;
-    modalrt_kernel    *k     = test::create(basis, d);
-    const double      *x     = modalrt_basis_display_vertices(basis);
-    modalrt_hip_input  good  = test::hip_at(x + 3 * 15, 0.0, 0.0, 0.0);
-    good.position[2] -= 0.002;
-    modalrt_hip_output out{};
-    for (int n = 0; n < 50; ++n)
-      modalrt_kernel_tick_impedance(k, &good, 1, &out);
+    Pressed             pressed = press_lattice();
+    modalrt_basis      *basis   = pressed.basis;
+    modalrt_kernel_def  d       = pressed.d;
+    modalrt_kernel     *k       = pressed.k;
+    modalrt_hip_input   good    = pressed.good;
+    modalrt_hip_output  out     = pressed.out;
     const double held = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
     ENSURE(out.in_contact == 1 && held > 0.5);
 
@@ -197,16 +218,12 @@ namespace
   // F0 x the distance); pressing on: F0, no more; the jump: down at the rate limit, no step.
   void fail_safe_plane(int kind)
   {
-    modalrt_basis     *basis = test::load(modalrt::make_lattice_cantilever());
-    modalrt_kernel_def d     = modalrt_kernel_default_def();
-    d.hip_capacity           = 1;
-    modalrt_kernel    *k     = test::create(basis, d);
-    const double      *x     = modalrt_basis_display_vertices(basis);
-    modalrt_hip_input  good  = test::hip_at(x + 3 * 15, 0.0, 0.0, 0.0);
-    good.position[2] -= 0.002;
-    modalrt_hip_output out{};
-    for (int n = 0; n < 50; ++n)
-      modalrt_kernel_tick_impedance(k, &good, 1, &out);
+    Pressed             pressed = press_lattice();
+    modalrt_basis      *basis   = pressed.basis;
+    modalrt_kernel_def  d       = pressed.d;
+    modalrt_kernel     *k       = pressed.k;
+    modalrt_hip_input   good    = pressed.good;
+    modalrt_hip_output  out     = pressed.out;
     const double speed = kind == 2 ? -0.02 : 0.02; // [m/s] along the force: out of the part
     double       along[3], F0[3];
     const double held = std::sqrt(out.force[0] * out.force[0] + out.force[1] * out.force[1] + out.force[2] * out.force[2]);
