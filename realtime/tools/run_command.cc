@@ -58,6 +58,10 @@ namespace modalrt_tool
       std::string command;                 // run, serve, or the app's command
       std::string profile;                 // --device NAME / --profile NAME: a device profile ("": none)
       double      haptic_scale  = 0.0;     // --haptic-scale: s (0: from the profile and the scene)
+      std::string design_b;                // --design-b FILE.mrt: a second design felt in turn ("": none)
+      double      fade          = 0.25;    // [s] --fade: from one design to the other
+      bool        blind         = false;   // --blind SEED: the session's trials in random order
+      std::uint32_t blind_seed  = 0;
     };
 
     // A bad command line: one message naming the option and the value.
@@ -190,6 +194,15 @@ namespace modalrt_tool
            throw UsageError{n + " '" + text + "' is not 1, 5 or 10 (percent)"};
          o.validity_level = std::uint32_t(std::stoul(text));
        }},
+      {"--design-b", for_run, "FILE.mrt", nullptr, // a second design, felt at the session's `design` rows
+       [](RunOptions &o, const std::string &, const char *v) { o.design_b = v; }},
+      {"--fade", for_run, "S", "0.25",
+       [](RunOptions &o, const std::string &n, const char *v) { o.fade = number_option(n, v, 1e-3, 10.0, "s"); }},
+      {"--blind", for_run, "SEED", nullptr, // the trials' order drawn from SEED; blind.csv logs the answers
+       [](RunOptions &o, const std::string &n, const char *v) {
+         o.blind      = true;
+         o.blind_seed = integer_option(n, v, 0, 4294967295.0);
+       }},
       {"--validity-clamp", for_both, nullptr, nullptr,
        [](RunOptions &o, const std::string &, const char *) { o.validity_clamp = true; }},
       {"--view", for_both, "PORT", nullptr, // the browser view on loopback port PORT (0: any free port), view/README.md
@@ -254,6 +267,10 @@ namespace modalrt_tool
         throw UsageError{"missing --session"};
       if (o.output_dir.empty())
         throw UsageError{"missing --output-dir"};
+      if (o.blind && o.design_b.empty())
+        throw UsageError{"--blind needs --design-b (the second design of the trials)"};
+      if (!o.design_b.empty() && o.view_port >= 0)
+        throw UsageError{"--view shows one design: it cannot be given with --design-b"};
       o.udp.rate = o.rate;
       return o;
     }
@@ -339,9 +356,13 @@ namespace modalrt_tool
     }
 
     bool write_outputs(const RunOptions &o, const RunReport &report, const HapticResult &haptic,
-                       const DisplayResult &display, const modalrt_basis *basis, std::uint32_t hips, std::string &error)
+                       const DisplayResult &display, const modalrt_basis *basis, const modalrt_basis *design_b,
+                       std::uint32_t hips, std::string &error)
     {
-      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, report.validity_level, error) &&
+      if (o.blind && !write_blind_log(o.output_dir + "/blind.csv", haptic.trials, error))
+        return false;
+      return write_trace(o.output_dir + "/trace.csv", haptic, hips, basis, o.impedance, report.validity_level, error,
+                         design_b) &&
              write_presses(o.output_dir + "/presses.csv", report.presses, o.impedance, report.validity_level, error,
                            report.mapping.force_scale) &&
              write_slides(o.output_dir + "/slides.csv", haptic.slides, report.slide_margins, report.validity_level,
@@ -414,16 +435,71 @@ namespace modalrt_tool
         device.reset();
         modalrt_kernel_destroy(kernel);
         modalrt_basis_destroy(basis);
+        modalrt_kernel_destroy(second.kernel);
+        modalrt_basis_destroy(const_cast<modalrt_basis *>(second.basis));
       }
 
       modalrt_basis               *basis  = nullptr;
       modalrt_kernel              *kernel = nullptr;
+      SecondDesign                 second; // --design-b (none: no kernel)
       modalrt_basis_info           info{};
       std::unique_ptr<Device>      device;
       modalrt_kernel_def           def{};
       double                       press_distance = 0.0; // [m] the session's press points to their vertices
       std::unique_ptr<RunObserver> view;
     };
+
+    // The session's design rows against the command line: `design` rows need --design-b and are not
+    // blind; `trial`, `present`, `answer` need --blind. false after a message.
+    bool check_design_events(const RunOptions &o, const Session &session)
+    {
+      const DesignEventCount count      = count_design_events(session);
+      const bool             blind_rows = count.trial + count.present + count.answer > 0;
+      const std::string      file       = "session '" + session.path + "'";
+      std::string            problem;
+      if (count.design > 0 && o.design_b.empty())
+        problem = file + " has 'design' rows: give the second design with --design-b";
+      else if (count.design > 0 && o.blind)
+        problem = file + " names designs in 'design' rows: a blind session presents slots ('trial', 'present', "
+                         "'answer' rows)";
+      else if (blind_rows && !o.blind)
+        problem = file + " has 'trial', 'present' or 'answer' rows: they need --blind SEED";
+      else if (o.blind && count.trial == 0)
+        problem = "--blind: " + file + " has no 'trial' row";
+      if (!problem.empty())
+        fail(problem);
+      return problem.empty();
+    }
+
+    // The second design: its basis, the session's press points resolved on it, and its kernel defined
+    // as the first's, with one haptic scale for both (the smaller: both designs' bands fit the device,
+    // and the hand compares them on one scale). false after a message.
+    bool open_second_design(const RunOptions &o, Session &session, Live &live)
+    {
+      modalrt_basis *basis = nullptr;
+      if (modalrt_basis_load(o.design_b.c_str(), &basis) != MODALRT_OK)
+        {
+          fail("bad basis file '" + o.design_b + "' (--design-b): " + modalrt_last_error_message());
+          return false;
+        }
+      live.second.basis = basis;
+      live.second.fade  = o.fade;
+      live.second.blind = o.blind;
+      live.second.seed  = o.blind_seed;
+      modalrt_basis_info info{};
+      modalrt_basis_get_info(basis, &info);
+      live.press_distance = std::max(live.press_distance, resolve_press_vertices(session, modalrt_basis_display_vertices(basis),
+                                                                                 info.display_vertex_count, true));
+      modalrt_kernel_def def = kernel_def(o, live.device->spec(), basis, session);
+      if (def.haptic_scale > 0.0 && live.def.haptic_scale > 0.0)
+        def.haptic_scale = live.def.haptic_scale = std::min(def.haptic_scale, live.def.haptic_scale);
+      if (modalrt_kernel_create(basis, &def, &live.second.kernel) != MODALRT_OK)
+        {
+          fail(std::string("cannot create the kernel of '") + o.design_b + "': " + modalrt_last_error_message());
+          return false;
+        }
+      return true;
+    }
 
     // Loads the basis, makes and opens the device, creates the kernel for it. false after a message.
     bool open_live(const RunOptions &o, Session &session, Live &live)
@@ -445,6 +521,8 @@ namespace modalrt_tool
         }
       session.hip_count = live.device->hip_count();
       live.def          = kernel_def(o, live.device->spec(), live.basis, session);
+      if (!o.design_b.empty() && !open_second_design(o, session, live))
+        return false;
       if (modalrt_kernel_create(live.basis, &live.def, &live.kernel) != MODALRT_OK)
         {
           fail(std::string("cannot create the kernel: ") + modalrt_last_error_message());
@@ -499,7 +577,31 @@ namespace modalrt_tool
       report.validity_level     = live.def.validity_level;
       report.validity_clamp     = live.def.validity_clamp != 0;
       report.validity_map       = has_validity_map(live.basis);
+      report.design_b           = o.design_b;
+      report.design_fade        = o.fade;
+      report.blind              = o.blind;
+      report.blind_seed         = o.blind_seed;
       return report;
+    }
+
+    // Two designs: each design's presses from its own rows of the trace, against its own basis (a press
+    // is cut where the design felt changes), in order of start.
+    std::vector<Press> presses_of_both_designs(const RunOptions &o, const Session &session, const Live &live,
+                                               const HapticResult &haptic, double force_scale)
+    {
+      std::vector<Press> presses;
+      for (std::uint32_t design : {0u, 1u})
+        {
+          const modalrt_basis *basis = design == 0 ? live.basis : live.second.basis;
+          for (Press p : find_presses(trace_of_design(haptic, session.hip_count, design), session.hip_count, basis,
+                                      o.impedance, live.def.validity_level, force_scale))
+            {
+              p.design = design;
+              presses.push_back(p);
+            }
+        }
+      std::stable_sort(presses.begin(), presses.end(), [](const Press &a, const Press &b) { return a.start < b.start; });
+      return presses;
     }
 
     // After the run: the files of --output-dir, the plot and the summary.
@@ -507,11 +609,14 @@ namespace modalrt_tool
                       const HapticResult &haptic, const DisplayResult &display)
     {
       RunReport report = make_report(o, session, duration, live, haptic, display);
-      report.presses   = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level,
+      if (live.second.kernel)
+        report.presses = presses_of_both_designs(o, session, live, haptic, report.mapping.force_scale);
+      else
+        report.presses = find_presses(haptic, session.hip_count, live.basis, o.impedance, live.def.validity_level,
                                       report.mapping.force_scale);
       report.slide_margins = find_slide_margins(haptic, session.hip_count, live.basis, live.def.validity_level);
       std::string error;
-      if (!write_outputs(o, report, haptic, display, live.basis, session.hip_count, error))
+      if (!write_outputs(o, report, haptic, display, live.basis, live.second.basis, session.hip_count, error))
         return fail(error);
       report.plot_written       = draw_plot(o, "plot_force_displacement.py", "force_displacement.png", true);
       report.slide_plot_written = draw_plot(o, "plot_slide_stiffness.py", "slide_stiffness.png", !haptic.slides.empty());
@@ -561,6 +666,8 @@ namespace modalrt_tool
         return fail("the session is " + std::to_string(std::llround(duration * o.rate)) + " ticks long (" +
                     std::to_string(duration) + " s at " + std::to_string(o.rate) + " Hz): it must be 1 .. " +
                     std::to_string(max_ticks));
+      if (!check_design_events(o, session))
+        return 1;
       Live        live;
       std::string error;
       if (!open_live(o, session, live))
@@ -575,7 +682,7 @@ namespace modalrt_tool
       DisplayResult   display_result;
       install_stop_handler();
       run_threads(live.kernel, live.basis, *live.device, session, haptic, display, live.view.get(), haptic_result,
-                  display_result);
+                  display_result, live.second.kernel ? &live.second : nullptr);
       live.device->close();
       if (!o.app)
         return write_results(o, session, duration, live, haptic_result, display_result);

@@ -2,12 +2,14 @@
 
 #include "allocation_counter.h"
 #include "run_outputs.h"
+#include "stiffness_map.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <csignal>
+#include <memory>
 #include <thread>
 
 #include <pthread.h>
@@ -58,12 +60,22 @@ namespace modalrt_tool
     class HapticLoop
     {
     public:
-      HapticLoop(modalrt_kernel *kernel, Device &device, const Session &session, const HapticSettings &settings,
-                 RunObserver *observer, HapticResult &result)
+      HapticLoop(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
+                 const HapticSettings &settings, RunObserver *observer, HapticResult &result,
+                 const SecondDesign *second, std::atomic<std::uint32_t> &front_design)
         : kernel_(kernel), device_(device), session_(session), settings_(settings), observer_(observer),
-          result_(result), hips_(device.hip_count()), inputs_(hips_), outputs_(hips_)
+          result_(result), hips_(device.hip_count()), inputs_(hips_), outputs_(hips_),
+          second_(second ? *second : SecondDesign{}), bases_{basis, second_.basis}, front_design_(front_design),
+          blend_(second_.fade * settings.rate, modalrt_kernel_default_def().force_rate_limit)
       {
         result_.beyond_validity_ticks.assign(hips_, 0);
+        if (second_.kernel)
+          {
+            outputs_a_.resize(hips_);
+            outputs_b_.resize(hips_);
+          }
+        if (second_.blind)
+          blind_ = BlindTrials(count_design_events(session).trial, second_.seed);
         if (!settings.record)
           return;
         result_.latency_us.assign(settings.tick_limit, 0.0f);
@@ -142,24 +154,26 @@ namespace modalrt_tool
           }
         result_.last_inputs  = inputs_;
         result_.last_outputs = outputs_;
+        result_.trials       = blind_.trials();
       }
 
       void tick(std::uint64_t n, double t)
       {
         apply_events(t);
         apply_frame(t);
-        const bool fresh = device_.read_state(t, inputs_.data());
-        if (device_.take_session_change())
-          modalrt_kernel_begin_session(kernel_); // no contact carries over to a new device session
-        if (!fresh)
-          modalrt_kernel_tick_missing(kernel_, hips_, outputs_.data()); // the fail-safe rule
+        const bool fresh       = device_.read_state(t, inputs_.data());
+        const bool new_session = device_.take_session_change(); // no contact carries over to a new device session
+        if (fresh)
+          apply_contact_requests();
+        if (!second_.kernel)
+          tick_kernel(kernel_, fresh, new_session, outputs_.data());
         else
           {
-            apply_contact_requests();
-            if (settings_.impedance)
-              modalrt_kernel_tick_impedance(kernel_, inputs_.data(), hips_, outputs_.data());
-            else
-              modalrt_kernel_tick_admittance(kernel_, inputs_.data(), hips_, outputs_.data());
+            tick_kernel(kernel_, fresh, new_session, outputs_a_.data());
+            tick_kernel(second_.kernel, fresh, new_session, outputs_b_.data());
+            blend_.blend(outputs_a_.data(), outputs_b_.data(), hips_, outputs_.data());
+            front_design_.store(blend_.front(), std::memory_order_relaxed);
+            observe_blind();
           }
         for (std::uint32_t h = 0; h < hips_; ++h)
           {
@@ -180,6 +194,32 @@ namespace modalrt_tool
         slides_.observe(t, inputs_.data(), outputs_.data(), frame_position_);
         if (n % settings_.trace_decimation == 0)
           record_trace(n / settings_.trace_decimation, t);
+      }
+
+      void tick_kernel(modalrt_kernel *kernel, bool fresh, bool new_session, modalrt_hip_output *outputs)
+      {
+        if (new_session)
+          modalrt_kernel_begin_session(kernel);
+        if (!fresh)
+          modalrt_kernel_tick_missing(kernel, hips_, outputs); // the fail-safe rule
+        else if (settings_.impedance)
+          modalrt_kernel_tick_impedance(kernel, inputs_.data(), hips_, outputs);
+        else
+          modalrt_kernel_tick_admittance(kernel, inputs_.data(), hips_, outputs);
+      }
+
+      // The blind mode's truth: the map value at the first HIP's contact while one design is felt alone.
+      void observe_blind()
+      {
+        if (!blind_.active() || blend_.fading())
+          return;
+        const std::uint32_t design = blend_.front();
+        for (std::uint32_t h = 0; h < hips_; ++h)
+          if (outputs_[h].in_contact && outputs_[h].active_vertex != MODALRT_NONE)
+            {
+              blind_.observe(scene_felt_stiffness(bases_[design], outputs_[h].active_vertex));
+              return;
+            }
       }
 
       // A device that picks its contacts itself (the view's mouse clicks a vertex).
@@ -205,12 +245,50 @@ namespace modalrt_tool
         const std::vector<Event> &events = session_.events;
         for (; next_event_ < events.size() && events[next_event_].time <= t; ++next_event_)
           {
-            const Event &e      = events[next_event_];
-            const int    status = e.kind == EventKind::press ? modalrt_kernel_contact_begin(kernel_, e.hip, e.vertex)
-                                                             : modalrt_kernel_release_hip(kernel_, e.hip);
+            const Event &e = events[next_event_];
             ++result_.events_applied;
-            if (status != MODALRT_OK)
-              ++result_.failed_events;
+            if (e.kind == EventKind::press || e.kind == EventKind::release)
+              apply_contact_event(e);
+            else
+              apply_design_event(e, t);
+          }
+      }
+
+      void apply_contact_event(const Event &e)
+      {
+        const bool press  = e.kind == EventKind::press;
+        int        status = press ? modalrt_kernel_contact_begin(kernel_, e.hip, e.vertex)
+                                  : modalrt_kernel_release_hip(kernel_, e.hip);
+        if (second_.kernel && status == MODALRT_OK)
+          status = press ? modalrt_kernel_contact_begin(second_.kernel, e.hip, e.vertex_b)
+                         : modalrt_kernel_release_hip(second_.kernel, e.hip);
+        if (status != MODALRT_OK)
+          ++result_.failed_events;
+      }
+
+      // design, trial, present, answer: which design the hand feels (run_command checks before the
+      // first tick that they come with a second design, and the blind ones with the blind mode).
+      void apply_design_event(const Event &e, double t)
+      {
+        switch (e.kind)
+          {
+            case EventKind::design:
+              blend_.show(e.choice);
+              ++result_.design_switches;
+              break;
+            case EventKind::trial:
+              blind_.begin(t);
+              break;
+            case EventKind::present:
+              blind_.shown(e.choice);
+              blend_.show(blind_.design_of(e.choice));
+              ++result_.design_switches;
+              break;
+            case EventKind::answer:
+              blind_.answer(e.choice, t);
+              break;
+            default:
+              break;
           }
       }
 
@@ -249,6 +327,8 @@ namespace modalrt_tool
             s.flags         = o.flags;
             s.proxy_triangle = o.proxy_triangle;
             std::copy_n(o.proxy_weights, 3, s.proxy_weights);
+            s.design       = blend_.front();
+            s.design_share = float(blend_.share_b());
           }
       }
 
@@ -265,28 +345,58 @@ namespace modalrt_tool
       std::size_t                     frame_cursor_ = 0;
       double                          frame_position_[3] = {0.0, 0.0, 0.0}; // [m] of the last accepted frame
       SlideTracker                    slides_;
+      const SecondDesign              second_;
+      const modalrt_basis            *bases_[2];
+      std::atomic<std::uint32_t>     &front_design_; // read by the display thread
+      DesignBlend                     blend_;
+      BlindTrials                     blind_;
+      std::vector<modalrt_hip_output> outputs_a_, outputs_b_; // two designs: each kernel's own
     };
 
-    // The display side: snapshots at 60 Hz, a VTU frame every 1/frame_rate s of simulated time.
-    class DisplayLoop
+    // What the display thread reads of one design: its kernel's snapshot and its surface's frames.
+    struct DesignDisplay
     {
-    public:
-      DisplayLoop(modalrt_kernel *kernel, const modalrt_basis *basis, const DisplaySettings &settings,
-                  RunObserver *observer, DisplayResult &result)
-        : kernel_(kernel), settings_(settings), observer_(observer), result_(result), writer_(basis)
+      DesignDisplay(modalrt_kernel *design_kernel, const modalrt_basis *basis) : kernel(design_kernel), writer(basis)
       {
         modalrt_basis_info info;
         modalrt_basis_get_info(basis, &info);
-        displacements_.assign(3 * std::size_t(info.display_vertex_count), 0.0f);
-        vertex_count_ = info.display_vertex_count;
-        if (modalrt_snapshot_create(kernel, &snapshot_) != MODALRT_OK)
-          result_.error = std::string("cannot create a display snapshot: ") + modalrt_last_error_message();
+        vertex_count = info.display_vertex_count;
+        displacements.assign(3 * std::size_t(vertex_count), 0.0f);
+        if (modalrt_snapshot_create(kernel, &snapshot) != MODALRT_OK)
+          snapshot = nullptr;
       }
-      ~DisplayLoop() { modalrt_snapshot_destroy(snapshot_); }
+      ~DesignDisplay() { modalrt_snapshot_destroy(snapshot); }
+      DesignDisplay(const DesignDisplay &) = delete;
+      DesignDisplay &operator=(const DesignDisplay &) = delete;
+
+      modalrt_kernel    *kernel;
+      VtuFrameWriter     writer;
+      modalrt_snapshot  *snapshot = nullptr;
+      std::vector<float> displacements;
+      std::uint32_t      vertex_count = 0;
+    };
+
+    // The display side: snapshots at 60 Hz, a VTU frame every 1/frame_rate s of simulated time, of
+    // the design in front (two designs: the one the hand mostly feels).
+    class DisplayLoop
+    {
+    public:
+      DisplayLoop(modalrt_kernel *kernel, const modalrt_basis *basis, const SecondDesign *second,
+                  const DisplaySettings &settings, RunObserver *observer, DisplayResult &result,
+                  const std::atomic<std::uint32_t> &front_design)
+        : settings_(settings), observer_(observer), result_(result), front_design_(front_design)
+      {
+        designs_.emplace_back(new DesignDisplay(kernel, basis));
+        if (second && second->kernel)
+          designs_.emplace_back(new DesignDisplay(second->kernel, second->basis));
+        for (const auto &design : designs_)
+          if (!design->snapshot)
+            result_.error = std::string("cannot create a display snapshot: ") + modalrt_last_error_message();
+      }
 
       void run(const std::atomic<bool> &haptic_done)
       {
-        if (!snapshot_)
+        if (!result_.error.empty())
           return;
         const auto period   = std::chrono::nanoseconds(std::llround(1e9 / settings_.rate));
         auto       deadline = Clock::now();
@@ -304,25 +414,26 @@ namespace modalrt_tool
     private:
       void redraw(bool last)
       {
-        const bool fresh = modalrt_kernel_snapshot_read(kernel_, snapshot_) == 1;
-        if (fresh && observer_)
-          observer_->displayed(snapshot_);
+        DesignDisplay &d     = *designs_[std::min<std::size_t>(front_design_.load(), designs_.size() - 1)];
+        const bool     fresh = modalrt_kernel_snapshot_read(d.kernel, d.snapshot) == 1;
+        if (fresh && observer_ && &d == designs_.front().get())
+          observer_->displayed(d.snapshot);
         if ((!fresh && !last) || !settings_.reconstruct)
           return;
         const Clock::time_point begin = Clock::now();
-        modalrt_display_reconstruct(snapshot_, 0, vertex_count_, MODALRT_DISPLAY_DISPLACEMENTS, displacements_.data());
+        modalrt_display_reconstruct(d.snapshot, 0, d.vertex_count, MODALRT_DISPLAY_DISPLACEMENTS, d.displacements.data());
         ++result_.reconstructions;
         result_.max_reconstruct_ms =
           std::max(result_.max_reconstruct_ms, std::chrono::duration<double, std::milli>(Clock::now() - begin).count());
         modalrt_snapshot_info info;
-        modalrt_snapshot_get_info(snapshot_, &info);
+        modalrt_snapshot_get_info(d.snapshot, &info);
         const bool due = settings_.frame_rate > 0.0 && (info.time >= next_frame_time_ || last);
         if (!due || !result_.error.empty() || (last && !result_.frames.empty() && result_.frames.back().time == info.time))
           return;
         char name[64];
         std::snprintf(name, sizeof name, "frames/frame_%06zu.vtu", result_.frames.size());
         std::string error;
-        if (!writer_.write(settings_.output_dir + "/" + name, info, displacements_.data(), error))
+        if (!d.writer.write(settings_.output_dir + "/" + name, info, d.displacements.data(), error))
           {
             result_.error = error;
             return;
@@ -331,15 +442,12 @@ namespace modalrt_tool
         next_frame_time_ = info.time + 1.0 / settings_.frame_rate;
       }
 
-      modalrt_kernel        *kernel_;
-      const DisplaySettings &settings_;
-      RunObserver           *observer_;
-      DisplayResult         &result_;
-      VtuFrameWriter         writer_;
-      modalrt_snapshot      *snapshot_ = nullptr;
-      std::vector<float>     displacements_;
-      std::uint32_t          vertex_count_   = 0;
-      double                 next_frame_time_ = 0.0;
+      const DisplaySettings                      &settings_;
+      RunObserver                                *observer_;
+      DisplayResult                              &result_;
+      const std::atomic<std::uint32_t>           &front_design_;
+      std::vector<std::unique_ptr<DesignDisplay>> designs_;
+      double                                      next_frame_time_ = 0.0;
     };
   } // namespace
 
@@ -358,10 +466,11 @@ namespace modalrt_tool
 
   void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
                    const HapticSettings &haptic, const DisplaySettings &display, RunObserver *observer,
-                   HapticResult &haptic_result, DisplayResult &display_result)
+                   HapticResult &haptic_result, DisplayResult &display_result, const SecondDesign *second)
   {
-    HapticLoop        haptic_loop(kernel, device, session, haptic, observer, haptic_result);
-    DisplayLoop       display_loop(kernel, basis, display, observer, display_result);
+    std::atomic<std::uint32_t> front_design{0};
+    HapticLoop  haptic_loop(kernel, basis, device, session, haptic, observer, haptic_result, second, front_design);
+    DisplayLoop display_loop(kernel, basis, second, display, observer, display_result, front_design);
     std::atomic<bool> haptic_done{false};
     std::thread       display_thread([&] { display_loop.run(haptic_done); });
     std::thread       haptic_thread([&] { haptic_loop.run(haptic_done); });

@@ -15,6 +15,7 @@
 // here, with their own Device; a RunObserver (the browser view) watches both threads.
 #pragma once
 
+#include "design_pair.h"
 #include "devices.h"
 #include "session.h"
 #include "slides.h"
@@ -44,6 +45,9 @@ namespace modalrt_tool
     std::uint32_t flags;         // MODALRT_HIP_* of that tick (presses.csv skips FAIL_SAFE and FORCE_RAMPING)
     std::uint32_t proxy_triangle   = MODALRT_NONE; // proxy contact: its display triangle
     double        proxy_weights[3] = {0.0, 0.0, 0.0}; // [-] its barycentric weights there
+    std::uint32_t design           = 0;    // two designs: the one in front (0 A, 1 B); vertex, space and
+                                           // proxy are of its basis
+    float         design_share     = 0.0f; // [-] two designs: B's share of the output (0 < share < 1: a fade)
   };
 
   struct HapticSettings
@@ -78,6 +82,19 @@ namespace modalrt_tool
     std::uint64_t            slides_dropped = 0; // beyond the records' capacity
     std::vector<modalrt_hip_input>  last_inputs;
     std::vector<modalrt_hip_output> last_outputs;
+    std::uint64_t                   design_switches = 0; // two designs: `design` and `present` events
+    std::vector<BlindTrial>         trials;              // the blind mode's trials
+  };
+
+  // The second design of `modal-rt run --design-b` (design_pair.h): its kernel and basis, the fade
+  // between the two, and the blind mode's seed. Its kernel sees every input and event the first sees.
+  struct SecondDesign
+  {
+    modalrt_kernel      *kernel = nullptr;
+    const modalrt_basis *basis  = nullptr;
+    double               fade   = 0.25; // [s] from one design to the other
+    bool                 blind  = false;
+    std::uint32_t        seed   = 0;
   };
 
   struct FrameRecord
@@ -129,8 +146,8 @@ namespace modalrt_tool
   bool stop_requested();
 
   // Runs both threads to the end of the session or a stop request; returns when both are done.
-  // `observer` (may be null) watches them.
+  // `observer` (may be null) watches them; `second` (may be null) is a second design felt in turn.
   void run_threads(modalrt_kernel *kernel, const modalrt_basis *basis, Device &device, const Session &session,
                    const HapticSettings &haptic, const DisplaySettings &display, RunObserver *observer,
-                   HapticResult &haptic_result, DisplayResult &display_result);
+                   HapticResult &haptic_result, DisplayResult &display_result, const SecondDesign *second = nullptr);
 } // namespace modalrt_tool

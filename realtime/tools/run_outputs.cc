@@ -1,5 +1,7 @@
 #include "run_outputs.h"
 
+#include "design_pair.h"
+
 #include "allocation_counter.h"
 #include "stiffness_map.h"
 #include "vertex_info.h"
@@ -192,7 +194,8 @@ namespace modalrt_tool
   }
 
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
-                   const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error)
+                   const modalrt_basis *basis_a, bool impedance, std::uint32_t validity_level, std::string &error,
+                   const modalrt_basis *design_b)
   {
     std::string text = "# modal-rt run trace: time [s]; per HIP h: device position [m], contact point [m] "
                        "(the felt point in contact: a proxy's position on the deformed surface; else the device), "
@@ -204,13 +207,15 @@ namespace modalrt_tool
                        "felt_stiffness fn / the load point's displacement into the part [N/m] (nan: not in "
                        "contact), beyond 1 when the output is flagged MODALRT_HIP_BEYOND_VALIDITY (256: |F| above "
                        "validity_force), validity_force the validity map's force there at the kernel's level [N] "
-                       "(nan: no value); then the origin of the part's frame [m]\ntime";
+                       "(nan: no value); then the origin of the part's frame [m]; with two designs felt in turn, "
+                       "design (A or B, the one in front: vertex, space and stiffness are of its basis) and "
+                       "design_b_share (B's share of the output: 0 < share < 1 during a fade)\ntime";
     for (std::uint32_t h = 0; h < hip_count; ++h)
       for (const char *column : {"x", "y", "z", "cx", "cy", "cz", "fx", "fy", "fz", "contact", "vertex", "space", "flags",
                                  "triangle", "w0", "w1", "w2", "fn", "ft", "static_stiffness", "felt_stiffness",
                                  "beyond", "validity_force"})
         text += ",hip" + std::to_string(h) + "_" + column;
-    text += ",frame_x,frame_y,frame_z\n";
+    text += design_b ? ",frame_x,frame_y,frame_z,design,design_b_share\n" : ",frame_x,frame_y,frame_z\n";
     const std::uint64_t rows = result.trace.size() / std::max<std::uint32_t>(hip_count, 1);
     char                field[64];
     for (std::uint64_t r = 0; r < rows; ++r)
@@ -218,7 +223,8 @@ namespace modalrt_tool
         text += format("%.9g", result.trace[r * hip_count].time);
         for (std::uint32_t h = 0; h < hip_count; ++h)
           {
-            const TraceSample &s = result.trace[r * hip_count + h];
+            const TraceSample   &s     = result.trace[r * hip_count + h];
+            const modalrt_basis *basis = design_b && s.design == 1 ? design_b : basis_a;
             for (const double *v : {s.hip, s.contact, s.force})
               for (int d = 0; d < 3; ++d)
                 text += "," + format("%.9g", v[d]);
@@ -233,7 +239,11 @@ namespace modalrt_tool
             text += format("%.9g", trace_validity_force(basis, s, validity_level));
           }
         const double *frame = result.trace[r * hip_count].frame;
-        text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]) + '\n';
+        text += "," + format("%.9g", frame[0]) + "," + format("%.9g", frame[1]) + "," + format("%.9g", frame[2]);
+        if (design_b)
+          text += std::string(",") + "AB"[result.trace[r * hip_count].design] + "," +
+                  format("%.9g", result.trace[r * hip_count].design_share);
+        text += '\n';
       }
     return write_file_atomically(path, text, error);
   }
@@ -579,12 +589,13 @@ namespace modalrt_tool
       "rendered), felt_stiffness_n_per_m the stiffness at the contact (the force on the part, felt_force / force_scale, "
       "over felt_displacement); hand_travel_m the device's own travel into the surface along n at felt_time_s (device "
       "units), stiffness_at_hand_n_per_m = felt_force / hand_travel (what the hand feels), force_scale the haptic "
-      "mapping's force at the hand / force on the part (1 without a scale)\n"
+      "mapping's force at the hand / force on the part (1 without a scale); design the design pressed (A: --basis, "
+      "B: --design-b; a press is cut where the design felt changes)\n"
       "press,hip,space,space_name,vertex,start_s,end_s,nx,ny,nz,rest_x,rest_y,rest_z,compliance_m_per_n,full_fe,"
       "force_sign,max_contacts,felt_time_s,felt_force_n,felt_displacement_m,felt_stiffness_n_per_m,static_stiffness_n_per_m,"
       "ratio,felt_contacts,other_vertices,multi_static_stiffness_n_per_m,multi_full_fe,multi_ratio,multi_note,"
       "max_force_n,validity_level_pct,validity_force_n,beyond_validity,beyond_start_s,beyond_force_n,"
-      "hand_travel_m,stiffness_at_hand_n_per_m,force_scale\n";
+      "hand_travel_m,stiffness_at_hand_n_per_m,force_scale,design\n";
     char line[1024];
     for (std::size_t k = 0; k < presses.size(); ++k)
       {
@@ -603,9 +614,9 @@ namespace modalrt_tool
                       p.felt_stiffness / p.multi_stiffness, p.multi_note.c_str());
         text += line;
         text.pop_back(); // the validity columns
-        std::snprintf(line, sizeof line, ",%.9g,%u,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g\n", p.max_force, validity_level,
+        std::snprintf(line, sizeof line, ",%.9g,%u,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g,%c\n", p.max_force, validity_level,
                       p.validity_force, p.beyond ? 1 : 0, p.beyond_time, p.beyond_force, p.hand_travel,
-                      p.hand_stiffness, force_scale);
+                      p.hand_stiffness, force_scale, "AB"[p.design]);
         text += line;
       }
     return write_file_atomically(path, text, error);
@@ -847,9 +858,25 @@ namespace modalrt_tool
                         {"max_passivity_damping_n_s_per_m", r.kernel.max_passivity_damping},
                         {"passivity_damped_ticks", r.kernel.passivity_damped_ticks},
                         {"beyond_range_ticks", r.kernel.beyond_range_ticks}};
+    if (!r.design_b.empty())
+      {
+        const BlindScore b = score(h.trials);
+        o["designs"]       = Json{{"a", r.basis},
+                                  {"b", r.design_b},
+                                  {"fade_s", r.design_fade},
+                                  {"switches", h.design_switches},
+                                  {"blind", r.blind}};
+        if (r.blind)
+          o["designs"]["blind_trials"] = Json{{"seed", r.blind_seed},
+                                              {"trials", h.trials.size()},
+                                              {"scored", b.answered},
+                                              {"correct", b.correct},
+                                              {"chance", b.chance}};
+      }
     o["presses"] = Json::array();
     for (const Press &p : r.presses)
       o["presses"].push_back(Json{{"hip", p.hip},
+                                  {"design", std::string(1, "AB"[p.design])},
                                   {"vertex", p.vertex},
                                   {"space", p.space_name},
                                   {"stiffness_at_hand_n_per_m", p.hand_stiffness},
@@ -902,7 +929,7 @@ namespace modalrt_tool
   namespace
   {
     // Per press: the felt stiffness at the end of the push against the static stiffness of the contact.
-    void print_presses(const std::vector<Press> &presses)
+    void print_presses(const std::vector<Press> &presses, bool two_designs)
     {
       constexpr std::size_t shown = 12; // one screen; presses.csv has them all
       if (!presses.empty())
@@ -912,9 +939,10 @@ namespace modalrt_tool
       for (std::size_t k = 0; k < std::min(presses.size(), shown); ++k)
         {
           const Press &p = presses[k];
-          std::printf("  press %-7zu HIP %u, %s vertex %u, %.2f-%.2f s%s: at the hand %.4g N/mm (%.3g N, %.3g mm at "
+          std::printf("  press %-7zu HIP %u, %s%s vertex %u, %.2f-%.2f s%s: at the hand %.4g N/mm (%.3g N, %.3g mm at "
                       "%.2f s); at the contact %.4g N/mm; %s %.4g N/mm; ratio %.3f\n",
-                      k, p.hip, p.space_name.c_str(), p.vertex, p.start, p.end,
+                      k, p.hip, two_designs ? (p.design ? "design B " : "design A ") : "", p.space_name.c_str(),
+                      p.vertex, p.start, p.end,
                       p.max_contacts > 1 ? " (several HIPs in contact)" : "", 1e-3 * p.hand_stiffness, p.felt_force,
                       1e3 * p.hand_travel, p.felt_time, 1e-3 * p.felt_stiffness,
                       p.full_fe ? "full-FE static" : "modal-only static (no full-FE reference)",
@@ -1029,6 +1057,23 @@ namespace modalrt_tool
     }
   } // namespace
 
+  namespace
+  {
+    // Two designs felt in turn: which is which, the switches, and the blind mode's score.
+    void print_designs(const RunReport &r)
+    {
+      const HapticResult &h = *r.haptic;
+      std::printf("  designs       A %s, B %s: %llu switches, each faded over %g s (both kernels ticked every tick)\n",
+                  r.basis.c_str(), r.design_b.c_str(), (unsigned long long)h.design_switches, r.design_fade);
+      if (!r.blind)
+        return;
+      const BlindScore b = score(h.trials);
+      std::printf("  blind A/B     seed %u, %zu trials: %u of %u scored answers right (the stiffer slot by the "
+                  "felt-stiffness maps); %.3g chance of as many by guessing; blind.csv\n",
+                  r.blind_seed, h.trials.size(), b.correct, b.answered, b.chance);
+    }
+  } // namespace
+
   void print_summary(const RunReport &r)
   {
     const HapticResult  &h = *r.haptic;
@@ -1069,7 +1114,9 @@ namespace modalrt_tool
     std::printf("  display       %llu reconstructions (max %.2f ms), %zu frames written%s%s\n",
                 (unsigned long long)d.reconstructions, d.max_reconstruct_ms, d.frames.size(),
                 d.error.empty() ? "" : "; ERROR: ", d.error.c_str());
-    print_presses(r.presses);
+    if (!r.design_b.empty())
+      print_designs(r);
+    print_presses(r.presses, !r.design_b.empty());
     print_press_validity(r);
     print_slides(r);
     for (std::size_t k = 0; k < h.last_outputs.size(); ++k)
@@ -1079,8 +1126,8 @@ namespace modalrt_tool
                     o.in_contact ? ("vertex " + std::to_string(o.active_vertex)).c_str() : "free", o.space,
                     o.position[0], o.position[1], o.position[2], o.force[0], o.force[1], o.force[2]);
       }
-    std::printf("  outputs       %s/{stats.json, trace.csv, presses.csv, slides.csv, frames.pvd, frames/%s%s}\n",
-                r.output_dir.c_str(), r.plot_written ? ", force_displacement.png" : "",
+    std::printf("  outputs       %s/{stats.json, trace.csv, presses.csv, slides.csv, frames.pvd, frames/%s%s%s}\n",
+                r.output_dir.c_str(), r.blind ? ", blind.csv" : "", r.plot_written ? ", force_displacement.png" : "",
                 r.slide_plot_written ? ", slide_stiffness.png" : "");
   }
 } // namespace modalrt_tool

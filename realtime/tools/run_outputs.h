@@ -40,8 +40,11 @@ namespace modalrt_tool
   // contact's load point, the normal and friction forces and the static and felt stiffness (from
   // `basis`; `impedance`: the trace's force is the one rendered on the device).
   // `validity_level` [%]: the kernel's (its flag's) level, for the validity force at each contact.
+  // `design_b`: the second design's basis (two designs felt in turn): rows of design B are referenced
+  // against it, and the columns design and design_b_share close each row.
   bool write_trace(const std::string &path, const HapticResult &result, std::uint32_t hip_count,
-                   const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error);
+                   const modalrt_basis *basis, bool impedance, std::uint32_t validity_level, std::string &error,
+                   const modalrt_basis *design_b = nullptr);
   // The validity force [N] at a trace row's contact at `level` [%] (stiffness_map.h's
   // contact_validity_force); NaN out of contact or without one.
   double trace_validity_force(const modalrt_basis *basis, const TraceSample &s, std::uint32_t level);
@@ -80,6 +83,8 @@ namespace modalrt_tool
   struct Press
   {
     std::uint32_t hip = 0, vertex = 0;
+    std::uint32_t design = 0;          // two designs felt in turn: 0 A (--basis), 1 B (--design-b); vertex,
+                                       // space and the static reference are of its basis
     std::uint32_t space = 0;           // active space at the press's last row (the compliance's space)
     std::string   space_name;
     std::size_t   first_row = 0, last_row = 0; // trace rows
@@ -162,6 +167,10 @@ namespace modalrt_tool
     std::string         profile;                // --device/--profile NAME ("" none)
     modalrt_haptic_mapping mapping{};           // the kernel's (modalrt_kernel_get_haptic_mapping)
     std::string         scale_line;             // "1 N/mm at the hand = ..." ("" without a scale)
+    std::string         design_b;               // --design-b FILE ("": one design)
+    double              design_fade = 0.0;      // [s] --fade
+    bool                blind       = false;    // --blind
+    std::uint32_t       blind_seed  = 0;
   };
 
   RunReport   summarize(const HapticResult &haptic, double rate);

@@ -127,6 +127,38 @@ namespace modalrt_tool
         }
     }
 
+    // The events of two designs felt in turn: `design,A|B`; the blind mode's `trial`, `present,1|2`
+    // and `answer,1|2` (its column x holds the choice).
+    Event parse_design_event(const RowContext &at, const std::vector<std::string> &fields, double time)
+    {
+      const std::string &event  = fields[2];
+      const std::string  choice = fields.size() > 3 ? fields[3] : std::string();
+      for (std::size_t k = 4; k < fields.size(); ++k)
+        if (!fields[k].empty())
+          at.fail("event '" + event + "' takes one value in column x (found '" + fields[k] + "' after it)");
+      Event e{time, 0, EventKind::trial, {0.0, 0.0, 0.0}, 0, at.line};
+      if (event == "trial")
+        {
+          if (!choice.empty())
+            at.fail("event 'trial' takes no value (found '" + choice + "')");
+        }
+      else if (event == "design")
+        {
+          if (choice != "A" && choice != "B")
+            at.fail("event 'design' takes A or B in column x (found '" + choice + "')");
+          e.kind   = EventKind::design;
+          e.choice = choice == "B" ? 1 : 0;
+        }
+      else
+        {
+          if (choice != "1" && choice != "2")
+            at.fail("event '" + event + "' takes slot 1 or 2 in column x (found '" + choice + "')");
+          e.kind   = event == "present" ? EventKind::present : EventKind::answer;
+          e.choice = choice == "2" ? 2 : 1;
+        }
+      return e;
+    }
+
     // One data row: appended to the session's channels or events.
     void parse_row(const RowContext &at, const std::vector<std::string> &fields, Session &s, double &last_time,
                    bool &ended)
@@ -144,7 +176,8 @@ namespace modalrt_tool
       last_time = time;
 
       const std::string &event    = fields[2];
-      const bool         hip_free = event == "frame" || event == "end" || event == "proxy";
+      const bool         hip_free = event == "frame" || event == "end" || event == "proxy" || event == "design" ||
+                            event == "trial" || event == "present" || event == "answer";
       if (hip_free && !(fields[1].empty() || fields[1] == "-"))
         at.fail("event '" + event + "' belongs to no HIP: put '-' in column 'hip' (found '" + fields[1] + "')");
       double xyz[3] = {0.0, 0.0, 0.0};
@@ -180,8 +213,11 @@ namespace modalrt_tool
         }
       else if (event == "proxy")
         parse_proxy(at, fields, time, s);
+      else if (event == "design" || event == "trial" || event == "present" || event == "answer")
+        s.events.push_back(parse_design_event(at, fields, time));
       else
-        at.fail("unknown event '" + event + "' (expected target, force, press, release, frame, proxy or end)");
+        at.fail("unknown event '" + event + "' (expected target, force, press, release, frame, proxy, end, design, "
+                "trial, present or answer)");
     }
 
     // Every HIP the session names needs a starting position: its first target key.
@@ -238,7 +274,21 @@ namespace modalrt_tool
     return s;
   }
 
-  double resolve_press_vertices(Session &session, const double *vertices, std::uint32_t vertex_count)
+  DesignEventCount count_design_events(const Session &session)
+  {
+    DesignEventCount count;
+    for (const Event &e : session.events)
+      {
+        count.design += e.kind == EventKind::design;
+        count.trial += e.kind == EventKind::trial;
+        count.present += e.kind == EventKind::present;
+        count.answer += e.kind == EventKind::answer;
+      }
+    return count;
+  }
+
+  double resolve_press_vertices(Session &session, const double *vertices, std::uint32_t vertex_count,
+                                bool second_design)
   {
     double worst = 0.0;
     for (Event &e : session.events)
@@ -253,8 +303,8 @@ namespace modalrt_tool
                              (x[2] - e.point[2]) * (x[2] - e.point[2]);
             if (d < best)
               {
-                best     = d;
-                e.vertex = v;
+                best                                 = d;
+                (second_design ? e.vertex_b : e.vertex) = v;
               }
           }
         worst = std::max(worst, std::sqrt(best));

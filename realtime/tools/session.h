@@ -10,6 +10,13 @@
 //   0.0,-,proxy,0.3,0.2                # contacts are sliding proxies, friction mu_s, mu_d (time 0, once)
 //   6.0,-,end,,,                       # the session ends here
 //
+// With a second design (modal-rt run --design-b FILE.mrt):
+//   3.0,-,design,B                     # the hand feels design B from now on (A: the first basis)
+// and in the blind mode (--blind SEED), where the order of the two designs is drawn per trial:
+//   3.0,-,trial                        # a trial starts: slot 1 and slot 2 hold A and B in random order
+//   3.1,-,present,1                    # the hand feels the design in slot 1 (2: the other)
+//   8.0,-,answer,2                     # the user's answer: slot 2 felt stiffer
+//
 // Keyed channels (target, force, frame) blend between consecutive keys with a minimum-jerk
 // quintic, so positions, velocities and accelerations are continuous and the frame's acceleration
 // (which drives the modes) is finite. Evaluation is cursor-based: no allocation, no search.
@@ -54,7 +61,11 @@ namespace modalrt_tool
   enum class EventKind
   {
     press,
-    release
+    release,
+    design,  // choice: 0 design A, 1 design B
+    trial,   // the blind mode: a new trial, its order drawn
+    present, // the blind mode: choice 1 or 2, the trial's slot felt from now on
+    answer   // the blind mode: choice 1 or 2, the slot the user says felt stiffer
   };
 
   struct Event
@@ -65,6 +76,8 @@ namespace modalrt_tool
     double        point[3]; // press: body-frame point [m]
     std::uint32_t vertex;   // press: the display vertex nearest `point` (resolved against the basis)
     int           line;     // in the session file, for messages
+    std::uint32_t choice   = 0; // design, present, answer: see EventKind
+    std::uint32_t vertex_b = 0; // press: the display vertex nearest `point` in the second design's basis
   };
 
   struct Session
@@ -86,7 +99,16 @@ namespace modalrt_tool
   // Reads and checks a session file. Throws SessionError naming file, line and culprit.
   Session read_session(const std::string &path);
 
-  // Resolves every press event to the display vertex nearest its point (vertices: 3 n [m]).
+  // Resolves every press event to the display vertex nearest its point (vertices: 3 n [m]), of the
+  // first design's basis (Event::vertex) or of the second's (Event::vertex_b).
   // Returns the largest distance from a press point to its vertex [m].
-  double resolve_press_vertices(Session &session, const double *vertices, std::uint32_t vertex_count);
+  double resolve_press_vertices(Session &session, const double *vertices, std::uint32_t vertex_count,
+                                bool second_design = false);
+
+  // How many rows of each kind of the two-design events the session has.
+  struct DesignEventCount
+  {
+    std::size_t design = 0, trial = 0, present = 0, answer = 0;
+  };
+  DesignEventCount count_design_events(const Session &session);
 } // namespace modalrt_tool

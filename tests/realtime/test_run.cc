@@ -3,7 +3,7 @@
 // 4 kHz, the static response of an admittance press, a clean stop on SIGINT, and one clear message
 // and a non-zero exit for each bad command line and bad session file. Everything is asserted from
 // the files the run writes; nothing is asserted on timing (the machine may be loaded).
-#include "test_support.h"
+#include "tool_runner.h"
 
 #include <algorithm>
 #include <array>
@@ -28,21 +28,13 @@ namespace
 
   void write_text(const std::string &path, const std::string &text) { std::ofstream(path) << text; }
 
-  bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
-
-  // Runs `modal-rt` with `arguments` (the command included); returns the exit status and the output
-  // (stdout, stderr).
-  int tool(const std::string &arguments, std::string &output)
-  {
-    const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > tool_output.txt 2>&1";
-    const int         status  = std::system(command.c_str());
-    output                    = read_text("tool_output.txt");
-    std::remove("tool_output.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  using test::column;
+  using test::contains;
+  using test::read_csv;
 
   // Runs `modal-rt run` with `arguments`.
-  int run(const std::string &arguments, std::string &output) { return tool("run " + arguments, output); }
+  int run(const std::string &arguments, std::string &output) { return test::modal_rt("run " + arguments, output); }
+  int tool(const std::string &arguments, std::string &output) { return test::modal_rt(arguments, output); }
 
   // The 3-vector after "key": [ in the first entry of "final".
   void json_final_vector(const std::string &json, const std::string &key, double out[3])
@@ -55,33 +47,6 @@ namespace
         out[d]    = std::strtod(p, &end);
         p         = end + 1; // the comma
       }
-  }
-
-  // The rows of a CSV output (comment lines skipped), each split at commas; rows[0] is the header.
-  std::vector<std::vector<std::string>> read_csv(const std::string &path)
-  {
-    std::ifstream                         file(path);
-    std::vector<std::vector<std::string>> rows;
-    for (std::string line; std::getline(file, line);)
-      {
-        if (line.empty() || line[0] == '#')
-          continue;
-        std::vector<std::string> fields(1);
-        for (char c : line)
-          if (c == ',')
-            fields.emplace_back();
-          else
-            fields.back() += c;
-        rows.push_back(fields);
-      }
-    return rows;
-  }
-
-  std::size_t column(const std::vector<std::string> &header, const std::string &name)
-  {
-    const auto at = std::find(header.begin(), header.end(), name);
-    ENSURE(at != header.end());
-    return std::size_t(at - header.begin());
   }
 
   // Contact periods in a trace: per HIP, runs of rows in contact at the same vertex.
