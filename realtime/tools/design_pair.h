@@ -29,6 +29,7 @@ namespace modalrt_tool
     DesignBlend(double fade_ticks, double rate_limit);
 
     void          show(std::uint32_t design) { target_ = design == 1 ? 1.0 : 0.0; }
+    std::uint32_t shown() const { return target_ == 1.0 ? 1 : 0; }   // the design asked for last
     std::uint32_t front() const { return share_b_ >= 0.5 ? 1 : 0; } // the design the hand mostly feels
     double        share_b() const { return share_b_; }
     bool          fading() const { return share_b_ > 0.0 && share_b_ < 1.0; }

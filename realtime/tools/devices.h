@@ -79,6 +79,8 @@ namespace modalrt_tool
     // HELLO, restarted, left or timed out); the loop then calls modalrt_kernel_begin_session before
     // the tick, so no contact carries over from one session to the next.
     virtual bool take_session_change() { return false; }
+    // The design the device asks to feel (two designs, `serve --design-b`): 0 A, 1 B, -1 no request.
+    virtual int requested_design() const { return -1; }
     // After the last write of a tick: sends the tick's commands (a network device sends one packet).
     virtual void end_tick() {}
     // The device's own counters (packets, ...), for stats.json; read after the run.

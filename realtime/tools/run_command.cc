@@ -194,9 +194,9 @@ namespace modalrt_tool
            throw UsageError{n + " '" + text + "' is not 1, 5 or 10 (percent)"};
          o.validity_level = std::uint32_t(std::stoul(text));
        }},
-      {"--design-b", for_run, "FILE.mrt", nullptr, // a second design, felt at the session's `design` rows
+      {"--design-b", for_both, "FILE.mrt", nullptr, // a second design: the session's `design` rows, serve's flag
        [](RunOptions &o, const std::string &, const char *v) { o.design_b = v; }},
-      {"--fade", for_run, "S", "0.25",
+      {"--fade", for_both, "S", "0.25",
        [](RunOptions &o, const std::string &n, const char *v) { o.fade = number_option(n, v, 1e-3, 10.0, "s"); }},
       {"--blind", for_run, "SEED", nullptr, // the trials' order drawn from SEED; blind.csv logs the answers
        [](RunOptions &o, const std::string &n, const char *v) {

@@ -164,7 +164,10 @@ namespace modalrt_tool
         const bool fresh       = device_.read_state(t, inputs_.data());
         const bool new_session = device_.take_session_change(); // no contact carries over to a new device session
         if (fresh)
-          apply_contact_requests();
+          {
+            apply_contact_requests();
+            follow_device_design();
+          }
         if (!second_.kernel)
           tick_kernel(kernel_, fresh, new_session, outputs_.data());
         else
@@ -206,6 +209,16 @@ namespace modalrt_tool
           modalrt_kernel_tick_impedance(kernel, inputs_.data(), hips_, outputs);
         else
           modalrt_kernel_tick_admittance(kernel, inputs_.data(), hips_, outputs);
+      }
+
+      // A device that chooses the design itself (serve's state_design_b flag).
+      void follow_device_design()
+      {
+        const int design = device_.requested_design();
+        if (!second_.kernel || design < 0 || std::uint32_t(design) == blend_.shown())
+          return;
+        blend_.show(std::uint32_t(design));
+        ++result_.design_switches;
       }
 
       // The blind mode's truth: the map value at the first HIP's contact while one design is felt alone.

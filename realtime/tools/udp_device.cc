@@ -159,6 +159,8 @@ namespace modalrt_tool
         return true;
       }
 
+      int requested_design() const override { return has_peer_ ? (design_b_ ? 1 : 0) : -1; }
+
       bool take_session_change() override
       {
         const bool changed = session_changed_;
@@ -292,6 +294,7 @@ namespace modalrt_tool
           start_session();
         restart_run_ = 0;
         std::copy_n(decoded, settings_.hips, state_.begin());
+        design_b_ = (flags & udp::state_design_b) != 0;
         sequence_ = sequence;
         peer_     = from;
         has_peer_ = true;
@@ -354,6 +357,7 @@ namespace modalrt_tool
       int                   socket_   = -1;
       sockaddr_in           peer_{};
       bool                  has_peer_ = false;
+      bool                  design_b_ = false; // the peer's last state asked for design B (state_design_b)
       std::uint32_t         sequence_ = 0;
       std::uint64_t         tick_     = 0;
       std::uint64_t         ticks_since_fresh_ = 0;

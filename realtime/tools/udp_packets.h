@@ -27,7 +27,8 @@ namespace modalrt_tool
     // Flags of a state packet (device -> bridge); any other bit makes the packet bad.
     constexpr std::uint32_t state_hello = 1u << 0; // a new session: the sequence starts again from this packet
     constexpr std::uint32_t state_bye   = 1u << 1; // the device leaves: the slot is free from now on
-    constexpr std::uint32_t state_flags = state_hello | state_bye;
+    constexpr std::uint32_t state_design_b = 1u << 2; // with --design-b: the hand feels design B (clear: A)
+    constexpr std::uint32_t state_flags    = state_hello | state_bye | state_design_b;
 
     // Flags of a command packet (bridge -> device).
     constexpr std::uint32_t command_fail_safe   = 1u << 0; // an input was missing or rejected: the forces are

@@ -798,6 +798,51 @@ namespace
     ENSURE(read_text("serve_out_touch/stats.json").find("\"profile\": \"touch\"") != std::string::npos);
     close(g.socket);
   }
+  // Two designs through the bridge (--design-b): the client holds a press and asks for design B, then
+  // A again, with the state flag; the force rises on the stiffer design without a step, and each
+  // design's press is in presses.csv.
+  void designs_through_the_bridge(int port)
+  {
+    constexpr std::uint32_t design_b = 1u << 2;
+    const pid_t bridge = start_bridge(port, "_designs",
+                                      {"--design-b", "serve_lattice_stiffer.mrt", "--no-plot", "--token", given_token_hex});
+    ENSURE(parse_hex(given_token_hex, bridge_token));
+    double              x[3]  = {0.125, 0.025, 0.015};
+    Greeted             g     = greet(port, 21, x);
+    const std::uint32_t first = g.sequence + 1;
+    std::vector<std::uint32_t> asked; // per state sent: its design flag
+    for (int k = 0; k < 4800; ++k)    // 0.5 ms each: A, B, A for 0.8 s each
+      {
+        x[2]                      = 0.01 - 0.003 * std::min(1.0, k / 400.0);
+        const std::uint32_t flags = k >= 1600 && k < 3200 ? design_b : 0;
+        send_to(g.socket, g.server, state_packet(++g.sequence, x, flags));
+        asked.push_back(flags);
+        pause_and_drain(g.socket, g.replies, 500);
+      }
+    leave_and_stop(g, x, bridge);
+    double largest_step = 0.0, previous = std::nan(""), settled[3] = {0.0, 0.0, 0.0};
+    for (const Reply &r : g.replies)
+      {
+        if (r.hips != 1 || r.sequence < first || r.sequence - first >= asked.size() || !r.in_contact)
+          continue;
+        const std::uint32_t k = r.sequence - first;
+        if (k > 600 && std::isfinite(previous))
+          largest_step = std::max(largest_step, std::abs(r.force[2] - previous));
+        previous = r.force[2];
+        if (k % 1600 > 1400) // the last 0.1 s of each phase: settled
+          settled[k / 1600] = r.force[2];
+      }
+    std::printf("  two designs through the bridge: settled force A %.4f N, B %.4f N, A %.4f N; largest change "
+                "between commands after the landing %.4f N\n",
+                settled[0], settled[1], settled[2], largest_step);
+    ENSURE(settled[1] > settled[0] * 1.01 && std::abs(settled[2] - settled[0]) <= 1e-3 * settled[0]);
+    ENSURE(largest_step <= 0.05 * (settled[1] - settled[0]) + 1e-3);
+    const std::string stats = read_text("serve_out_designs/stats.json");
+    ENSURE(test::json_number(stats, "switches", stats.find("\"designs\"")) == 2);
+    const std::string presses = read_text("serve_out_designs/presses.csv");
+    ENSURE(presses.find(",A\n") != std::string::npos && presses.find(",B\n") != std::string::npos);
+    close(g.socket);
+  }
 } // namespace
 
 int main()
@@ -806,6 +851,9 @@ int main()
   o.patch_radius = 0.03;
   o.damping      = {0.7, 0.7};
   ENSURE(modalrt::write_basis_file("serve_lattice.mrt", modalrt::make_lattice_cantilever(o)));
+  modalrt::LatticeOptions stiffer = o;
+  stiffer.stiffness_modulus *= 1.3;
+  ENSURE(modalrt::write_basis_file("serve_lattice_stiffer.mrt", modalrt::make_lattice_cantilever(stiffer)));
   const int   port   = 20000 + int(getpid() % 20000);
   const pid_t bridge = start_bridge(port, "", {"--frame-rate", "2", "--token-file", "serve_token.txt"});
   bridge_token       = read_token_file("serve_token.txt");
@@ -858,5 +906,6 @@ int main()
   slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
   validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies);
   touch_through_the_bridge(port + 3 >= 40000 ? port - 3 : port + 3);
+  designs_through_the_bridge(port + 4 >= 40000 ? port - 4 : port + 4);
   return test::finish("test_serve");
 }
