@@ -151,6 +151,7 @@ namespace modalrt_tool
           {
             result_.slides         = slides_.finish();
             result_.slides_dropped = slides_.dropped();
+            result_.creeps         = slides_.creeps();
           }
         result_.last_inputs  = inputs_;
         result_.last_outputs = outputs_;

@@ -80,6 +80,7 @@ namespace modalrt_tool
     std::vector<TraceSample> trace; // decimation rows x HIPs
     std::vector<Slide>       slides; // every tick's proxies, in order of start (slides.h)
     std::uint64_t            slides_dropped = 0; // beyond the records' capacity
+    std::uint64_t            creeps         = 0; // sliding shorter than min_slide_length: part of a press
     std::vector<modalrt_hip_input>  last_inputs;
     std::vector<modalrt_hip_output> last_outputs;
     std::uint64_t                   design_switches = 0; // two designs: `design` and `present` events

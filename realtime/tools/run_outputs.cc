@@ -908,6 +908,7 @@ namespace modalrt_tool
         slides_beyond += s.beyond_ticks > 0;
       }
     o["slides_dropped"] = h.slides_dropped;
+    o["creeps"]         = h.creeps;
     std::uint64_t beyond = 0;
     for (std::uint64_t n : h.beyond_validity_ticks)
       beyond += n;

@@ -12,12 +12,15 @@ namespace modalrt_tool
     slides_.reserve(capacity);
     capacity_  = capacity;
     dropped_   = 0;
+    creeps_    = 0;
     impedance_ = impedance;
   }
 
   void SlideTracker::close(Track &track)
   {
-    if (track.open)
+    if (track.open && track.slide.length < min_slide_length)
+      ++creeps_;
+    else if (track.open)
       {
         if (slides_.size() < capacity_)
           slides_.push_back(track.slide); // within the reserved capacity: no allocation

@@ -14,6 +14,11 @@
 
 namespace modalrt_tool
 {
+  // [m] A proxy that moves less than this over the part while sliding is a press's creep (the contact
+  // point settling as the tangential force builds on landing), not a slide: its rows stay the
+  // press's. A fingertip's contact patch is millimetres wide; the display's finest edges about 1.5 mm.
+  constexpr double min_slide_length = 1e-3;
+
   struct Slide
   {
     std::uint32_t hip         = 0;
@@ -41,6 +46,7 @@ namespace modalrt_tool
     // After the last tick: the slides in order of start (an open one ends at its last sliding tick).
     std::vector<Slide> finish();
     std::uint64_t      dropped() const { return dropped_; }
+    std::uint64_t      creeps() const { return creeps_; } // sliding shorter than min_slide_length, not recorded
 
   private:
     // One HIP: its slide in progress and what happened since its last sliding tick (committed to the
@@ -60,6 +66,7 @@ namespace modalrt_tool
     std::vector<Slide> slides_;
     std::size_t        capacity_  = 0;
     std::uint64_t      dropped_   = 0;
+    std::uint64_t      creeps_    = 0;
     bool               impedance_ = true;
   };
 } // namespace modalrt_tool

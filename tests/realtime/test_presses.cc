@@ -4,6 +4,7 @@
 #include "test_support.h"
 
 #include "run_outputs.h"
+#include "slides.h"
 #include "stiffness_map.h"
 
 namespace
@@ -122,6 +123,31 @@ namespace
     modalrt_basis_destroy(other);
     modalrt_basis_destroy(basis);
   }
+
+  // A proxy that slides less than min_slide_length is a press's creep: no slide, so the press it
+  // belongs to stays one record; one that slides farther is a slide. Each moves 0.1 mm per tick.
+  void creep_is_not_a_slide()
+  {
+    for (const int ticks : {5, 20})
+      {
+        modalrt_tool::SlideTracker tracker;
+        tracker.reset(1, 8, true);
+        const double       frame[3] = {0.0, 0.0, 0.0};
+        modalrt_hip_input  in{};
+        modalrt_hip_output out{};
+        out.in_contact = 1;
+        for (int k = 0; k <= ticks + 1; ++k)
+          {
+            out.position[0] = 1e-4 * std::min(k, ticks);
+            out.flags       = k >= 1 && k <= ticks ? MODALRT_HIP_SLIDING : 0;
+            tracker.observe(1e-3 * k, &in, &out, frame);
+          }
+        const auto slides = tracker.finish();
+        std::printf("  sliding over %.1f mm: %zu slide(s), %llu creep(s)\n", 0.1 * (ticks - 1), slides.size(),
+                    (unsigned long long)tracker.creeps());
+        ENSURE(slides.size() == (ticks == 5 ? 0u : 1u) && tracker.creeps() == (ticks == 5 ? 1u : 0u));
+      }
+  }
 } // namespace
 
 int main()
@@ -135,6 +161,7 @@ int main()
       held_throughout(basis);
     }
   beyond_validity();
+  creep_is_not_a_slide();
   modalrt_basis_destroy(basis);
   return test::finish("test_presses");
 }
