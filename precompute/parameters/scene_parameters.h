@@ -9,6 +9,8 @@
 // scene_parameters.cc beside the scene's.
 #pragma once
 
+#include <mrt/device_defaults.h>
+
 #include <deal.II/base/parameter_handler.h>
 
 #include "scene_mesher.h"
@@ -135,7 +137,7 @@ namespace modal_haptics
     double       exact_pair_reach      = 0.;  // [geometry units]; 0: twice patch_radius (resolved when parsed)
     // Where linear stops being true (precompute/nonlinear/large_deformation.h): at each validation
     // point, a geometrically nonlinear solve of the patch load ramped up to force_limit.
-    double       force_limit         = 10.;  // [N] the kernel's default device.max_force (realtime/src/api.cc)
+    double       force_limit         = mrt::default_max_force; // [N] the kernel's default device.max_force
     bool         validity_analysis   = false; // off: a nonlinear full solve per point (its cost: docs/accuracy.md)
     bool         validity_neo_hookean = true; // else St. Venant-Kirchhoff
     std::optional<meshing::Point3> validity_direction; // unit; empty: the surface's inward normal

@@ -1,5 +1,7 @@
 #include "scene/display_surface.h"
 
+#include <mrt/patch_profile.h>
+
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -94,8 +96,7 @@ namespace modal_haptics
 
     double patch_density(const meshing::Point3 &centre, const meshing::Point3 &x, const double rho)
     {
-      const double s = distance(centre, x) / rho;
-      return s < 1. ? (1. - s * s) * (1. - s * s) : 0.;
+      return mrt::patch_profile(distance(centre, x) / rho);
     }
 
     void build_patches(ContactSurface &s)
@@ -119,8 +120,7 @@ namespace modal_haptics
         {
           patch.clear();
           grid.for_each_within(s.vertices[v], rho, [&](unsigned int j, double d) {
-            const double q = 1. - (d / rho) * (d / rho);
-            patch.emplace_back(j, s.vertex_area[j] * q * q);
+            patch.emplace_back(j, s.vertex_area[j] * mrt::patch_profile(d / rho));
           });
           // The active vertex first, the others by index: a reproducible order.
           std::sort(patch.begin(), patch.end(), [v](const auto &a, const auto &b) {

@@ -6,6 +6,7 @@
 #include "self_check.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/device_defaults.h>
 #include <mrt/format.h>
 
 #include <algorithm>
@@ -367,7 +368,7 @@ int modalrt_basis_verify(const modalrt_basis *basis, modalrt_verify_report *repo
 modalrt_device_def modalrt_device_default_def(void)
 {
   modalrt_device_def d{};
-  d.max_force        = 10.0;   // N
+  d.max_force        = mrt::default_max_force; // N
   d.max_stiffness    = 3000.0; // N/m at 1 kHz
   d.max_damping      = 10.0;   // N s/m
   d.physical_damping = 0.0;    // unknown

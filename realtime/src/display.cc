@@ -7,6 +7,8 @@
 #include "dense.h"
 #include "kernel.h"
 
+#include <mrt/patch_profile.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -213,8 +215,7 @@ namespace modalrt
                   const double *xj = &basis.vertices[3 * std::size_t(j)];
                   const double  d2 = (xj[0] - xv[0]) * (xj[0] - xv[0]) + (xj[1] - xv[1]) * (xj[1] - xv[1]) +
                                     (xj[2] - xv[2]) * (xj[2] - xv[2]);
-                  const double t = std::max(0.0, 1.0 - d2 / (rho * rho));
-                  weight         = t * t;
+                  weight = mrt::patch_profile(std::sqrt(d2) / rho);
                 }
               Out *o = out + 3 * std::size_t(j - begin);
               for (int d = 0; d < 3; ++d)

@@ -1,5 +1,6 @@
 #include "synthetic_scene.h"
 
+#include <mrt/patch_profile.h>
 #include <mrt/surface_normals.h>
 
 #include <algorithm>
@@ -158,7 +159,7 @@ namespace modalrt
               for (int k = 0; k < 3; ++k)
                 d2 += (c.vertices[3 * j + k] - c.vertices[3 * v + k]) * (c.vertices[3 * j + k] - c.vertices[3 * v + k]);
               if (d2 < rho * rho)
-                patch.push_back({j, g.areas[j] * (1 - d2 / (rho * rho)) * (1 - d2 / (rho * rho))});
+                patch.push_back({j, g.areas[j] * mrt::patch_profile(std::sqrt(d2) / rho)});
             }
           double sum = 0.0;
           for (const auto &p : patch)
