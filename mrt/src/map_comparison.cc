@@ -370,6 +370,7 @@ namespace mrt
   {
     MapComparison out;
     out.a_vertex_count      = a.vertex_count;
+    out.b_vertex_count      = b.vertex_count;
     out.noise_floor_percent = options.noise_floor_percent;
     out.rule = same_surface(a, b, options.same_position_tolerance) ? MatchRule::identity : MatchRule::closest_point;
     match(a, b, out);

@@ -2,8 +2,6 @@
 
 #include "stiffness_map.h"
 
-#include <mrt/map_comparison.h>
-
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -40,14 +38,13 @@ namespace modalrt_tool
       void operator()(modalrt_basis *basis) const { modalrt_basis_destroy(basis); }
     };
 
-    bool has_map(const modalrt_basis *basis, const char *path)
+    bool has_map(const modalrt_basis *basis, const char *path, std::string &error)
     {
       if (has_felt_stiffness_map(basis))
         return true;
-      std::fprintf(stderr,
-                   "modal-rt info --compare: '%s' has no felt-stiffness map (FELT_STIFFNESS: .mrt 1.1 from a "
-                   "precompute that computed it): nothing to compare\n",
-                   path);
+      error = std::string("'") + path +
+              "' has no felt-stiffness map (FELT_STIFFNESS: .mrt 1.1 from a precompute that computed it): nothing to "
+              "compare";
       return false;
     }
 
@@ -58,16 +55,16 @@ namespace modalrt_tool
       return std::string("'") + space.name + "'";
     }
 
-    void print_rule(const mrt::MapComparison &c, const SceneMap &a, const SceneMap &b, double tolerance)
+    void print_rule(const mrt::MapComparison &c, double tolerance)
     {
       if (c.rule == mrt::MatchRule::identity)
         std::printf("  rule            identity: the same display surface (every vertex within %g m of A's), "
                     "vertex i of A is vertex i of B\n",
                     tolerance);
       else
-        std::printf("  rule            closest point: the surfaces differ (%u and %u vertices), each vertex of A "
+        std::printf("  rule            closest point: the surfaces differ (%zu and %zu vertices), each vertex of A "
                     "is read at the closest point of B's triangles, B's values blended there\n",
-                    a.info.display_vertex_count, b.info.display_vertex_count);
+                    c.a_vertex_count, c.b_vertex_count);
       std::printf("  match distance  max %.6g mm, 95th percentile %.6g mm\n", 1e3 * c.max_match_distance,
                   1e3 * c.p95_match_distance);
     }
@@ -105,32 +102,41 @@ namespace modalrt_tool
     }
   } // namespace
 
-  int compare_designs(const modalrt_basis *a, const char *path_a, const char *path_b,
-                      const DesignComparisonOptions &options)
+  bool compare_scene_maps(const modalrt_basis *a, const char *path_a, const char *path_b,
+                          const DesignComparisonOptions &options, mrt::MapComparison &comparison, std::string &error)
   {
     modalrt_basis *loaded = nullptr;
     if (modalrt_basis_load(path_b, &loaded) != MODALRT_OK)
       {
-        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", path_b, modalrt_last_error_message());
-        return 1;
+        error = std::string("bad basis file '") + path_b + "': " + modalrt_last_error_message();
+        return false;
       }
     const std::unique_ptr<modalrt_basis, BasisDeleter> b(loaded);
-    if (!has_map(a, path_a) || !has_map(b.get(), path_b))
-      return 1;
-
+    if (!has_map(a, path_a, error) || !has_map(b.get(), path_b, error))
+      return false;
     const SceneMap         map_a(a), map_b(b.get());
-    mrt::ComparisonOptions comparison;
-    comparison.noise_floor_percent = options.noise_percent;
-    comparison.largest_count       = options.largest;
-    const mrt::MapComparison c     = mrt::compare_maps(map_a.surface(), map_b.surface(), comparison);
+    mrt::ComparisonOptions settings;
+    settings.noise_floor_percent = options.noise_percent;
+    settings.largest_count       = options.largest;
+    comparison                   = mrt::compare_maps(map_a.surface(), map_b.surface(), settings);
+    return true;
+  }
 
+  int compare_designs(const modalrt_basis *a, const char *path_a, const char *path_b,
+                      const DesignComparisonOptions &options)
+  {
+    mrt::MapComparison c;
+    std::string        error;
+    if (!compare_scene_maps(a, path_a, path_b, options, c, error))
+      {
+        std::fprintf(stderr, "modal-rt info --compare: %s\n", error.c_str());
+        return 1;
+      }
     std::printf("felt-stiffness maps compared (each display vertex from its region's space), B read at A's "
                 "display vertices:\n");
-    std::printf("  A               %s: %u display vertices, %u triangles\n", path_a, map_a.info.display_vertex_count,
-                map_a.info.display_triangle_count);
-    std::printf("  B               %s: %u display vertices, %u triangles\n", path_b, map_b.info.display_vertex_count,
-                map_b.info.display_triangle_count);
-    print_rule(c, map_a, map_b, comparison.same_position_tolerance);
+    std::printf("  A               %s: %zu display vertices\n", path_a, c.a_vertex_count);
+    std::printf("  B               %s: %zu display vertices\n", path_b, c.b_vertex_count);
+    print_rule(c, mrt::ComparisonOptions().same_position_tolerance);
     print_summary(c);
     print_largest(c, a);
     return 0;

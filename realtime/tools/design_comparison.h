@@ -5,8 +5,10 @@
 #pragma once
 
 #include <modalrt/modalrt.h>
+#include <mrt/map_comparison.h>
 
 #include <cstddef>
+#include <string>
 
 namespace modalrt_tool
 {
@@ -15,6 +17,12 @@ namespace modalrt_tool
     std::size_t largest       = 10;  // how many of the largest |%| differences to list
     double      noise_percent = 1.0; // |B - A| / A at or below it: no difference [%]
   };
+
+  // Loads B from `path_b` and compares its scene map with A's (already loaded from `path_a`). False,
+  // with `error` naming the file, when B cannot be read or either file has no felt-stiffness map.
+  // The live view's Stiffness tab shows the same comparison.
+  bool compare_scene_maps(const modalrt_basis *a, const char *path_a, const char *path_b,
+                          const DesignComparisonOptions &options, mrt::MapComparison &comparison, std::string &error);
 
   // Loads B from `path_b` and prints the comparison with A (already loaded from `path_a`). Exit
   // status 1, with a message naming the file, when B cannot be read or either file has no

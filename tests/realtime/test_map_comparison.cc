@@ -177,6 +177,7 @@ namespace
     set_field(b, linear_field);
     const mrt::MapComparison c = mrt::compare_maps(a.map(), b.map());
     ENSURE(c.rule == mrt::MatchRule::closest_point);
+    ENSURE(c.a_vertex_count == 41 * 31 && c.b_vertex_count == 29 * 23);
     ENSURE(c.compared_count == a.stiffness.size());
     double worst = 0.0;
     for (std::size_t v = 0; v < a.stiffness.size(); ++v)

@@ -63,6 +63,7 @@ namespace mrt
   {
     MatchRule   rule = MatchRule::identity;
     std::size_t a_vertex_count = 0;
+    std::size_t b_vertex_count = 0;
     std::size_t compared_count = 0;  // vertices with a value in both maps
     std::size_t a_without_value = 0; // A has no value (0) there
     std::size_t b_without_value = 0; // A has one, B none at the match
