@@ -247,15 +247,19 @@ namespace mrt
       return true;
     }
 
+    // A barycentric weight at or below it is rounding: a point at a corner without a value must not
+    // take the far corners' values through weights of 1e-16.
+    const double negligible_weight = 1e-12;
+
     // B's stiffness at a point of its triangle: the barycentric blend of the triangle's vertices that
-    // have a value, the weights renormalized over them; 0 when none of weight > 0 has one.
+    // have a value, the weights renormalized over them; 0 when no corner of non-negligible weight has one.
     double blend(const SurfaceMap &b, const ClosestPointGrid::Hit &hit)
     {
       double sum = 0.0, weight = 0.0;
       for (int k = 0; k < 3; ++k)
         {
           const double value = b.stiffness[b.triangles[3 * std::size_t(hit.triangle) + k]];
-          if (value > 0.0)
+          if (value > 0.0 && hit.weights[k] > negligible_weight)
             sum += hit.weights[k] * value, weight += hit.weights[k];
         }
       return weight > 0.0 ? sum / weight : 0.0;

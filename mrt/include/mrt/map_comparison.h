@@ -9,7 +9,8 @@
 //   - closest point: otherwise each vertex of A is matched to the closest point of B's triangles
 //     (found through a uniform grid of cells over B, so a map of 1e5 vertices takes well under a
 //     second), and B's stiffness there is the barycentric blend of that triangle's vertices that
-//     have a value, the weights renormalized over them. On a planar stretch of surface this
+//     have a value, the weights renormalized over them (a weight of at most 1e-12 is rounding and
+//     counts as none). On a planar stretch of surface this
 //     reproduces a stiffness linear in position exactly; elsewhere its error is that of linear
 //     interpolation over B's triangle, plus whatever the two surfaces differ by (the match
 //     distance, reported per vertex).
