@@ -119,9 +119,12 @@ namespace mrt
     std::vector<std::uint32_t> cell_start_; // cell c's triangles: cell_triangles_[cell_start_[c] .. [c + 1])
     std::vector<std::uint32_t> cell_triangles_;
 
+    void        size_cells();
+    void        list_triangles();
     std::size_t cell_index(const std::size_t c[3]) const { return c[0] + cells_[0] * (c[1] + cells_[1] * c[2]); }
     void        cell_of(const double point[3], std::size_t c[3]) const;
     void        search_cell(const std::size_t c[3], const double point[3], Hit &best, bool &found) const;
+    void search_ring(const std::size_t c[3], std::size_t ring, const double point[3], Hit &best, bool &found) const;
     double      distance_outside_shell(const double point[3], const std::size_t c[3], std::size_t ring) const;
   };
 } // namespace mrt
