@@ -28,6 +28,7 @@ namespace modalrt_view
       std::uint32_t validity_level   = 5;     // --validity-level: the kernel's (MODALRT_HIP_BEYOND_VALIDITY)
       bool          validity_clamp   = false; // --validity-clamp (impedance: --contact proxy)
       bool          noise            = false; // --noise given (an option of --compare)
+      std::string   profile;                  // --device NAME: the device profile whose spec and scale the kernel renders
       bool          help       = false;
     };
 
@@ -67,12 +68,20 @@ namespace modalrt_view
             }
           if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
               option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction" &&
-              option != "--validity-level" && option != "--compare" && option != "--noise")
+              option != "--validity-level" && option != "--compare" && option != "--noise" && option != "--device")
             throw UsageError{"unknown option '" + option + "'"};
           if (i + 1 >= argc)
             throw UsageError{option + " needs a value"};
           const char *value = argv[++i];
-          if (option == "--basis")
+          if (option == "--device")
+            {
+              modalrt_device_def spec;
+              if (modalrt_device_profile_find(value, &spec) != MODALRT_OK)
+                throw UsageError{"--device '" + std::string(value) + "' is not a device profile (" +
+                                 "touch, omni, desktop, falcon, omega.x, sigma.7, lambda.7, admittance)"};
+              o.profile = value;
+            }
+          else if (option == "--basis")
             o.basis = value;
           else if (option == "--port")
             o.server.port = unsigned(number(option, value, 0, 65535));
@@ -124,14 +133,17 @@ namespace modalrt_view
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
            "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
            "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp]\n"
-           "                     [--compare B.mrt [--noise PCT (1)]] [--help]\n"
+           "                     [--compare B.mrt [--noise PCT (1)]] [--device PROFILE] [--help]\n"
            "         Prints the page's address with this run's secret token, http://ADDRESS:PORT/?token=HEX: open\n"
            "         that address. /ws and /api/* refuse a request without the token (401) or from another origin\n"
            "         or Host (403), on loopback and on --address alike; there is no way to turn the token off.\n"
            "         A client that is no browser passes it as ?token=HEX or the header X-Modal-RT-Token: HEX\n"
            "         (view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n"
            "         --compare B.mrt: the Stiffness tab also shows where design B's felt-stiffness map differs\n"
-           "         from this basis's, in % (modal-rt info --compare's numbers).\n";
+           "         from this basis's, in % (modal-rt info --compare's numbers).\n"
+           "         --device PROFILE: the kernel renders that device's spec and haptic scale (realtime/README.md,\n"
+           "         \"What the hand feels\"): an impedance profile needs --contact proxy (the mouse drags a\n"
+           "         sliding contact, impedance), the admittance profile the default snap contact.\n";
   }
 
   int view_command(int argc, char **argv)
@@ -163,6 +175,7 @@ namespace modalrt_view
     session.dynamic_friction = options.dynamic_friction;
     session.validity_level   = options.validity_level;
     session.validity_clamp   = options.validity_clamp;
+    session.profile          = options.profile;
     session.make_device  = [&mouse, &options](const modalrt_basis *basis) {
       auto device = std::make_unique<MouseDevice>(basis, options.proxy);
       mouse       = device.get();

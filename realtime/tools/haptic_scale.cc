@@ -40,7 +40,9 @@ namespace modalrt_tool
     if (admittance == impedance)
       {
         error = "device profile '" + name + "' is an " + (admittance ? "admittance" : "impedance") +
-                " device: use --mode " + (admittance ? "admittance" : "impedance");
+                " device: it needs " + (admittance ? "admittance" : "impedance") + " ticks (run, serve: --mode " +
+                (admittance ? "admittance" : "impedance") + "; view: " +
+                (admittance ? "the default snap contact" : "--contact proxy") + ")";
         return false;
       }
     def.device           = spec;

@@ -449,6 +449,23 @@ namespace modalrt_tool
       std::unique_ptr<RunObserver> view;
     };
 
+    // kernel_def for `basis` (a profile that does not fit the mode or the basis is refused here, with
+    // its reason, once the basis is known). false after a message.
+    bool define_kernel(const RunOptions &o, const Session &session, const DeviceSpec &spec, const modalrt_basis *basis,
+                       modalrt_kernel_def &def)
+    {
+      try
+        {
+          def = kernel_def(o, spec, basis, session);
+          return true;
+        }
+      catch (const UsageError &e)
+        {
+          fail(e.message);
+          return false;
+        }
+    }
+
     // The session's design rows against the command line: `design` rows need --design-b and are not
     // blind; `trial`, `present`, `answer` need --blind. false after a message.
     bool check_design_events(const RunOptions &o, const Session &session)
@@ -490,7 +507,9 @@ namespace modalrt_tool
       modalrt_basis_get_info(basis, &info);
       live.press_distance = std::max(live.press_distance, resolve_press_vertices(session, modalrt_basis_display_vertices(basis),
                                                                                  info.display_vertex_count, true));
-      modalrt_kernel_def def = kernel_def(o, live.device->spec(), basis, session);
+      modalrt_kernel_def def;
+      if (!define_kernel(o, session, live.device->spec(), basis, def))
+        return false;
       if (def.haptic_scale > 0.0 && live.def.haptic_scale > 0.0)
         def.haptic_scale = live.def.haptic_scale = std::min(def.haptic_scale, live.def.haptic_scale);
       if (modalrt_kernel_create(basis, &def, &live.second.kernel) != MODALRT_OK)
@@ -520,7 +539,8 @@ namespace modalrt_tool
           return false;
         }
       session.hip_count = live.device->hip_count();
-      live.def          = kernel_def(o, live.device->spec(), live.basis, session);
+      if (!define_kernel(o, session, live.device->spec(), live.basis, live.def))
+        return false;
       if (!o.design_b.empty() && !open_second_design(o, session, live))
         return false;
       if (modalrt_kernel_create(live.basis, &live.def, &live.kernel) != MODALRT_OK)
@@ -747,6 +767,7 @@ namespace modalrt_tool
     o.dynamic_friction = session.dynamic_friction;
     o.validity_level   = session.validity_level;
     o.validity_clamp   = session.validity_clamp;
+    o.profile          = session.profile;
     o.frame_rate = 0.0;
     o.quiet      = true;
     return execute(o);

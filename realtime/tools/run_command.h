@@ -63,6 +63,7 @@ namespace modalrt_tool
     std::uint32_t validity_level = 5;  // [%] the kernel's validity_level, and its validity_clamp
     bool        validity_clamp   = false;
     double      display_rate = 60.0;   // [Hz] snapshots handed to the view
+    std::string profile;               // a device profile (modalrt_device_profile_find; "": the kernel's default device)
     std::function<std::unique_ptr<Device>(const modalrt_basis *)>                          make_device;
     std::function<std::unique_ptr<RunObserver>(const ViewContext &, std::string &error)> start_view;
   };

@@ -804,6 +804,12 @@ time,hip,event,x,y,z
     ENSURE(tool("view --basis x.mrt --frobnicate", out) == 2 && contains(out, "unknown option '--frobnicate'"));
     ENSURE(tool("view --basis x.mrt --contact glide", out) == 2 && contains(out, "'glide' is not snap or proxy"));
     ENSURE(tool("view --basis x.mrt --friction 0.1,0.2", out) == 2 && contains(out, "0 <= MU_D <= MU_S <= 10"));
+    ENSURE(tool("view --basis x.mrt --device phantom", out) == 2 && contains(out, "--device 'phantom' is not a device profile"));
+    // An impedance profile on the mouse's admittance contact: refused once the basis is known, not a crash.
+    ENSURE(tool("view --basis " + basis_path + " --device touch --port 0 --duration 1", out) == 1 &&
+           contains(out, "device profile 'touch' is an impedance device"));
+    ENSURE(tool("run --basis " + basis_path + " --session run_two_hips.csv --output-dir run_bad --profile bogus", out) == 1 &&
+           contains(out, "no device profile 'bogus'"));
 #else
     ENSURE(tool("view --help", out) == 1 && contains(out, "built without the view"));
 #endif
