@@ -72,7 +72,14 @@ void modalrt_kernel::render_at_hand(const modalrt_hip_input *inputs, std::uint32
 
 // The force along the contact's outward normal is at most device.max_stiffness x the hand's travel
 // into the surface at rest (device units): a part stiffer than the band is a wall at the device's
-// stable stiffness.
+// stable stiffness. A snap contact's normal part alone is held (its lateral spring is soft, 1 % of
+// the band's top). A sliding contact's whole force is scaled with its normal part: friction carries
+// at most mu times the normal force that the contact transmits, and the hand feels the wall's, so
+// the tangential force the cone allows falls with it; scaling both keeps the force's direction, and
+// so F_t / F_n within the cone the proxy's friction held on the part, and a stuck proxy's
+// tangential stiffness falls by the wall's share like the normal one (holding the normal part alone
+// left the tangential force of the part's scale: F_t / F_n up to mu times the part's stiffness over
+// the band's top).
 void modalrt_kernel::limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_output &out) noexcept
 {
   const Contact &c = contacts_[hip];
@@ -84,8 +91,12 @@ void modalrt_kernel::limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_ou
   const double along  = dot3(out.force, n), limit = mapping_.stable_stiffness() * travel;
   if (along <= limit)
     return;
-  for (int d = 0; d < 3; ++d)
-    out.force[d] -= (along - limit) * n[d];
+  if (c.proxy.active)
+    for (int d = 0; d < 3; ++d)
+      out.force[d] *= limit / along;
+  else
+    for (int d = 0; d < 3; ++d)
+      out.force[d] -= (along - limit) * n[d];
   out.flags |= MODALRT_HIP_BEYOND_RANGE;
 }
 

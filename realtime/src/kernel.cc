@@ -347,6 +347,8 @@ void modalrt_kernel::impedance_step() noexcept
   for (std::uint32_t a = 0; a < n; ++a)
     {
       double      *F     = &rhs_[3 * a];
+      if (contacts_[active_[a]].proxy.active) // Coulomb's cone first: the clamps below scale F and keep it
+        hold_in_friction_cone(contacts_[active_[a]], F);
       const double size  = norm3(F);
       const double limit = def.device.max_force;
       if (size > limit)

@@ -153,8 +153,10 @@ private:
   // Proxy contacts (proxy_contact.cc).
   void  begin_proxy(std::uint32_t hip, bool at_hip) noexcept;
   void  slide_proxies(std::uint32_t count) noexcept;
-  void  slide_proxy(Contact &contact, const modalrt::BodyInput &in) noexcept;
+  void  slide_proxy(Contact &contact, const modalrt::BodyInput &in, const double others_u[3],
+                    const double others_v[3]) noexcept;
   void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
+  void  hold_in_friction_cone(Contact &contact, double F[3]) noexcept;
   bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
   bool  creased(Contact &contact, int corner, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;

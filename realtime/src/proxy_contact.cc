@@ -58,6 +58,27 @@ namespace modalrt
 
 namespace
 {
+  // The inverse of a 3 x 3 row-major matrix by its cofactors; false (inverse untouched) when it is
+  // singular or not finite.
+  bool invert3(const double A[9], double inverse[9])
+  {
+    const double c[9] = {A[4] * A[8] - A[5] * A[7], A[2] * A[7] - A[1] * A[8], A[1] * A[5] - A[2] * A[4],
+                         A[5] * A[6] - A[3] * A[8], A[0] * A[8] - A[2] * A[6], A[2] * A[3] - A[0] * A[5],
+                         A[3] * A[7] - A[4] * A[6], A[1] * A[6] - A[0] * A[7], A[0] * A[4] - A[1] * A[3]};
+    const double det = A[0] * c[0] + A[1] * c[3] + A[2] * c[6];
+    if (!(std::fabs(det) > 1e-300) || !std::isfinite(det))
+      return false;
+    for (int e = 0; e < 9; ++e)
+      inverse[e] = c[e] / det;
+    return true;
+  }
+
+  void multiply3(const double M[9], const double x[3], double out[3])
+  {
+    for (int i = 0; i < 3; ++i)
+      out[i] = M[3 * i] * x[0] + M[3 * i + 1] * x[1] + M[3 * i + 2] * x[2];
+  }
+
   // The edges of a triangle Y and their normal equations, for barycentric_step.
   TriangleSystem triangle_system(const double Y[3][3])
   {
@@ -660,7 +681,6 @@ void modalrt_kernel::compose_proxy(Contact &c, bool reload) noexcept
     c.normal[d] = normal[d] * scale;
   c.vertex          = corners[heaviest];
   c.candidate       = rows[heaviest]->candidate;
-  proxy.bv_stamp    = 0; // B changed
   pack_triangle(c);
   contacts_changed_ = true; // the residual compliances and the coupling follow the load point
 }
@@ -697,23 +717,66 @@ void modalrt_kernel::proxy_point(const Contact &c, double point[3], double norma
 // =================================================================================================
 void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 {
+  // The free step (no contact force) of this tick, which slide_proxy's force starts from; the
+  // impedance step makes it again (in the space a switch may pick after the slide).
+  bool stepped = false;
+  // The other contacts' share of each load point's motion over the tick, sum_b (B_a G B_b^T + C_ab)
+  // F_b and sum_b B_a H B_b^T F_b with their last forces, from the last step's coupling blocks while
+  // the set of contacts is the one they were made for.
+  const bool          blocks = !contacts_changed_ && !coupling_dirty_;
+  const std::uint32_t n3     = 3 * active_count_;
   for (std::uint32_t h = 0; h < count; ++h)
     if (contacts_[h].in_contact && contacts_[h].proxy.active)
-      slide_proxy(contacts_[h], body_inputs_[h]);
+      {
+        if (!stepped)
+          {
+            frame_modal_force(f_.data());
+            integrators_[space_].step_to(q_.data(), v_.data(), f_.data(), q_free_.data(), v_free_.data());
+            stepped = true;
+          }
+        double         others_u[3] = {0.0, 0.0, 0.0}, others_v[3] = {0.0, 0.0, 0.0};
+        std::uint32_t  a = 0;
+        while (blocks && a < active_count_ && active_[a] != h)
+          ++a;
+        for (std::uint32_t b = 0; blocks && a < active_count_ && b < active_count_; ++b)
+          if (b != a)
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < 3; ++j)
+                {
+                  const double      F  = contacts_[active_[b]].force[j];
+                  const std::size_t ab = (3 * a + i) * n3 + 3 * b + j;
+                  others_u[i] += coupling_[ab] * F, others_v[i] += coupling_velocity_[ab] * F;
+                }
+        slide_proxy(contacts_[h], body_inputs_[h], others_u, others_v);
+      }
 }
 
-// Coulomb friction on the coupling force a stuck proxy would give, F = K g + D (v_hip - v_surface)
-// (g = x_hip - proxy, the surface as the last tick left it), split along the normal of the triangle
-// the proxy walks in (at rest, as every normal of the contact) (F_n = -F.n > 0 presses) and across it (F_t). The face's normal, not
-// the blended vertex normal: near a sharp edge (a rib's top, 1.8 mm wide) the blended normal tilts
-// towards the side face, and its tangential part of a straight press walked the proxy over the edge
-// and down the side. The proxy sticks while |F_t| <= mu F_n (mu_s when stuck,
-// mu_d when sliding); else it slides along F_t until |F_t| = mu_d F_n, to proxy_friction_tolerance
-// (a few passes follow the surface's curvature).
-void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
+// Coulomb friction on the force the step will give with the proxy stuck where it is, split along the
+// normal of the triangle the proxy walks in (at rest, as every normal of the contact) (F_n = -F.n > 0
+// presses) and across it (F_t). The face's normal, not the blended vertex normal: near a sharp edge
+// (a rib's top, 1.8 mm wide) the blended normal tilts towards the side face, and its tangential part
+// of a straight press walked the proxy over the edge and down the side. The proxy sticks while
+// |F_t| <= mu F_n (mu_s when stuck, mu_d when sliding); else it slides along the surface until
+// |F_t| = mu_d F_n, to proxy_friction_tolerance (a few passes follow the surface's curvature). No
+// pressing force, no friction: a proxy whose force does not press slides to F_t = 0.
+//
+// The force is the coupling's as impedance_step solves it with the modal step, for this contact
+// held: F = A^-1 (K (x_hip - rest - B q_f - u_o) + D (v_hip - B v_f - v_o)), A = I + K S + D Sv,
+// (q_f, v_f) the free step, S = B G B^T + C the contact's own block, Sv = B H B^T its velocity's,
+// u_o and v_o the other contacts' share of the point's motion (slide_proxies). The explicit force
+// K (x_hip - p) + D (v_hip - v_p) of the surface as the last tick left it (p) is what the test took
+// before: with a soft coupling (no haptic scale, K S ~ 0.01) the two differ by about K S, but with a
+// haptic scale the coupling on the part is 200 times the band's top (K S >> 1) and the explicit
+// force is K times a gap of a fraction of a micrometre. The surface moving by that much in a tick
+// flipped its sign while the step's force, set by the part's own compliance, still pressed; the
+// proxy stuck at such ticks while the hand moved on, the step's force dragged the part sideways (a
+// rib along its length, as stiff as a wall), and the hand felt F_t up to 20 times F_n (the default
+// scene's slide on omega.x). Moving the proxy by delta changes F by -A^-1 K delta, so the walk's
+// step that takes an excess e off F_t is K^-1 A e (in the face's plane).
+void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in, const double others_u[3], const double others_v[3]) noexcept
 {
-  // The corners' displacements and the load point's velocity as the last tick's outputs left them
-  // (write_outputs), unless the state moved since (a settle, a switch, a new contact).
+  // The corners' displacements as the last tick's outputs left them (write_outputs), unless the
+  // state moved since (a settle, a switch, a new contact).
   ProxyState         &proxy = c.proxy;
   const std::uint32_t r     = mode_count();
   for (int k = 0; k < 3; ++k)
@@ -721,25 +784,40 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
       dot_rows3(proxy.corner(k).B, q_.data(), r, proxy.corner(k).u), proxy.corner(k).u_stamp = state_stamp_;
   const std::uint32_t region_before = basis.region[c.vertex], crossings_before = proxy.crossings;
   const double        K = def.coupling_stiffness, D = def.coupling_damping;
-  double              relative_velocity[3];
-  if (proxy.bv_stamp == state_stamp_)
-    std::copy_n(proxy.bv, 3, relative_velocity);
-  else
-    dot_rows3(c.B, v_.data(), r, relative_velocity);
+  // The free step's displacement of the load point beyond the last tick's (B (q_f - q)) and the other
+  // contacts' share, which the walk carries to the points it moves to (a few micrometres a tick),
+  // and the velocity's.
+  double free_u[3], free_v[3], relative_velocity[3];
+  dot_rows3_pair(c.B, q_free_.data(), v_free_.data(), r, free_u, free_v);
   for (int d = 0; d < 3; ++d)
-    relative_velocity[d] = in.v[d] - relative_velocity[d];
+    {
+      free_u[d] += others_u[d] - (proxy.weights[0] * proxy.corner(0).u[d] + proxy.weights[1] * proxy.corner(1).u[d] +
+                                  proxy.weights[2] * proxy.corner(2).u[d]);
+      relative_velocity[d] = in.v[d] - free_v[d] - others_v[d];
+    }
+  // A and A^-1 at the proxy's weights (the walk's few micrometres a tick leave them as they are); a
+  // singular A (not met with a passive coupling) leaves the explicit force, as solve_coupling does.
+  double S[9], Sv[9], C[9], A[9], A_inverse[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  proxy_coupling_block(c, S, Sv);
+  proxy_pair_compliance(c, c, C);
+  for (int e = 0; e < 9; ++e)
+    A[e] = (e % 4 == 0 ? 1.0 : 0.0) + K * (S[e] + C[e]) + D * Sv[e];
+  if (!invert3(A, A_inverse))
+    for (int e = 0; e < 9; ++e)
+      A[e] = e % 4 == 0 ? 1.0 : 0.0, A_inverse[e] = A[e];
   bool moved = false;
   for (int pass = 0; pass < proxy_passes; ++pass)
     {
-      double                  p[3], n[3], F[3];
+      double                  p[3], n[3], F_e[3], F[3];
       const DeformedTriangle &Y = deformed_triangle(basis, proxy, state_stamp_);
       for (int d = 0; d < 3; ++d) // proxy_point's sum, over the corners as deformed
         p[d] = c.correction[d] + proxy.weights[0] * Y.Y[0][d] + proxy.weights[1] * Y.Y[1][d] + proxy.weights[2] * Y.Y[2][d];
       if (proxy.face_triangle != proxy.triangle)
         face_normal(c, proxy.face), proxy.face_triangle = proxy.triangle;
       std::copy_n(proxy.face, 3, n);
-      for (int d = 0; d < 3; ++d)
-        F[d] = K * (in.x[d] - p[d]) + D * relative_velocity[d];
+      for (int d = 0; d < 3; ++d) // p less the last tick's correction C F_last: A holds C F
+        F_e[d] = K * (in.x[d] - p[d] + c.correction[d] - free_u[d]) + D * relative_velocity[d];
+      multiply3(A_inverse, F_e, F);
       const double normal = -dot3(F, n);
       for (int d = 0; d < 3; ++d)
         F[d] += normal * n[d];
@@ -747,19 +825,22 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
       if (pass == 0)
         {
           const double mu = c.proxy.sliding ? def.dynamic_friction : def.static_friction;
-          c.proxy.sliding = normal > 0.0 && K > 0.0 && across > mu * normal;
+          c.proxy.sliding = K > 0.0 && across > mu * std::max(0.0, normal);
           if (!c.proxy.sliding)
             break;
         }
       const double excess = across - def.dynamic_friction * std::max(0.0, normal);
       if (excess <= proxy_friction_tolerance * across)
         break;
-      for (int d = 0; d < 3; ++d) // K times this step takes the excess off F_t
-        F[d] *= excess / (K * across);
-      if (!walk_proxy(c, F))
+      double step[3];
+      multiply3(A, F, step);
+      const double off_face = dot3(step, n);
+      for (int d = 0; d < 3; ++d) // -A^-1 K times this step takes the excess off F_t
+        step[d] = (step[d] - off_face * n[d]) * excess / (K * across);
+      if (!walk_proxy(c, step))
         break;
       if (pass == 0)
-        std::copy_n(F, 3, c.proxy.heading); // where the look-ahead expects the proxy to go
+        std::copy_n(step, 3, c.proxy.heading); // where the look-ahead expects the proxy to go
       moved = true;
     }
   if (moved)
@@ -774,6 +855,31 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in) noexcept
     ++proxy.lookahead_deferrals;
   else
     proxy.lookahead_deferrals = 0, prepare_proxy(c);
+}
+
+// Coulomb's bound on the force the step solved (impedance_step, before the force limit and the
+// validity clamp, which scale the whole force and so keep it): |F_t| <= mu F_n about the face's
+// normal, mu that of the proxy's state (mu_s stuck, mu_d sliding). slide_proxy decided on this
+// force's estimate, which leaves out the other contacts' share of the point's motion and the
+// surface's free motion beyond its velocity; where that leaves the solved force outside the cone,
+// the contact slips by the difference this tick (its tangential part is brought back to the cone's
+// edge, the part and the hand get the same force) and the next tick's slide moves the proxy. A
+// force that does not press is left to the release rule.
+void modalrt_kernel::hold_in_friction_cone(Contact &c, double F[3]) noexcept
+{
+  if (c.proxy.face_triangle != c.proxy.triangle)
+    face_normal(c, c.proxy.face), c.proxy.face_triangle = c.proxy.triangle;
+  const double *n = c.proxy.face, normal = -dot3(F, n);
+  if (!(normal > 0.0))
+    return;
+  double t[3];
+  for (int d = 0; d < 3; ++d)
+    t[d] = F[d] + normal * n[d];
+  const double across = norm3(t), limit = (c.proxy.sliding ? def.dynamic_friction : def.static_friction) * normal;
+  if (!(across > limit))
+    return;
+  for (int d = 0; d < 3; ++d)
+    F[d] = -normal * n[d] + t[d] * (limit / across);
 }
 
 // The outward unit normal of the proxy's triangle at rest (the normals the contact uses are the rest
@@ -1013,8 +1119,6 @@ void modalrt_kernel::proxy_displacement(Contact &c, double u[3], double u_dot[3]
                    corner_u, u_dot);
   for (int k = 0; k < 3; ++k)
     std::copy_n(corner_u + 3 * k, 3, proxy.corner(k).u), proxy.corner(k).u_stamp = state_stamp_;
-  std::copy_n(u_dot, 3, proxy.bv);
-  proxy.bv_stamp = state_stamp_;
   for (int d = 0; d < 3; ++d)
     u[d] = proxy.weights[0] * corner_u[d] + proxy.weights[1] * corner_u[3 + d] + proxy.weights[2] * corner_u[6 + d];
 }

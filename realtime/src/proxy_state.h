@@ -192,9 +192,7 @@ namespace modalrt
     std::uint32_t packed_triangle = MODALRT_NONE; // the triangle both were made for
     double        face[3] = {0.0, 0.0, 0.0};      // face_normal of face_triangle
     std::uint32_t face_triangle = MODALRT_NONE;
-    double        bv[3] = {0.0, 0.0, 0.0};        // B v at bv_stamp (write_outputs)
     DeformedTriangle deformed;                    // of the triangle the walk is on, this tick
-    std::uint64_t bv_stamp = 0;
 
     const ProxyRow &corner(int k) const { return rows[corner_slot[k]]; }
     ProxyRow       &corner(int k) { return rows[corner_slot[k]]; }
@@ -208,7 +206,6 @@ namespace modalrt
       active = sliding = false;
       lookahead_deferrals = 0;
       triangle = rows_space = ahead_triangle = packed_triangle = face_triangle = deformed.triangle = MODALRT_NONE;
-      bv_stamp = 0;
       crossings = ahead_count = ahead_next = 0;
       for (int k = 0; k < 3; ++k)
         weights[k] = heading[k] = 0.0, corner_slot[k] = 0;

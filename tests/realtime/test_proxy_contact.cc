@@ -284,6 +284,68 @@ namespace
     modalrt_basis_destroy(b);
   }
 
+  // 2b. The friction cone at the hand under a haptic scale (omega.x: stable stiffness 5 N/mm, the
+  // part's coupling 200 times the band's top). The same slide at 0.1 m/s as force_continuity, 1 mm
+  // deep, with the band's top at the stiffest vertex of the row (the whole row within the band) and
+  // at half of it (the stable-stiffness wall holds the normal force at the hand): at every tick in
+  // contact whose force at the hand presses by more than 0.05 N, |F_t| <= mu_s F_n at the hand
+  // (the top face's normal is z), to 1 % of mu_s F_n. Before the friction test used the force the
+  // step solves, the proxy stuck whenever the explicit guess K (x_hip - proxy) of the stiff
+  // coupling did not press, and the hand felt the part dragged sideways: F_t / F_n up to 20 in the
+  // default scene's slide.
+  void friction_cone_at_the_hand()
+  {
+    const LatticeOptions o = plate_options();
+    modalrt_basis       *b = test::load(modalrt::make_lattice_cantilever(o));
+    const double         mu_s = 0.3, mu_d = 0.2, x0 = 0.03, x1 = 0.11, y = 0.025;
+    double               stiffest = 0.0;
+    for (std::uint32_t i = 0; i < o.nx; ++i)
+      {
+        const std::uint32_t v = modalrt::lattice_display_vertex(o, i, 1);
+        const double       *x = modalrt_basis_display_vertices(b) + 3 * v;
+        double              G[9];
+        if (x[0] < x0 || x[0] > x1)
+          continue;
+        ENSURE(modalrt_basis_contact_compliance(b, 0, v, G, nullptr) == MODALRT_OK);
+        stiffest = std::max(stiffest, 1.0 / G[8]);
+      }
+    ENSURE(stiffest > 0.0);
+    const Path   path     = slide_path(x0, x1, y, top(o), 0.001, 0.1);
+    const double duration = path_duration(x0, x1, 0.1);
+    for (double band_share : {1.0, 0.5})
+      {
+        modalrt_kernel_def def = proxy_def(mu_s, mu_d);
+        ENSURE(modalrt_device_profile_find("omega.x", &def.device) == MODALRT_OK);
+        def.haptic_scale = def.device.max_stiffness / (band_share * stiffest);
+        modalrt_kernel *k     = test::create(b, def);
+        double          worst = 0.0, lowest = 0.0;
+        int             ticks = 0, outside = 0, walled = 0, sliding = 0;
+        const SlideRecord rec = run_slide(k, {path}, duration, [&](int, const modalrt_hip_output *out) {
+          const double normal = out[0].force[2], across = tangential(out[0]);
+          if (!out[0].in_contact || normal <= 0.05)
+            return;
+          ++ticks;
+          walled += (out[0].flags & MODALRT_HIP_BEYOND_RANGE) != 0;
+          sliding += (out[0].flags & MODALRT_HIP_SLIDING) != 0;
+          worst = std::max(worst, across / normal);
+          outside += across > 1.01 * mu_s * normal;
+        });
+        modalrt_kernel_stats stats;
+        modalrt_kernel_get_stats(k, &stats);
+        lowest = stats.min_hip_passivity_energy;
+        std::printf("  omega.x, band's top %.0f %% of the row's stiffest (%.4g N/mm), s = %.4g: %d ticks pressing, %d "
+                    "walled, %d sliding; largest F_t / F_n at the hand %.4f (mu_s %.1f), %d ticks outside the cone; "
+                    "lowest observer %.3g J; in contact throughout: %d\n",
+                    100 * band_share, 1e-3 * stiffest, def.haptic_scale, ticks, walled, sliding, worst, mu_s, outside,
+                    lowest, int(rec.stayed_in_contact));
+        ENSURE(rec.stayed_in_contact && ticks > 500 && sliding > 100);
+        ENSURE(band_share == 1.0 || walled > 100);
+        ENSURE(outside == 0 && worst <= 1.01 * mu_s);
+        modalrt_kernel_destroy(k);
+      }
+    modalrt_basis_destroy(b);
+  }
+
   // The exact static compliance (3 x 3) between two loads spread over triangles' corners with
   // weights (a load at a vertex: that vertex, weight 1), from the lattice's own numbers: every
   // vertex is a candidate with its exact residual and the cross residuals, so sum_ij w_i w_j
@@ -625,6 +687,7 @@ int main()
   force_continuity();
   along_edges_and_through_vertices();
   friction();
+  friction_cone_at_the_hand();
   stiffness_along_a_slide();
   stiffness_over_patch_rows();
   proxy_at_a_vertex_is_the_fixed_contact();
