@@ -195,7 +195,7 @@ namespace modalrt_tool
         device_.end_tick();
         if (!settings_.record)
           return;
-        slides_.observe(t, inputs_.data(), outputs_.data(), frame_position_);
+        slides_.observe(t, inputs_.data(), outputs_.data(), frame_position_, bases_[blend_.front()]);
         if (n % settings_.trace_decimation == 0)
           record_trace(n / settings_.trace_decimation, t);
       }

@@ -564,6 +564,10 @@ namespace modalrt_tool
         validity_of(p, result, hip_count, basis, validity_level);
       }
     modalrt_kernel_destroy(reference);
+    // A contact period in which the hand never pushed into the part (a proxy's last row on another
+    // vertex as it lifts off) has nothing to feel: it is no press.
+    presses.erase(std::remove_if(presses.begin(), presses.end(), [](const Press &p) { return !(p.max_force > 0.0 && p.felt_force > 0.0); }),
+                  presses.end());
     std::stable_sort(presses.begin(), presses.end(), [](const Press &a, const Press &b) { return a.start < b.start; });
     return presses;
   }

@@ -30,8 +30,29 @@ namespace modalrt_tool
     track = Track{};
   }
 
+  namespace
+  {
+    // Where a contact is on the part at rest: a proxy's point from its triangle and weights, else the
+    // output position in the body frame.
+    void rest_point(const modalrt_hip_output &o, const double frame[3], const modalrt_basis *basis, double point[3])
+    {
+      if (o.proxy_triangle == MODALRT_NONE || !basis)
+        {
+          for (int d = 0; d < 3; ++d)
+            point[d] = o.position[d] - frame[d];
+          return;
+        }
+      const std::uint32_t *corners = modalrt_basis_display_triangles(basis) + 3 * std::size_t(o.proxy_triangle);
+      const double        *x       = modalrt_basis_display_vertices(basis);
+      for (int d = 0; d < 3; ++d)
+        point[d] = o.proxy_weights[0] * x[3 * std::size_t(corners[0]) + d] +
+                   o.proxy_weights[1] * x[3 * std::size_t(corners[1]) + d] +
+                   o.proxy_weights[2] * x[3 * std::size_t(corners[2]) + d];
+    }
+  } // namespace
+
   void SlideTracker::observe(double t, const modalrt_hip_input *inputs, const modalrt_hip_output *outputs,
-                             const double frame[3])
+                             const double frame[3], const modalrt_basis *basis)
   {
     for (std::uint32_t h = 0; h < tracks_.size(); ++h)
       {
@@ -43,9 +64,9 @@ namespace modalrt_tool
             continue;
           }
         double point[3], step2 = 0.0, moved2 = 0.0, work = 0.0, force2 = 0.0;
+        rest_point(o, frame, basis, point);
         for (int d = 0; d < 3; ++d)
           {
-            point[d] = o.position[d] - frame[d];
             step2 += (o.force[d] - k.force[d]) * (o.force[d] - k.force[d]);
             moved2 += (point[d] - k.point[d]) * (point[d] - k.point[d]);
             work -= k.force[d] * (inputs[h].position[d] - k.hip[d]);

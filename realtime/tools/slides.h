@@ -26,7 +26,9 @@ namespace modalrt_tool
     std::uint32_t space_start = 0, space_end = 0; // active space at those ticks
     std::uint64_t ticks       = 0; // from start to end
     std::uint64_t sliding_ticks = 0; // of those, flagged MODALRT_HIP_SLIDING
-    double        length      = 0.0; // [m] path of the proxy over the part (body frame: minus the frame's origin)
+    double        length      = 0.0; // [m] path of the proxy over the part: of its point on the surface at rest
+                                     // (its triangle and weights), so the part's own deformation under a
+                                     // press is not counted as sliding
     double        max_force_step = 0.0; // [N] largest |F_n - F_(n-1)| between consecutive ticks of the slide
     double        max_force   = 0.0; // [N] largest |F|
     std::uint64_t beyond_ticks = 0; // of `ticks`, flagged MODALRT_HIP_BEYOND_VALIDITY (a basis with a validity map)
@@ -41,8 +43,10 @@ namespace modalrt_tool
   public:
     // Room for `capacity` slides (allocates; before the first tick). Slides past it are counted in dropped().
     void reset(std::uint32_t hips, std::size_t capacity, bool impedance);
-    // Haptic thread, after each tick: the tick's inputs and outputs and the part frame's origin [m]. No allocation.
-    void observe(double t, const modalrt_hip_input *inputs, const modalrt_hip_output *outputs, const double frame[3]);
+    // Haptic thread, after each tick: the tick's inputs and outputs, the part frame's origin [m] and the
+    // basis the outputs' proxy triangles are of. No allocation.
+    void observe(double t, const modalrt_hip_input *inputs, const modalrt_hip_output *outputs, const double frame[3],
+                 const modalrt_basis *basis);
     // After the last tick: the slides in order of start (an open one ends at its last sliding tick).
     std::vector<Slide> finish();
     std::uint64_t      dropped() const { return dropped_; }

@@ -140,7 +140,7 @@ namespace
           {
             out.position[0] = 1e-4 * std::min(k, ticks);
             out.flags       = k >= 1 && k <= ticks ? MODALRT_HIP_SLIDING : 0;
-            tracker.observe(1e-3 * k, &in, &out, frame);
+            tracker.observe(1e-3 * k, &in, &out, frame, nullptr);
           }
         const auto slides = tracker.finish();
         std::printf("  sliding over %.1f mm: %zu slide(s), %llu creep(s)\n", 0.1 * (ticks - 1), slides.size(),
