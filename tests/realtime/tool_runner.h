@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <vector>
 
 namespace test
@@ -17,7 +18,8 @@ namespace test
   // Runs `modal-rt ARGUMENTS`; returns its exit status and its output (stdout and stderr).
   inline int modal_rt(const std::string &arguments, std::string &output)
   {
-    const std::string capture = "modal_rt_output.txt";
+    // One file per test process: ctest runs the tests that call modal-rt side by side in one folder.
+    const std::string capture = "modal_rt_output." + std::to_string(getpid()) + ".txt";
     const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > " + capture + " 2>&1";
     const int         status  = std::system(command.c_str());
     output                    = read_text(capture);
