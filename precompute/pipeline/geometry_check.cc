@@ -171,7 +171,7 @@ namespace modal_haptics
         std::cerr << "Warning: 'Meshing/Coarse size' = " << scene.meshing.coarse_size
                   << " geometry units is over a third of the part's largest extent, " << extent
                   << ": a few elements across the part. Are the sizes in the geometry's unit?" << std::endl;
-      // A patch that covers a large share of the part is no longer a contact (issue 18).
+      // A patch that covers a large share of the part is no longer a contact.
       if (scene.contact.patch_radius > 0.1 * largest)
         std::cerr << "Warning: 'Contact/Patch radius' = " << scene.contact.patch_radius << " geometry units ("
                   << scene.contact.patch_radius * unit << " m) exceeds a tenth of the part's largest extent, " << extent

@@ -326,7 +326,7 @@ namespace modalrt_tool
     // reaches half the press's largest force, i.e. the end of a hold before unloading. (The largest
     // force itself is often the transient of the hand landing on the surface, not a settled state.)
     // Rows the kernel held (kernel_held) are left out of both: under a jittery client a held
-    // plateau above the real maximum was picked (issue 39). A press held throughout keeps its last row.
+    // plateau above the real maximum would be picked. A press held throughout keeps its last row.
     void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign, double force_scale)
     {
       std::vector<double>      force, displacement;

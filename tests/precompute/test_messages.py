@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""What a user reads (issue 39, docs/reliability.md): the lines and warnings a run or --validate prints
+"""What a user reads (docs/reliability.md): the lines and warnings a run or --validate prints
 on the cantilever (200 x 10 x 10 mm steel, tests/precompute/cantilever.prm), each asserted word for word.
 
 * mode selection says why each count: the haptic cut-off and the floor, in the parameters' names;

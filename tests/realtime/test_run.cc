@@ -184,7 +184,7 @@ time,hip,event,x,y,z
 1.5,-,end
 )";
 
-  // No scripted press pulls (issue 39: each ended in -0.87 to -1.0 N before its release): on the
+  // No scripted press pulls (a press that ends in -0.87 to -1.0 N before its release fails): on the
   // lattice's top face the outward normal is +z, so the force rendered on the device along it,
   // hiph_fz of trace.csv, is never attractive beyond 1e-9 N, in contact or ramping after a release.
   double most_pull(const std::string &dir, std::uint32_t hips)
@@ -457,7 +457,7 @@ time,hip,event,x,y,z
 
   // Slides through modal-rt run (the session's `proxy` row): HIP 0 pressed 2 mm below the lattice's
   // top face slides along it from x = 0.06 m across the tip VOI's boundary (x = 0.12 m) to 0.17 m;
-  // in a second session two HIPs slide past each other. Asserted from slides.csv, trace.csv and
+  // in a second scripted session two HIPs slide past each other. Asserted from slides.csv, trace.csv and
   // presses.csv: the slide is found (its length, the switch into the tip space), the largest force
   // change per tick while sliding is bounded and far below the snap contact's on the same session,
   // the passivity observer is not below -1e-4 J, the trace's static stiffness is the basis's at the
@@ -832,7 +832,7 @@ time,hip,event,x,y,z
       }
     std::string out;
     ENSURE(tool("--help", out) == 0 && contains(out, "modal-rt COMMAND --help"));
-    // view too (issue 39: it answered "unknown option '--help'", exit 2). A modal-rt built without
+    // view too (not "unknown option '--help'", exit 2). A modal-rt built without
     // the view says so, exit 1, with --help as without.
 #if MODAL_RT_HAS_VIEW
     ENSURE(tool("view --help", out) == 0 && contains(out, "usage") && contains(out, "--frame-rate HZ (60)"));
