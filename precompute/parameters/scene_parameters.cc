@@ -345,8 +345,8 @@ namespace modal_haptics
                       "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
                       "the force-displacement curve and the forces up to which the linear felt compliance "
                       "stays within 1, 5 and 10 %, and the second-order estimate there against it. Off by "
-                      "default: a point takes 5-6 s on the default scene on a 2-core machine (5 tangent "
-                      "assemblies of up to 164k DoFs, about 22 CG iterations with K's factorization; "
+                      "default: each point costs nonlinear solves (5 tangent assemblies of up to 164k DoFs "
+                      "on the default scene, about 22 CG iterations with K's factorization; its time in "
                       "docs/performance.md). Units: none.");
     prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
                       Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
@@ -367,8 +367,8 @@ namespace modal_haptics
                       "forces [N] from the second-order term of the felt force-displacement curve, the cubic "
                       "term of the stored energy ('Validity material') evaluated on the contact's linear "
                       "response projected on the space's modes (docs/accuracy.md): the validity map of the "
-                      ".mrt, .h5 and validity.vtu. About 9 s on the default scene (a cubic tensor per space, "
-                      "then microseconds per contact), serial and under MPI; a space with free rigid motions "
+                      ".mrt, .h5 and validity.vtu. Its cost is a cubic tensor per space, then little per "
+                      "contact (docs/performance.md), serial and under MPI; a space with free rigid motions "
                       "gets none. Units: none.");
     prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
                       Patterns::Selection("preconditioned CG|factorization"),

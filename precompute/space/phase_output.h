@@ -42,8 +42,8 @@ namespace modal_haptics
       // its DoF j (a -0 written as +0, which deal.II's sum over the shape functions makes of it).
       // Every simplex patch carries its points (deal.II stores them for any cell that is not a
       // hypercube), as the linear mapping computes them (point_in_linear_tet). 'fields' are those
-      // added, in their order. The VTU phase of the default scene spent 1.2-1.4 s in build_patches;
-      // precompute.vtu_patches compares both VTU files byte for byte.
+      // added, in their order. build_patches was most of the VTU phase (docs/performance.md, the
+      // mode-shape VTU files); precompute.vtu_patches compares both VTU files byte for byte.
       void build_patches_at_nodes(const dealii::DoFHandler<3>                    &dof_handler,
                                   const std::vector<const dealii::Vector<double> *> &fields)
       {
