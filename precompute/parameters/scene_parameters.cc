@@ -445,10 +445,10 @@ namespace modal_haptics
                       "Scalar type of the display modes in the .mrt file. Units: none.");
     prm.declare_entry("VTU modes", text(o.vtu_modes), Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
     prm.declare_entry("VTU compression", vtu_compression_names[int(o.vtu_compression)], Patterns::Selection("none|fast|best"),
-                      "zlib on the data of the mode-shape VTU files: 'none' (zlib's stored blocks, not compressed: about twice "
-                      "the disk space of 'fast', written in under half the time; see docs/performance.md), "
-                      "'fast' (zlib's fastest level) or 'best' (zlib's best: about 1.5 % smaller than 'fast', "
-                      "1.6x its time). ParaView reads all three. Units: none.");
+                      "The mode-shape VTU files: 'none' (the arrays appended raw, the cells sharing their "
+                      "nodes' points: the smallest and fastest; docs/precompute.md), or deal.II's writer with "
+                      "zlib on the data, every cell its own points: 'fast' (zlib's fastest level) or 'best' "
+                      "(zlib's best: about 1.5 % smaller than 'fast'). ParaView reads all three. Units: none.");
     prm.declare_entry("Export matrices", text(o.export_matrices), Patterns::Bool(),
                       "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
                       "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");
