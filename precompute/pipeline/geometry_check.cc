@@ -178,6 +178,15 @@ namespace modal_haptics
                   << ": the patch covers much of the part. " << is_the_unit_right << std::endl;
     }
 
+    // A group the file names but gives nothing to (gmsh loads one without a word) is left out of the
+    // meshes; no support names it, or inspect_geometry would have refused the run.
+    void warn_about_empty_groups(const SceneParameters &scene, const meshing::GeometryReport &report)
+    {
+      for (const auto &words : report.empty_groups)
+        std::cerr << "Warning: geometry file '" << scene.meshing.geometry << "': " << words
+                  << "; it is left out of the meshes (no support names it)." << std::endl;
+    }
+
     // The rigid-body motions the supports would leave free, from points on what each selection
     // meets in the CAD model and the directions its restraint holds there (the run finds them on
     // each mesh's nodes). None when a selection has no such points (a .msh input, a normal
@@ -216,6 +225,8 @@ namespace modal_haptics
     if (print)
       std::cout << part_summary(scene, report) << selection_summary(scene, report) << std::flush;
     check_sizes(scene, report, print);
+    if (print)
+      warn_about_empty_groups(scene, report);
     if (!predict_free_motions || scene.supports.empty())
       return;
     if (const auto free = predicted_free_motions(scene, report))

@@ -75,9 +75,11 @@ CASES = [
      ["line ", "has no subsection 'Materials'. Did you mean 'Material'?"]),
     ("unknown cut-off rule", scene_with(section("Modes", "set Cut-off rule = fast")),
      ["'Modes/Cut-off rule' = fast: must be one of none, display, haptic."]),
-    # An empty physical group, which gmsh loads without a word.
-    ("empty physical group", scene_with(section("Geometry", "set Source = empty_group.geo")),
-     ["'wall' holds no surface", "remove it"]),
+    # A support that names an empty physical group, which gmsh loads without a word (one that no
+    # support names is only warned about: test_messages.py).
+    ("support naming an empty physical group",
+     scene_with(section("Geometry", "set Source = empty_group.geo", "set Supports = surface wall : clamp")),
+     ["Group 'wall'", "empty_group.geo", "the physical surface 'wall' holds no surface", "select another group"]),
     # The groups listed are the user's; 'free' is said to be the program's.
     ("group listing without the program's", scene_with(section("Geometry", "set Source = clamp_only.geo",
                                                                "set Supports = surface bolts : clamp")),
