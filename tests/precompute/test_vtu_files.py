@@ -9,8 +9,10 @@
 * the mode-shape file holds exactly what deal.II's writer puts in the compressed one: the same cells
   (offsets, types), and, through its connectivity, the same points and the same value of every field
   at every cell's node; its points shared between cells, it has fewer than a fifth of the other's;
-* the display-surface maps have a value per display vertex, the felt stiffness finite and positive.
-Python standard library and numpy only."""
+* the display-surface maps have a value per display vertex, the felt stiffness finite and positive;
+* where VTK's Python module is installed (Debian's python3-vtk9: ParaView's reader), VTK reads every
+  file without an error to the same points, cells and arrays (skipped, and said so, without it).
+Python standard library and numpy; VTK only for that last check."""
 import os
 import re
 import shutil
@@ -49,10 +51,32 @@ def layout(path, cell_points):
     except ValueError as error:
         check(False, f"{os.path.basename(path)} reads", str(error))
         return None
+    read_by_vtk(path, arrays)
     check(appended_raw(path), f"{os.path.basename(path)}: arrays appended raw, UInt64 byte counts")
     for condition, words in check_vtu_layout(arrays, cell_points):
         check(condition, f"{os.path.basename(path)}: {words}")
     return arrays
+
+
+def read_by_vtk(path, ours):
+    """VTK's own reader (ParaView's) on the file, against read_vtu's arrays; skipped without VTK."""
+    try:
+        import vtk
+        from vtk.util.numpy_support import vtk_to_numpy
+    except ImportError:
+        print(f"skipped VTK's reader on {os.path.basename(path)}: no python3-vtk9 here")
+        return
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    grid, data = reader.GetOutput(), reader.GetOutput().GetPointData()
+    arrays = {data.GetArray(i).GetName(): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
+    check(reader.GetErrorCode() == 0 and grid.GetNumberOfCells() == ours["_piece"]["NumberOfCells"]
+          and np.array_equal(vtk_to_numpy(grid.GetPoints().GetData()), ours["Points"])
+          and np.array_equal(vtk_to_numpy(grid.GetCells().GetConnectivityArray()), ours["connectivity"])
+          and arrays.keys() == {k for k in ours if k not in ("_piece", "Points", "connectivity", "offsets", "types")}
+          and all(np.array_equal(v, ours[k]) for k, v in arrays.items()),
+          f"VTK's reader reads {os.path.basename(path)} to the same points, cells and arrays")
 
 
 def same_as_deal_ii(ours, theirs):
