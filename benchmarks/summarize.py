@@ -49,7 +49,7 @@ def kernel(path):
     sliding = {t["scenario"]: t for t in ticks if t["r"] == "200" and t["hips"] == "1"
                and t["scenario"].startswith(("fixed", "slide", "machine"))}
     if sliding:
-        print("sliding contact, r = 200, 1 HIP (issue 37: slide p50 <= 2x fixed, p99.9 <= 5 us; 'machine' is constant "
+        print("sliding contact, r = 200, 1 HIP (targets: slide p50 <= 2x fixed, p99.9 <= 5 us; 'machine' is constant "
               "work as long as the fixed tick, timed in the same loop: the tail the machine alone adds):")
         for name, t in sliding.items():
             print(f"  {name:20s} p50 {float(t['p50_ns']) / 1e3:6.2f} us  p99 {float(t['p99_ns']) / 1e3:6.2f} us  "

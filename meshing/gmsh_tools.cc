@@ -228,21 +228,37 @@ namespace modal_haptics::meshing::detail
     gmsh::model::setPhysicalName(dim, tag, name);
   }
 
-  void require_named_groups(const std::string &context)
+  std::vector<std::pair<int, std::string>> require_named_groups(const std::string &context)
   {
-    static const char *const kinds[4] = {"point", "curve", "surface", "volume"};
+    std::set<std::string> held_names;
     for (int dim = 0; dim <= 3; ++dim)
-      {
-        for (const auto &[tag, name] : physical_groups(dim))
+      for (const auto &[tag, name] : physical_groups(dim))
+        {
           if (name.empty())
             throw MeshingError(context + ": physical group of dimension " + std::to_string(dim) + " with tag " +
                                std::to_string(tag) + " has no name; name every group, e.g. Physical Surface(\"clamp\", " +
                                std::to_string(tag) + ") = {...};");
-        for (const auto &name : empty_named_groups(dim))
-          throw MeshingError(context + ": the physical " + kinds[dim] + " '" + name + "' holds no " + kinds[dim] +
-                             " (gmsh loads an empty group such as 'Physical Surface(\"" + name +
-                             "\") = {};' without a word): give it its " + kinds[dim] + "s or remove it");
-      }
+          held_names.insert(name);
+        }
+    std::vector<std::pair<int, std::string>> empty;
+    for (int dim = 0; dim <= 3; ++dim)
+      for (const auto &name : empty_named_groups(dim))
+        empty.emplace_back(dim, name);
+    // Removed, so that no mesh carries a name without elements (readers accept one silently); gmsh
+    // removes a name in every dimension, so one that a group of another dimension holds stays.
+    for (const auto &[dim, name] : empty)
+      if (held_names.count(name) == 0)
+        gmsh::model::removePhysicalName(name);
+    return empty;
+  }
+
+  std::string empty_group_words(const int dim, const std::string &name)
+  {
+    static const char *const kinds[4]    = {"point", "curve", "surface", "volume"};
+    static const char *const keywords[4] = {"Point", "Curve", "Surface", "Volume"};
+    const int                d           = std::clamp(dim, 0, 3);
+    return std::string("the physical ") + kinds[d] + " '" + name + "' holds no " + kinds[d] + " (gmsh loads 'Physical " +
+           keywords[d] + "(\"" + name + "\") = {};' without a word)";
   }
 
   bool added_by_program(const int dim, const std::string &name)

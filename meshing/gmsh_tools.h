@@ -48,9 +48,14 @@ namespace modal_haptics::meshing::detail
   // written as a group without elements, which readers then silently accept).
   void add_named_group(int dim, const std::vector<int> &entities, const std::string &name, int tag);
 
-  // Every physical group of the model must be named (deal.II reads the names) and hold an entity;
-  // throws otherwise.
-  void require_named_groups(const std::string &context);
+  // Every physical group of the model must be named (deal.II reads the names); throws otherwise.
+  // Returns (dimension, name) of each name whose group holds no entity (gmsh loads 'Physical
+  // Surface("wall") = {};' without a word), removed from the model: the caller warns about them and
+  // refuses a selection that names one.
+  std::vector<std::pair<int, std::string>> require_named_groups(const std::string &context);
+
+  // "the physical surface 'wall' holds no surface (gmsh loads ... without a word)": for messages.
+  std::string empty_group_words(int dim, const std::string &name);
 
   // Whether complete_physical_groups added this group (not the user's): "free", "part".
   bool added_by_program(int dim, const std::string &name);

@@ -144,8 +144,13 @@ namespace modal_haptics::meshing
             for (const auto &region : regions)
               report.regions.push_back(inspect_region(region, settings.geometry));
           });
+        for (const auto &[dim, name] : empty_groups)
+          report.empty_groups.push_back(empty_group_words(dim, name));
         for (const auto &[dim, name] : named_groups)
-          report.named_groups.push_back(inspect_group(kind, settings.geometry, dim, name));
+          {
+            refuse_if_empty(dim, name);
+            report.named_groups.push_back(inspect_group(kind, settings.geometry, dim, name));
+          }
         return report;
       }
 
@@ -158,6 +163,7 @@ namespace modal_haptics::meshing
       const InputKind                       kind;
       std::string                           inputs;         // what every mesh of the scene depends on
       bool                                  model_loaded = false;
+      std::vector<std::pair<int, std::string>> empty_groups; // named in a .geo, holding nothing
       std::vector<int>                      field_tags;     // the size fields currently defined
       std::vector<SelectionReport>          clamp_box_reports; // what each clamp box caught
 
@@ -301,6 +307,16 @@ namespace modal_haptics::meshing
         return caught;
       }
 
+      // A selection may not name a group that the file declares empty: it would select nothing.
+      void refuse_if_empty(const int dim, const std::string &name) const
+      {
+        for (const auto &empty : empty_groups)
+          if (empty == std::make_pair(dim, name))
+            throw MeshingError("Group '" + name + "' ('Geometry/Supports' or 'Clamp groups') of geometry file '" +
+                               settings.geometry + "': " + empty_group_words(dim, name) +
+                               "; fill the group in the file or select another group");
+      }
+
       // --- the gmsh model -------------------------------------------------------------------------
 
       void load_model()
@@ -419,7 +435,7 @@ namespace modal_haptics::meshing
         gmsh::model::getEntities(volumes, 3);
         if (volumes.empty())
           throw MeshingError("geometry file '" + settings.geometry + "' defines no volume");
-        require_named_groups("geometry file '" + settings.geometry + "'");
+        empty_groups = require_named_groups("geometry file '" + settings.geometry + "'");
         complete_physical_groups();
       }
 

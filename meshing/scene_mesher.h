@@ -200,13 +200,18 @@ namespace modal_haptics::meshing
     // inside a VOI are counted in the meshing log.
     std::vector<SelectionReport> volumes_of_interest;
     std::vector<SelectionReport> regions; // one per RegionSelection: the faces whose bounding box meets it
+    // Each physical group of a .geo that holds nothing, in words ("the physical surface 'wall' holds
+    // no surface (...)"): left out of the model and the meshes, for the caller to warn about (a
+    // selection that names one is refused).
+    std::vector<std::string> empty_groups;
   };
 
   // Loads the geometry without meshing it and checks, throwing MeshingError that names the culprit:
   // the settings and VOIs (a VOI outside the part's bounding box), the file's declared length unit
   // against 'length_unit' (metres per unit, refused when they differ), every clamp box (one that
   // catches no boundary face is refused, naming the nearest face), every named group (dimension, name)
-  // (a physical surface of the model). Seconds, not minutes: nothing is meshed (a .msh is read).
+  // (a physical surface of the model; one the file declares empty is refused as empty). Seconds, not
+  // minutes: nothing is meshed (a .msh is read).
   GeometryReport inspect_geometry(const MeshingSettings &settings,
                                   const std::vector<VolumeOfInterest> &volumes_of_interest,
                                   const std::vector<std::pair<int, std::string>> &named_groups,

@@ -4,8 +4,9 @@
     scripts/performance_table.py [--doc FILE]
 
 For each benchmark case below, the newest CSV that measured it gives its figure. The CSVs record no
-date or commit of their own, so "newest" is the date of the last commit that changed the file
-(git log -1 --format=%at/%as/%h -- FILE); a CSV with uncommitted changes, or not yet in git (what
+date or commit of their own, so "newest" is the date of the last commit that changed a row of the
+file (git log -1 -G'^[^#]' --format=%at/%as/%h -- FILE: a commit that rewords only its '#' comment
+lines measured nothing and does not re-date it); a CSV with uncommitted changes, or not yet in git (what
 scripts/bench has just written), is newer than any commit, dated by its modification time and
 shown as "uncommitted". The table replaces what lies between the two marker lines of FILE
 (docs/performance.md by default); nothing else of the file changes. tests/docs checks that the
@@ -46,9 +47,10 @@ def git(*arguments):
 
 
 def provenance(relative):
-    """(sort key, date, commit) of a CSV: its last commit, or its mtime if it differs from git's."""
+    """(sort key, date, commit) of a CSV: the last commit that changed one of its rows (not only its
+    comment lines), or its mtime if it differs from git's."""
     if not git("status", "--porcelain", "--", relative):
-        logged = git("log", "-1", "--format=%at %as %h", "--", relative)
+        logged = git("log", "-1", "-G^[^#]", "--format=%at %as %h", "--", relative)
         if logged:
             seconds, date, commit = logged.split()
             return (int(seconds), relative), date, commit

@@ -12,14 +12,14 @@ the same run (bench-machine-limits: OpenBLAS DGEMM rate, memory read bandwidth).
       [--sizes 0.72,0.345,0.213] [--repetitions 3] [--slow-peer-limit 300000] [--slow-peer-repetitions 1]
       [--large-from 500000]
 
-Slow peers: ARPACK + UMFPACK and scipy (single-threaded LU, time growing about as n^1.6-2 from
-18k to 222k DoFs: 7.8 -> 300 s and 4.7 -> 757 s, peak 7.5 and 9.8 GB at 254k in FACTS.md) run
-only up to --slow-peer-limit DoFs and --slow-peer-repetitions times; above that the CSV has a
-'skipped' row saying why.
+Slow peers: ARPACK + UMFPACK and scipy (single-threaded LU, time growing about as n^1.6-2 with the
+DoFs, and peak memory too; their figures in README.md here) run only up to --slow-peer-limit DoFs and
+--slow-peer-repetitions times; above that the CSV has a 'skipped' row saying why.
 Large sizes (above --large-from, default 500k DoFs: the ~1M one): only ours (serial, and over MUMPS
-on 2 ranks) and the goal's peer, SLEPc on 2 ranks, run, once (about 14 minutes together at 1M). ARPACK + CHOLMOD shares our factorization (its
-ratio is known from the smaller sizes), SLEPc on 1 rank would hold the whole MUMPS factor (~19 GB
-beside 24 GiB), and three repetitions of the pair would take over 40 minutes.
+on 2 ranks) and the goal's peer, SLEPc on 2 ranks, run, once (their time: docs/performance.md).
+ARPACK + CHOLMOD shares our factorization (its ratio is known from the smaller sizes), SLEPc on 1 rank
+would hold the whole MUMPS factor (~19 GB beside 24 GiB), and repetitions of the pair would triple
+the longest part of the benchmark.
 """
 import argparse
 import csv

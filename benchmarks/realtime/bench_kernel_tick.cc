@@ -14,7 +14,7 @@
 // line before them gives each one's passivity observer at the end and its lowest value; "sampled",
 // "every-vertex" and "far-field" rows: the corrected 2-HIP admittance tick on the plate with 32
 // candidates per space, on the same plate whose every display vertex is a candidate with cross rows
-// to the vertices it shares a triangle with (issue 36's basis), and on that one with a far field of
+// to the vertices it shares a triangle with (all exact), and on that one with a far field of
 // rank 64 (.mrt 1.3) coupling the two HIPs, which are not neighbours; the three kernels ticked in
 // turn at the same vertices; a comment line before them gives the bases' sizes and the ratios of
 // their p50s to the sampled one's; "impedance-unscaled-in-turn" and "impedance-scaled-in-turn": the

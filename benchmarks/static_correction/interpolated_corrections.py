@@ -1,10 +1,9 @@
 #!/usr/bin/python3
-"""Could a space correct fewer display vertices and interpolate the rest (issue 36, item 1's
-"documented density")? Reads a run's .h5, in which every candidate of the space is corrected
-(the defaults), keeps a Poisson-disk subset of the candidates at each radius, interpolates the
-residual compliance tensor (the static correction, candidate_compliance) of every other candidate
-from its nearest kept ones on the same side of the part, and prints how far the interpolated felt
-compliance is from the exact one.
+"""Could a space correct fewer display vertices, at a documented density, and interpolate the rest?
+Reads a run's .h5, in which every candidate of the space is corrected (the defaults), keeps a
+Poisson-disk subset of the candidates at each radius, interpolates the residual compliance tensor
+(the static correction, candidate_compliance) of every other candidate from its nearest kept ones on
+the same side of the part, and prints how far the interpolated felt compliance is from the exact one.
 
   benchmarks/static_correction/interpolated_corrections.py RESULTS/ribbed_panel.h5 [SPACE] [RADII_MM]
 

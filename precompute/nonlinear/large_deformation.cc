@@ -324,7 +324,7 @@ namespace modal_haptics
     // The cells are split into as many contiguous chunks as deal.II has threads, each integrated on
     // its own and the parts added in chunk order: the same numbers whichever task ends first.
     // Small GEMMs (r x 3328 x r(r+1)/2), one BLAS thread per task: with OpenBLAS' threads on a busy
-    // machine the default scene's global tensor took 40 s in one run, 1.7 s in another.
+    // machine the tensor's time swung by more than an order of magnitude between runs (docs/accuracy.md).
     template <typename VectorType>
     ModalCubicTerm::ModalCubicTerm(const DoFHandler<3> &dof_handler, const Mapping<3> &mapping,
                                    const Quadrature<3> &quadrature, const MaterialParameters &material,
@@ -818,9 +818,8 @@ namespace modal_haptics
       // A cell's part: its rows and columns in the order of its DoFs' global indices. Added by one
       // thread at a time in the cells' order, so each entry gets its sums in an order fixed by the
       // mesh, not by which thread ends first. (Colours of cells sharing no row, each colour added on
-      // every thread at once, were slower: a default-scene contact's assemblies 2.8-3.6 s against
-      // 2.5-2.8 s, alternately. A colour's cells are spread over the whole matrix, while consecutive
-      // cells in their order share rows in cache.)
+      // every thread at once, were slower, docs/performance.md: a colour's cells are spread over the
+      // whole matrix, while consecutive cells in their order share rows in cache.)
       struct NonlinearCellPart
       {
         explicit NonlinearCellPart(const unsigned int dofs_per_cell)
@@ -837,7 +836,7 @@ namespace modal_haptics
       };
 
       // The cells on deal.II's threads (WorkStream), as the linear assembly: the tangent assemblies
-      // were most of a validity contact's time (rib_a of the default scene: 17.7 of 22.9 s on one core).
+      // are most of a validity contact's time (docs/performance.md).
       template <typename Algebra>
       bool LargeDeformationSolve<Algebra>::assemble_cells(const VectorType &u_read, const bool with_tangent,
                                                           double &local_energy)

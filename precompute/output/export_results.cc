@@ -2,6 +2,7 @@
 // and report.json (docs/report-schema.md). Each is written to a temporary file and renamed.
 #include "output/atomic_file.h"
 #include "output/exporters.h"
+#include "output/vtu_file.h"
 #include "solvers/factorization.h"
 #include "results/quantile.h"
 
@@ -702,41 +703,41 @@ namespace modal_haptics
 
   namespace
   {
+    // The display surface's vertices and triangles, the Cells of its VTU. Float32 as the mode
+    // shapes' files: a map to look at (the .h5 holds the doubles), half the bytes of Float64.
+    vtu_file::Grid display_surface_grid(const ContactSurface &d)
+    {
+      vtu_file::Grid grid;
+      grid.n_points = d.n_vertices();
+      grid.n_cells  = d.triangles.size();
+      std::vector<float>        points;
+      std::vector<std::int32_t> connectivity, offsets;
+      for (const auto &x : d.vertices)
+        points.insert(points.end(), {float(x[0]), float(x[1]), float(x[2])});
+      for (const auto &t : d.triangles)
+        {
+          connectivity.insert(connectivity.end(), {std::int32_t(t[0]), std::int32_t(t[1]), std::int32_t(t[2])});
+          offsets.push_back(std::int32_t(connectivity.size()));
+        }
+      grid.points       = vtu_file::owned_array("", 3, std::move(points));
+      grid.connectivity = vtu_file::owned_array("connectivity", 1, std::move(connectivity));
+      grid.offsets      = vtu_file::owned_array("offsets", 1, std::move(offsets));
+      grid.types        = vtu_file::owned_array("types", 1, std::vector<std::uint8_t>(d.triangles.size(), 5)); // VTK_TRIANGLE
+      return grid;
+    }
+
     // The display surface with point arrays (name, one value per vertex) and each vertex's region.
     void write_display_surface_vtu(const std::string &filename, const PrecomputeResults &results,
                                    const std::vector<std::pair<std::string, std::vector<double>>> &arrays,
                                    StagedFiles &staged)
     {
-    const auto &d = results.display;
-    staged.write(filename, [&](std::ostream &out) {
-      out << std::setprecision(9);
-      out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-          << "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" << d.n_vertices() << "\" NumberOfCells=\""
-          << d.triangles.size() << "\">\n<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-      for (const auto &x : d.vertices)
-        out << x[0] << ' ' << x[1] << ' ' << x[2] << '\n';
-      out << "</DataArray>\n</Points>\n<Cells>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-      for (const auto &t : d.triangles)
-        out << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
-      out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-      for (std::size_t t = 1; t <= d.triangles.size(); ++t)
-        out << 3 * t << '\n';
-      out << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
-      for (std::size_t t = 0; t < d.triangles.size(); ++t)
-        out << "5\n"; // VTK_TRIANGLE
-      out << "</DataArray>\n</Cells>\n<PointData>\n<DataArray type=\"UInt32\" Name=\"region\" format=\"ascii\">\n";
-      for (const unsigned int region : d.region)
-        out << region << '\n';
-      out << "</DataArray>\n";
+      const auto &d    = results.display;
+      auto        grid = display_surface_grid(d);
+      grid.point_data.push_back(vtu_file::owned_array(
+        "region", 1, std::vector<std::uint32_t>(d.region.begin(), d.region.end())));
       for (const auto &[name, values] : arrays)
-        {
-          out << "<DataArray type=\"Float64\" Name=\"" << name << "\" format=\"ascii\">\n";
-          for (const double x : values)
-            out << x << '\n';
-          out << "</DataArray>\n";
-        }
-      out << "</PointData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
-    });
+        grid.point_data.push_back(vtu_file::owned_array(name, 1, std::vector<float>(values.begin(), values.end())));
+      staged.write(filename, [&](std::ostream &out) { vtu_file::write(out, grid); }, std::ios::out | std::ios::binary);
     }
   } // namespace
 

@@ -345,8 +345,8 @@ namespace modal_haptics
                       "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
                       "the force-displacement curve and the forces up to which the linear felt compliance "
                       "stays within 1, 5 and 10 %, and the second-order estimate there against it. Off by "
-                      "default: a point takes 5-6 s on the default scene on a 2-core machine (5 tangent "
-                      "assemblies of up to 164k DoFs, about 22 CG iterations with K's factorization; "
+                      "default: each point costs nonlinear solves (5 tangent assemblies of up to 164k DoFs "
+                      "on the default scene, about 22 CG iterations with K's factorization; its time in "
                       "docs/performance.md). Units: none.");
     prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
                       Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
@@ -367,8 +367,8 @@ namespace modal_haptics
                       "forces [N] from the second-order term of the felt force-displacement curve, the cubic "
                       "term of the stored energy ('Validity material') evaluated on the contact's linear "
                       "response projected on the space's modes (docs/accuracy.md): the validity map of the "
-                      ".mrt, .h5 and validity.vtu. About 9 s on the default scene (a cubic tensor per space, "
-                      "then microseconds per contact), serial and under MPI; a space with free rigid motions "
+                      ".mrt, .h5 and validity.vtu. Its cost is a cubic tensor per space, then little per "
+                      "contact (docs/performance.md), serial and under MPI; a space with free rigid motions "
                       "gets none. Units: none.");
     prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
                       Patterns::Selection("preconditioned CG|factorization"),
@@ -445,10 +445,10 @@ namespace modal_haptics
                       "Scalar type of the display modes in the .mrt file. Units: none.");
     prm.declare_entry("VTU modes", text(o.vtu_modes), Patterns::Integer(0), "Mode shapes written for ParaView. Units: none.");
     prm.declare_entry("VTU compression", vtu_compression_names[int(o.vtu_compression)], Patterns::Selection("none|fast|best"),
-                      "zlib on the data of the mode-shape VTU files: 'none' (zlib's stored blocks, not compressed: about twice "
-                      "the disk space of 'fast', written in under half the time; see docs/performance.md), "
-                      "'fast' (zlib's fastest level) or 'best' (zlib's best: about 1.5 % smaller than 'fast', "
-                      "1.6x its time). ParaView reads all three. Units: none.");
+                      "The mode-shape VTU files: 'none' (the arrays appended raw, the cells sharing their "
+                      "nodes' points: the smallest and fastest; docs/precompute.md), or deal.II's writer with "
+                      "zlib on the data, every cell its own points: 'fast' (zlib's fastest level) or 'best' "
+                      "(zlib's best: about 1.5 % smaller than 'fast'). ParaView reads all three. Units: none.");
     prm.declare_entry("Export matrices", text(o.export_matrices), Patterns::Bool(),
                       "Write each space's K and M as <space>_K.csr / <space>_M.csr (binary CSR, see "
                       "benchmarks/eigensolver/README.md) for the eigensolver benchmark's peers. Units: none.");

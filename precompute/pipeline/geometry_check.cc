@@ -171,11 +171,20 @@ namespace modal_haptics
         std::cerr << "Warning: 'Meshing/Coarse size' = " << scene.meshing.coarse_size
                   << " geometry units is over a third of the part's largest extent, " << extent
                   << ": a few elements across the part. Are the sizes in the geometry's unit?" << std::endl;
-      // A patch that covers a large share of the part is no longer a contact (issue 18).
+      // A patch that covers a large share of the part is no longer a contact.
       if (scene.contact.patch_radius > 0.1 * largest)
         std::cerr << "Warning: 'Contact/Patch radius' = " << scene.contact.patch_radius << " geometry units ("
                   << scene.contact.patch_radius * unit << " m) exceeds a tenth of the part's largest extent, " << extent
                   << ": the patch covers much of the part. " << is_the_unit_right << std::endl;
+    }
+
+    // A group the file names but gives nothing to (gmsh loads one without a word) is left out of the
+    // meshes; no support names it, or inspect_geometry would have refused the run.
+    void warn_about_empty_groups(const SceneParameters &scene, const meshing::GeometryReport &report)
+    {
+      for (const auto &words : report.empty_groups)
+        std::cerr << "Warning: geometry file '" << scene.meshing.geometry << "': " << words
+                  << "; it is left out of the meshes (no support names it)." << std::endl;
     }
 
     // The rigid-body motions the supports would leave free, from points on what each selection
@@ -216,6 +225,8 @@ namespace modal_haptics
     if (print)
       std::cout << part_summary(scene, report) << selection_summary(scene, report) << std::flush;
     check_sizes(scene, report, print);
+    if (print)
+      warn_about_empty_groups(scene, report);
     if (!predict_free_motions || scene.supports.empty())
       return;
     if (const auto free = predicted_free_motions(scene, report))

@@ -492,8 +492,8 @@ namespace modal_haptics
     // M for LOBPCG, watching that LOBPCG still iterates. An iteration applies the preconditioner
     // once and M to a few blocks, but Anasazi's SVQB orthonormalization bounds neither its passes
     // nor its restarts from random vectors, and once (P2, 2.15 M DoFs, np = 2, a block of 23, its
-    // 62nd iteration) it applied M for 45 minutes without another iteration. Past 200 blocks of M
-    // products since the last preconditioner application the run stops, saying so.
+    // 62nd iteration; docs/performance.md) it kept applying M without another iteration. Past 200
+    // blocks of M products since the last preconditioner application the run stops, saying so.
     class MassWatchingLobpcg : public OperatorShapedLike
     {
     public:

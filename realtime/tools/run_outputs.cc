@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -68,69 +69,100 @@ namespace modalrt_tool
     return true;
   }
 
+  namespace
+  {
+    // The machine's byte order, in which the frames' values and byte counts are written.
+    const char *vtk_byte_order()
+    {
+      const std::uint16_t one = 1;
+      unsigned char       first;
+      std::memcpy(&first, &one, 1);
+      return first == 1 ? "LittleEndian" : "BigEndian";
+    }
+
+    // One array of the appended block: its byte count (UInt64, VTK's header_type) then its bytes.
+    template <typename T>
+    void append_block(std::string &block, const T *values, std::size_t count)
+    {
+      const std::uint64_t bytes = count * sizeof(T);
+      block.append(reinterpret_cast<const char *>(&bytes), sizeof bytes);
+      block.append(reinterpret_cast<const char *>(values), bytes);
+    }
+
+    // A DataArray of the appended block ("" name: the Points' array, which has none).
+    std::string appended_array(const char *type, const std::string &name, unsigned components, std::uint64_t offset)
+    {
+      const std::string named = name.empty() ? "" : " Name=\"" + name + "\"";
+      return std::string("        <DataArray type=\"") + type + "\"" + named + " NumberOfComponents=\"" +
+             std::to_string(components) + "\" format=\"appended\" offset=\"" + std::to_string(offset) + "\"/>\n";
+    }
+  } // namespace
+
   VtuFrameWriter::VtuFrameWriter(const modalrt_basis *basis) : rest_(modalrt_basis_display_vertices(basis))
   {
     modalrt_basis_info info;
     modalrt_basis_get_info(basis, &info);
     vertex_count_   = info.display_vertex_count;
     triangle_count_ = info.display_triangle_count;
-    const std::uint32_t *triangles = modalrt_basis_display_triangles(basis);
-    const std::uint32_t *regions   = modalrt_basis_display_regions(basis);
-    std::ostringstream   out;
-    out << "      <Cells>\n        <DataArray type=\"UInt32\" Name=\"connectivity\" format=\"ascii\">\n";
+    const std::uint32_t       *triangles = modalrt_basis_display_triangles(basis);
+    std::vector<std::uint32_t> offsets(triangle_count_);
     for (std::uint32_t t = 0; t < triangle_count_; ++t)
-      out << triangles[3 * t] << ' ' << triangles[3 * t + 1] << ' ' << triangles[3 * t + 2] << '\n';
-    out << "        </DataArray>\n        <DataArray type=\"UInt32\" Name=\"offsets\" format=\"ascii\">\n";
-    for (std::uint32_t t = 0; t < triangle_count_; ++t)
-      out << 3 * (t + 1) << '\n';
-    out << "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
-    for (std::uint32_t t = 0; t < triangle_count_; ++t)
-      out << "5\n"; // VTK_TRIANGLE
-    out << "        </DataArray>\n      </Cells>\n";
-    out << "      <PointData Vectors=\"displacement\">\n"
-           "        <DataArray type=\"UInt32\" Name=\"region\" format=\"ascii\">\n";
-    for (std::uint32_t v = 0; v < vertex_count_; ++v)
-      out << regions[v] << '\n';
-    out << "        </DataArray>\n";
-    cells_and_regions_ = out.str();
+      offsets[t] = 3 * (t + 1);
+    const std::vector<std::uint8_t> types(triangle_count_, 5); // VTK_TRIANGLE
+    append_block(cells_and_regions_, triangles, 3 * std::size_t(triangle_count_));
+    append_block(cells_and_regions_, offsets.data(), offsets.size());
+    append_block(cells_and_regions_, types.data(), types.size());
+    append_block(cells_and_regions_, modalrt_basis_display_regions(basis), vertex_count_);
+
+    // Every frame has the same arrays of the same sizes: the XML after its comment line is fixed.
+    // Each array's offset: where its byte count starts, counted from after the '_'.
+    std::uint64_t offset = 0;
+    const auto    next   = [&offset](std::uint64_t bytes) {
+      const std::uint64_t at = offset;
+      offset += sizeof(std::uint64_t) + bytes;
+      return at;
+    };
+    const std::uint64_t n = vertex_count_, m = triangle_count_;
+    const std::uint64_t points_at = next(12 * n), connectivity_at = next(12 * m), offsets_at = next(4 * m);
+    const std::uint64_t types_at = next(m), regions_at = next(4 * n), displacement_at = next(12 * n);
+    char                piece[128];
+    std::snprintf(piece, sizeof piece, "    <Piece NumberOfPoints=\"%u\" NumberOfCells=\"%u\">\n", vertex_count_,
+                  triangle_count_);
+    xml_ = std::string("<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"") + vtk_byte_order() +
+           "\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n" + piece + "      <Points>\n" +
+           appended_array("Float32", "", 3, points_at) + "      </Points>\n      <Cells>\n" +
+           appended_array("UInt32", "connectivity", 1, connectivity_at) + appended_array("UInt32", "offsets", 1, offsets_at) +
+           appended_array("UInt8", "types", 1, types_at) + "      </Cells>\n      <PointData Vectors=\"displacement\">\n" +
+           appended_array("UInt32", "region", 1, regions_at) +
+           appended_array("Float32", "displacement", 3, displacement_at) +
+           "      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n_";
   }
 
   bool VtuFrameWriter::write(const std::string &path, const modalrt_snapshot_info &info, const float *displacements,
                              std::string &error) const
   {
-    std::string text;
-    text.reserve(cells_and_regions_.size() + std::size_t(vertex_count_) * 96 + 1024);
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "<?xml version=\"1.0\"?>\n<!-- modal-rt run: t = %.9g s, space %u -->\n"
-                  "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-                  "  <UnstructuredGrid>\n",
-                  info.time, info.space);
-    text += line;
-    std::snprintf(line, sizeof line, "    <Piece NumberOfPoints=\"%u\" NumberOfCells=\"%u\">\n", vertex_count_,
-                  triangle_count_);
-    text += line;
-    text += "      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+    std::vector<float> points(3 * std::size_t(vertex_count_)), moved(3 * std::size_t(vertex_count_));
     for (std::uint32_t v = 0; v < vertex_count_; ++v)
       {
-        double x[3];
+        double x[3], w[3];
         rotate(info.frame_orientation, rest_ + 3 * std::size_t(v), x);
-        std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", x[0] + info.frame_position[0],
-                      x[1] + info.frame_position[1], x[2] + info.frame_position[2]);
-        text += line;
-      }
-    text += "        </DataArray>\n      </Points>\n";
-    text += cells_and_regions_;
-    text += "        <DataArray type=\"Float32\" Name=\"displacement\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-    for (std::uint32_t v = 0; v < vertex_count_; ++v)
-      {
         const double u[3] = {displacements[3 * v], displacements[3 * v + 1], displacements[3 * v + 2]};
-        double       w[3];
         rotate(info.frame_orientation, u, w);
-        std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", w[0], w[1], w[2]);
-        text += line;
+        for (int d = 0; d < 3; ++d)
+          {
+            points[3 * v + d] = float(x[d] + info.frame_position[d]);
+            moved[3 * v + d]  = float(w[d]);
+          }
       }
-    text += "        </DataArray>\n      </PointData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+    char comment[128];
+    std::snprintf(comment, sizeof comment, "<?xml version=\"1.0\"?>\n<!-- modal-rt run: t = %.9g s, space %u -->\n",
+                  info.time, info.space);
+    std::string text = comment + xml_;
+    text.reserve(text.size() + cells_and_regions_.size() + 24 * std::size_t(vertex_count_) + 64);
+    append_block(text, points.data(), points.size());
+    text += cells_and_regions_;
+    append_block(text, moved.data(), moved.size());
+    text += "\n  </AppendedData>\n</VTKFile>\n";
     return write_file_atomically(path, text, error);
   }
 
@@ -336,7 +368,7 @@ namespace modalrt_tool
     // reaches half the press's largest force, i.e. the end of a hold before unloading. (The largest
     // force itself is often the transient of the hand landing on the surface, not a settled state.)
     // Rows the kernel held (kernel_held) are left out of both: under a jittery client a held
-    // plateau above the real maximum was picked (issue 39). A press held throughout keeps its last row.
+    // plateau above the real maximum would be picked. A press held throughout keeps its last row.
     void felt_response(Press &p, const HapticResult &result, std::uint32_t hips, double force_sign, double force_scale)
     {
       std::vector<double>      force, displacement;

@@ -16,9 +16,11 @@ namespace modalrt_tool
   // Writes `text` to `path` through `path`.tmp and a rename. false and a message on failure.
   bool write_file_atomically(const std::string &path, const std::string &text, std::string &error);
 
-  // ASCII VTU frames of the display surface: world positions at rest (the frame's pose applied) and
-  // the point field "displacement" [m] (world axes), for ParaView's Warp By Vector. The cells and
-  // the vertex regions do not change and are formatted once.
+  // VTU frames of the display surface, the arrays appended raw (format="appended", encoding="raw",
+  // header_type="UInt64", the machine's byte order; docs/precompute.md): world positions at rest
+  // (the frame's pose applied) and the point field "displacement" [m] (world axes), as Float32, for
+  // ParaView's Warp By Vector. The cells, the vertex regions and the XML do not change from frame to
+  // frame and are made once.
   class VtuFrameWriter
   {
   public:
@@ -30,7 +32,9 @@ namespace modalrt_tool
     const double *rest_;
     std::uint32_t vertex_count_;
     std::uint32_t triangle_count_;
-    std::string   cells_and_regions_;
+    std::string   cells_and_regions_; // their appended blocks, byte counts included
+    std::string   xml_;               // from <VTKFile> to the appended block's '_'
+
   };
 
   // frames.pvd: the frames as a time series.

@@ -1,7 +1,7 @@
 // The felt-stiffness map of a basis (.mrt FELT_STIFFNESS, modalrt_basis_felt_stiffness) as modal-rt
 // info prints it and the view draws it: the scene's map takes each display vertex from the space of
-// its region (DISPLAY_REGION), where a HIP pressing there is (issue 36, item 3). And the validity map
-// (VALIDITY_FORCE, modalrt_basis_validity_forces, issue 38) as info prints it.
+// its region (DISPLAY_REGION), where a HIP pressing there is. And the validity map
+// (VALIDITY_FORCE, modalrt_basis_validity_forces: where linear stops being true) as info prints it.
 #pragma once
 
 #include <modalrt/modalrt.h>

@@ -1,5 +1,5 @@
 // `modal-rt info --vertex N` and `--near x,y,z`: where one display vertex is and what a hand feels
-// there (issue 39: nothing told an integrator where a part's vertices and normals are). Every
+// there (without it, nothing tells an integrator where a part's vertices and normals are). Every
 // number comes from the kernel's C API: rest positions, the area-weighted outward normals the contact
 // uses, DISPLAY_REGION, the candidates, and modalrt_basis_contact_compliance for the felt stiffness.
 #pragma once

@@ -4,9 +4,11 @@ import argparse
 import base64
 import json
 import os
+import re
 import shutil
 import struct
 import subprocess
+import zlib
 
 import numpy as np
 
@@ -152,9 +154,9 @@ def cut_off_checks(space, reference, tolerance):
 
 
 def vtu_compression_ratio(path):
-    """The first data array's zlib stream against its raw size in a deal.II VTU (its own base64 header:
-    blocks, block size, last block's size, each block's compressed size): a little above 1 for 'VTU
-    compression = none' (zlib's stored blocks), clearly below it for 'fast' and 'best'."""
+    """The first data array's zlib stream against its raw size in a deal.II VTU, what 'VTU compression'
+    = fast or best writes (its own base64 header: blocks, block size, last block's size, each block's
+    compressed size): clearly below 1 ('none' writes appended raw data, read_vtu)."""
     text = open(path, "rb").read(1 << 16)
     start = text.index(b'format="binary">') + len(b'format="binary">')
     encoded = text[start:].lstrip()
@@ -163,3 +165,82 @@ def vtu_compression_ratio(path):
     header = base64.b64decode(encoded[:4 * ((header_bytes + 2) // 3)])
     compressed = sum(struct.unpack(f"<{blocks}I", header[12:header_bytes]))
     return compressed / (block_size * (blocks - 1) + last_size)
+
+
+VTK_TYPES = {"Float32": "f4", "Float64": "f8", "Int32": "i4", "Int64": "i8", "UInt8": "u1", "UInt32": "u4",
+             "UInt64": "u8"}
+
+
+def _attributes(tag):
+    return dict((k.decode(), v.decode()) for k, v in re.findall(rb'([\w:]+)="([^"]*)"', tag))
+
+
+def _binary_block(encoded):
+    """deal.II's format="binary" array: base64 of a UInt32 header (blocks, block size, last block's
+    size, each block's zlib size), then base64 of the zlib blocks."""
+    encoded = b"".join(encoded.split())
+    blocks = struct.unpack("<I", base64.b64decode(encoded[:8])[:4])[0]
+    header_length = 4 * ((4 * (3 + blocks) + 2) // 3)
+    sizes = struct.unpack(f"<{3 + blocks}I", base64.b64decode(encoded[:header_length]))[3:]
+    body, raw, at = base64.b64decode(encoded[header_length:]), b"", 0
+    for size in sizes:
+        raw += zlib.decompress(body[at:at + size])
+        at += size
+    return raw
+
+
+def read_vtu(path):
+    """A VTU file's arrays: {"Points", "connectivity", "offsets", "types", point data names...} ->
+    numpy array (n x components where components > 1), and "_piece": NumberOfPoints and NumberOfCells.
+    Reads appended raw data (format="appended", encoding="raw", header_type UInt32 or UInt64, either
+    byte order), checking each array's byte count against its offset and the piece's sizes, and
+    deal.II's base64 format="binary" arrays. Raises ValueError on a file that breaks the format."""
+    data = open(path, "rb").read()
+    head = data[:data.find(b"<AppendedData")] if b"<AppendedData" in data else data
+    vtk = _attributes(re.search(rb"<VTKFile[^>]*>", head).group(0))
+    order = "<" if vtk.get("byte_order", "LittleEndian") == "LittleEndian" else ">"
+    count_type = np.dtype(order + VTK_TYPES[vtk.get("header_type", "UInt32")])
+    piece = _attributes(re.search(rb"<Piece[^>]*>", head).group(0))
+    arrays = {"_piece": {k: int(v) for k, v in piece.items()}}
+    appended = None
+    if b"<AppendedData" in data:
+        tag = re.search(rb'<AppendedData[^>]*>\s*_', data)
+        if tag is None or _attributes(tag.group(0)).get("encoding") != "raw":
+            raise ValueError(f"{path}: AppendedData is not raw or lacks its '_' marker")
+        appended = tag.end()
+    for match in re.finditer(rb"<DataArray([^>]*?)(/>|>(.*?)</DataArray>)", head, re.S):
+        attributes = _attributes(match.group(1))
+        name = attributes.get("Name", "Points")
+        components = int(attributes.get("NumberOfComponents", "1"))
+        dtype = np.dtype(order + VTK_TYPES[attributes["type"]])
+        if attributes["format"] == "appended":
+            at = appended + int(attributes["offset"])
+            size = int(np.frombuffer(data, count_type, 1, at)[0])
+            raw = data[at + count_type.itemsize:at + count_type.itemsize + size]
+            if len(raw) != size:
+                raise ValueError(f"{path}: '{name}' runs past the end of the file")
+        elif attributes["format"] == "binary":
+            raw = _binary_block(match.group(3))
+        else:
+            raw = np.array(match.group(3).split(), dtype=dtype).tobytes()
+        values = np.frombuffer(raw, dtype)
+        arrays[name] = values.reshape(-1, components) if components > 1 else values
+    if appended is not None and not re.search(rb"</AppendedData>\s*</VTKFile>\s*$", data[-64:]):
+        raise ValueError(f"{path}: does not end with </AppendedData></VTKFile>")
+    return arrays
+
+
+def check_vtu_layout(arrays, cell_points):
+    """What a reader of the VTU relies on, as (condition, words) pairs: the piece's point and cell counts
+    match the arrays, the offsets are the running sums of `cell_points` per cell (a cell type -> its
+    number of points), connectivity indices are points."""
+    piece, types, connectivity = arrays["_piece"], arrays["types"], arrays["connectivity"].astype(np.int64)
+    sizes = np.array([cell_points[int(t)] for t in types]) if len(types) else np.zeros(0, int)
+    points = len(arrays["Points"])
+    return [(points == piece["NumberOfPoints"], f"{points} points, the piece says {piece['NumberOfPoints']}"),
+            (len(types) == piece["NumberOfCells"], f"{len(types)} cells, the piece says {piece['NumberOfCells']}"),
+            (np.array_equal(arrays["offsets"], np.cumsum(sizes)), "offsets are the cells' running point counts"),
+            (len(connectivity) == sizes.sum() and connectivity.min(initial=0) >= 0
+             and connectivity.max(initial=-1) < points, "connectivity indexes the points"),
+            (all(len(v) == points for k, v in arrays.items() if k not in
+                 ("_piece", "Points", "connectivity", "offsets", "types")), "every point array has a value per point")]

@@ -62,7 +62,7 @@ CASES = [
     ("E <= 0", scene_with(section("Material", "set Young's modulus = 0")), ["Young's modulus"]),
     ("nu >= 0.5", scene_with(section("Material", "set Poisson's ratio = 0.5")), ["Poisson's ratio"]),
     ("nu <= -1", scene_with(section("Material", "set Poisson's ratio = -1")), ["Poisson's ratio"]),
-    # Every value out of its range is told in one form (issue 39): file, line, entry, value, range, unit.
+    # Every value out of its range is told in one form: file, line, entry, value, range, unit.
     ("density <= 0", scene_with(section("Material", "set Density = 0")),
      [".prm, line ", "'Material/Density' = 0: must be a number > 0 (unit: kg/m^3)."]),
     ("negative density", scene_with(section("Material", "set Density = -1")),
@@ -75,9 +75,11 @@ CASES = [
      ["line ", "has no subsection 'Materials'. Did you mean 'Material'?"]),
     ("unknown cut-off rule", scene_with(section("Modes", "set Cut-off rule = fast")),
      ["'Modes/Cut-off rule' = fast: must be one of none, display, haptic."]),
-    # An empty physical group, which gmsh loads without a word (issue 39).
-    ("empty physical group", scene_with(section("Geometry", "set Source = empty_group.geo")),
-     ["'wall' holds no surface", "remove it"]),
+    # A support that names an empty physical group, which gmsh loads without a word (one that no
+    # support names is only warned about: test_messages.py).
+    ("support naming an empty physical group",
+     scene_with(section("Geometry", "set Source = empty_group.geo", "set Supports = surface wall : clamp")),
+     ["Group 'wall'", "empty_group.geo", "the physical surface 'wall' holds no surface", "select another group"]),
     # The groups listed are the user's; 'free' is said to be the program's.
     ("group listing without the program's", scene_with(section("Geometry", "set Source = clamp_only.geo",
                                                                "set Supports = surface bolts : clamp")),
@@ -115,7 +117,7 @@ CASES = [
     ("missing subsection end", BASE + "\nsubsection Material\n  set Density = 1000\n", ["subsection", "missing_subsection_end.prm"]),
 ]
 
-# Bad supports (issue 18, 'Geometry/Supports'). The wording is not fixed: the words each message must
+# Bad supports ('Geometry/Supports', docs/supports.md). The wording is not fixed: the words each message must
 # contain are all here, in one place, to adjust.
 SUPPORT_WORDS = {
     "support group that does not exist": ["bolts"],

@@ -36,7 +36,7 @@ supports = re.search(r"set Supports\s*=\s*(.*?)\s*(#|\n)", text).group(1)
 bolts = "; ".join(supports.split(";")[:2])
 
 # The example as a user runs it, without --quiet: gmsh's progress lines are off by default, ours stay
-# (issue 39: it printed 254 lines, about 200 of them gmsh's).
+# (with gmsh's progress the log is about 254 lines, about 200 of them gmsh's).
 example = os.path.join(args.workdir, "example")
 os.makedirs(example)
 with open(os.path.join(example, "bracket.prm"), "w") as f:
@@ -46,8 +46,8 @@ done = subprocess.run([args.binary, os.path.join(example, "bracket.prm"), "--out
 log = (done.stdout + done.stderr).splitlines()
 check(done.returncode == 0, "the example runs")
 # One summary line per phase and space (two spaces here; the validity map's phase added two lines:
-# 61; the far field's two and a row of the timer's table: 64), against gmsh's ~200 progress lines
-# before issue 39.
+# 61; the far field's two and a row of the timer's table: 64), against the ~200 progress lines
+# gmsh would add.
 check(len(log) < 67, f"its default log has {len(log)} lines (< 67)")
 check(not any(line.startswith("Info") for line in log), "no gmsh 'Info' line in it")
 for summary in ("[geometry] volume", "[global] support 1", "[global] kept", "[flange_top] kept"):

@@ -48,8 +48,8 @@ def timoshenko_frequencies(nu=NU, n_elements=2000, n_modes=2, clamped=True):
     """Timoshenko beam, clamped at x = 0 or free-free (its two rigid-body modes skipped), linear
     elements with one-point (reduced) shear integration. K and M are banded (4002 DoFs): they are
     assembled sparse and the lowest eigenvalues found by shift-invert Lanczos (ARPACK) about a shift
-    below them all, in 0.1-0.5 s. The dense generalized eigh of the same matrices, used before, took
-    17-70 s a call on the 2-core machine; the two agree within 8e-7 relative (the dense solve's
+    below them all, instead of the dense generalized eigh of the same matrices, which was most of
+    the test's time (docs/testing.md); the two agree within 8e-7 relative (the dense solve's
     rounding, about eps lambda_max / lambda_1 on this stiff 1D problem; other shifts move the sparse
     one by 2e-8), far inside the 1-3 % the tests ask of the 3D models against it."""
     G, KAPPA = shear_modulus(nu), shear_coefficient(nu)

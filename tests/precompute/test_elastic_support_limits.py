@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Elastic supports between their limits (issue 18): the block of block.geo (40 x 40 x 10 mm steel,
+"""Elastic supports between their limits (docs/supports.md): the block of block.geo (40 x 40 x 10 mm steel,
 its bottom face z = 0 named 'clamp') on an elastic foundation 'surface clamp : elastic KN KT'.
 
 Every run is on one mesh (gmsh run once on block.geo, 5 mm, passed as a .msh).

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Every display vertex a hand can reach is exact (issue 36): on the small scene with the default
+"""Every display vertex a hand can reach is exact: on the small scene with the default
 candidates (every display vertex of each region a corrected contact), at 20 random display vertices
 inside each VOI and 20 outside (global space):
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""What a user reads (issue 39, docs/reliability.md): the lines and warnings a run or --validate prints
+"""What a user reads (docs/reliability.md): the lines and warnings a run or --validate prints
 on the cantilever (200 x 10 x 10 mm steel, tests/precompute/cantilever.prm), each asserted word for word.
 
 * mode selection says why each count: the haptic cut-off and the floor, in the parameters' names;
@@ -9,7 +9,9 @@ on the cantilever (200 x 10 x 10 mm steel, tests/precompute/cantilever.prm), eac
 * plausibility that depends on the unit: a part in metres read as millimetres is warned about (its
   size, its mass, its first frequency), a coarse size larger than the part is refused before meshing,
   a patch radius is warned about only when it is large against the part;
-* a shift above the first frequency is explained in the run's words, without CHOLMOD's raw line.
+* a shift above the first frequency is explained in the run's words, without CHOLMOD's raw line;
+* a .geo group that holds nothing and that no support names is loaded with one warning naming it and
+  the file, and left out of the meshes (a support that names one: test_bad_input.py).
 """
 import os
 import shutil
@@ -31,7 +33,7 @@ def run(args, name, *sections, options=()):
     """(exit code, stdout + stderr) of modal-precompute on the cantilever with extra subsections."""
     folder = os.path.join(args.workdir, name)
     os.makedirs(folder, exist_ok=True)
-    for geo in ("cantilever.geo", "cantilever_in_metres.geo"):
+    for geo in ("cantilever.geo", "cantilever_in_metres.geo", "cantilever_with_wall.geo"):
         shutil.copy(os.path.join(args.workdir, geo), folder)
     prm = os.path.join(folder, name + ".prm")
     with open(prm, "w") as f:
@@ -104,17 +106,41 @@ def shift_above_first_frequency(args):
     check("CHOLMOD error" not in out and "CHOLMOD warning" not in out, "... without CHOLMOD's own line", out)
 
 
+def empty_group_warned(args):
+    """A .geo group that holds nothing and that no support names ('Physical Surface("wall") = {};',
+    which gmsh loads without a word): loaded, warned about once, naming the group and the file, and
+    left out of the meshes."""
+    def warnings(out):
+        """The lines of the warning, the file named by the path the run resolved."""
+        return [line for line in out.splitlines() if line.startswith("Warning: geometry file '/") and line.endswith(
+            "/cantilever_with_wall.geo': the physical surface 'wall' holds no surface (gmsh loads 'Physical "
+            "Surface(\"wall\") = {};' without a word); it is left out of the meshes (no support names it).")]
+
+    code, out = run(args, "empty_group_validate", section("Geometry", "set Source = cantilever_with_wall.geo"),
+                    options=("--validate",))
+    check(code == 0 and len(warnings(out)) == 1, "--validate loads a .geo with an empty group, warning once", out)
+    code, out = run(args, "empty_group_meshed", section("Geometry", "set Source = cantilever_with_wall.geo"),
+                    section("Meshing", "set Coarse size = 5"), options=("--mesh-only",))
+    meshes = [name for name in os.listdir(os.path.join(args.workdir, "empty_group_meshed")) if name.endswith(".msh")]
+    check(code == 0 and len(warnings(out)) == 1 and meshes, "--mesh-only meshes it, warning once", out)
+    check(not any('"wall"' in open(os.path.join(args.workdir, "empty_group_meshed", name)).read() for name in meshes),
+          "no mesh names the empty group")
+
+
 def main():
     args = binary_and_fresh_workdir()
     shutil.copy(os.path.join(HERE, "cantilever.geo"), args.workdir)
     with open(os.path.join(HERE, "cantilever.geo")) as f:
-        geo = f.read().replace("Box(1) = {0, 0, 0, 200, 10, 10};", "Box(1) = {0, 0, 0, 0.2, 0.01, 0.01};")
+        geo = f.read()
     with open(os.path.join(args.workdir, "cantilever_in_metres.geo"), "w") as f:
-        f.write(geo)
+        f.write(geo.replace("Box(1) = {0, 0, 0, 200, 10, 10};", "Box(1) = {0, 0, 0, 0.2, 0.01, 0.01};"))
+    with open(os.path.join(args.workdir, "cantilever_with_wall.geo"), "w") as f:
+        f.write(geo + 'Physical Surface("wall") = {};\n')
     mode_selection(args)
     free_motions_predicted(args)
     unit_plausibility(args)
     shift_above_first_frequency(args)
+    empty_group_warned(args)
     return check.exit_code()
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The distributed precompute gives the serial results (issue 7): the small scene run with
+"""The distributed precompute gives the serial results (docs/cluster.md): the small scene run with
 `mpirun -np 1 ... --distributed` and `mpirun -np 2 ...`, and with the serial CHOLMOD path, on the
 same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reproducible).
 
@@ -36,7 +36,7 @@ same meshes (copied, so that the mesh cache reuses them: gmsh is not bit-reprodu
   the same .h5 and the method says so; under that
   limit the block Krylov method recomputes M V instead of storing it (np = 1, and serially with blocks
   of 16 at a tolerance of 1e-12, whose thick restarts then run without M V): the same .h5 as above;
-* the validity analysis (the geometrically nonlinear solve, issue 38) under mpirun: the soft block of
+* the validity analysis (the geometrically nonlinear solve) under mpirun: the soft block of
   validity_block.prm pressed with St. Venant-Kirchhoff up to 300 N, past its limit point (~213 N), at
   np = 2 and serially on the same meshes: the same load levels, Newton iterations and stop reason
   (the limit point, told at np = 2 by the inertia of MUMPS's factor); both runs solve their tangents

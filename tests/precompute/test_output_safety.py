@@ -134,8 +134,8 @@ def main():
     # --- disk full -----------------------------------------------------------------------------
     # A file size limit stops the first output that outgrows it. The VTU files come first: half the
     # smallest stops the run in one of them. Without mode shapes and compressed ('VTU compression =
-    # fast'; uncompressed they can outgrow it), the VTU files (validation fields) are smaller than the
-    # .h5, written next: a limit between them stops the run in the .h5. (The .mrt and report.json are
+    # fast', deal.II's writer, whose compression is checked too), the VTU files (validation fields) are
+    # smaller than the .h5, written next: a limit between them stops the run in the .h5. (The .mrt and report.json are
     # smaller than the .h5 and written after it: no limit stops them first.)
     no_vtu = os.path.join(args.workdir, "no_vtu.prm")
     with open(no_vtu, "w") as f:

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""A roller on a curved face (issue 18): a solid steel cylinder, radius 10 mm, length 100 mm, axis z
+"""A roller on a curved face (docs/supports.md): a solid steel cylinder, radius 10 mm, length 100 mm, axis z
 (roller_cylinder.geo), its lateral face held radially and free to slide, its ends free.
 
 Theory (exact for this support): two rigid-body motions remain (translation along z, rotation about

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Scenarios as separate jobs (issue 7, docs/cluster.md): the small scene meshed once
+"""Scenarios as separate jobs (docs/cluster.md): the small scene meshed once
 (`--mesh-only`), then run whole in one run and as one job per scenario (`--scenario NAME`) merged
 (`--merge`), all on the same meshes (copied: gmsh is not bit-reproducible). The merged files must
 be those of the one run:

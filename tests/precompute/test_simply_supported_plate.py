@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""NAFEMS FV52: free vibration of a simply supported thick square plate (P2 tets), issue 18.
+"""NAFEMS FV52: free vibration of a simply supported thick square plate (P2 tets).
 
 Plate 10 x 10 x 1 m, E = 200 GPa, nu = 0.3, rho = 8000 kg/m^3 (simply_supported_plate.geo/.prm).
 Reference frequencies (NAFEMS R0015 / 'The Standard NAFEMS Benchmarks' test FV52, quoted by

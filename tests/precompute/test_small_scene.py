@@ -29,8 +29,7 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, cut_off_between, cut_off_checks, \
-    vtu_compression_ratio
+from precompute_run import Checks, binary_and_fresh_workdir, copy_meshes, cut_off_between, cut_off_checks
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -49,9 +48,9 @@ def main():
     for name in ["small_block.h5", "small_block.mrt", "used_parameters.prm"] + \
             [f"modes_{s}.{e}" for s in ["global", "left", "right"] for e in ["vtu", "pvd"]]:
         expect(os.path.getsize(os.path.join(args.workdir, name)) > 0, f"{name} written")
-    ratio = vtu_compression_ratio(os.path.join(args.workdir, "modes_left.vtu"))
-    expect(ratio >= 1., f"the mode-shape VTU is not compressed ('Output/VTU compression' = none by default): "
-           f"its first array's zlib stream is {ratio:.3f} of the raw data")
+    head = open(os.path.join(args.workdir, "modes_left.vtu"), "rb").read(4096)
+    expect(b'format="appended"' in head and b"compressor" not in head,
+           "the mode-shape VTU is not compressed ('Output/VTU compression' = none by default): appended raw")
     expect([s["name"] for s in report["spaces"]] == ["global", "left", "right"], "three spaces, global first")
     blas_kernels = report["processes"]["blas_kernels"]
     cpu_flags = set(open("/proc/cpuinfo").read().split())

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""A symmetry plane (issue 18): a part modelled whole and as a half with 'plane 0 0 0 1 0 0 : symmetry'.
+"""A symmetry plane (docs/supports.md): a part modelled whole and as a half with
+'plane 0 0 0 1 0 0 : symmetry'.
 
 The part: a steel bar 40 x 20 x 10 mm (x in [-20, 20], y in [0, 20], z in [0, 10]) clamped on its
 face y = 0, symmetric about the plane x = 0. The test writes both meshes itself (MSH 2.2 ASCII): the

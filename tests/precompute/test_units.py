@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Units, selections and defaults of a STEP part (issue 18, deliverables 3-6).
+"""Units, selections and defaults of a STEP part (docs/supports.md).
 
 The test makes its own STEP files with gmsh (OpenCASCADE): a steel bar 200 x 10 x 10 mm, once written
 as gmsh writes it (coordinates in mm, header SI_UNIT(.MILLI.,.METRE.)), once with the coordinates in

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The validity estimate (issue 38, docs/accuracy.md): the second-order term of the felt
+"""The validity estimate (docs/accuracy.md): the second-order term of the felt
 force-displacement curve at every corrected contact, against the full nonlinear solve.
 
 On tests/precompute/validity_block.prm (a soft block pressed on its top until it departs from linear

@@ -203,7 +203,7 @@ namespace
     modalrt::refresh_checksums(bytes);
     ensure_rejected(bytes, MODALRT_ERROR_FORMAT, "sections overlap");
 
-    // Finite but absurd (issue 21): an eigenvalue of 1e300 and a mode entry of 1e200 are refused.
+    // Finite but absurd: an eigenvalue of 1e300 and a mode entry of 1e200 are refused.
     bytes = good;
     put<double>(bytes, get<std::uint64_t>(good, entry_of(good, eigenvalues, 0) + 16) + 8, 1e300);
     modalrt::refresh_checksums(bytes);

@@ -147,7 +147,7 @@ namespace
 
   // Release that follows the hand: a HIP dragged sideways while pressing stays in contact within
   // release_drag_distance (the coupling pulls the contact along), and is released beyond it, however
-  // far (2 cm, or 1 m as in issue 21); pressing deeper never releases.
+  // far (2 cm, or 1 m: a hand flung away); pressing deeper never releases.
   void release_by_drag(double drag)
   {
     modalrt_basis     *b   = test::load(modalrt::make_lattice_cantilever(lattice));

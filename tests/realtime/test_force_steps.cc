@@ -1,7 +1,7 @@
 // No step of the kernel's own (DESIGN.md, "Rules of the real-time kernel"; modalrt.h): every change of
-// force the kernel makes by itself is rate-limited to force_rate_limit [N per tick]. Issue 39's cases
-// on the lattice, impedance, each a whole scenario whose largest per-tick change of the commanded
-// force must stay within the limit (the HIP moves slowly enough that its own changes do too):
+// force the kernel makes by itself is rate-limited to force_rate_limit [N per tick]. The cases where
+// it stepped, on the lattice, impedance, each a whole scenario whose largest per-tick change of the
+// commanded force must stay within the limit (the HIP moves slowly enough that its own changes do too):
 //   1. recovery after a fault longer than the hold and the ramp (0.6 s without input mid-press): the
 //      force used to come back from 0 to 1.94 N in one tick;
 //   2. a HIP dragged sideways until released at release_drag_distance while clamped at 10 N: it used

@@ -1,6 +1,6 @@
 // presses.csv's analysis (find_presses in realtime/tools/run_outputs.cc) on hand-made traces: the
 // felt force is the push's real maximum, not a fail-safe plateau the kernel held above it under a
-// jittery client (issue 39), nor a force ramp of the kernel's own.
+// jittery client, nor a force ramp of the kernel's own.
 #include "test_support.h"
 
 #include "run_outputs.h"

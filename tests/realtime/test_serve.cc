@@ -6,7 +6,7 @@
 //      with an infinite position or with an unknown flag bit (ignored and counted).
 //   2. Lock-outs that must not happen: a packet 2^31 - 1 ahead is stale, not adopted (the next
 //      ordinary packet is accepted); a counter restarted at 0 with HELLO is accepted at once.
-//      Restarts (issue 39): the counter restarted mid-press on the same port without HELLO is
+//      Restarts: the counter restarted mid-press on the same port without HELLO is
 //      recognized after 3 packets; a driver restarted on a new port 20 ms after its last state,
 //      HELLO once then one state per tick (the README's minimal client), is served within 0.1 s.
 //      Each is a new session: the contact is released, its force ramps to zero at the kernel's rate
@@ -525,7 +525,7 @@ namespace
   // 5. The second device takes the free slot (a device restarted on another port), not in contact at
   // the client's pressed position, then leaves with BYE; the first comes back with its counter
   // restarted at 0 and no HELLO: accepted, the slot being free, its first command without contact
-  // (issue 39: it was already in contact at the first device's vertex).
+  // (not still in contact at the first device's vertex).
   void second_device_then_return(Clients &c)
   {
     c.stranger_replies.clear();

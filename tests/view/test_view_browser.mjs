@@ -35,8 +35,8 @@ import path from 'node:path';
 import { args, check, fail, finish, launchChromium, VIEW_URL, viewAddress } from './browser_support.mjs';
 const relative = (a, b) => Math.hypot(...a.map((x, i) => x - b[i])) / Math.max(Math.hypot(...b), 1e-300);
 
-// Rec. 709 luma of an sRGB pixel, 0..255. The background (#1d2026) has 31; the part at rest drew 22
-// (turbo's near-black end) before issue 39; the threshold leaves room below the blue it has now.
+// Rec. 709 luma of an sRGB pixel, 0..255. The background (#1d2026) has 31; the part at rest drawn at
+// turbo's near-black end would have 22; the threshold leaves room below the blue it has now.
 const PART_LUMA_MIN = 70;
 
 // A report.json beside the basis, with distinct modal-only and corrected errors for the global

@@ -22,9 +22,8 @@
  * outputs are the last safe ones (before any accepted tick: zero force, not in contact) with the
  * MODALRT_HIP_FAIL_SAFE flag, and their force is
  *   - held at the last safe force for fail_safe_hold seconds of consecutive fail-safe ticks
- *     (default 0.5 s: above the scheduling gaps of an ordinary 1 kHz client process, 105 to 428 ms,
- *     measured in 20-120 s runs on a 2-core machine at load average 6 to 10; a 1200 s run met one
- *     of 547 ms, docs/reliability.md; a client with real-time priority needs far less), then
+ *     (default 0.5 s: above the scheduling gaps of an ordinary 1 kHz client process on a loaded
+ *     machine, measured in docs/reliability.md; a client with real-time priority needs far less), then
  *   - ramped linearly to zero over fail_safe_ramp seconds (default 0.05 s; at least two ticks: never
  *     a step), then zero for as long as no good input comes.
  * Fail-safe tick n of a run (n = 1, 2, ...) scales the last safe force by 1 while n <= H, then by
