@@ -740,14 +740,14 @@ namespace modal_haptics
         return;
       }
     // Text style writes a top-level subsection from 'subsection NAME' to 'end', both unindented,
-    // and an empty line after it.
+    // and empty lines after it.
     std::istringstream lines(all.str());
     bool               in_variants = false, after_variants = false;
     for (std::string line; std::getline(lines, line);)
       {
-        const bool skipped = in_variants || line == "subsection Variants" || (after_variants && line.empty());
-        after_variants     = in_variants && line == "end";
-        in_variants        = (in_variants || line == "subsection Variants") && !after_variants;
+        after_variants     = (after_variants && line.empty()) || (in_variants && line == "end");
+        const bool skipped = in_variants || line == "subsection Variants" || after_variants;
+        in_variants        = (in_variants || line == "subsection Variants") && line != "end";
         if (!skipped)
           out << line << '\n';
       }
