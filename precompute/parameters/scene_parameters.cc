@@ -686,7 +686,7 @@ namespace modal_haptics
                                   const bool design_only)
   {
     const std::string where = base.parameter_file + ", variant '" + name + "'";
-    VariantScene      variant{name, overrides, SceneParameters(), std::make_unique<ParameterHandler>()};
+    VariantScene      variant{name, overrides, nullptr, std::make_unique<ParameterHandler>()};
     ParameterHandler &prm = *variant.prm;
     declare_scene_parameters(prm);
     parameter_messages::parse_input(prm, base.parameter_file);
@@ -701,7 +701,7 @@ namespace modal_haptics
       }
     try
       {
-        variant.scene = parse_scene_parameters(prm, base.parameter_file, output_directory);
+        variant.scene = std::make_unique<SceneParameters>(parse_scene_parameters(prm, base.parameter_file, output_directory));
       }
     catch (const dealii::ExceptionBase &e)
       {

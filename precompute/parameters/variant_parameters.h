@@ -1,10 +1,9 @@
 // Design variants (subsection "Variants" of a scene's .prm, docs/precompute.md): other designs of the
 // same part, each the scene as written with some entries of 'Geometry' or 'Material' set otherwise.
 // The scene as written is the base design. Its own header, not scene_parameters.h: only the programs
-// that run the variants read them (scene_parameters.cc declares the subsection with the scene's).
+// that run the variants read them (scene_parameters.cc declares the subsection with the scene's, and
+// includes this, so this names SceneParameters without including its header).
 #pragma once
-
-#include "parameters/scene_parameters.h"
 
 #include <deal.II/base/parameter_handler.h>
 
@@ -15,6 +14,8 @@
 
 namespace modal_haptics
 {
+  struct SceneParameters; // parameters/scene_parameters.h
+
   // One entry set otherwise, as a .prm's 'set' line would set it.
   struct VariantOverride
   {
@@ -53,7 +54,7 @@ namespace modal_haptics
   {
     std::string                               name;
     std::vector<VariantOverride>              overrides;
-    SceneParameters                           scene;
+    std::unique_ptr<SceneParameters>          scene;
     std::unique_ptr<dealii::ParameterHandler> prm;
   };
 

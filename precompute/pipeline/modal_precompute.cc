@@ -656,9 +656,9 @@ namespace modal_haptics
                                  const bool take_base_meshes, const bool verbose, const bool distributed)
     {
       if (verbose)
-        std::cout << "[variants] '" << derived.name << "' into " << derived.scene.output_directory << "/" << std::endl;
+        std::cout << "[variants] '" << derived.name << "' into " << derived.scene->output_directory << "/" << std::endl;
       dealii::Timer   wall;
-      ModalPrecompute run(derived.scene, *derived.prm, verbose, distributed);
+      ModalPrecompute run(*derived.scene, *derived.prm, verbose, distributed);
       if (take_base_meshes)
         run.take_meshes_from(base_scene.output_directory);
       DesignRecord record;
@@ -687,7 +687,7 @@ namespace modal_haptics
         const DerivedRun run = run_derived_scene(*noise_floor, base_run, base, false, verbose, distributed);
         design.noise_floor.measured   = true;
         design.noise_floor.mesh_scale = noise_floor_mesh_scale;
-        design.noise_floor.folder     = noise_floor->scene.output_directory;
+        design.noise_floor.folder     = noise_floor->scene->output_directory;
         design.noise_floor.seconds    = run.seconds;
         design.noise_floor.map        = compare_felt_stiffness(base_map, run.map, 0.);
         if (writes_files_here()) // a summary: printed under --quiet too
@@ -699,7 +699,7 @@ namespace modal_haptics
         const DerivedRun  run = run_derived_scene(variant, base_run, base, true, verbose, distributed);
         VariantComparison comparison;
         comparison.name          = variant.name;
-        comparison.folder        = variant.scene.output_directory;
+        comparison.folder        = variant.scene->output_directory;
         comparison.overrides     = override_pairs(variant.overrides);
         comparison.meshes_reused = run.meshes_reused;
         comparison.seconds       = run.seconds;
