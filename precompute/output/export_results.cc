@@ -784,6 +784,18 @@ namespace modal_haptics
       return list;
     }
 
+    // The % differences of some vertices, against their noise floor.
+    Json difference_json(const DifferenceFigures &f)
+    {
+      Json figures = f.name.empty() ? Json::object() : Json{{"name", f.name}};
+      figures["compared_vertices"]     = f.compared_vertices;
+      figures["percent"]               = {{"median", f.median_percent}, {"p95_abs", f.p95_abs_percent}, {"max_abs", f.max_abs_percent}};
+      figures["noise_floor_percent"]   = f.noise_floor_percent;
+      figures["beyond_noise_vertices"] = f.beyond_noise_vertices;
+      figures["difference"]            = f.verdict;
+      return figures;
+    }
+
     // A felt-stiffness map against the base's (pipeline/design_comparison.h), stiffness in N/mm.
     Json map_comparison_json(const MapComparisonRecord &map)
     {
@@ -796,15 +808,15 @@ namespace modal_haptics
                            {"percent", d.percent},
                            {"match_distance_mm", d.match_distance_m * 1e3},
                            {"beyond_noise", d.beyond_noise}});
+      Json regions = Json::array();
+      for (const auto &region : map.regions)
+        regions.push_back(difference_json(region));
       return {{"rule", map.rule},
               {"base_vertices", map.base_vertices},
-              {"compared_vertices", map.compared_vertices},
               {"match_distance_mm", {{"max", map.max_match_distance_m * 1e3}, {"p95", map.p95_match_distance_m * 1e3}}},
               {"ratio", {{"min", map.ratio_min}, {"median", map.ratio_median}, {"max", map.ratio_max}}},
-              {"percent", {{"median", map.median_percent}, {"p95_abs", map.p95_abs_percent}, {"max_abs", map.max_abs_percent}}},
-              {"noise_floor_percent", map.noise_floor_percent},
-              {"beyond_noise_vertices", map.beyond_noise_vertices},
-              {"difference", map.verdict},
+              {"all", difference_json(map.all)},
+              {"regions", regions},
               {"largest_differences", largest}};
     }
 
@@ -819,7 +831,9 @@ namespace modal_haptics
           noise["mesh_scale"]    = design.noise_floor.mesh_scale;
           noise["folder"]        = design.noise_floor.folder;
           noise["seconds"]       = design.noise_floor.seconds;
-          noise["floor_percent"] = design.noise_floor.floor_percent();
+          Json &floors = noise["floor_percent"] = Json::object(); // per region
+          for (const auto &region : design.noise_floor.map.regions)
+            floors[region.name] = region.p95_abs_percent;
           noise["comparison"]    = map_comparison_json(design.noise_floor.map);
         }
       Json variants = Json::array();

@@ -607,6 +607,9 @@ namespace modal_haptics
       }
     for (const auto &t : display.triangles)
       map.triangles.insert(map.triangles.end(), t.begin(), t.end());
+    map.region = display.region;
+    for (const auto &space : results.spaces)
+      map.region_names.push_back(space.name);
     return map;
   }
 
@@ -632,14 +635,16 @@ namespace modal_haptics
       return same;
     }
 
-    // One line per comparison in the log.
+    // One line per comparison in the log, and one per region.
     void say_comparison(const std::string &name, const MapComparisonRecord &map)
     {
       std::ostringstream line;
-      line << "[variants] " << name << " against the base (" << map.rule << ", " << map.compared_vertices
-           << " vertices): ratio " << map.ratio_min << " .. " << map.ratio_median << " .. " << map.ratio_max
-           << ", |difference| p95 " << map.p95_abs_percent << " %, beyond the " << map.noise_floor_percent
-           << " % floor at " << map.beyond_noise_vertices << " vertices: " << map.verdict;
+      line << "[variants] " << name << " against the base (" << map.rule << ", " << map.all.compared_vertices
+           << " vertices): ratio " << map.ratio_min << " .. " << map.ratio_median << " .. " << map.ratio_max << ": " << map.all.verdict;
+      for (const auto &region : map.regions)
+        line << "\n[variants]   " << region.name << ": |difference| p95 " << region.p95_abs_percent << " %, "
+             << region.beyond_noise_vertices << " of " << region.compared_vertices << " vertices beyond the "
+             << region.noise_floor_percent << " % floor: " << region.verdict;
       std::cout << line.str() << std::endl;
     }
 
@@ -689,11 +694,11 @@ namespace modal_haptics
         design.noise_floor.mesh_scale = noise_floor_mesh_scale;
         design.noise_floor.folder     = noise_floor->scene->output_directory;
         design.noise_floor.seconds    = run.seconds;
-        design.noise_floor.map        = compare_felt_stiffness(base_map, run.map, 0.);
+        design.noise_floor.map        = compare_felt_stiffness(base_map, run.map, {});
         if (writes_files_here()) // a summary: printed under --quiet too
           say_comparison("the noise floor's mesh", design.noise_floor.map);
       }
-    const double floor = design.noise_floor.measured ? design.noise_floor.floor_percent() : 0.;
+    const std::vector<double> floors = design.noise_floor.floors_percent();
     for (const auto &variant : variants)
       {
         const DerivedRun  run = run_derived_scene(variant, base_run, base, true, verbose, distributed);
@@ -703,7 +708,7 @@ namespace modal_haptics
         comparison.overrides     = override_pairs(variant.overrides);
         comparison.meshes_reused = run.meshes_reused;
         comparison.seconds       = run.seconds;
-        comparison.map           = compare_felt_stiffness(base_map, run.map, floor);
+        comparison.map           = compare_felt_stiffness(base_map, run.map, floors);
         if (writes_files_here())
           say_comparison("'" + variant.name + "'", comparison.map);
         design.variants.push_back(std::move(comparison));

@@ -19,6 +19,8 @@ namespace modal_haptics
     std::vector<double>        vertices;  // 3 per vertex [m]
     std::vector<std::uint32_t> triangles; // 3 per triangle
     std::vector<double>        stiffness; // per vertex [N/m]; 0: not computed
+    std::vector<unsigned int>  region;    // per vertex: the space whose region holds it (0: global)
+    std::vector<std::string>   region_names; // per space
   };
 
   // One of the largest differences of a map against the base's.
@@ -32,18 +34,27 @@ namespace modal_haptics
     bool                  beyond_noise = false;
   };
 
+  // The % differences over some compared vertices (all, or one region's) against their floor.
+  struct DifferenceFigures
+  {
+    std::string name;              // the region's ("" for all)
+    std::size_t compared_vertices = 0;
+    double      median_percent = 0., p95_abs_percent = 0., max_abs_percent = 0.;
+    double      noise_floor_percent = 0.; // the floor these vertices were judged by
+    std::size_t beyond_noise_vertices = 0;
+    // "none" (no vertex beyond the floor), "stiffer" or "softer" (every one beyond it), or "mixed".
+    std::string verdict;
+  };
+
   // One map read at the base's display vertices (mrt::compare_maps with the base as A).
   struct MapComparisonRecord
   {
     std::string rule;             // "identity" or "closest point"
-    std::size_t compared_vertices = 0, base_vertices = 0;
+    std::size_t base_vertices = 0;
     double      max_match_distance_m = 0., p95_match_distance_m = 0.;
     double      ratio_min = 0., ratio_median = 0., ratio_max = 0.; // variant / base
-    double      median_percent = 0., p95_abs_percent = 0., max_abs_percent = 0.;
-    double      noise_floor_percent = 0.; // the floor the verdict used
-    std::size_t beyond_noise_vertices = 0;
-    // "none" (no vertex beyond the floor), "stiffer" or "softer" (every one beyond it), or "mixed".
-    std::string verdict;
+    DifferenceFigures              all;     // every compared vertex, each judged by its region's floor
+    std::vector<DifferenceFigures> regions; // per region of the base's display surface
     std::vector<StiffnessDifference> largest;
   };
 
@@ -57,8 +68,8 @@ namespace modal_haptics
   };
 
   // The re-meshing noise: the base meshed again with its mesh sizes times mesh_scale, compared with
-  // the base by the same rule; its 95th percentile of |%| is the floor below which a variant's
-  // difference found by that rule is "none".
+  // the base by the same rule; in each region its 95th percentile of |%| is the floor at or below
+  // which a variant's difference found by that rule is noise.
   struct NoiseFloor
   {
     bool                measured = false;
@@ -66,7 +77,14 @@ namespace modal_haptics
     std::string         folder;
     double              seconds = 0.;
     MapComparisonRecord map;
-    double              floor_percent() const { return map.p95_abs_percent; }
+    // Per region (space index); empty when not measured.
+    std::vector<double> floors_percent() const
+    {
+      std::vector<double> floors;
+      for (const auto &region : map.regions)
+        floors.push_back(region.p95_abs_percent);
+      return floors;
+    }
   };
 
   // What a run's report.json says about design variants: the base's holds the comparisons; a

@@ -80,13 +80,14 @@ def check_material_variant(expect, variant):
     ratio = comparison["ratio"]
     expect(variant["meshes_reused"], "stiffer_abs: the base's meshes reused (the mesh cache)")
     expect(comparison["rule"] == "identity", f"stiffer_abs: identity rule ({comparison['rule']})")
-    expect(comparison["compared_vertices"] == comparison["base_vertices"],
-           f"stiffer_abs: every vertex compared ({comparison['compared_vertices']} of {comparison['base_vertices']})")
+    compared = comparison["all"]["compared_vertices"]
+    expect(compared == comparison["base_vertices"],
+           f"stiffer_abs: every vertex compared ({compared} of {comparison['base_vertices']})")
     expect(comparison["match_distance_mm"]["max"] == 0.0, "stiffer_abs: match distance 0")
     worst = max(abs(ratio["min"] - 1.3), abs(ratio["max"] - 1.3))
     expect(worst <= 1e-9, f"stiffer_abs: map 1.300 x the base's at every vertex "
                           f"(ratio {ratio['min']:.12f} .. {ratio['max']:.12f})")
-    expect(comparison["difference"] == "stiffer", f"stiffer_abs: 'stiffer' ({comparison['difference']})")
+    expect(comparison["all"]["difference"] == "stiffer", f"stiffer_abs: 'stiffer' ({comparison['all']['difference']})")
 
 
 def check_thick_rib_variant(expect, variant):
@@ -103,8 +104,10 @@ def check_thick_rib_variant(expect, variant):
     expect(all(d["percent"] > 0 and d["variant_n_per_mm"] > d["base_n_per_mm"] for d in largest),
            "thick_rib_a: rib A stiffer where it differs most "
            f"({min(d['percent'] for d in largest):.1f} .. {max(d['percent'] for d in largest):.1f} %)")
-    expect(largest[0]["beyond_noise"], f"thick_rib_a: its largest difference {largest[0]['percent']:.1f} % "
-                                       f"beyond the noise floor {comparison['noise_floor_percent']:.2f} %")
+    rib_a = next(r for r in comparison["regions"] if r["name"] == "rib_a")
+    expect(largest[0]["beyond_noise"] and rib_a["difference"] == "stiffer",
+           f"thick_rib_a: rib A's region 'stiffer' ({rib_a['difference']}: {rib_a['beyond_noise_vertices']} vertices "
+           f"beyond its noise floor {rib_a['noise_floor_percent']:.2f} %, the largest {largest[0]['percent']:.1f} %)")
 
 
 def check_refusals(expect, binary, workdir):
@@ -159,9 +162,10 @@ def main():
     variants = {v["name"]: v for v in design.get("variants", [])}
     expect(sorted(variants) == ["stiffer_abs", "thick_rib_a"], f"two variants compared ({sorted(variants)})")
     noise = design.get("noise_floor", {})
-    expect(noise.get("measured") and noise["comparison"]["rule"] == "closest point",
-           f"noise floor measured by the closest-point rule: {noise.get('floor_percent', -1):.3f} % "
-           f"(95th pct of |%|), {noise.get('seconds', 0):.0f} s")
+    floors = {r["name"]: r["percent"]["p95_abs"] for r in noise.get("comparison", {}).get("regions", [])}
+    expect(noise.get("measured") and noise["comparison"]["rule"] == "closest point" and len(floors) == 2,
+           "noise floor measured by the closest-point rule, per region (95th pct of |%|): "
+           + ", ".join(f"{name} {floor:.2f} %" for name, floor in floors.items()) + f", {noise.get('seconds', 0):.0f} s")
     for name in variants:
         check_variant_outputs(expect, folder, name)
     if "stiffer_abs" in variants:
