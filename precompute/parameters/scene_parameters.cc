@@ -499,8 +499,8 @@ namespace modal_haptics
                       "Measure the re-meshing noise of the comparison: the base design meshed again with every "
                       "mesh size times 'Noise floor mesh scale' (another mesh of the same design), its "
                       "felt-stiffness map compared with the base's by the same rule; a variant's difference "
-                      "below that noise is 'none'. It costs one more precompute of the base design (about 35 s "
-                      "on the default scene on 2 cores). Units: none.");
+                      "below that noise is 'none' (per region: the global one, each VOI). It costs one more "
+                      "precompute of the base design (43.5 s on the default scene on 2 cores). Units: none.");
     prm.declare_entry("Noise floor mesh scale", text(v.noise_floor_mesh_scale), OpenInterval(0.5, 2.),
                       "The factor on 'Meshing/Coarse size' and every VOI's 'Fine size' of the noise floor's run: "
                       "a few percent give gmsh another mesh while the discretisation error stays that of the "
