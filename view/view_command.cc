@@ -27,6 +27,7 @@ namespace modalrt_view
       double        dynamic_friction = modalrt_kernel_default_def().dynamic_friction;
       std::uint32_t validity_level   = 5;     // --validity-level: the kernel's (MODALRT_HIP_BEYOND_VALIDITY)
       bool          validity_clamp   = false; // --validity-clamp (impedance: --contact proxy)
+      bool          noise            = false; // --noise given (an option of --compare)
       bool          help       = false;
     };
 
@@ -66,7 +67,7 @@ namespace modalrt_view
             }
           if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
               option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction" &&
-              option != "--validity-level")
+              option != "--validity-level" && option != "--compare" && option != "--noise")
             throw UsageError{"unknown option '" + option + "'"};
           if (i + 1 >= argc)
             throw UsageError{option + " needs a value"};
@@ -77,6 +78,13 @@ namespace modalrt_view
             o.server.port = unsigned(number(option, value, 0, 65535));
           else if (option == "--address")
             o.server.address = value;
+          else if (option == "--compare")
+            o.server.compare_basis = value;
+          else if (option == "--noise")
+            {
+              o.server.noise_percent = number(option, value, 0, 1e6);
+              o.noise                = true;
+            }
           else if (option == "--rate")
             o.rate = number(option, value, 100, 20000);
           else if (option == "--frame-rate")
@@ -105,6 +113,8 @@ namespace modalrt_view
         }
       if (o.basis.empty())
         throw UsageError{"--basis FILE is required"};
+      if (o.noise && o.server.compare_basis.empty())
+        throw UsageError{"--noise is an option of --compare B.mrt"};
       return o;
     }
   } // namespace
@@ -113,12 +123,15 @@ namespace modalrt_view
   {
     return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
            "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
-           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp] [--help]\n"
+           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp]\n"
+           "                     [--compare B.mrt [--noise PCT (1)]] [--help]\n"
            "         Prints the page's address with this run's secret token, http://ADDRESS:PORT/?token=HEX: open\n"
            "         that address. /ws and /api/* refuse a request without the token (401) or from another origin\n"
            "         or Host (403), on loopback and on --address alike; there is no way to turn the token off.\n"
            "         A client that is no browser passes it as ?token=HEX or the header X-Modal-RT-Token: HEX\n"
-           "         (view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n";
+           "         (view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n"
+           "         --compare B.mrt: the Stiffness tab also shows where design B's felt-stiffness map differs\n"
+           "         from this basis's, in % (modal-rt info --compare's numbers).\n";
   }
 
   int view_command(int argc, char **argv)

@@ -2,7 +2,8 @@
 
 #include "access_guard.h"
 #include "view_json.h"
-#include "stiffness_map.h" // realtime/tools
+#include "design_comparison.h" // realtime/tools
+#include "stiffness_map.h"     // realtime/tools
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
@@ -185,11 +186,44 @@ namespace modalrt_view
       return j;
     }
 
+    // GET /api/comparison (view/README.md, "Comparison"): design B's scene map read at A's display
+    // vertices by mrt::compare_maps, the summary and per vertex the difference in % of A (null where
+    // it was not compared) and B's value there [N/mm].
+    std::string comparison_json(const modalrt_basis *basis, const std::string &path, const ServerOptions &options)
+    {
+      modalrt_tool::DesignComparisonOptions settings;
+      settings.noise_percent = options.noise_percent;
+      mrt::MapComparison c;
+      std::string        error;
+      if (!modalrt_tool::compare_scene_maps(basis, path.c_str(), options.compare_basis.c_str(), settings, c, error))
+        throw std::runtime_error("--compare: " + error);
+      Json j;
+      j["file"]                 = options.compare_basis;
+      j["rule"]                 = mrt::match_rule_name(c.rule);
+      j["b_vertices"]           = c.b_vertex_count;
+      j["compared"]             = c.compared_count;
+      j["a_without_value"]      = c.a_without_value;
+      j["b_without_value"]      = c.b_without_value;
+      j["match_distance_max_m"] = number(c.max_match_distance);
+      j["match_distance_p95_m"] = number(c.p95_match_distance);
+      j["ratio"]                = {{"min", c.ratio_min}, {"median", c.ratio_median}, {"max", c.ratio_max}};
+      j["noise_floor_percent"]  = c.noise_floor_percent;
+      j["beyond_noise"]         = c.beyond_noise_count;
+      Json &percent = j["percent"] = Json::array();
+      Json &b_value = j["b_n_per_mm"] = Json::array();
+      for (std::size_t v = 0; v < c.a_vertex_count; ++v)
+        {
+          percent.push_back(c.compared[v] ? Json(c.percent[v]) : Json(nullptr));
+          b_value.push_back(c.b_at_a[v] > 0.0 ? Json(1e-3 * c.b_at_a[v]) : Json(nullptr));
+        }
+      return dump_json(j);
+    }
+
     // What the page needs to know about the basis (GET /api/info, view/README.md): counts, spaces
     // (frequencies, candidates, validation cases with the kernel's own self-check error), scene
     // scalars, and `session`, what drives the HIPs.
     std::string info_json(const modalrt_basis *basis, const std::string &path, std::size_t basis_bytes,
-                          const std::string &session)
+                          const std::string &session, const std::string &compare_basis)
     {
       modalrt_basis_info info{};
       modalrt_basis_get_info(basis, &info);
@@ -202,6 +236,7 @@ namespace modalrt_view
       j["basis_bytes"]        = basis_bytes;
       j["felt_stiffness_map"] = modalrt_tool::has_felt_stiffness_map(basis);
       j["validity_map"]       = modalrt_tool::has_validity_map(basis);
+      j["comparison"]         = compare_basis.empty() ? Json(nullptr) : Json(compare_basis); // GET /api/comparison
       j["bounds_min"] = {number(info.bounds_min[0]), number(info.bounds_min[1]), number(info.bounds_min[2])};
       j["bounds_max"] = {number(info.bounds_max[0]), number(info.bounds_max[1]), number(info.bounds_max[2])};
       Json         &spaces     = j["spaces"] = Json::array();
@@ -258,6 +293,7 @@ namespace modalrt_view
     std::string          basis_bytes;
     std::string          report;
     bool                 has_report = false;
+    std::string          comparison; // GET /api/comparison ("": no --compare)
     std::string          token = random_token();
     std::unique_ptr<AccessGuard> guard; // made once the port is bound
 
@@ -470,6 +506,10 @@ namespace modalrt_view
         return reply(http::status::ok, server.basis_bytes, "application/octet-stream");
       if (target == "/api/state")
         return reply(http::status::ok, server.source.state_json(), "application/json");
+      if (target == "/api/comparison")
+        return server.comparison.empty()
+                 ? reply(http::status::not_found, "no design to compare with (modal-rt view --compare B.mrt)\n", "text/plain")
+                 : reply(http::status::ok, server.comparison, "application/json");
       if (target == "/api/report")
         return server.has_report ? reply(http::status::ok, server.report, "application/json")
                                  : reply(http::status::not_found, "no report.json beside the basis\n", "text/plain");
@@ -531,7 +571,10 @@ namespace modalrt_view
       impl_->options.web_root = default_web_root();
     const std::vector<unsigned char> bytes = basis_binary(basis, basis_path);
     impl_->basis_bytes.assign(bytes.begin(), bytes.end());
-    impl_->info_json = info_json(basis, basis_path, bytes.size(), source.session_json());
+    const ServerOptions &o = impl_->options;
+    if (!o.compare_basis.empty())
+      impl_->comparison = comparison_json(basis, basis_path, o);
+    impl_->info_json = info_json(basis, basis_path, bytes.size(), source.session_json(), o.compare_basis);
     const auto report = std::filesystem::path(basis_path).parent_path() / "report.json";
     impl_->report     = read_file(report, impl_->has_report);
   }

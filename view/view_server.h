@@ -2,7 +2,8 @@
 //
 // It serves the page (view/web, with three.js from view/web/node_modules: no CDN), the display basis
 // once (GET /api/basis, binary, see view/README.md), a JSON description of the basis and the report
-// beside it (/api/info, /api/report), the latest state (/api/state), and pushes each frame a
+// beside it (/api/info, /api/report), with --compare the felt-stiffness maps of two designs compared
+// (/api/comparison), the latest state (/api/state), and pushes each frame a
 // FrameSource builds to every WebSocket client (/ws) as soon as the source publishes it. Text messages from a client are
 // commands for the FrameSource (the mouse as a device). Nothing here runs in the haptic thread.
 // Every request passes the AccessGuard first (access_guard.h: Host, origin, this run's token).
@@ -41,6 +42,8 @@ namespace modalrt_view
     std::string address    = "127.0.0.1"; // loopback unless asked otherwise
     unsigned    port       = 8080;        // 0: any free port
     std::string web_root;                 // folder of index.html (default: the source tree's view/web)
+    std::string compare_basis;            // design B's .mrt: the Stiffness tab's difference map (empty: none)
+    double      noise_percent = 1.0;      // its noise floor [%]: |B - A| / A at or below it, no difference
   };
 
   // Default web root: MODAL_RT_VIEW_WEB if set, else the source tree's view/web.
@@ -49,7 +52,8 @@ namespace modalrt_view
   class ViewServer
   {
   public:
-    // The basis must outlive the server; `basis_path` locates report.json beside it.
+    // The basis must outlive the server; `basis_path` locates report.json beside it. Throws
+    // std::runtime_error naming the file when options.compare_basis cannot be compared.
     ViewServer(const modalrt_basis *basis, const std::string &basis_path, FrameSource &source, ServerOptions options);
     ~ViewServer();
     ViewServer(const ViewServer &) = delete;

@@ -73,49 +73,60 @@ namespace mrt
 
   const char *match_rule_name(MatchRule rule) { return rule == MatchRule::identity ? "identity" : "closest point"; }
 
+  namespace
+  {
+    // The bounding box of triangle t.
+    void triangle_box(const SurfaceMap &m, std::size_t t, double lower[3], double upper[3])
+    {
+      for (int d = 0; d < 3; ++d)
+        lower[d] = infinity, upper[d] = -infinity;
+      for (int k = 0; k < 3; ++k)
+        for (int d = 0; d < 3; ++d)
+          {
+            const double x = vertex(m, m.triangles[3 * t + k])[d];
+            lower[d] = std::min(lower[d], x), upper[d] = std::max(upper[d], x);
+          }
+    }
+  } // namespace
+
+  ClosestPointGrid::ClosestPointGrid(const SurfaceMap &surface) : surface_(surface)
+  {
+    if (surface.triangle_count == 0)
+      return;
+    size_cells();
+    list_triangles();
+  }
+
   // The grid spans the bounding box of B's triangles. Its cell is about a triangle's size (the mean
   // of their largest bounding-box extents), so a cell lists a few triangles and a point near the
   // surface finds its closest one in the first ring or two of cells; the cell count is capped at a
   // few per triangle, which bounds the memory for a thin or sparse surface.
-  ClosestPointGrid::ClosestPointGrid(const SurfaceMap &surface) : surface_(surface)
+  void ClosestPointGrid::size_cells()
   {
-    const std::size_t nt = surface.triangle_count;
-    if (nt == 0)
-      return;
+    const std::size_t nt = surface_.triangle_count;
     double lower[3] = {infinity, infinity, infinity}, upper[3] = {-infinity, -infinity, -infinity};
     double extent_sum = 0.0;
     for (std::size_t t = 0; t < nt; ++t)
       {
-        double tl[3] = {infinity, infinity, infinity}, tu[3] = {-infinity, -infinity, -infinity};
-        for (int k = 0; k < 3; ++k)
-          for (int d = 0; d < 3; ++d)
-            {
-              const double x = vertex(surface, surface.triangles[3 * t + k])[d];
-              tl[d] = std::min(tl[d], x), tu[d] = std::max(tu[d], x);
-            }
+        double tl[3], tu[3];
+        triangle_box(surface_, t, tl, tu);
         extent_sum += std::max({tu[0] - tl[0], tu[1] - tl[1], tu[2] - tl[2]});
         for (int d = 0; d < 3; ++d)
           lower[d] = std::min(lower[d], tl[d]), upper[d] = std::max(upper[d], tu[d]);
       }
     const double box = std::max({upper[0] - lower[0], upper[1] - lower[1], upper[2] - lower[2]});
     cell_size_       = extent_sum > 0.0 ? extent_sum / double(nt) : (box > 0.0 ? box : 1.0);
+    const auto cells_along = [&](int d) { return std::max(1.0, std::ceil((upper[d] - lower[d]) / cell_size_)); };
     const double max_cells = 4.0 * double(nt) + 64.0;
-    for (;;)
-      {
-        double count = 1.0;
-        for (int d = 0; d < 3; ++d)
-          count *= std::max(1.0, std::ceil((upper[d] - lower[d]) / cell_size_));
-        if (count <= max_cells)
-          break;
-        cell_size_ *= std::cbrt(count / max_cells) * 1.01;
-      }
+    for (double count; (count = cells_along(0) * cells_along(1) * cells_along(2)) > max_cells;)
+      cell_size_ *= std::cbrt(count / max_cells) * 1.01;
     for (int d = 0; d < 3; ++d)
-      {
-        origin_[d] = lower[d];
-        cells_[d]  = std::size_t(std::max(1.0, std::ceil((upper[d] - lower[d]) / cell_size_)));
-      }
+      origin_[d] = lower[d], cells_[d] = std::size_t(cells_along(d));
+  }
 
-    // Each triangle into every cell its bounding box meets: counted, then filled (compressed rows).
+  // Each triangle into every cell its bounding box meets: counted, then filled (compressed rows).
+  void ClosestPointGrid::list_triangles()
+  {
     const std::size_t cell_count = cells_[0] * cells_[1] * cells_[2];
     cell_start_.assign(cell_count + 1, 0);
     for (int pass = 0; pass < 2; ++pass)
@@ -123,17 +134,13 @@ namespace mrt
         std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
         if (pass == 1)
           cell_triangles_.resize(cell_start_.back());
-        for (std::size_t t = 0; t < nt; ++t)
+        for (std::size_t t = 0; t < surface_.triangle_count; ++t)
           {
-            std::size_t lo[3] = {cells_[0], cells_[1], cells_[2]}, hi[3] = {0, 0, 0};
-            for (int k = 0; k < 3; ++k)
-              {
-                std::size_t c[3];
-                cell_of(vertex(surface, surface.triangles[3 * t + k]), c);
-                for (int d = 0; d < 3; ++d)
-                  lo[d] = std::min(lo[d], c[d]), hi[d] = std::max(hi[d], c[d]);
-              }
-            std::size_t c[3];
+            double      tl[3], tu[3];
+            std::size_t lo[3], hi[3], c[3];
+            triangle_box(surface_, t, tl, tu);
+            cell_of(tl, lo);
+            cell_of(tu, hi);
             for (c[2] = lo[2]; c[2] <= hi[2]; ++c[2])
               for (c[1] = lo[1]; c[1] <= hi[1]; ++c[1])
                 for (c[0] = lo[0]; c[0] <= hi[0]; ++c[0])
@@ -155,8 +162,8 @@ namespace mrt
   {
     for (int d = 0; d < 3; ++d)
       {
-        const double at = std::floor((point[d] - origin_[d]) / cell_size_);
-        c[d]            = at <= 0.0 ? 0 : std::min(cells_[d] - 1, std::size_t(at));
+        const double at = std::floor((point[d] - origin_[d]) / cell_size_); // clamped before the cast
+        c[d]            = at <= 0.0 ? 0 : std::size_t(std::min(double(cells_[d] - 1), at));
       }
   }
 
@@ -197,6 +204,31 @@ namespace mrt
     return bound;
   }
 
+  // The cells at ring distance exactly `ring` from c (the inner ones were searched before): whole
+  // rows where the row itself is on the shell, else the row's two ends.
+  void ClosestPointGrid::search_ring(const std::size_t c[3], std::size_t ring, const double point[3], Hit &best,
+                                     bool &found) const
+  {
+    std::size_t lo[3], hi[3], at[3];
+    for (int d = 0; d < 3; ++d)
+      lo[d] = c[d] > ring ? c[d] - ring : 0, hi[d] = std::min(cells_[d] - 1, c[d] + ring);
+    const auto offset = [](std::size_t a, std::size_t b) { return a > b ? a - b : b - a; };
+    for (at[2] = lo[2]; at[2] <= hi[2]; ++at[2])
+      for (at[1] = lo[1]; at[1] <= hi[1]; ++at[1])
+        if (std::max(offset(at[2], c[2]), offset(at[1], c[1])) == ring)
+          {
+            for (at[0] = lo[0]; at[0] <= hi[0]; ++at[0])
+              search_cell(at, point, best, found);
+          }
+        else // ring > 0 here
+          {
+            if (c[0] >= ring)
+              at[0] = c[0] - ring, search_cell(at, point, best, found);
+            if (c[0] + ring < cells_[0])
+              at[0] = c[0] + ring, search_cell(at, point, best, found);
+          }
+  }
+
   // Rings of cells around the point's cell, nearest first, until the best triangle found is no
   // farther than every cell not yet searched.
   bool ClosestPointGrid::closest(const double point[3], Hit &hit) const
@@ -208,32 +240,13 @@ namespace mrt
     bool found = false;
     for (std::size_t ring = 0;; ++ring)
       {
-        std::size_t lo[3], hi[3];
-        for (int d = 0; d < 3; ++d)
-          lo[d] = c[d] > ring ? c[d] - ring : 0, hi[d] = std::min(cells_[d] - 1, c[d] + ring);
-        std::size_t at[3];
-        for (at[2] = lo[2]; at[2] <= hi[2]; ++at[2])
-          for (at[1] = lo[1]; at[1] <= hi[1]; ++at[1])
-            {
-              // Only the cells at ring distance exactly `ring`: the inner ones were searched before.
-              const bool on_shell = std::max(at[2] > c[2] ? at[2] - c[2] : c[2] - at[2],
-                                             at[1] > c[1] ? at[1] - c[1] : c[1] - at[1]) == ring;
-              if (on_shell)
-                for (at[0] = lo[0]; at[0] <= hi[0]; ++at[0])
-                  search_cell(at, point, hit, found);
-              else // ring > 0 here: the row's two ends
-                {
-                  if (c[0] >= ring)
-                    at[0] = c[0] - ring, search_cell(at, point, hit, found);
-                  if (c[0] + ring < cells_[0])
-                    at[0] = c[0] + ring, search_cell(at, point, hit, found);
-                }
-            }
+        search_ring(c, ring, point, hit, found);
         const double bound = distance_outside_shell(point, c, ring);
         if ((found && hit.distance <= bound) || bound == infinity)
           return found;
       }
   }
+
   namespace
   {
     // Whether B is A's surface: the same vertex count, every vertex within the tolerance.
@@ -247,15 +260,19 @@ namespace mrt
       return true;
     }
 
+    // A barycentric weight at or below it is rounding: a point at a corner without a value must not
+    // take the far corners' values through weights of 1e-16.
+    const double negligible_weight = 1e-12;
+
     // B's stiffness at a point of its triangle: the barycentric blend of the triangle's vertices that
-    // have a value, the weights renormalized over them; 0 when none of weight > 0 has one.
+    // have a value, the weights renormalized over them; 0 when no corner of non-negligible weight has one.
     double blend(const SurfaceMap &b, const ClosestPointGrid::Hit &hit)
     {
       double sum = 0.0, weight = 0.0;
       for (int k = 0; k < 3; ++k)
         {
           const double value = b.stiffness[b.triangles[3 * std::size_t(hit.triangle) + k]];
-          if (value > 0.0)
+          if (value > 0.0 && hit.weights[k] > negligible_weight)
             sum += hit.weights[k] * value, weight += hit.weights[k];
         }
       return weight > 0.0 ? sum / weight : 0.0;
@@ -370,6 +387,7 @@ namespace mrt
   {
     MapComparison out;
     out.a_vertex_count      = a.vertex_count;
+    out.b_vertex_count      = b.vertex_count;
     out.noise_floor_percent = options.noise_floor_percent;
     out.rule = same_surface(a, b, options.same_position_tolerance) ? MatchRule::identity : MatchRule::closest_point;
     match(a, b, out);

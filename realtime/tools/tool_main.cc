@@ -4,6 +4,9 @@
 //                                  felt-stiffness map per space (range, softest spots: stiffness_map.cc),
 //                                  the validity map's lowest forces per space, section sizes;
 //                                  --candidates adds, last, every space's candidate vertices
+//   modal-rt info   --basis A --compare B [--largest N] [--noise PCT]
+//                                  where design B's felt-stiffness map differs from design A's, at A's
+//                                  display vertices (design_comparison.cc, mrt/map_comparison.h)
 //   modal-rt info   --basis FILE --vertex N | --near X,Y,Z
 //                                  one display vertex (by index, or the closest to a point [m]): its
 //                                  position, normal, region, candidacy and felt stiffness (vertex_info.cc)
@@ -18,6 +21,7 @@
 //   and the commands of the app's extensions (the view: modal-rt view, view/README.md).
 //
 // Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
+#include "design_comparison.h"
 #include "stiffness_map.h"
 #include "tool_main.h"
 #include "vertex_info.h"
@@ -42,6 +46,7 @@ namespace
   int usage(const ToolExtensions &extensions, bool help = false)
   {
     std::string text = "usage: modal-rt info --basis FILE [--candidates | --vertex N | --near X,Y,Z]\n"
+                       "       modal-rt info --basis A.mrt --compare B.mrt [--largest N (10)] [--noise PCT (1)]\n"
                        "       modal-rt verify --basis FILE [--quiet]\n" +
                        modalrt_tool::run_usage() + modalrt_tool::serve_usage();
     for (const modalrt_tool::Command &command : extensions.commands)
@@ -192,7 +197,8 @@ namespace
     return pass ? 0 : 1;
   }
 
-  // What info and verify were asked: --basis FILE [--quiet] [--candidates] [--vertex N | --near X,Y,Z].
+  // What info and verify were asked: --basis FILE [--quiet] [--candidates] [--vertex N | --near X,Y,Z]
+  // [--compare B [--largest N] [--noise PCT]].
   struct BasisOptions
   {
     const char *path  = nullptr;
@@ -201,6 +207,9 @@ namespace
     const char *vertex = nullptr; // --vertex's value as given
     bool        near   = false;
     double      point[3] = {0, 0, 0}; // [m] --near
+    const char *compare = nullptr; // --compare: design B's basis
+    bool        comparison_option = false; // --largest or --noise given
+    modalrt_tool::DesignComparisonOptions comparison;
   };
 
   // --vertex: a display vertex index, checked against the basis. Exit status 2 with a message
@@ -240,6 +249,52 @@ namespace
     return true;
   }
 
+  // --largest N: a count, 0 or more.
+  bool parse_largest(const char *text, std::size_t &largest)
+  {
+    char                    *end   = nullptr;
+    const unsigned long long value = std::strtoull(text, &end, 10);
+    if (*text < '0' || *text > '9' || *end != '\0' || value > 1000000)
+      {
+        std::fprintf(stderr, "modal-rt info: --largest '%s': expected how many differences to list (0 .. 1000000)\n",
+                     text);
+        return false;
+      }
+    largest = std::size_t(value);
+    return true;
+  }
+
+  // --noise PCT: a finite relative difference >= 0 [%].
+  bool parse_noise(const char *text, double &percent)
+  {
+    char *end = nullptr;
+    percent   = std::strtod(text, &end);
+    if (end == text || *end != '\0' || !std::isfinite(percent) || percent < 0.0)
+      {
+        std::fprintf(stderr, "modal-rt info: --noise '%s': expected the noise floor in %% (a finite number >= 0)\n",
+                     text);
+        return false;
+      }
+    return true;
+  }
+
+  // The combinations parse_basis_options refuses; a message and false for the first one found.
+  bool consistent(const BasisOptions &o)
+  {
+    const char *conflict = nullptr;
+    if (o.vertex && o.near)
+      conflict = "--vertex and --near pick the same thing: give one";
+    else if (o.candidates && (o.vertex || o.near))
+      conflict = "--candidates lists the whole basis, --vertex one vertex: give one";
+    else if (o.compare && (o.candidates || o.vertex || o.near))
+      conflict = "--compare prints the comparison alone: without --candidates, --vertex or --near";
+    else if (o.comparison_option && !o.compare)
+      conflict = "--largest and --noise are options of --compare B.mrt";
+    if (conflict)
+      std::fprintf(stderr, "modal-rt info: %s\n", conflict);
+    return conflict == nullptr;
+  }
+
   // Returns -1 when the options are good, else the exit status (usage or --help).
   int parse_basis_options(int argc, char **argv, const ToolExtensions &extensions, BasisOptions &o)
   {
@@ -259,21 +314,27 @@ namespace
               return 2;
             o.near = true;
           }
+        else if (std::strcmp(argv[k], "--compare") == 0 && k + 1 < argc)
+          o.compare = argv[++k];
+        else if (std::strcmp(argv[k], "--largest") == 0 && k + 1 < argc)
+          {
+            if (!parse_largest(argv[++k], o.comparison.largest))
+              return 2;
+            o.comparison_option = true;
+          }
+        else if (std::strcmp(argv[k], "--noise") == 0 && k + 1 < argc)
+          {
+            if (!parse_noise(argv[++k], o.comparison.noise_percent))
+              return 2;
+            o.comparison_option = true;
+          }
         else if (std::strcmp(argv[k], "--help") == 0)
           return usage(extensions, true);
         else
           return usage(extensions);
       }
-    if (o.vertex && o.near)
-      {
-        std::fprintf(stderr, "modal-rt info: --vertex and --near pick the same thing: give one\n");
-        return 2;
-      }
-    if (o.candidates && (o.vertex || o.near))
-      {
-        std::fprintf(stderr, "modal-rt info: --candidates lists the whole basis, --vertex one vertex: give one\n");
-        return 2;
-      }
+    if (!consistent(o))
+      return 2;
     return o.path ? -1 : usage(extensions);
   }
 
@@ -301,7 +362,7 @@ namespace
     const int    status = parse_basis_options(argc, argv, extensions, o);
     if (status >= 0)
       return status;
-    if (command != "info" && (o.vertex || o.near || o.candidates))
+    if (command != "info" && (o.vertex || o.near || o.candidates || o.compare || o.comparison_option))
       return usage(extensions);
     Basis basis;
     if (modalrt_basis_load(o.path, &basis.handle) != MODALRT_OK)
@@ -311,6 +372,8 @@ namespace
       }
     if (o.vertex || o.near)
       return vertex_info(basis.handle, o);
+    if (o.compare)
+      return modalrt_tool::compare_designs(basis.handle, o.path, o.compare, o.comparison);
     return command == "info" ? info(basis.handle, o.candidates) : verify(basis.handle, o.path, o.quiet);
   }
 } // namespace

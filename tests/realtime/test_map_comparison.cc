@@ -164,6 +164,10 @@ namespace
     ENSURE(p.rule == mrt::MatchRule::closest_point);
     ENSURE_RELATIVE(p.b_at_a[0], (1e4 / 2 + 2e4 / 4) / 0.75, 1e-14);
     ENSURE(p.b_at_a[1] == 0.0 && p.b_without_value == 1 && p.compared_count == 1);
+    // 1e-15 m from that corner the far corners' weights are 1e-13: rounding, not a value to borrow.
+    const double near_x[3] = {1e-15, 0.01 - 2e-15, 0};
+    const mrt::MapComparison q = mrt::compare_maps({near_x, 1, nullptr, 0, at_k}, {tri_x, 3, tri, 1, tri_k});
+    ENSURE(q.b_without_value == 1 && q.compared_count == 0);
   }
 
   double linear_field(const double *x) { return 3e4 + 2e5 * x[0] - 1.5e5 * x[1] + 7e5 * x[2]; }
@@ -177,6 +181,7 @@ namespace
     set_field(b, linear_field);
     const mrt::MapComparison c = mrt::compare_maps(a.map(), b.map());
     ENSURE(c.rule == mrt::MatchRule::closest_point);
+    ENSURE(c.a_vertex_count == 41 * 31 && c.b_vertex_count == 29 * 23);
     ENSURE(c.compared_count == a.stiffness.size());
     double worst = 0.0;
     for (std::size_t v = 0; v < a.stiffness.size(); ++v)

@@ -20,4 +20,4 @@ if [ -n "$missing" ]; then
 fi
 mkdir -p "$work" && "$maker" lattice "$work/view_lattice.mrt" || exit 1
 exec node "$here/$script" --modal-rt "$modal_rt" --basis "$work/view_lattice.mrt" \
-  --screenshot "$work/view_browser_test.png" --work "$work"
+  --screenshot "$work/view_browser_test.png" --work "$work" --maker "$maker"

@@ -28,6 +28,9 @@ const basisBuffer = await (await api('/api/basis')).arrayBuffer();
 state.basisBytes = basisBuffer.byteLength;
 let report = null;
 try { const r = await api('/api/report'); if (r.ok) report = await r.json(); } catch (e) { /* none */ }
+// Design B's felt-stiffness map read at this basis's vertices (modal-rt view --compare B.mrt): the
+// Stiffness tab's difference map.
+const comparison = info.comparison ? await (await api('/api/comparison')).json() : null;
 $('file').textContent = info.file.split('/').pop();
 // Who drives the HIPs: the mouse (`modal-rt view`), or a session file / UDP device (`run`/`serve
 // --view`): then the page only watches.
@@ -93,6 +96,14 @@ const TURBO = {
 const TURBO_LOW = 0.12, TURBO_HIGH = 0.88;
 const polynomial = (c, x) => c.reduce((sum, k, i) => sum + k * x ** i, 0);
 const glslPolynomial = (c) => `dot(v4, vec4(${c.slice(0, 4).join(', ')})) + dot(v2, vec2(${c.slice(4).join(', ')}))`;
+// The difference map's colours, as the shader's diverging(): B softer than A cool, stiffer warm, the
+// neutral grey-white at no difference (within the noise floor).
+const COOL = [0.23, 0.30, 0.75], NEUTRAL = [0.87, 0.87, 0.87], WARM = [0.71, 0.02, 0.15];
+const glslVec3 = (c) => `vec3(${c.map((x) => x.toFixed(2)).join(', ')})`;
+function diverging(x) { // x in [-1, 1] -> THREE.Color
+  const end = x < 0 ? COOL : WARM, t = Math.min(1, Math.abs(x));
+  return new THREE.Color(...NEUTRAL.map((n, c) => n + (end[c] - n) * t));
+}
 function turbo(x) { // x in [0, 1] -> THREE.Color, as the shader's turbo()
   const t = TURBO_LOW + (TURBO_HIGH - TURBO_LOW) * Math.min(1, Math.max(0, x));
   const channel = (c) => Math.min(1, Math.max(0, polynomial(c, t)));
@@ -124,6 +135,7 @@ const uniforms = {
   q: { value: Array.from({ length: maxModes / 4 }, () => new THREE.Vector4()) },
   exaggeration: { value: 1 }, scaleMax: { value: 1e-3 }, rho: { value: rho }, plain: { value: 0 },
   stiffnessOn: { value: 0 }, stiffnessLogLow: { value: 0 }, stiffnessLogHigh: { value: 1 },
+  differenceOn: { value: 0 }, differenceRange: { value: 10 }, noiseFloor: { value: 1 },
   contactOn: { value: [0, 0] }, contactVertex: { value: [0, 0] },
   contactPos: { value: [new THREE.Vector3(), new THREE.Vector3()] }, contactC: { value: [new THREE.Vector3(), new THREE.Vector3()] },
 };
@@ -135,8 +147,11 @@ const material = new THREE.ShaderMaterial({
     uniform float exaggeration; uniform float scaleMax; uniform float rho;
     uniform float contactOn[2]; uniform int contactVertex[2]; uniform vec3 contactPos[2]; uniform vec3 contactC[2];
     in float stiffness; // [N/mm] the felt-stiffness map, 0: not computed
+    in float difference; in float compared; // [%] design B against this basis (--compare), 1: compared here
     out float vMagnitude; out vec3 vPosition; out float vComputed; out float vLogStiffness;
+    out float vCompared; out float vDifference;
     void main() {
+      vCompared = compared; vDifference = compared * difference;
       vComputed = stiffness > 0.0 ? 1.0 : 0.0;
       vLogStiffness = vComputed * log(max(stiffness, 1e-30)); // over the computed corners only (divided by vComputed)
       int v = gl_VertexID;
@@ -160,7 +175,10 @@ const material = new THREE.ShaderMaterial({
     precision highp float;
     uniform float plain; // 1: a neutral grey (the Validation tab's part at rest: its colours are the points')
     uniform float stiffnessOn; uniform float stiffnessLogLow; uniform float stiffnessLogHigh; // the Stiffness tab
+    uniform float differenceOn; uniform float differenceRange; uniform float noiseFloor; // its difference map [%]
     in float vMagnitude; in vec3 vPosition; in float vComputed; in float vLogStiffness; out vec4 color;
+    in float vCompared; in float vDifference;
+    vec3 diverging(float x) { return mix(${glslVec3(NEUTRAL)}, x < 0.0 ? ${glslVec3(COOL)} : ${glslVec3(WARM)}, min(1.0, abs(x))); }
     vec3 turbo(float x) {
       x = mix(${TURBO_LOW}, ${TURBO_HIGH}, clamp(x, 0.0, 1.0));
       vec4 v4 = vec4(1.0, x, x * x, x * x * x); vec2 v2 = v4.zw * v4.z;
@@ -175,12 +193,21 @@ const material = new THREE.ShaderMaterial({
         float x = (vLogStiffness / max(vComputed, 1e-6) - stiffnessLogLow) / max(stiffnessLogHigh - stiffnessLogLow, 1e-6);
         base = mix(vec3(0.45, 0.47, 0.50), turbo(x), vComputed);
       }
+      if (differenceOn > 0.5) { // B - A in % of A; within the noise floor: no difference; grey: not compared
+        float d = vDifference / max(vCompared, 1e-6);
+        float x = abs(d) <= noiseFloor ? 0.0 : d / max(differenceRange, 1e-6);
+        base = mix(vec3(0.45, 0.47, 0.50), diverging(x), vCompared);
+      }
       color = vec4(base * light, 1.0);
     }`,
 });
 const geometry = new THREE.BufferGeometry();
 geometry.setAttribute('position', new THREE.BufferAttribute(basis.vertices, 3));
 geometry.setAttribute('stiffness', new THREE.BufferAttribute(basis.stiffness, 1));
+const differencePercent = new Float32Array(basis.nv), differenceCompared = new Float32Array(basis.nv);
+if (comparison) comparison.percent.forEach((p, v) => { differencePercent[v] = p ?? 0; differenceCompared[v] = p === null ? 0 : 1; });
+geometry.setAttribute('difference', new THREE.BufferAttribute(differencePercent, 1));
+geometry.setAttribute('compared', new THREE.BufferAttribute(differenceCompared, 1));
 geometry.setIndex(new THREE.BufferAttribute(basis.triangles, 1));
 geometry.computeBoundingSphere();
 geometry.boundingSphere.radius *= 4; // the shader moves the vertices
@@ -296,13 +323,14 @@ const hints = {
     : `click the part: HIP 0 presses there (shift-click: HIP 1), drag away to press harder · ${orbitHint}`,
   modes: `${orbitHint} · presses only on the Live tab`,
   validation: `${orbitHint} · presses only on the Live tab`,
-  stiffness: `point at the part: its felt stiffness there · ${orbitHint} · presses only on the Live tab`,
+  stiffness: `point at the part: its felt stiffness there${comparison ? ' (and design B\'s)' : ''} · ${orbitHint} · presses only on the Live tab`,
 };
 const statusOf = {
   live: () => live.status,
   modes: () => `modes (offline): ${$('mode-text').textContent} of space ${spaceName(Number($('mode-space').value))}, not the live part`,
   validation: () => `validation (offline): ${$('validation-kind').selectedOptions[0].text} contact errors of space ${spaceName(Number($('validation-space').value))}`,
-  stiffness: () => (info.felt_stiffness_map ? 'stiffness (offline): the felt-stiffness map, each vertex from its region\'s space'
+  stiffness: () => (showingDifference() ? `stiffness (offline): design B (${comparison.file.split('/').pop()}) against this basis, B − A in % of A`
+    : info.felt_stiffness_map ? 'stiffness (offline): the felt-stiffness map, each vertex from its region\'s space'
     : 'stiffness (offline): this basis has no felt-stiffness map'),
 };
 function showStatus() { $('status').textContent = statusOf[state.mode](); }
@@ -519,7 +547,7 @@ function liveExaggeration() {
 }
 
 // What every tab sets before drawing: the space, q, the contacts, the amplification and the colour.
-function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain, stiffness = 0 }) {
+function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain, stiffness = 0, difference = 0 }) {
   uniforms.phi.value = textures[spaceIndex];
   uniforms.r.value = basis.spaces[spaceIndex].r;
   for (let i = 0; i < maxModes; ++i) uniforms.q.value[i >> 2].setComponent(i & 3, i < q.length ? q[i] : 0);
@@ -532,7 +560,7 @@ function applyModal(spaceIndex, q, contacts, { exaggeration, scaleMax, plain, st
     uniforms.contactC.value[k].set(...c.c);
   }
   uniforms.exaggeration.value = exaggeration; uniforms.scaleMax.value = scaleMax; uniforms.plain.value = plain;
-  uniforms.stiffnessOn.value = stiffness;
+  uniforms.stiffnessOn.value = stiffness; uniforms.differenceOn.value = difference;
   voiBoxes.forEach((box, i) => { if (box) box.material.color.set(i === spaceIndex ? 0xffd34f : 0x667788); });
 }
 
@@ -664,7 +692,28 @@ const stiffnessRange = (() => {
   return { low: values[0], high: values[Math.max(0, Math.ceil(STIFFNESS_TOP_PERCENTILE * n) - 1)], max: values[n - 1], computed: n };
 })();
 const nPerMm = (k) => `${k.toPrecision(4)} N/mm`;
+// With --compare: the difference map instead, B − A in % of A, a diverging scale symmetric about 0 up
+// to the 95th percentile of |%| (at least twice the noise floor), the noise floor drawn as no difference.
+const showingDifference = () => comparison !== null && $('stiffness-show').value === 'difference';
+const differenceScale = (() => {
+  if (!comparison) return 0;
+  const magnitudes = comparison.percent.filter((p) => p !== null).map(Math.abs).sort((a, b) => a - b);
+  const top = magnitudes.length ? magnitudes[Math.max(0, Math.ceil(STIFFNESS_TOP_PERCENTILE * magnitudes.length) - 1)] : 0;
+  return Math.max(top, 2 * comparison.noise_floor_percent, 1e-9);
+})();
+const signedPercent = (p) => `${p >= 0 ? '+' : ''}${p.toFixed(3)} %`;
+function showDifference() {
+  const c = comparison, range = differenceScale;
+  showLegend('stiffness-legend', `B − A in % of A (white: within the noise floor, ${c.noise_floor_percent} %; grey: not compared)`,
+    (x) => diverging(2 * x - 1), `−${range.toPrecision(3)} % (B softer)`, `+${range.toPrecision(3)} % (B stiffer)`);
+  $('stiffness-range').textContent = `${c.rule}, match ≤ ${formatMm(c.match_distance_max_m, size)}; ratio B/A ${c.ratio.min.toFixed(4)} / ${c.ratio.median.toFixed(4)} / ${c.ratio.max.toFixed(4)}; ${c.beyond_noise} of ${c.compared} beyond the floor`;
+  uniforms.differenceRange.value = range;
+  uniforms.noiseFloor.value = c.noise_floor_percent;
+  applyModal(0, [], [], { exaggeration: 1, scaleMax: 1, plain: 0, difference: 1 });
+  showStatus();
+}
 function showStiffness() {
+  if (showingDifference()) return showDifference();
   const { low, high, max, computed } = stiffnessRange;
   if (computed > 0) {
     showLegend('stiffness-legend', 'felt stiffness, pressing straight in (log scale; grey: not computed)',
@@ -688,7 +737,12 @@ renderer.domElement.addEventListener('pointermove', (event) => {
   const hit = raycaster.intersectObject(mesh)[0];
   if (!hit) { stiffnessLabel.style.display = 'none'; return; }
   const v = nearestCorner(hit), k = basis.stiffness[v];
-  const text = k > 0 ? nPerMm(k) : 'not computed';
+  let text = k > 0 ? nPerMm(k) : 'not computed';
+  if (showingDifference()) {
+    const p = comparison.percent[v], b = comparison.b_n_per_mm[v];
+    text = p === null ? `A ${text}, B ${b ? nPerMm(b) : 'none'}: not compared`
+      : `A ${text}, B ${nPerMm(b)}: ${signedPercent(p)}${Math.abs(p) <= comparison.noise_floor_percent ? ' (within the noise floor)' : ''}`;
+  }
   $('stiffness-vertex').textContent = `${v} (${whereText(v).voi})`;
   $('stiffness-vertex').dataset.value = v;
   $('stiffness-value').textContent = text;
@@ -743,6 +797,11 @@ for (const id of ['mode-space', 'validation-space'])
 $('mode-space').onchange = () => { $('mode-index').max = info.spaces[Number($('mode-space').value)].modes - 1; };
 $('mode-space').onchange();
 $('validation-space').onchange = $('validation-kind').onchange = showValidation;
+if (comparison) {
+  $('stiffness-compare').style.display = '';
+  $('stiffness-show').options[1].text = `design B ${comparison.file.split('/').pop()} − this basis (%)`;
+  $('stiffness-show').onchange = () => { showStiffness(); $('hint').textContent = hints.stiffness; };
+}
 reportTables();
 selectTab('live');
 

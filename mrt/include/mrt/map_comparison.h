@@ -9,7 +9,8 @@
 //   - closest point: otherwise each vertex of A is matched to the closest point of B's triangles
 //     (found through a uniform grid of cells over B, so a map of 1e5 vertices takes well under a
 //     second), and B's stiffness there is the barycentric blend of that triangle's vertices that
-//     have a value, the weights renormalized over them. On a planar stretch of surface this
+//     have a value, the weights renormalized over them (a weight of at most 1e-12 is rounding and
+//     counts as none). On a planar stretch of surface this
 //     reproduces a stiffness linear in position exactly; elsewhere its error is that of linear
 //     interpolation over B's triangle, plus whatever the two surfaces differ by (the match
 //     distance, reported per vertex).
@@ -63,6 +64,7 @@ namespace mrt
   {
     MatchRule   rule = MatchRule::identity;
     std::size_t a_vertex_count = 0;
+    std::size_t b_vertex_count = 0;
     std::size_t compared_count = 0;  // vertices with a value in both maps
     std::size_t a_without_value = 0; // A has no value (0) there
     std::size_t b_without_value = 0; // A has one, B none at the match
@@ -117,9 +119,12 @@ namespace mrt
     std::vector<std::uint32_t> cell_start_; // cell c's triangles: cell_triangles_[cell_start_[c] .. [c + 1])
     std::vector<std::uint32_t> cell_triangles_;
 
+    void        size_cells();
+    void        list_triangles();
     std::size_t cell_index(const std::size_t c[3]) const { return c[0] + cells_[0] * (c[1] + cells_[1] * c[2]); }
     void        cell_of(const double point[3], std::size_t c[3]) const;
     void        search_cell(const std::size_t c[3], const double point[3], Hit &best, bool &found) const;
+    void search_ring(const std::size_t c[3], std::size_t ring, const double point[3], Hit &best, bool &found) const;
     double      distance_outside_shell(const double point[3], const std::size_t c[3], std::size_t ring) const;
   };
 } // namespace mrt
