@@ -476,8 +476,8 @@ namespace modal_haptics
 
     std::string trimmed(const std::string &text)
     {
-      const auto first = text.find_first_not_of(" \t");
-      return first == std::string::npos ? "" : text.substr(first, text.find_last_not_of(" \t") - first + 1);
+      const auto first = text.find_first_not_of(" \t\n");
+      return first == std::string::npos ? "" : text.substr(first, text.find_last_not_of(" \t\n") - first + 1);
     }
 
     // "Geometry/Ribbed panel/Rib thicknesses = 1.5, 2, 2.4" -> its entry and its value.
@@ -705,9 +705,9 @@ namespace modal_haptics
       }
     catch (const dealii::ExceptionBase &e)
       {
-        std::ostringstream message;
+        std::ostringstream message; // deal.II indents it
         e.print_info(message);
-        throw ExcMessage(where + " (" + listed(overrides) + "): " + message.str());
+        throw ExcMessage(where + " (" + listed(overrides) + "): " + trimmed(message.str()));
       }
     return variant;
   }

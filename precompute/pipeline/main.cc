@@ -254,7 +254,7 @@ namespace
 
   // --list-scenarios and --validate answer from the parameters alone; returns their exit code.
   std::optional<int> answer_from_parameters(const CommandLine &command, const Processes &processes,
-                                            const modal_haptics::SceneParameters &scene)
+                                            const modal_haptics::SceneParameters &scene, const Designs &designs)
   {
     if (command.list_scenarios)
       {
@@ -272,7 +272,11 @@ namespace
           return 1;
         if (processes.rank == 0)
           std::cout << command.parameter_file << ": valid (scene '" << scene.scene_name << "', "
-                    << scene.volumes_of_interest.size() << " VOI scenarios + the global one)" << std::endl;
+                    << scene.volumes_of_interest.size() << " VOI scenarios + the global one"
+                    << (designs.declared.any() ? "; " + std::to_string(designs.variants.size()) + " design variants" +
+                                                   (designs.noise_floor ? " and the noise floor" : "") :
+                                                 std::string())
+                    << ")" << std::endl;
         return 0;
       }
     return std::nullopt;
@@ -370,7 +374,7 @@ int main(int argc, char **argv)
   Designs                        designs;
   if (!read_parameters_on_every_process(command, processes, prm, scene, designs))
     return 1;
-  if (const auto done = answer_from_parameters(command, processes, scene))
+  if (const auto done = answer_from_parameters(command, processes, scene, designs))
     return *done;
   if (!on_every_process(processes, [&] { modal_haptics::check_geometry(scene, processes.rank == 0, false); }))
     return 1;

@@ -8,8 +8,9 @@ modulus), with the noise floor measured.
 - The thick-rib variant is meshed anew (closest-point rule): rib A is stiffer, and the comparison's
   largest differences lie on rib A.
 - Each variant's folder holds its own .mrt, .h5, report.json and used_parameters.prm.
-- An override of an unknown entry, a value its entry refuses, or an entry outside Geometry and
-  Material, is refused before meshing, its message naming the variant, the entry and the value.
+- An override of an unknown entry, a value its entry refuses, an entry outside Geometry and
+  Material, or one that fails the scene's checks (two rib thicknesses for three ribs), is refused
+  before meshing, its message naming the variant, the entry and the value.
 - The scene without its 'Variants' subsection, on the same meshes, writes the base's files as the
   scene with variants wrote them: the .mrt byte for byte, report.json but for the timings and the
   comparison, used_parameters.prm but for the 'Variants' subsection, which it does not list."""
@@ -116,7 +117,9 @@ def check_refusals(expect, binary, workdir):
              ("refused value", "Material/Young's modulus = -5",
               ["variant 'bad'", "'Material/Young's modulus' = -5", "must be a number > 0", "Pa"]),
              ("not a design entry", "Meshing/Coarse size = 6",
-              ["variant 'bad'", "'Meshing/Coarse size = 6'", "'Geometry' or 'Material'"])]
+              ["variant 'bad'", "'Meshing/Coarse size = 6'", "'Geometry' or 'Material'"]),
+             ("scene check", "Geometry/Ribbed panel/Rib thicknesses = 1.5, 2",
+              ["variant 'bad'", "'Geometry/Ribbed panel/Rib thicknesses = 1.5, 2'", "same number of entries"])]
     for what, override, words in cases:
         folder = os.path.join(workdir, "refused_" + what.replace(" ", "_"))
         text = scene_text().replace("set Name       = stiffer_abs", "set Name       = bad").replace(
