@@ -216,26 +216,35 @@ namespace modal_haptics::parameter_messages
       return {parts, trimmed(path.substr(begin))};
     }
 
+    // The names declared under a subsection path ("" at the top).
+    std::vector<std::string> names_under(const std::map<std::string, std::vector<std::string>> &names,
+                                         const std::vector<std::string> &path)
+    {
+      const auto found = names.find(joined(path, "/"));
+      return found == names.end() ? std::vector<std::string>() : found->second;
+    }
+
     // Throws unless every subsection of the path and its entry are declared, naming the first one
     // that is not and the closest declared name.
     void require_declared(const Declared &declared, const std::vector<std::string> &subsections,
                           const std::string &name, const std::string &where)
     {
       std::vector<std::string> path;
+      const auto               refuse = [&](const std::string &kind, const std::string &missing,
+                                            const std::vector<std::string> &known, const std::string &kinds) {
+        throw ExcMessage(where + ": " + (path.empty() ? "the file's top level" : "subsection '" + joined(path, "/") + "'") +
+                         " has no " + kind + " '" + missing + "'." + suggestion(missing, known, kinds));
+      };
       for (const auto &subsection : subsections)
         {
-          const auto  found = declared.subsections.find(joined(path, "/"));
-          const auto &known = found == declared.subsections.end() ? std::vector<std::string>() : found->second;
+          const auto known = names_under(declared.subsections, path);
           if (std::find(known.begin(), known.end(), subsection) == known.end())
-            throw ExcMessage(where + ": " + (path.empty() ? "the file's top level" : "subsection '" + joined(path, "/") + "'") +
-                             " has no subsection '" + subsection + "'." + suggestion(subsection, known, "subsections"));
+            refuse("subsection", subsection, known, "subsections");
           path.push_back(subsection);
         }
-      const auto  found = declared.entries.find(joined(path, "/"));
-      const auto &known = found == declared.entries.end() ? std::vector<std::string>() : found->second;
+      const auto known = names_under(declared.entries, path);
       if (std::find(known.begin(), known.end(), name) == known.end())
-        throw ExcMessage(where + ": " + (path.empty() ? "the file's top level" : "subsection '" + joined(path, "/") + "'") +
-                         " has no entry '" + name + "'." + suggestion(name, known, "entries"));
+        refuse("entry", name, known, "entries");
     }
 
     // The pattern's description in deal.II's "The string <V> does not match the given pattern <P>.".
