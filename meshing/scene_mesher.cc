@@ -1,6 +1,7 @@
 // The meshing stage's driver: validates the inputs, loads the geometry into gmsh once, meshes every
 // scenario whose cached mesh is out of date, and builds the display surface.
 #include "scene_mesher.h"
+#include "shared_meshes.h"
 
 #include "gmsh_tools.h"
 #include "mesher_parts.h"
@@ -108,6 +109,23 @@ namespace modal_haptics::meshing
         for (std::size_t i = 0; i < vois.size(); ++i)
           meshes.scenarios.push_back(mesh_scenario(&vois[i], queue.taken_by(i)));
         return meshes;
+      }
+
+      // Each mesh of 'source' made from the inputs this scene's needs, copied here with its key
+      // unless this folder's is up to date: run() then reuses it.
+      unsigned int adopt_meshes_of(const std::string &source)
+      {
+        check_inputs();
+        create_output_directory();
+        inputs = common_inputs();
+        std::vector<std::pair<std::string, std::string>> wanted{{"mesh_global", scenario_key(nullptr)},
+                                                                {"display_surface", key_of(display_surface_inputs())}};
+        for (const auto &voi : vois)
+          wanted.emplace_back("mesh_" + voi.name, scenario_key(&voi));
+        unsigned int adopted = 0;
+        for (const auto &[name, key] : wanted)
+          adopted += adopt(source, name, key);
+        return adopted;
       }
 
       GeometryReport inspect(const std::vector<std::pair<int, std::string>> &named_groups,
@@ -233,6 +251,30 @@ namespace modal_haptics::meshing
                               MeshStatistics &statistics) const
       {
         return cached(msh, key_file, key, statistics) && statistics.min_quality > settings.min_quality;
+      }
+
+      // NAME.msh and NAME.key of 'source' copied here when the key there is 'key' and here is not.
+      // The mesh goes first and the key last: a key vouches only for a mesh that is complete.
+      bool adopt(const std::string &source, const std::string &name, const std::string &key) const
+      {
+        const fs::path from = fs::path(source) / name;
+        MeshStatistics ignored_statistics;
+        std::error_code ignored;
+        if (fs::equivalent(source, directory, ignored) ||
+            cached(path(name + ".msh"), path(name + ".key"), key, ignored_statistics) ||
+            !cached(from.string() + ".msh", from.string() + ".key", key, ignored_statistics))
+          return false;
+        fs::remove(path(name + ".key"), ignored);
+        for (const char *extension : {".msh", ".key"})
+          {
+            const std::string target = path(name + extension), temporary = target + ".tmp";
+            std::error_code   error;
+            fs::copy_file(from.string() + extension, temporary, fs::copy_options::overwrite_existing, error);
+            if (error || std::rename(temporary.c_str(), target.c_str()) != 0)
+              throw MeshingError("cannot copy '" + from.string() + extension + "' to '" + target + "'");
+          }
+        say(name + ": taken from '" + source + "' (the same inputs)");
+        return true;
       }
 
       // With reuse_only, a mesh that would have to be made is an error naming it.
@@ -785,10 +827,8 @@ namespace modal_haptics::meshing
       DisplaySurface display_surface()
       {
         const std::string msh = path("display_surface.msh"), key_file = path("display_surface.key");
-        std::string       surface_inputs = inputs + "; display surface";
-        for (const auto &voi : vois)
-          surface_inputs += "; " + describe_voi(voi);
-        const std::string key = key_of(surface_inputs);
+        const std::string surface_inputs = display_surface_inputs();
+        const std::string key            = key_of(surface_inputs);
 
         MeshStatistics statistics;
         DisplaySurface surface;
@@ -817,6 +857,14 @@ namespace modal_haptics::meshing
         say("display surface: " + std::to_string(surface.vertices.size()) + " vertices, " +
             std::to_string(surface.triangles.size()) + " triangles" + (statistics.reused ? " (reused)" : ""));
         return surface;
+      }
+
+      std::string display_surface_inputs() const
+      {
+        std::string surface_inputs = inputs + "; display surface";
+        for (const auto &voi : vois)
+          surface_inputs += "; " + describe_voi(voi);
+        return surface_inputs;
       }
 
       DisplaySurface make_display_surface()
@@ -882,6 +930,15 @@ namespace modal_haptics::meshing
     SceneMesher mesher(settings, volumes_of_interest, output_directory, verbose, reuse_only);
     GmshSession session(verbose);
     return mesher.run();
+  }
+
+  unsigned int adopt_meshes(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,
+                            const std::string &source_directory, const std::string &output_directory,
+                            const bool verbose)
+  {
+    SceneMesher mesher(settings, volumes_of_interest, output_directory, verbose, false);
+    GmshSession session(false); // the keys name gmsh's version
+    return mesher.adopt_meshes_of(source_directory);
   }
 
   GeometryReport inspect_geometry(const MeshingSettings &settings, const std::vector<VolumeOfInterest> &volumes_of_interest,

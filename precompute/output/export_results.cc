@@ -775,6 +775,80 @@ namespace modal_haptics
       write_display_surface_vtu(filename, results, arrays, staged);
   }
 
+  namespace
+  {
+    Json overrides_json(const std::vector<std::pair<std::string, std::string>> &overrides)
+    {
+      Json list = Json::array();
+      for (const auto &[entry, value] : overrides)
+        list.push_back({{"entry", entry}, {"value", value}});
+      return list;
+    }
+
+    // The % differences of some vertices, against their noise floor.
+    Json difference_json(const DifferenceFigures &f)
+    {
+      Json figures = f.name.empty() ? Json::object() : Json{{"name", f.name}};
+      figures["compared_vertices"]     = f.compared_vertices;
+      figures["percent"]               = {{"median", f.median_percent}, {"p95_abs", f.p95_abs_percent}, {"max_abs", f.max_abs_percent}};
+      figures["noise_floor_percent"]   = f.noise_floor_percent;
+      figures["beyond_noise_vertices"] = f.beyond_noise_vertices;
+      figures["difference"]            = f.verdict;
+      return figures;
+    }
+
+    // A felt-stiffness map against the base's (pipeline/design_comparison.h), stiffness in N/mm.
+    Json map_comparison_json(const MapComparisonRecord &map)
+    {
+      Json largest = Json::array();
+      for (const auto &d : map.largest)
+        largest.push_back({{"vertex", d.vertex},
+                           {"position_mm", {d.position_m[0] * 1e3, d.position_m[1] * 1e3, d.position_m[2] * 1e3}},
+                           {"base_n_per_mm", d.base_n_per_m * 1e-3},
+                           {"variant_n_per_mm", d.variant_n_per_m * 1e-3},
+                           {"percent", d.percent},
+                           {"match_distance_mm", d.match_distance_m * 1e3},
+                           {"beyond_noise", d.beyond_noise}});
+      Json regions = Json::array();
+      for (const auto &region : map.regions)
+        regions.push_back(difference_json(region));
+      return {{"rule", map.rule},
+              {"base_vertices", map.base_vertices},
+              {"match_distance_mm", {{"max", map.max_match_distance_m * 1e3}, {"p95", map.p95_match_distance_m * 1e3}}},
+              {"ratio", {{"min", map.ratio_min}, {"median", map.ratio_median}, {"max", map.ratio_max}}},
+              {"all", difference_json(map.all)},
+              {"regions", regions},
+              {"largest_differences", largest}};
+    }
+
+    // The base's report: every variant against it and the noise floor; a variant's: what it is.
+    Json design_json(const DesignRecord &design)
+    {
+      if (!design.variant_name.empty())
+        return {{"name", design.variant_name}, {"base_folder", design.base_folder}, {"overrides", overrides_json(design.overrides)}};
+      Json noise = {{"measured", design.noise_floor.measured}};
+      if (design.noise_floor.measured)
+        {
+          noise["mesh_scale"]    = design.noise_floor.mesh_scale;
+          noise["folder"]        = design.noise_floor.folder;
+          noise["seconds"]       = design.noise_floor.seconds;
+          Json &floors = noise["floor_percent"] = Json::object(); // per region
+          for (const auto &region : design.noise_floor.map.regions)
+            floors[region.name] = region.p95_abs_percent;
+          noise["comparison"]    = map_comparison_json(design.noise_floor.map);
+        }
+      Json variants = Json::array();
+      for (const auto &v : design.variants)
+        variants.push_back({{"name", v.name},
+                            {"folder", v.folder},
+                            {"overrides", overrides_json(v.overrides)},
+                            {"meshes_reused", v.meshes_reused},
+                            {"seconds", v.seconds},
+                            {"comparison", map_comparison_json(v.map)}});
+      return {{"noise_floor", noise}, {"variants", variants}};
+    }
+  } // namespace
+
   void write_report(const std::string &filename, const SceneParameters &scene, const PrecomputeResults &results,
                     StagedFiles &staged)
   {
@@ -792,6 +866,8 @@ namespace modal_haptics
     report["files"]        = {{"h5_bytes", file_size(staged.current_path(base + ".h5"))},
                               {"mrt_bytes", file_size(staged.current_path(base + ".mrt"))}};
     report["timings_s"]    = Json(results.timings_s);
+    if (!results.design.empty()) // a scene without variants writes what it wrote before them
+      report[results.design.variant_name.empty() ? "design_variants" : "design_variant"] = design_json(results.design);
     // A string that is not UTF-8 (a path in another encoding) is written with U+FFFD where its bytes
     // are not, instead of failing the whole report.
     const std::string text = report.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";

@@ -4,6 +4,7 @@
 
 #include "parameters/scene_parameters.h"
 #include "scene/display_surface.h"
+#include "results/design_comparison.h"
 #include "results/space_result.h"
 
 #include <deal.II/base/mpi.h>
@@ -34,6 +35,7 @@ namespace modal_haptics
     std::map<std::string, double> timings_s;
     unsigned int                  n_processes = 1;           // MPI processes that computed the spaces
     double                        max_peak_memory_mb = 0.;   // largest peak resident memory of one process
+    DesignRecord                  design; // design variants: the base's comparisons, or a variant's name
   };
 
   class StagedFiles; // atomic_file.h

@@ -204,6 +204,85 @@ namespace modal_haptics::parameter_messages
       }
   }
 
+  namespace
+  {
+    // "Geometry/Ribbed panel/Rib thicknesses" -> {"Geometry", "Ribbed panel"} and "Rib thicknesses".
+    std::pair<std::vector<std::string>, std::string> split_entry_path(const std::string &path)
+    {
+      std::vector<std::string> parts;
+      std::size_t              begin = 0;
+      for (std::size_t slash; (slash = path.find('/', begin)) != std::string::npos; begin = slash + 1)
+        parts.push_back(trimmed(path.substr(begin, slash - begin)));
+      return {parts, trimmed(path.substr(begin))};
+    }
+
+    // The names declared under a subsection path ("" at the top).
+    std::vector<std::string> names_under(const std::map<std::string, std::vector<std::string>> &names,
+                                         const std::vector<std::string> &path)
+    {
+      const auto found = names.find(joined(path, "/"));
+      return found == names.end() ? std::vector<std::string>() : found->second;
+    }
+
+    // Throws unless every subsection of the path and its entry are declared, naming the first one
+    // that is not and the closest declared name.
+    void require_declared(const Declared &declared, const std::vector<std::string> &subsections,
+                          const std::string &name, const std::string &where)
+    {
+      std::vector<std::string> path;
+      const auto               refuse = [&](const std::string &kind, const std::string &missing,
+                                            const std::vector<std::string> &known, const std::string &kinds) {
+        throw ExcMessage(where + ": " + (path.empty() ? "the file's top level" : "subsection '" + joined(path, "/") + "'") +
+                         " has no " + kind + " '" + missing + "'." + suggestion(missing, known, kinds));
+      };
+      for (const auto &subsection : subsections)
+        {
+          const auto known = names_under(declared.subsections, path);
+          if (std::find(known.begin(), known.end(), subsection) == known.end())
+            refuse("subsection", subsection, known, "subsections");
+          path.push_back(subsection);
+        }
+      const auto known = names_under(declared.entries, path);
+      if (std::find(known.begin(), known.end(), name) == known.end())
+        refuse("entry", name, known, "entries");
+    }
+
+    // The pattern's description in deal.II's "The string <V> does not match the given pattern <P>.".
+    std::string refused_pattern(const dealii::ExceptionBase &e)
+    {
+      const std::string info  = info_of(e);
+      const std::string label = "the given pattern <";
+      const auto        at    = info.find(label);
+      const auto        end   = info.rfind('>');
+      return at == std::string::npos || end < at ? "" : info.substr(at + label.size(), end - at - label.size());
+    }
+  } // namespace
+
+  void set_entry(ParameterHandler &prm, const std::string &path, const std::string &value, const std::string &where)
+  {
+    const Declared declared(prm);
+    const auto [subsections, name] = split_entry_path(path);
+    require_declared(declared, subsections, name, where);
+    for (const auto &subsection : subsections)
+      prm.enter_subsection(subsection);
+    try
+      {
+        prm.set(name, value);
+      }
+    catch (const dealii::ExceptionBase &e)
+      {
+        for (std::size_t k = 0; k < subsections.size(); ++k)
+          prm.leave_subsection();
+        const auto unit = declared.units.find(entry_path(joined(subsections, "/"), name));
+        throw ExcMessage(where + ": '" + entry_path(joined(subsections, "/"), name) + "' = " + value + ": " +
+                         allowed_values(refused_pattern(e)) +
+                         (unit == declared.units.end() || unit->second.empty() ? "" : " (unit: " + unit->second + ")") +
+                         ".");
+      }
+    for (std::size_t k = 0; k < subsections.size(); ++k)
+      prm.leave_subsection();
+  }
+
   // ---- Patterns -----------------------------------------------------------------------------------
   OpenInterval::OpenInterval(const double lower, const double upper)
     : lower(lower)

@@ -21,6 +21,14 @@ namespace modal_haptics::parameter_messages
   //    'Young's modulus'? ..."
   void parse_input(dealii::ParameterHandler &prm, const std::string &file);
 
+  // prm.set() of the entry at 'path' ("Material/Young's modulus", subsections joined by '/') to
+  // 'value', as a file's 'set' line would set it. A path that names no declared entry, or a value its
+  // Pattern refuses, throws ExcMessage beginning with 'where' ("scene.prm, 'Variants/Variant 1'
+  // ('stiff')") in the form of parse_input's messages: the entry, the value, what it accepts and its
+  // unit, or the closest declared name.
+  void set_entry(dealii::ParameterHandler &prm, const std::string &path, const std::string &value,
+                 const std::string &where);
+
   // A real number in an interval whose ends are excluded: deal.II's Patterns::Double admits its
   // bounds, so "> 0" (a density) and "in (-1, 0.5)" (Poisson's ratio) need this. Its description
   // reads like deal.II's, "[Double 0...MAX_DOUBLE (exclusive)]", so both are told alike.

@@ -3,6 +3,7 @@
 #include "parameters/parameter_messages.h"
 #include "parameters/parameter_sections.h"
 #include "parameters/parameter_text.h"
+#include "parameters/variant_parameters.h"
 
 #include <deal.II/base/exceptions.h>
 #include <deal.II/base/utilities.h>
@@ -13,6 +14,7 @@
 #include <iostream>
 #include <limits>
 #include <set>
+#include <sstream>
 
 namespace modal_haptics
 {
@@ -467,6 +469,94 @@ namespace modal_haptics
     prm.leave_subsection();
   }
 
+  // ---- Design variants -----------------------------------------------------------------------------
+  namespace
+  {
+    const std::string name_characters = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-";
+
+    std::string trimmed(const std::string &text)
+    {
+      const auto first = text.find_first_not_of(" \t\n");
+      return first == std::string::npos ? "" : text.substr(first, text.find_last_not_of(" \t\n") - first + 1);
+    }
+
+    // "Geometry/Ribbed panel/Rib thicknesses = 1.5, 2, 2.4" -> its entry and its value.
+    VariantOverride parse_override(const std::string &text, const std::string &where)
+    {
+      const auto equals = text.find('=');
+      AssertThrow(equals != std::string::npos && !trimmed(text.substr(0, equals)).empty(),
+                  ExcMessage(where + " = '" + text + "': expected 'SUBSECTION/ENTRY = VALUE', e.g. "
+                             "'Material/Young's modulus = 3e9'."));
+      return {trimmed(text.substr(0, equals)), trimmed(text.substr(equals + 1))};
+    }
+  } // namespace
+
+  void VariantParameters::declare_parameters(ParameterHandler &prm)
+  {
+    const VariantParameters v;
+    prm.enter_subsection("Variants");
+    prm.declare_entry("Noise floor", text(v.noise_floor), Patterns::Bool(),
+                      "Measure the re-meshing noise of the comparison: the base design meshed again with every "
+                      "mesh size times 'Noise floor mesh scale' (another mesh of the same design), its "
+                      "felt-stiffness map compared with the base's by the same rule; a variant's difference "
+                      "below that noise is 'none' (per region: the global one, each VOI). It costs one more "
+                      "precompute of the base design (43.5 s on the default scene on 2 cores). Units: none.");
+    prm.declare_entry("Noise floor mesh scale", text(v.noise_floor_mesh_scale), OpenInterval(0.5, 2.),
+                      "The factor on 'Meshing/Coarse size' and every VOI's 'Fine size' of the noise floor's run: "
+                      "a few percent give gmsh another mesh while the discretisation error stays that of the "
+                      "base's sizes. Not 1. Units: none.");
+    for (unsigned int n = 1; n <= max_variants; ++n)
+      {
+        prm.enter_subsection("Variant " + std::to_string(n));
+        prm.declare_entry("Name", "", Patterns::Anything(),
+                          "Name of this design variant: its basis goes to <output folder>/variants/<name>/. "
+                          "Letters, digits, '_' and '-'; empty: unused. Units: none.");
+        for (unsigned int k = 1; k <= max_variant_overrides; ++k)
+          prm.declare_entry("Override " + std::to_string(k), "", Patterns::Anything(),
+                            "An entry of 'Geometry' (the part, its built-in panel's dimensions, its file, its "
+                            "supports) or 'Material' that this variant sets otherwise than the scene: "
+                            "'SUBSECTION/ENTRY = VALUE', e.g. 'Geometry/Ribbed panel/Rib thicknesses = 1.5, 2, "
+                            "2.4'. Empty: unused. Units: none (the value is in the entry's own unit).");
+        prm.leave_subsection();
+      }
+    prm.leave_subsection();
+  }
+
+  void VariantParameters::parse_parameters(ParameterHandler &prm, const std::string &parameter_file)
+  {
+    prm.enter_subsection("Variants");
+    noise_floor            = prm.get_bool("Noise floor");
+    noise_floor_mesh_scale = prm.get_double("Noise floor mesh scale");
+    AssertThrow(noise_floor_mesh_scale != 1.,
+                ExcMessage(parameter_file + ": 'Variants/Noise floor mesh scale' = 1 would mesh the base again "
+                           "as it is: give a factor a few percent off 1, e.g. 1.03."));
+    std::set<std::string> names;
+    for (unsigned int n = 1; n <= max_variants; ++n)
+      {
+        DesignVariant variant;
+        variant.section = "Variants/Variant " + std::to_string(n);
+        prm.enter_subsection("Variant " + std::to_string(n));
+        variant.name = prm.get("Name");
+        for (unsigned int k = 1; k <= max_variant_overrides; ++k)
+          if (const std::string o = prm.get("Override " + std::to_string(k)); !trimmed(o).empty())
+            variant.overrides.push_back(
+              parse_override(o, parameter_file + ": '" + variant.section + "/Override " + std::to_string(k) + "'"));
+        prm.leave_subsection();
+        if (variant.name.empty())
+          continue;
+        AssertThrow(variant.name.find_first_not_of(name_characters) == std::string::npos &&
+                      variant.name != "noise_floor" && names.insert(variant.name).second,
+                    ExcMessage(parameter_file + ": '" + variant.section + "/Name' = '" + variant.name +
+                               "': use letters, digits, '_' and '-' only, a name no other variant has, and not "
+                               "'noise_floor' (the noise floor's folder)."));
+        AssertThrow(!variant.overrides.empty(),
+                    ExcMessage(parameter_file + ": variant '" + variant.name + "' ('" + variant.section +
+                               "') sets nothing otherwise than the scene: give it an 'Override 1'."));
+        variants.push_back(std::move(variant));
+      }
+    prm.leave_subsection();
+  }
+
   // ---- The scene: its name, then every subsection, then the checks across them ---------------------
   void declare_scene_parameters(ParameterHandler &prm)
   {
@@ -483,6 +573,7 @@ namespace modal_haptics
     DampingParameters::declare_parameters(prm);
     ContactParameters::declare_parameters(prm);
     OutputParameters::declare_parameters(prm);
+    VariantParameters::declare_parameters(prm);
   }
 
   namespace
@@ -555,5 +646,110 @@ namespace modal_haptics
     declare_scene_parameters(prm);
     parameter_messages::parse_input(prm, parameter_file);
     return parse_scene_parameters(prm, parameter_file, output_directory_override);
+  }
+
+  namespace
+  {
+    // A variant is another design of the part: what it may set otherwise.
+    bool is_design_entry(const std::string &entry)
+    {
+      return entry.rfind("Geometry/", 0) == 0 || entry.rfind("Material/", 0) == 0;
+    }
+
+    // The variant's own scene holds no variant: its folder is one design.
+    void clear_variants(ParameterHandler &prm)
+    {
+      prm.enter_subsection("Variants");
+      prm.set("Noise floor", "false");
+      for (unsigned int n = 1; n <= max_variants; ++n)
+        {
+          prm.enter_subsection("Variant " + std::to_string(n));
+          prm.set("Name", "");
+          for (unsigned int k = 1; k <= max_variant_overrides; ++k)
+            prm.set("Override " + std::to_string(k), "");
+          prm.leave_subsection();
+        }
+      prm.leave_subsection();
+    }
+
+    std::string listed(const std::vector<VariantOverride> &overrides)
+    {
+      std::string out;
+      for (const auto &o : overrides)
+        out += (out.empty() ? "'" : "; '") + o.entry + " = " + o.value + "'";
+      return out;
+    }
+  } // namespace
+
+  VariantScene read_variant_scene(const SceneParameters &base, const std::string &name,
+                                  const std::vector<VariantOverride> &overrides, const std::string &output_directory,
+                                  const bool design_only)
+  {
+    const std::string where = base.parameter_file + ", variant '" + name + "'";
+    VariantScene      variant{name, overrides, nullptr, std::make_unique<ParameterHandler>()};
+    ParameterHandler &prm = *variant.prm;
+    declare_scene_parameters(prm);
+    parameter_messages::parse_input(prm, base.parameter_file);
+    clear_variants(prm);
+    for (const auto &o : overrides)
+      {
+        AssertThrow(!design_only || is_design_entry(o.entry),
+                    ExcMessage(where + ": the override '" + o.entry + " = " + o.value + "' is refused: a variant is "
+                               "another design of the part, so it sets entries of 'Geometry' or 'Material' only (a "
+                               "mesh size or a solver setting changes the discretisation, not the design)."));
+        parameter_messages::set_entry(prm, o.entry, o.value, where);
+      }
+    try
+      {
+        variant.scene = std::make_unique<SceneParameters>(parse_scene_parameters(prm, base.parameter_file, output_directory));
+      }
+    catch (const dealii::ExceptionBase &e)
+      {
+        std::ostringstream message; // deal.II indents it
+        e.print_info(message);
+        throw ExcMessage(where + " (" + listed(overrides) + "): " + trimmed(message.str()));
+      }
+    return variant;
+  }
+
+  std::vector<VariantOverride> noise_floor_overrides(const ParameterHandler &prm, const SceneParameters &base,
+                                                     const double scale)
+  {
+    std::vector<VariantOverride> overrides{{"Meshing/Coarse size", text(base.meshing.coarse_size * scale)}};
+    for (unsigned int s = 1; s <= max_scenarios; ++s)
+      {
+        const std::string section = "Scenario " + std::to_string(s);
+        const std::string name    = prm.get({section}, "Name");
+        for (const auto &voi : base.volumes_of_interest)
+          if (!name.empty() && voi.name == name) // its size as parsed: a default may have followed the coarse size
+            overrides.push_back({section + "/Fine size", text(voi.fine_size * scale)});
+      }
+    return overrides;
+  }
+
+  void print_used_parameters(const ParameterHandler &prm, std::ostream &out)
+  {
+    std::ostringstream all;
+    prm.print_parameters(all, ParameterHandler::Text);
+    bool declares_variants = prm.get_bool({"Variants"}, "Noise floor");
+    for (unsigned int n = 1; n <= max_variants; ++n)
+      declares_variants |= !prm.get({"Variants", "Variant " + std::to_string(n)}, "Name").empty();
+    if (declares_variants)
+      {
+        out << all.str();
+        return;
+      }
+    // Text style writes a top-level subsection from 'subsection NAME' to 'end', both unindented,
+    // and empty lines after it.
+    std::istringstream lines(all.str());
+    bool               in_variants = false, after_variants = false;
+    for (std::string line; std::getline(lines, line);)
+      {
+        after_variants     = (after_variants && line.empty()) || (in_variants && line == "end");
+        const bool skipped = in_variants || line == "subsection Variants" || after_variants;
+        in_variants        = (in_variants || line == "subsection Variants") && line != "end";
+        if (!skipped)
+          out << line << '\n';
+      }
   }
 } // namespace modal_haptics

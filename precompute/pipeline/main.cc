@@ -219,17 +219,42 @@ namespace
     return first_failing == processes.count;
   }
 
+  // The scene as written (the base design) and the scenes of its variants and of its noise floor,
+  // every override checked here, before anything is meshed.
+  struct Designs
+  {
+    modal_haptics::VariantParameters                declared;
+    std::vector<modal_haptics::VariantScene>        variants;
+    std::optional<modal_haptics::VariantScene>      noise_floor;
+  };
+
+  Designs read_designs(dealii::ParameterHandler &prm, const modal_haptics::SceneParameters &base)
+  {
+    Designs designs;
+    designs.declared.parse_parameters(prm, base.parameter_file);
+    for (const auto &variant : designs.declared.variants)
+      designs.variants.push_back(modal_haptics::read_variant_scene(
+        base, variant.name, variant.overrides, base.output_directory + "/variants/" + variant.name));
+    if (designs.declared.noise_floor)
+      designs.noise_floor = modal_haptics::read_variant_scene(
+        base, "noise_floor", modal_haptics::noise_floor_overrides(prm, base, designs.declared.noise_floor_mesh_scale),
+        base.output_directory + "/noise_floor", false);
+    return designs;
+  }
+
   bool read_parameters_on_every_process(const CommandLine &command, const Processes &processes,
-                                        dealii::ParameterHandler &prm, modal_haptics::SceneParameters &scene)
+                                        dealii::ParameterHandler &prm, modal_haptics::SceneParameters &scene,
+                                        Designs &designs)
   {
     return on_every_process(processes, [&] {
-      scene = modal_haptics::read_scene_parameters(prm, command.parameter_file, command.output_directory);
+      scene   = modal_haptics::read_scene_parameters(prm, command.parameter_file, command.output_directory);
+      designs = read_designs(prm, scene);
     });
   }
 
   // --list-scenarios and --validate answer from the parameters alone; returns their exit code.
   std::optional<int> answer_from_parameters(const CommandLine &command, const Processes &processes,
-                                            const modal_haptics::SceneParameters &scene)
+                                            const modal_haptics::SceneParameters &scene, const Designs &designs)
   {
     if (command.list_scenarios)
       {
@@ -247,7 +272,11 @@ namespace
           return 1;
         if (processes.rank == 0)
           std::cout << command.parameter_file << ": valid (scene '" << scene.scene_name << "', "
-                    << scene.volumes_of_interest.size() << " VOI scenarios + the global one)" << std::endl;
+                    << scene.volumes_of_interest.size() << " VOI scenarios + the global one"
+                    << (designs.declared.any() ? "; " + std::to_string(designs.variants.size()) + " design variants" +
+                                                   (designs.noise_floor ? " and the noise floor" : "") :
+                                                 std::string())
+                    << ")" << std::endl;
         return 0;
       }
     return std::nullopt;
@@ -255,12 +284,24 @@ namespace
 
   // Runs the mode the command line chose; returns the closing line (where the results are).
   std::string run_mode(const CommandLine &command, const Processes &processes,
-                       const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm)
+                       const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm,
+                       const Designs &designs)
   {
     if (const auto blas = modal_haptics::running_blas_kernels(); blas.chosen_by_us && command.verbose && processes.rank == 0)
       std::cout << "[blas] OpenBLAS did not know this CPU and took its generic Prescott kernels: running with "
                    "OPENBLAS_CORETYPE="
                 << blas.core << " (set OPENBLAS_CORETYPE yourself to choose)" << std::endl;
+    // A whole run of a scene with variants computes them too; the scenario jobs' modes, the base alone.
+    const bool whole_run = !command.mesh_only && command.scenario.empty() && !command.merge;
+    if (whole_run && designs.declared.any())
+      {
+        modal_haptics::run_with_variants(scene, prm, designs.variants,
+                                         designs.noise_floor ? &*designs.noise_floor : nullptr,
+                                         designs.declared.noise_floor_mesh_scale,
+                                         command.verbose && processes.rank == 0, command.distributed);
+        return "results in " + scene.output_directory + "/, each variant's in its folder of " +
+               scene.output_directory + "/variants/";
+      }
     modal_haptics::ModalPrecompute precompute(scene, prm, command.verbose && processes.rank == 0,
                                               command.distributed);
     if (command.mesh_only)
@@ -286,11 +327,11 @@ namespace
   // Errors during the run may strike one process inside collective operations: it prints its message
   // and aborts every process (MPI_Abort), so that none waits forever.
   int run_and_report(const CommandLine &command, const Processes &processes,
-                     const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm)
+                     const modal_haptics::SceneParameters &scene, dealii::ParameterHandler &prm, const Designs &designs)
   {
     try
       {
-        const std::string done = run_mode(command, processes, scene, prm);
+        const std::string done = run_mode(command, processes, scene, prm, designs);
         if (processes.rank == 0)
           std::cout << done << std::endl;
       }
@@ -330,13 +371,14 @@ int main(int argc, char **argv)
   modal_haptics::space_parts::print_space_summaries(true);
   dealii::ParameterHandler        prm;
   modal_haptics::SceneParameters scene;
-  if (!read_parameters_on_every_process(command, processes, prm, scene))
+  Designs                        designs;
+  if (!read_parameters_on_every_process(command, processes, prm, scene, designs))
     return 1;
-  if (const auto done = answer_from_parameters(command, processes, scene))
+  if (const auto done = answer_from_parameters(command, processes, scene, designs))
     return *done;
   if (!on_every_process(processes, [&] { modal_haptics::check_geometry(scene, processes.rank == 0, false); }))
     return 1;
   if (command.partial_directory.empty())
     command.partial_directory = scene.output_directory + "/partial";
-  return run_and_report(command, processes, scene, prm);
+  return run_and_report(command, processes, scene, prm, designs);
 }

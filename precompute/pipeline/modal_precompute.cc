@@ -1,6 +1,8 @@
 #include "pipeline/modal_precompute.h"
 
 #include "output/atomic_file.h"
+#include "pipeline/design_comparison.h"
+#include "shared_meshes.h"
 #include "space/distributed_space.h"
 #include "space/modal_space.h"
 #include "output/partial_result.h"
@@ -59,6 +61,12 @@ namespace modal_haptics
 
   void ModalPrecompute::run()
   {
+    compute();
+    write();
+  }
+
+  void ModalPrecompute::compute()
+  {
     dealii::Timer total;
     create_output_directory();
     make_meshes();
@@ -66,9 +74,14 @@ namespace modal_haptics
     for (const auto &task : results.tasks)
       solve_space(task, scene.output_directory);
     record_peak_memory();
-    // Every process writes its own rows of the .h5 (parallel HDF5 in a distributed run); process 0
-    // alone writes the other files. The last space's VTU file is still being written meanwhile.
-    write_results(total.wall_time());
+    compute_seconds = total.wall_time();
+  }
+
+  // Every process writes its own rows of the .h5 (parallel HDF5 in a distributed run); process 0
+  // alone writes the other files. The last space's VTU file may still be being written meanwhile.
+  void ModalPrecompute::write()
+  {
+    write_results(compute_seconds);
   }
 
   void ModalPrecompute::mesh_only()
@@ -274,6 +287,9 @@ namespace modal_haptics
         // (under mpirun, even with one process, MPI libraries forbid fork or warn about it).
         meshing::MeshingSettings settings = scene.meshing;
         settings.mesh_vois_beside         = !started_by_mpi_launcher();
+        if (writes_files && !shared_mesh_folder.empty() && !reuse_only)
+          meshing::adopt_meshes(settings, scene.volumes_of_interest, shared_mesh_folder, scene.output_directory,
+                                verbose);
         if (writes_files)
           results.meshes =
             meshing::mesh_scene(settings, scene.volumes_of_interest, scene.output_directory, verbose, reuse_only);
@@ -565,7 +581,7 @@ namespace modal_haptics
     write_felt_stiffness_vtu(scene.output_directory + "/felt_stiffness.vtu", results, staged);
     write_validity_vtu(scene.output_directory + "/validity.vtu", results, staged);
     staged.write(scene.output_directory + "/used_parameters.prm",
-                 [&](std::ostream &out) { prm.print_parameters(out, dealii::ParameterHandler::Text); });
+                 [&](std::ostream &out) { print_used_parameters(prm, out); });
     for (const auto &task : results.tasks)
       {
         staged.write(scene.output_directory + "/modes_" + task.name + ".pvd", [&](std::ostream &out) {
@@ -575,5 +591,129 @@ namespace modal_haptics
         });
       }
     results.timings_s["export"] = wall.wall_time();
+  }
+
+  FeltStiffnessMap felt_stiffness_map(const PrecomputeResults &results)
+  {
+    FeltStiffnessMap map;
+    const auto      &display = results.display;
+    for (unsigned int v = 0; v < display.n_vertices(); ++v)
+      {
+        map.vertices.insert(map.vertices.end(), display.vertices[v].begin(), display.vertices[v].end());
+        // A vertex of a VOI is felt in its VOI's space; the global space has a value there too
+        // ('Contact/Global candidates in VOIs'), taken where the VOI's has none.
+        const double own = results.spaces[display.region[v]].felt_stiffness[v];
+        map.stiffness.push_back(own > 0. ? own : results.spaces.front().felt_stiffness[v]);
+      }
+    for (const auto &t : display.triangles)
+      map.triangles.insert(map.triangles.end(), t.begin(), t.end());
+    map.region = display.region;
+    for (const auto &space : results.spaces)
+      map.region_names.push_back(space.name);
+    return map;
+  }
+
+  namespace
+  {
+    bool writes_files_here() { return dealii::Utilities::MPI::this_mpi_process(MPI_COMM_WORLD) == 0; }
+
+    std::vector<std::pair<std::string, std::string>> override_pairs(const std::vector<VariantOverride> &overrides)
+    {
+      std::vector<std::pair<std::string, std::string>> pairs;
+      for (const auto &o : overrides)
+        pairs.emplace_back(o.entry, o.value);
+      return pairs;
+    }
+
+    // Whether every mesh of a run was made from the base's inputs (the same cache keys).
+    bool same_meshes(const PrecomputeResults &a, const PrecomputeResults &b)
+    {
+      bool same = a.meshes.display_surface.cache_key == b.meshes.display_surface.cache_key &&
+                  a.meshes.scenarios.size() == b.meshes.scenarios.size();
+      for (std::size_t k = 0; same && k < a.meshes.scenarios.size(); ++k)
+        same = a.meshes.scenarios[k].cache_key == b.meshes.scenarios[k].cache_key;
+      return same;
+    }
+
+    // One line per comparison in the log, and one per region.
+    void say_comparison(const std::string &name, const MapComparisonRecord &map)
+    {
+      std::ostringstream line;
+      line << "[variants] " << name << " against the base (" << map.rule << ", " << map.all.compared_vertices
+           << " vertices): ratio " << map.ratio_min << " .. " << map.ratio_median << " .. " << map.ratio_max << ": " << map.all.verdict;
+      for (const auto &region : map.regions)
+        line << "\n[variants]   " << region.name << ": |difference| p95 " << region.p95_abs_percent << " %, "
+             << region.beyond_noise_vertices << " of " << region.compared_vertices << " vertices beyond the "
+             << region.noise_floor_percent << " % floor: " << region.verdict;
+      std::cout << line.str() << std::endl;
+    }
+
+    // A scene made from the base's file, computed and written into its own folder; its map, and the
+    // record of the run beside the base's.
+    struct DerivedRun
+    {
+      FeltStiffnessMap map;
+      bool             meshes_reused = false;
+      double           seconds       = 0.;
+    };
+
+    DerivedRun run_derived_scene(const VariantScene &derived, const ModalPrecompute &base, const SceneParameters &base_scene,
+                                 const bool take_base_meshes, const bool verbose, const bool distributed)
+    {
+      if (verbose)
+        std::cout << "[variants] '" << derived.name << "' into " << derived.scene->output_directory << "/" << std::endl;
+      dealii::Timer   wall;
+      ModalPrecompute run(*derived.scene, *derived.prm, verbose, distributed);
+      if (take_base_meshes)
+        run.take_meshes_from(base_scene.output_directory);
+      DesignRecord record;
+      record.variant_name = derived.name;
+      record.overrides    = override_pairs(derived.overrides);
+      record.base_folder  = base_scene.output_directory;
+      run.set_design_record(std::move(record));
+      run.run();
+      // Only process 0 holds every row of a distributed run's map (and compares: an empty map compares nothing).
+      return {writes_files_here() ? felt_stiffness_map(run.get_results()) : FeltStiffnessMap(),
+              same_meshes(run.get_results(), base.get_results()), wall.wall_time()};
+    }
+  } // namespace
+
+  void run_with_variants(const SceneParameters &base, const dealii::ParameterHandler &prm,
+                         const std::vector<VariantScene> &variants, const VariantScene *noise_floor,
+                         const double noise_floor_mesh_scale, const bool verbose, const bool distributed)
+  {
+    ModalPrecompute base_run(base, prm, verbose, distributed);
+    base_run.compute();
+    const FeltStiffnessMap base_map = writes_files_here() ? felt_stiffness_map(base_run.get_results()) : FeltStiffnessMap();
+    DesignRecord           design;
+    if (noise_floor)
+      {
+        // Another mesh of the same design: its own meshes, never the base's.
+        const DerivedRun run = run_derived_scene(*noise_floor, base_run, base, false, verbose, distributed);
+        design.noise_floor.measured   = true;
+        design.noise_floor.mesh_scale = noise_floor_mesh_scale;
+        design.noise_floor.folder     = noise_floor->scene->output_directory;
+        design.noise_floor.seconds    = run.seconds;
+        design.noise_floor.map        = compare_felt_stiffness(base_map, run.map, {});
+        if (writes_files_here()) // a summary: printed under --quiet too
+          say_comparison("the noise floor's mesh", design.noise_floor.map);
+      }
+    const std::vector<double> floors = design.noise_floor.floors_percent();
+    for (const auto &variant : variants)
+      {
+        const DerivedRun  run = run_derived_scene(variant, base_run, base, true, verbose, distributed);
+        VariantComparison comparison;
+        comparison.name          = variant.name;
+        comparison.folder        = variant.scene->output_directory;
+        comparison.overrides     = override_pairs(variant.overrides);
+        comparison.meshes_reused = run.meshes_reused;
+        comparison.seconds       = run.seconds;
+        comparison.map           = compare_felt_stiffness(base_map, run.map, floors);
+        if (writes_files_here())
+          say_comparison("'" + variant.name + "'", comparison.map);
+        design.variants.push_back(std::move(comparison));
+      }
+    base_run.set_design_record(std::move(design));
+    base_run.write();
   }
 } // namespace modal_haptics

@@ -15,6 +15,7 @@
 #include "output/exporters.h"
 #include "results/space_result.h"
 #include "parameters/scene_parameters.h"
+#include "parameters/variant_parameters.h"
 
 #include <deal.II/base/mpi.h>
 #include <deal.II/base/parameter_handler.h>
@@ -39,7 +40,15 @@ namespace modal_haptics
   public:
     ModalPrecompute(const SceneParameters &scene, const dealii::ParameterHandler &prm, bool verbose = true,
                     bool distributed = false);
-    void run();
+    void run(); // compute(), then write()
+    // The meshes and every space; nothing written but the meshes and the spaces' VTU files.
+    void compute();
+    // The scene's files (.h5, .mrt, report.json, ...), renamed into place together.
+    void write();
+    // Meshes of 'folder' made from this scene's meshing inputs are taken instead of meshing again
+    // (a design variant of the material takes its base's: the same display surface).
+    void take_meshes_from(const std::string &folder) { shared_mesh_folder = folder; }
+    void set_design_record(DesignRecord record) { results.design = std::move(record); }
     void mesh_only();
     void run_scenario(const std::string &name, const std::string &partial_directory);
     void merge(const std::string &partial_directory);
@@ -69,7 +78,21 @@ namespace modal_haptics
     const bool                      writes_files; // the serial run, or process 0 of a distributed one
     dealii::TimerOutput             timer;
     PrecomputeResults               results;
+    std::string                     shared_mesh_folder;
+    double                          compute_seconds = 0.;
   };
+
+  // The scene's felt-stiffness map: each display vertex's value from the space whose region holds it.
+  FeltStiffnessMap felt_stiffness_map(const PrecomputeResults &results);
+
+  // A scene with design variants ('Variants', parameters/variant_parameters.h): the base design into
+  // the scene's folder, each variant into <folder>/variants/<name>/ (the base's meshes where its
+  // meshing inputs are the base's), the noise floor's run (when 'noise_floor' holds it) into
+  // <folder>/noise_floor/, each a whole precompute with its own files; the base's report.json, written
+  // last, compares every variant's felt-stiffness map with the base's.
+  void run_with_variants(const SceneParameters &base, const dealii::ParameterHandler &prm,
+                         const std::vector<VariantScene> &variants, const VariantScene *noise_floor,
+                         double noise_floor_mesh_scale, bool verbose, bool distributed);
 
   // T_(k <- j) for every ordered pair of spaces: least squares over the display surface.
   std::vector<TransferMatrix> compute_transfer_matrices(const ContactSurface &display,
