@@ -1,7 +1,7 @@
 #include "gmsh_tools.h"
 
 #include <gmsh.h>
-#include <unistd.h>
+#include <mrt/atomic_file.h>
 
 #include <algorithm>
 #include <cmath>
@@ -335,33 +335,27 @@ namespace modal_haptics::meshing::detail
 
   void write_mesh_atomically(const std::string &path)
   {
-    namespace fs = std::filesystem;
-    const fs::path target(path);
     // gmsh picks the format from the extension, so the temporary name must end in .msh too.
-    const fs::path temporary =
-      target.parent_path() / (target.stem().string() + ".tmp" + std::to_string(::getpid()) + ".msh");
+    const std::string temporary = mrt::temporary_name(path, ".msh");
     gmsh::option::setNumber("Mesh.MshFileVersion", 4.1);
     gmsh::option::setNumber("Mesh.Binary", 0);
     gmsh::option::setNumber("Mesh.SaveAll", 0);
     try
       {
-        gmsh::write(temporary.string());
+        gmsh::write(temporary);
       }
     catch (...)
       {
-        std::error_code ignored;
-        fs::remove(temporary, ignored);
+        std::remove(temporary.c_str());
         throw;
       }
-    if (!fs::exists(temporary))
-      throw MeshingError("gmsh did not write '" + temporary.string() + "'");
-    if (std::rename(temporary.c_str(), target.c_str()) != 0)
-      {
-        std::error_code ignored;
-        fs::remove(temporary, ignored);
-        throw MeshingError("cannot rename '" + temporary.string() + "' to '" + path + "'");
-      }
+    if (!std::filesystem::exists(temporary))
+      throw MeshingError("gmsh did not write '" + temporary + "'");
+    std::string error;
+    if (!mrt::commit_temporary(temporary, path, error))
+      throw MeshingError(error);
   }
+
 
   double tet_sicn(const Point3 &a, const Point3 &b, const Point3 &c, const Point3 &d)
   {

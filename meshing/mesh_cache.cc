@@ -2,6 +2,8 @@
 // beside it (the key and the mesh's statistics), and the descriptions of inputs the keys are made of.
 #include "mesher_parts.h"
 
+#include <mrt/atomic_file.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -116,16 +118,11 @@ namespace modal_haptics::meshing::detail
 
   void write_text_atomically(const std::string &path, const std::string &text)
   {
-    const std::string temporary = path + ".tmp";
-    {
-      std::ofstream output(temporary);
-      output << text;
-      if (!output)
-        throw MeshingError("cannot write '" + temporary + "'");
-    }
-    if (std::rename(temporary.c_str(), path.c_str()) != 0)
-      throw MeshingError("cannot rename '" + temporary + "' to '" + path + "'");
+    std::string error;
+    if (!mrt::write_text_atomically(path, text, error))
+      throw MeshingError(error);
   }
+
 
   void write_key_file(const std::string &path, const std::string &inputs, const std::string &key,
                       const MeshStatistics &s)

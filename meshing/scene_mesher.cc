@@ -7,6 +7,8 @@
 #include "mesher_parts.h"
 #include "ribbed_panel_geometry.h"
 
+#include <mrt/atomic_file.h>
+
 #include <gmsh.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -267,11 +269,9 @@ namespace modal_haptics::meshing
         fs::remove(path(name + ".key"), ignored);
         for (const char *extension : {".msh", ".key"})
           {
-            const std::string target = path(name + extension), temporary = target + ".tmp";
-            std::error_code   error;
-            fs::copy_file(from.string() + extension, temporary, fs::copy_options::overwrite_existing, error);
-            if (error || std::rename(temporary.c_str(), target.c_str()) != 0)
-              throw MeshingError("cannot copy '" + from.string() + extension + "' to '" + target + "'");
+            std::string error;
+            if (!mrt::copy_file_atomically(from.string() + extension, path(name + extension), error))
+              throw MeshingError(error);
           }
         say(name + ": taken from '" + source + "' (the same inputs)");
         return true;
@@ -810,11 +810,9 @@ namespace modal_haptics::meshing
         statistics       = check_mesh_quality(settings.geometry, settings.min_quality);
         if (!fs::equivalent(settings.geometry, msh, ignored))
           {
-            const std::string temporary = msh + ".tmp";
-            std::error_code   error;
-            fs::copy_file(settings.geometry, temporary, fs::copy_options::overwrite_existing, error);
-            if (error || std::rename(temporary.c_str(), msh.c_str()) != 0)
-              throw MeshingError("cannot copy '" + settings.geometry + "' to '" + msh + "'");
+            std::string error;
+            if (!mrt::copy_file_atomically(settings.geometry, msh, error))
+              throw MeshingError(error);
           }
         statistics.seconds = seconds_since(start);
         write_key_file(key_file, scenario_inputs(nullptr), key, statistics);

@@ -5,6 +5,8 @@
 
 #include <deal.II/base/exceptions.h>
 
+#include <mrt/atomic_file.h>
+
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -19,19 +21,13 @@
 
 namespace modal_haptics
 {
-  inline std::string temporary_name_for(const std::string &target)
-  {
-    return target + ".tmp." + std::to_string(::getpid());
-  }
+  inline std::string temporary_name_for(const std::string &target) { return mrt::temporary_name(target); }
 
   // Renames a finished temporary file over its target, or removes it and throws.
   inline void commit_temporary_file(const std::string &temporary, const std::string &target)
   {
-    if (std::rename(temporary.c_str(), target.c_str()) != 0)
-      {
-        std::remove(temporary.c_str());
-        AssertThrow(false, dealii::ExcMessage("Cannot rename '" + temporary + "' to '" + target + "'."));
-      }
+    std::string error;
+    AssertThrow(mrt::commit_temporary(temporary, target, error), dealii::ExcMessage(error + "."));
   }
 
   // Calls write(stream) on `temporary`; on any failure (a full disk, an exception in write) the file

@@ -6,6 +6,8 @@
 #include "stiffness_map.h"
 #include "vertex_info.h"
 
+#include <mrt/atomic_file.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -51,23 +53,9 @@ namespace modalrt_tool
 
   bool write_file_atomically(const std::string &path, const std::string &text, std::string &error)
   {
-    const std::string temporary = path + ".tmp";
-    std::FILE        *file      = std::fopen(temporary.c_str(), "wb");
-    if (!file)
-      {
-        error = "cannot write '" + temporary + "': " + std::strerror(errno);
-        return false;
-      }
-    const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-    const bool closed  = std::fclose(file) == 0;
-    if (!written || !closed || std::rename(temporary.c_str(), path.c_str()) != 0)
-      {
-        error = "cannot write '" + path + "': " + std::strerror(errno);
-        std::remove(temporary.c_str());
-        return false;
-      }
-    return true;
+    return mrt::write_text_atomically(path, text, error);
   }
+
 
   namespace
   {

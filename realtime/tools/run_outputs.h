@@ -13,7 +13,8 @@
 
 namespace modalrt_tool
 {
-  // Writes `text` to `path` through `path`.tmp and a rename. false and a message on failure.
+  // Writes `text` to `path` through a temporary file and a rename (mrt/atomic_file.h). false and a
+  // message on failure.
   bool write_file_atomically(const std::string &path, const std::string &text, std::string &error);
 
   // VTU frames of the display surface, the arrays appended raw (format="appended", encoding="raw",
