@@ -323,7 +323,7 @@ const hints = {
     : `click the part: HIP 0 presses there (shift-click: HIP 1), drag away to press harder · ${orbitHint}`,
   modes: `${orbitHint} · presses only on the Live tab`,
   validation: `${orbitHint} · presses only on the Live tab`,
-  stiffness: `point at the part: its felt stiffness there${comparison ? ' (and design B\'s)' : ''} · ${orbitHint} · presses only on the Live tab`,
+  stiffness: `point at the part: its stiffness at the contact there${comparison ? ' (and design B\'s)' : ''} · ${orbitHint} · presses only on the Live tab`,
 };
 const statusOf = {
   live: () => live.status,
@@ -485,7 +485,7 @@ function hipPanel(h, hip, space) {
     <div class="row"><span>force</span><span class="num" id="hip${h}-force" data-value="${F}">${F.toFixed(4)} N</span></div>
     <div class="row"><span>|u| (magnitude)</span><span class="num" id="hip${h}-u" data-value="${hip.js.join(',')}">${formatMm(Math.hypot(...hip.js), live.scaleMax)}</span></div>
     <div class="row"><span>u·n (along the surface normal)</span><span class="num" id="hip${h}-un">${formatMm(along, live.scaleMax)}</span></div>
-    <div class="row"><span>felt stiffness (live) F/(u·n)</span><span class="num">${fmt(felt)} N/mm</span></div>
+    <div class="row"><span>stiffness at the contact (live) F/(u·n)</span><span class="num">${fmt(felt)} N/mm</span></div>
     <div class="row"><span>static stiffness</span><span class="num">${fmt(hip.staticStiffness / 1000)} N/mm ${hip.fullFe ? '(full FE)' : '(modal only: not a candidate)'}</span></div>${validityRow(h, hip, F)}${state.sliding ? proxyRows(h, hip) : ''}`;
 }
 
