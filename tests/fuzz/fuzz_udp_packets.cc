@@ -45,7 +45,8 @@ namespace
   }
 
   // The layout, read independently of the decoder: "MRTS", u16 version 3, u16 HIP count, u32
-  // sequence, u32 flags (bits 0 HELLO and 1 BYE only), the 16-byte token, then 9 finite f64 per HIP.
+  // sequence, u32 flags (bits 0 HELLO, 1 BYE and 2 DESIGN_B only), the 16-byte token, then 9
+  // finite f64 per HIP.
   // An "MRTS" packet of at least 8 bytes with another version is told apart (the sender gets a
   // refusal), and so is a well-formed packet with another token (checked before the numbers).
   udp::Verdict documented_verdict(const std::uint8_t *data, std::size_t size, std::uint32_t hips)
@@ -53,7 +54,7 @@ namespace
     if (size >= 8 && std::memcmp(data, "MRTS", 4) == 0 && get<std::uint16_t>(data, 4) != 3)
       return udp::Verdict::bad_version;
     if (size != 32 + 72 * std::size_t(hips) || std::memcmp(data, "MRTS", 4) != 0 || get<std::uint16_t>(data, 6) != hips ||
-        get<std::uint32_t>(data, 12) > 3u)
+        get<std::uint32_t>(data, 12) > 7u)
       return udp::Verdict::bad;
     for (std::size_t k = 16; k < 32; ++k)
       if (data[k] != 0x5A)
