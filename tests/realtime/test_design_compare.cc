@@ -7,30 +7,18 @@
 //   - the same surface moved 0.5 mm along its normal: matched at 0.5 mm, every ratio 1;
 //   - refused with exit status 1 and the file's name: a file without a map (as A or as B), a file
 //     that does not exist or is corrupt; bad option values and combinations exit 2.
-#include "test_support.h"
+#include "tool_runner.h"
 
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 namespace
 {
-  // Runs modal-rt with `arguments`; returns its exit status and its output (stdout and stderr).
-  int run(const std::string &arguments, std::string &output)
-  {
-    const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > compare_output.txt 2>&1";
-    const int         status  = std::system(command.c_str());
-    std::ifstream     file("compare_output.txt");
-    std::stringstream text;
-    text << file.rdbuf();
-    output = text.str();
-    std::remove("compare_output.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  int run(const std::string &arguments, std::string &output) { return test::modal_rt(arguments, output); }
 
-  bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
+  using test::contains;
 
   // The number right after the first `label` in `text` (from `from`); NaN if absent.
   double number_after(const std::string &text, const std::string &label, std::size_t from = 0)

@@ -9,7 +9,7 @@
 // The felt-stiffness map (FELT_STIFFNESS): info prints per space its range over the space's region and
 // its 5 softest spots, the numbers of the map written; --vertex prints the scene's map at the vertex,
 // which at a candidate equals the full-FE felt stiffness from B, Lambda and C.
-#include "test_support.h"
+#include "tool_runner.h"
 
 #include <mrt/surface_normals.h>
 
@@ -18,24 +18,12 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 namespace
 {
-  // Runs modal-rt with `arguments`; returns its exit status and its output (stdout and stderr).
-  int run(const std::string &arguments, std::string &output)
-  {
-    const std::string command = std::string(MODAL_RT_PROGRAM) + " " + arguments + " > modal_rt_output.txt 2>&1";
-    const int         status  = std::system(command.c_str());
-    std::ifstream     file("modal_rt_output.txt");
-    std::stringstream text;
-    text << file.rdbuf();
-    output = text.str();
-    std::remove("modal_rt_output.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  int run(const std::string &arguments, std::string &output) { return test::modal_rt(arguments, output); }
 
-  bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
+  using test::contains;
 
   void consistent_bases()
   {
