@@ -224,6 +224,10 @@ namespace
     drain(s, replies, client);
   }
 
+  // The scenarios after the main one do not test the peer timeout: a longer one keeps a client that a
+  // loaded machine (the sanitizer builds beside other tests) stalls for a second in the same session.
+  const char *const scenario_peer_timeout = "5";
+
   // A client of the bridge on loopback `port`: HELLO at x (sequence numbers from `sequence` on) every
   // 0.5 ms until the first command comes.
   struct Greeted
@@ -650,7 +654,7 @@ namespace
   void slide_through_the_bridge(int port, const std::vector<Reply> &snap_replies)
   {
     constexpr std::uint32_t sliding_flag = 128u;
-    const pid_t bridge = start_bridge(port, "_proxy", {"--contact", "proxy", "--friction", "0.3,0.2", "--no-plot", "--token", given_token_hex});
+    const pid_t bridge = start_bridge(port, "_proxy", {"--peer-timeout", scenario_peer_timeout, "--contact", "proxy", "--friction", "0.3,0.2", "--no-plot", "--token", given_token_hex});
     ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.05, 0.025, 0.015};
     Greeted     g      = greet(port, 7, x);
@@ -714,7 +718,7 @@ namespace
     o.damping        = {0.7, 0.7};
     o.validity_force = true;
     ENSURE(modalrt::write_basis_file("serve_validity.mrt", modalrt::make_lattice_cantilever(o)));
-    const pid_t bridge = start_bridge(port, "_validity", {"--no-plot", "--token", given_token_hex}, "serve_validity.mrt");
+    const pid_t bridge = start_bridge(port, "_validity", {"--peer-timeout", scenario_peer_timeout, "--no-plot", "--token", given_token_hex}, "serve_validity.mrt");
     ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.15, 0.025, 0.015};
     Greeted     g      = greet(port, 3, x);
@@ -761,7 +765,7 @@ namespace
   // below the lattice's top face at z = 0.01 m) within its 0.4 N/mm.
   void touch_through_the_bridge(int port)
   {
-    const pid_t bridge = start_bridge(port, "_touch", {"--profile", "touch", "--haptic-scale", "0.2", "--no-plot", "--token", given_token_hex});
+    const pid_t bridge = start_bridge(port, "_touch", {"--peer-timeout", scenario_peer_timeout, "--profile", "touch", "--haptic-scale", "0.2", "--no-plot", "--token", given_token_hex});
     ENSURE(parse_hex(given_token_hex, bridge_token));
     double      x[3]   = {0.05, 0.025, 0.015};
     Greeted     g      = greet(port, 11, x);
@@ -777,7 +781,7 @@ namespace
       }
     leave_and_stop(g, x, bridge);
     double largest = 0.0, stiffest = 0.0;
-    std::size_t in_contact = 0;
+    std::size_t in_contact = 0, pressed = 0, pressed_in_contact = 0; // pressed: answers to states 1 mm deep or more
     for (const Reply &r : g.replies)
       {
         if (r.hips != 1 || r.sequence < first || r.sequence - first >= sent.size())
@@ -789,10 +793,18 @@ namespace
             stiffest = std::max(stiffest, r.force[2] / travel);
             ++in_contact;
           }
+        if (travel >= 1e-3)
+          {
+            ++pressed;
+            pressed_in_contact += r.in_contact;
+          }
       }
-    std::printf("  the Touch through the bridge: %zu commands in contact, largest force %.4f N (limit 3.3), stiffest "
-                "%.4f N/mm rendered (limit 0.4)\n", in_contact, largest, 1e-3 * stiffest);
-    ENSURE(in_contact > 1000);
+    // How many commands come back depends on how the machine schedules the client; every one that
+    // answers a state 1 mm deep must be in contact.
+    std::printf("  the Touch through the bridge: %zu commands in contact (%zu of %zu answering states 1 mm deep or "
+                "more), largest force %.4f N (limit 3.3), stiffest %.4f N/mm rendered (limit 0.4)\n",
+                in_contact, pressed_in_contact, pressed, largest, 1e-3 * stiffest);
+    ENSURE(pressed > 100 && pressed_in_contact == pressed);
     ENSURE(largest <= 3.3 * (1.0 + 1e-12));
     ENSURE(stiffest <= 400.0 * (1.0 + 1e-9));
     ENSURE(read_text("serve_out_touch/stats.json").find("\"profile\": \"touch\"") != std::string::npos);
@@ -805,7 +817,7 @@ namespace
   {
     constexpr std::uint32_t design_b = 1u << 2;
     const pid_t bridge = start_bridge(port, "_designs",
-                                      {"--design-b", "serve_lattice_stiffer.mrt", "--no-plot", "--token", given_token_hex});
+                                      {"--peer-timeout", scenario_peer_timeout, "--design-b", "serve_lattice_stiffer.mrt", "--no-plot", "--token", given_token_hex});
     ENSURE(parse_hex(given_token_hex, bridge_token));
     double              x[3]  = {0.125, 0.025, 0.015};
     Greeted             g     = greet(port, 21, x);
@@ -821,10 +833,12 @@ namespace
       }
     leave_and_stop(g, x, bridge);
     double largest_step = 0.0, previous = std::nan(""), settled[3] = {0.0, 0.0, 0.0};
+    std::size_t in_contact = 0;
     for (const Reply &r : g.replies)
       {
         if (r.hips != 1 || r.sequence < first || r.sequence - first >= asked.size() || !r.in_contact)
           continue;
+        ++in_contact;
         const std::uint32_t k = r.sequence - first;
         if (k > 600 && std::isfinite(previous))
           largest_step = std::max(largest_step, std::abs(r.force[2] - previous));
@@ -832,9 +846,9 @@ namespace
         if (k % 1600 > 1400) // the last 0.1 s of each phase: settled
           settled[k / 1600] = r.force[2];
       }
-    std::printf("  two designs through the bridge: settled force A %.4f N, B %.4f N, A %.4f N; largest change "
-                "between commands after the landing %.4f N\n",
-                settled[0], settled[1], settled[2], largest_step);
+    std::printf("  two designs through the bridge: %zu of %zu commands in contact; settled force A %.4f N, B %.4f N, "
+                "A %.4f N; largest change between commands after the landing %.4f N\n",
+                in_contact, g.replies.size(), settled[0], settled[1], settled[2], largest_step);
     ENSURE(settled[1] > settled[0] * 1.01 && std::abs(settled[2] - settled[0]) <= 1e-3 * settled[0]);
     ENSURE(largest_step <= 0.05 * (settled[1] - settled[0]) + 1e-3);
     const std::string stats = read_text("serve_out_designs/stats.json");
@@ -842,6 +856,17 @@ namespace
     const std::string presses = read_text("serve_out_designs/presses.csv");
     ENSURE(presses.find(",A\n") != std::string::npos && presses.find(",B\n") != std::string::npos);
     close(g.socket);
+  }
+
+  // Runs one bridge scenario; if any of its checks fails, prints that bridge's own log, so that a
+  // failure on a loaded machine says what the bridge saw (its device counters, presses, timing).
+  template <typename Scenario>
+  void with_log_on_failure(const std::string &suffix, Scenario scenario)
+  {
+    const int failures_before = test::failures();
+    scenario();
+    if (test::failures() != failures_before)
+      std::printf("-- serve_output%s.txt --\n%s", suffix.c_str(), read_text("serve_output" + suffix + ".txt").c_str());
   }
 } // namespace
 
@@ -903,9 +928,10 @@ int main()
   close(c.client);
   close(c.restarted);
   close(c.stranger);
-  slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies);
-  validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies);
-  touch_through_the_bridge(port + 3 >= 40000 ? port - 3 : port + 3);
-  designs_through_the_bridge(port + 4 >= 40000 ? port - 4 : port + 4);
+  with_log_on_failure("_proxy", [&] { slide_through_the_bridge(port + 1 >= 40000 ? port - 1 : port + 1, c.replies); });
+  with_log_on_failure("_validity",
+                      [&] { validity_through_the_bridge(port + 2 >= 40000 ? port - 2 : port + 2, c.replies); });
+  with_log_on_failure("_touch", [&] { touch_through_the_bridge(port + 3 >= 40000 ? port - 3 : port + 3); });
+  with_log_on_failure("_designs", [&] { designs_through_the_bridge(port + 4 >= 40000 ? port - 4 : port + 4); });
   return test::finish("test_serve");
 }
