@@ -79,12 +79,29 @@ def run_precompute(binary, folder, prm_text, prm_name="scene.prm", meshes_from=N
         return json.load(f), done.stderr
 
 
-def test_prm(prm_name, geometry):
-    """A .prm beside the tests, with its geometry file named by its path (the run writes the .prm
-    into its own folder)."""
-    here = os.path.dirname(os.path.abspath(__file__))
-    with open(os.path.join(here, prm_name)) as f:
-        return f.read().replace(geometry, os.path.join(here, geometry))
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def entries_text(entries):
+    """{"Section/Subsection/Entry": value} as .prm text, each entry set inside its subsections."""
+    lines = []
+    for path, value in entries.items():
+        *sections, name = path.split("/")
+        lines += [f"{'  ' * depth}subsection {section}" for depth, section in enumerate(sections)]
+        lines.append(f"{'  ' * len(sections)}set {name} = {value}")
+        lines += [f"{'  ' * depth}end" for depth in reversed(range(len(sections)))]
+    return "\n".join(lines) + "\n"
+
+
+def test_prm(prm_name, geometry=None, entries=None):
+    """A .prm beside the tests, with its geometry file (beside it too) named by its path (the run writes
+    the .prm into its own folder), then `entries` (entries_text) set after the file's own: the
+    ParameterHandler keeps an entry's last value, so a test varies a size or a modulus over one file."""
+    with open(os.path.join(HERE, prm_name)) as f:
+        text = f.read()
+    if geometry:
+        text = text.replace(geometry, os.path.join(HERE, geometry))
+    return text + ("\n" + entries_text(entries) if entries else "")
 
 
 def binary_and_fresh_workdir(mpirun_help=None, required=()):

@@ -23,50 +23,22 @@ import sys
 import numpy as np
 import scipy.linalg
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-E, NU, RHO = 2e11, 0.3, 7850.0
+E, NU, RHO = 2e11, 0.3, 7850.0  # as elastic_block.prm sets them
 SIDE, THICKNESS = 0.04, 0.01    # m
 N_MODES = 12
 MESH = None        # the block's mesh, written by main()
 
 
 def scene(name, supports, modes, shift=0.0, clamp_groups=None):
-    """All runs share one mesh (MESH, made once by gmsh from block.geo): the program's own meshing
-    of a .geo is not repeatable run to run (different node counts), which would hide differences of
-    1e-4 between supports under mesh noise."""
-    groups = f"  set Clamp groups = {clamp_groups}\n" if clamp_groups is not None else ""
-    return f"""
-subsection Scene
-  set Name = {name}
-end
-subsection Geometry
-  set Source   = {MESH}
-  set Supports = {supports}
-{groups}end
-subsection Material
-  set Young's modulus = {E!r}
-  set Poisson's ratio = {NU!r}
-  set Density         = {RHO!r}
-end
-subsection Modes
-  set Maximum number of modes = {modes}
-  set Minimum number of modes = {modes}
-  set Cut-off rule            = none
-  set Shift                   = {shift!r}
-end
-subsection Contact
-  set Patch radius       = 2
-  set Global candidate stride = 0            # no candidates: the shifted solves of a soft support do not converge
-  set Validation samples = 0
-  set Maximum candidates = 4
-end
-subsection Output
-  set Mode precision = float64
-  set VTU modes      = 0
-end
-"""
+    """elastic_block.prm on MESH (made once by gmsh from block.geo)."""
+    entries = {"Scene/Name": name, "Geometry/Source": MESH, "Geometry/Supports": supports,
+               "Modes/Maximum number of modes": modes, "Modes/Minimum number of modes": modes, "Modes/Shift": shift}
+    if clamp_groups is not None:
+        entries["Geometry/Clamp groups"] = clamp_groups
+    return test_prm("elastic_block.prm", entries=entries)
 
 
 def frequencies(binary, workdir, name, *scene_args, **scene_kwargs):

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse.linalg
 
 import mrt_reader
-from precompute_run import Checks, run_precompute
+from precompute_run import Checks, run_precompute, test_prm
 from test_cantilever import timoshenko_frequencies
 
 # The reader of modal-precompute's exported K and M (Output/Export matrices), shared with the benchmark.
@@ -109,9 +109,7 @@ def main():
         parser.add_argument(option, required=True)
     args = parser.parse_args()
     shutil.rmtree(args.workdir, ignore_errors=True)
-    here = os.path.dirname(os.path.abspath(__file__))
-    prm = open(os.path.join(here, "free_beam.prm")).read().replace(
-        "cantilever.geo", os.path.join(here, "cantilever.geo"))
+    prm = test_prm("free_beam.prm", "cantilever.geo")
 
     report, _ = run_precompute(args.binary, args.workdir, prm)
     space = report["spaces"][0]
@@ -127,8 +125,7 @@ def main():
 
     # Another shift and the other eigensolver on the same mesh (reused in the same folder): the same
     # modes and the same static answers.
-    other_prm = prm.replace("Shift                   = -100", "Shift                   = -300").replace(
-        "Cut-off rule            = none", "Cut-off rule            = none\n  set Eigensolver = arpack")
+    other_prm = test_prm("free_beam.prm", "cantilever.geo", {"Modes/Shift": -300, "Modes/Eigensolver": "arpack"})
     other, _ = run_precompute(args.binary, args.workdir, other_prm)
     other_space = other["spaces"][0]
     checks.below("ARPACK, shift -300 Hz: mesh reused (0 = yes)", 0 if other_space["n_dofs"] == space["n_dofs"] else 1, 0)
@@ -148,9 +145,8 @@ def main():
     # nothing here checks, would make the test many times longer. The validated vertex's load is
     # still refined in a block of 16 loads (48 columns, the worst one deciding when to stop) and its
     # corrected errors came out bit for bit those of the default's on the same mesh.
-    clamped_prm = open(os.path.join(here, "cantilever.prm")).read().replace(
-        "cantilever.geo", os.path.join(here, "cantilever.geo")) + (
-        "subsection Modes\n  set Shift = 50\nend\nsubsection Contact\n  set Global candidate stride = 100\nend\n")
+    clamped_prm = test_prm("cantilever.prm", "cantilever.geo",
+                           {"Modes/Shift": 50, "Contact/Global candidate stride": 100})
     clamped = run_precompute(args.binary, os.path.join(args.workdir, "clamped_shifted"), clamped_prm)[0]["spaces"][0]
     checks.below("clamped, shift +50 Hz: corrected contact error, max",
                  max(c["contact_rel_error_corrected"] for c in clamped["validation"]), 1e-8)

@@ -55,16 +55,9 @@ def elastica_tip_deflection(alpha):
     return -shoot(theta_tip)[2]  # integral of sin(theta) from 1 down to 0, sign flipped
 
 
-def prm_with(text, **entries):
-    """The .prm text with some Contact entries replaced (name with underscores for spaces)."""
-    for name, value in entries.items():
-        key = name.replace("_", " ")
-        lines = text.splitlines()
-        matches = [i for i, line in enumerate(lines) if line.strip().startswith(f"set {key} ")]
-        assert len(matches) == 1, key
-        lines[matches[0]] = f"  set {key} = {value}"
-        text = "\n".join(lines) + "\n"
-    return text
+def elastica(entries):
+    """elastica.prm with some entries set (test_prm)."""
+    return test_prm("elastica.prm", "cantilever.geo", entries)
 
 
 def newton_convergence(checks, curve, name):
@@ -85,9 +78,7 @@ def newton_convergence(checks, curve, name):
 
 def main():
     args = binary_and_fresh_workdir()
-    here = os.path.dirname(os.path.abspath(__file__))
     checks = Checks()
-    elastica = test_prm("elastica.prm", "cantilever.geo")
 
     reference = elastica_tip_deflection(1.0)
     print(f"elastica at alpha = 1: delta / L = {reference:.5f} (Bisshopp & Drucker: {BISSHOPP_DRUCKER_ALPHA_1})")
@@ -96,7 +87,7 @@ def main():
     first, third_order_c3 = None, {}
     for material in ("neo-Hookean", "St. Venant-Kirchhoff"):
         folder = os.path.join(args.workdir, material.split()[-1].replace("-", "_").lower())
-        report, _ = run_precompute(args.binary, folder, prm_with(elastica, Validity_material=material),
+        report, _ = run_precompute(args.binary, folder, elastica({"Contact/Validity material": material}),
                                    meshes_from=first)
         first = first or folder
         curve = report["spaces"][0]["validity"][0]
@@ -125,7 +116,7 @@ def main():
 
     # A small load: equal to the linear full FE (the validation's z case, the linear assembly).
     small, _ = run_precompute(args.binary, os.path.join(args.workdir, "small_load"),
-                              prm_with(elastica, Force_limit="1e-3", Validity_load_steps=1), meshes_from=first)
+                              elastica({"Contact/Force limit": "1e-3", "Contact/Validity load steps": 1}), meshes_from=first)
     space = small["spaces"][0]
     curve = space["validity"][0]
     full = [c for c in space["validation"] if c["direction"] == "z"][0]["full_contact_response_m_per_n"][2]
@@ -139,45 +130,12 @@ def main():
 
     # A load St. Venant-Kirchhoff cannot carry: a block pressed on its top far beyond the maximum
     # of its compressive stress (E / (3 sqrt 3) in uniaxial compression).
-    block = f"""
-subsection Scene
-  set Name = svk_block
-end
-subsection Geometry
-  set Source = {os.path.join(here, 'block.geo')}
-end
-subsection Meshing
-  set Coarse size = 5
-end
-subsection Material
-  set Young's modulus = 1e7
-  set Poisson's ratio = 0
-end
-subsection Modes
-  set Maximum number of modes = 4
-  set Minimum number of modes = 4
-  set Cut-off rule            = none
-end
-subsection Contact
-  set Global candidate stride = 0
-  set Patch radius        = 15
-  set Validation samples  = 0
-  set Validation points   = 0, 0, 10
-  set Validity analysis   = true
-  set Force limit         = 1e4
-  set Validity material   = St. Venant-Kirchhoff
-  set Validity load steps = 10
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
     # One run gives the report and what the program says (summary lines are printed with --quiet too).
     folder = os.path.join(args.workdir, "svk_block")
     os.makedirs(folder)
     prm = os.path.join(folder, "scene.prm")
     with open(prm, "w") as f:
-        f.write(block)
+        f.write(test_prm("svk_block.prm", "block.geo"))
     done = subprocess.run([args.binary, prm, "--output-dir", folder, "--quiet"], capture_output=True, text=True)
     if done.returncode != 0:
         print(done.stdout[-2000:], done.stderr[-2000:])

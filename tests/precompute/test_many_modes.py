@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Many modes: r = 1000 on a moderate mesh (the steel cantilever of test_cantilever.py, P2 tets of
-5 mm, a few thousand DoFs), with ARPACK (ncv = 2010 Lanczos vectors).
+5 mm, a few thousand DoFs; --coarse-size 4 for the finer mesh of the long run), with ARPACK
+(ncv = 2010 Lanczos vectors).
 
 Asserted: 1000 modes, ascending; M-orthonormality max |Phi^T M Phi - I| over all 10^6 pairs
 <= 1e-8; eigen-residuals <= 1e-6 (relative); the first bending pair within 2 % of Timoshenko
@@ -13,7 +14,7 @@ import shutil
 import subprocess
 import sys
 
-from precompute_run import run_precompute
+from precompute_run import run_precompute, test_prm
 from test_cantilever import timoshenko_frequencies
 
 
@@ -21,15 +22,12 @@ def main():
     parser = argparse.ArgumentParser()
     for option in ("--binary", "--workdir", "--modal-rt"):
         parser.add_argument(option, required=True)
+    parser.add_argument("--coarse-size", default="5", help="the tets' size [mm]")
     args = parser.parse_args()
     shutil.rmtree(args.workdir, ignore_errors=True)
-    here = os.path.dirname(os.path.abspath(__file__))
-    prm = (open(os.path.join(here, "cantilever.prm")).read()
-           .replace("cantilever.geo", os.path.join(here, "cantilever.geo"))
-           + "\n".join(["subsection Meshing", "  set Coarse size = 5", "end",
-                        "subsection Modes", "  set Maximum number of modes = 1000", "  set Minimum number of modes = 1000",
-                        "  set Eigensolver = arpack", "end",
-                        "subsection Output", "  set VTU modes = 0", "end", ""]))
+    prm = test_prm("cantilever.prm", "cantilever.geo", {
+        "Meshing/Coarse size": args.coarse_size, "Modes/Maximum number of modes": 1000,
+        "Modes/Minimum number of modes": 1000, "Modes/Eigensolver": "arpack", "Output/VTU modes": 0})
     report, _ = run_precompute(args.binary, args.workdir, prm)
     space = report["spaces"][0]
     f = space["frequencies_hz"]

@@ -15,7 +15,7 @@ import shutil
 import sys
 
 import test_cantilever as cantilever
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute, test_prm
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 POISSON_RATIOS = [0.45, 0.49, 0.499]
@@ -24,36 +24,8 @@ P1_LOCKED_AT_0499 = 0.20
 
 
 def scene(source, degree, nu):
-    return f"""
-subsection Scene
-  set Name = cantilever
-end
-subsection Geometry
-  set Source = {source}
-end
-subsection Meshing
-  set Coarse size = 2.5
-  set Element degree = {degree}
-end
-subsection Material
-  set Young's modulus = {cantilever.E!r}
-  set Poisson's ratio = {nu!r}
-  set Density = {cantilever.RHO!r}
-end
-subsection Modes
-  set Maximum number of modes = 2
-  set Minimum number of modes = 2
-  set Cut-off rule = none
-end
-subsection Contact
-  set Global candidate stride = 0
-  set Validation samples = 0
-  set Cross compliance = false
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
+    return test_prm("incompressible_cantilever.prm", entries={
+        "Geometry/Source": source, "Meshing/Element degree": degree, "Material/Poisson's ratio": nu})
 
 
 def first_frequency(binary, folder, prm_text):

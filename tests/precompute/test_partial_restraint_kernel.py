@@ -12,9 +12,8 @@ import os
 import subprocess
 import sys
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 CASES = [  # supports, free motions
     ("plane 0 0 0 0 0 1 : fix z; nodes -20 -20 0 -20 -20 0 : clamp", 1),  # a corner pin on a table
     ("surface clamp : fix z; nodes -20 -20 0 -20 -20 0 : fix x", 2),       # a slide along y
@@ -24,33 +23,7 @@ CASES = [  # supports, free motions
 
 
 def scene(supports):
-    return f"""
-subsection Scene
-  set Name = block
-end
-subsection Geometry
-  set Source   = {os.path.join(HERE, 'block.geo')}
-  set Supports = {supports}
-end
-subsection Meshing
-  set Coarse size = 5
-end
-subsection Modes
-  set Maximum number of modes = 12
-  set Minimum number of modes = 12
-  set Cut-off rule            = none
-  set Shift                   = -500
-end
-subsection Contact
-  set Patch radius       = 2
-  set Validation samples = 0
-  set Validation points  = 0, 0, 10; 20, 0, 5
-end
-subsection Output
-  set Mode precision = float64
-  set VTU modes      = 0
-end
-"""
+    return test_prm("partially_restrained_block.prm", "block.geo", {"Geometry/Supports": supports})
 
 
 args = binary_and_fresh_workdir(required=["--modal-rt"])

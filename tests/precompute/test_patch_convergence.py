@@ -9,52 +9,14 @@ run's corrected contact error must be <= 1e-8 (rho = 0 and rho > 0)."""
 import os
 import sys
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 FINE_SIZES = [2.0, 1.0, 0.5]
 
 
 def scene(fine_size, patch_radius):
-    return f"""
-subsection Scene
-  set Name = block
-end
-subsection Geometry
-  set Source = {os.path.join(HERE, 'block.geo')}
-end
-subsection Meshing
-  set Coarse size = 4
-  set Element degree = 2
-end
-subsection Scenario 1
-  set Name = press
-  set Shape = ball
-  set Ball centre = 0, 0, 10
-  set Ball radius = 6
-  set Fine size = {fine_size}
-  set Transition = 6
-end
-subsection Material
-  set Young's modulus = 2.3e9
-  set Poisson's ratio = 0.35
-  set Density = 1050
-end
-subsection Modes
-  set Maximum number of modes = 6
-  set Minimum number of modes = 6
-  set Cut-off rule = none
-end
-subsection Contact
-  set Patch radius = {patch_radius}
-  set Validation samples = 0
-  set Validation points = 0, 0, 10
-  set Cross compliance = false
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
+    return test_prm("patch_convergence_block.prm", "block.geo",
+                    {"Scenario 1/Fine size": fine_size, "Contact/Patch radius": patch_radius})
 
 
 def felt_compliance(binary, workdir, fine_size, patch_radius):

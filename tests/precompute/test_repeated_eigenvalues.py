@@ -18,39 +18,13 @@ import sys
 import h5py
 import numpy as np
 
-from precompute_run import binary_and_fresh_workdir, copy_meshes, largest_principal_angle, run_precompute
+from precompute_run import binary_and_fresh_workdir, copy_meshes, largest_principal_angle, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 CLUSTER_GAP = 1e-3
-MODES = 12
 
 
 def scene(eigensolver):
-    return f"""
-subsection Scene
-  set Name = block
-end
-subsection Geometry
-  set Source = {os.path.join(HERE, 'block.geo')}
-end
-subsection Meshing
-  set Coarse size = 4
-end
-subsection Modes
-  set Maximum number of modes = {MODES}
-  set Minimum number of modes = {MODES}
-  set Cut-off rule = none
-  set Eigensolver = {eigensolver}
-end
-subsection Contact
-  set Patch radius = 3
-  set Validation samples = 0
-  set Validation points = 0, 0, 10; 15, 0, 10
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
+    return test_prm("symmetric_block.prm", "block.geo", {"Modes/Eigensolver": eigensolver})
 
 
 def solve(binary, folder, eigensolver):

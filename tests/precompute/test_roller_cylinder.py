@@ -28,10 +28,9 @@ import sys
 
 import numpy as np
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-E, NU, RHO = 2e11, 0.3, 7850.0
+E, NU, RHO = 2e11, 0.3, 7850.0  # as roller_cylinder.prm sets them
 LENGTH = 0.1  # m
 MU = E / (2 * (1 + NU))
 LAMBDA = E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -40,38 +39,8 @@ F_TORSION = math.sqrt(MU / RHO) / (2 * LENGTH)
 
 
 def scene(supports, coarse_size):
-    return f"""
-subsection Scene
-  set Name = roller_cylinder
-end
-subsection Geometry
-  set Source   = {os.path.join(HERE, 'roller_cylinder.geo')}
-  set Supports = {supports}
-end
-subsection Meshing
-  set Coarse size = {coarse_size}
-end
-subsection Material
-  set Young's modulus = {E!r}
-  set Poisson's ratio = {NU!r}
-  set Density         = {RHO!r}
-end
-subsection Modes
-  set Maximum number of modes = 6
-  set Minimum number of modes = 6
-  set Cut-off rule            = none
-  set Shift                   = -1500
-end
-subsection Contact
-  set Patch radius       = 2
-  set Validation samples = 0
-  set Maximum candidates = 4
-end
-subsection Output
-  set Mode precision = float64
-  set VTU modes      = 0
-end
-"""
+    return test_prm("roller_cylinder.prm", "roller_cylinder.geo",
+                    {"Geometry/Supports": supports, "Meshing/Coarse size": coarse_size})
 
 
 def run(binary, folder, supports, coarse_size):

@@ -12,10 +12,9 @@ import os
 import shutil
 import sys
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute, test_prm
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-MODES = 8
 TOLERANCE = 1e-10
 
 # (name, length unit [m] of the mesh file's numbers, mesh file, E [Pa], nu, density [kg/m^3])
@@ -29,38 +28,9 @@ CASES = [
 
 
 def scene(source, length_unit, youngs_modulus, poissons_ratio, density):
-    return f"""
-subsection Scene
-  set Name = block
-end
-subsection Geometry
-  set Source = {source}
-  set Length unit = {length_unit!r}
-end
-subsection Meshing
-  set Coarse size = 5
-  set Element degree = 2
-end
-subsection Material
-  set Young's modulus = {youngs_modulus!r}
-  set Poisson's ratio = {poissons_ratio!r}
-  set Density = {density!r}
-end
-subsection Modes
-  set Maximum number of modes = {MODES}
-  set Minimum number of modes = {MODES}
-  set Cut-off rule = none
-end
-subsection Contact
-  set Patch radius = 0
-  set Global candidate stride = 50
-  set Validation samples = 2
-  set Cross compliance = false
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
+    return test_prm("scale_invariance_block.prm", entries={
+        "Geometry/Source": source, "Geometry/Length unit": length_unit, "Material/Young's modulus": youngs_modulus,
+        "Material/Poisson's ratio": poissons_ratio, "Material/Density": density})
 
 
 def scaled_msh(source, target, factor):

@@ -34,9 +34,8 @@ import sys
 
 import numpy as np
 
-from precompute_run import Checks, binary_and_fresh_workdir, run_precompute
+from precompute_run import Checks, binary_and_fresh_workdir, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
 E, NU, RHO, A = 2e11, 0.3, 8000.0, 10.0
 FLEXURAL = [45.897, 109.44, 109.44, 167.89, 206.19, 206.19]  # Hz, FV52 modes 4-7, 9, 10
 IN_PLANE = 193.59                                              # Hz, FV52 mode 8
@@ -83,26 +82,15 @@ def hard_support(checks, space):
 
 def main():
     args = binary_and_fresh_workdir()
-    prm = open(os.path.join(HERE, "simply_supported_plate.prm")).read().replace(
-        "simply_supported_plate.geo", os.path.join(HERE, "simply_supported_plate.geo"))
     checks = Checks()
 
-    report, _ = run_precompute(args.binary, os.path.join(args.workdir, "bottom_edges"), prm)
+    report, _ = run_precompute(args.binary, os.path.join(args.workdir, "bottom_edges"),
+                               test_prm("simply_supported_plate.prm", "simply_supported_plate.geo"))
     edge_support(checks, report["spaces"][0])
 
-    hard = prm + """
-subsection Geometry
-  set Supports = surface sides_x : fix yz; surface sides_y : fix xz
-end
-subsection Meshing
-  set Coarse size = 0.4
-end
-subsection Modes
-  set Maximum number of modes = 9
-  set Minimum number of modes = 9
-  set Shift = 0
-end
-"""
+    hard = test_prm("simply_supported_plate.prm", "simply_supported_plate.geo", {
+        "Geometry/Supports": "surface sides_x : fix yz; surface sides_y : fix xz", "Meshing/Coarse size": 0.4,
+        "Modes/Maximum number of modes": 9, "Modes/Minimum number of modes": 9, "Modes/Shift": 0})
     report, _ = run_precompute(args.binary, os.path.join(args.workdir, "hard_support"), hard)
     hard_support(checks, report["spaces"][0])
 

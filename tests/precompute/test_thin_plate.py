@@ -6,46 +6,16 @@ for the first torsion mode). Asserted: the shift-invert eigensolve converges on 
 anisotropic mesh, its modes are M-orthonormal to 1e-8 with small residuals, and the two frequencies
 lie within 5 % of the plate theory (printed: docs/accuracy.md quotes them)."""
 import math
-import os
 import sys
 
-from precompute_run import binary_and_fresh_workdir, run_precompute
+from precompute_run import binary_and_fresh_workdir, run_precompute, test_prm
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-E, NU, RHO = 2e11, 0.3, 7850.
+E, NU, RHO = 2e11, 0.3, 7850.  # as thin_plate.prm sets them
 SIDE, THICKNESS = 0.1, 0.001  # [m]
 LAMBDA2 = {"first bending": 3.4917, "first torsion": 8.5246}
 TOLERANCE = 0.05
 
-SCENE = f"""
-subsection Scene
-  set Name = thin_plate
-end
-subsection Geometry
-  set Source = {os.path.join(HERE, 'thin_plate.geo')}
-end
-subsection Meshing
-  set Coarse size = 4
-end
-subsection Material
-  set Young's modulus = {E!r}
-  set Poisson's ratio = {NU!r}
-  set Density = {RHO!r}
-end
-subsection Modes
-  set Maximum number of modes = 6
-  set Minimum number of modes = 6
-  set Cut-off rule = none
-end
-subsection Contact
-  set Patch radius = 5
-  set Validation samples = 0
-  set Validation points = 100, 50, 1
-end
-subsection Output
-  set VTU modes = 0
-end
-"""
+SCENE = test_prm("thin_plate.prm", "thin_plate.geo")
 
 
 def plate_frequency(lambda2):

@@ -16,7 +16,7 @@ import re
 import subprocess
 import sys
 
-from precompute_run import Checks, binary_and_fresh_workdir
+from precompute_run import Checks, binary_and_fresh_workdir, test_prm
 
 DENSITY, VOLUME = 7850.0, 0.2 * 0.01 * 0.01
 EULER_BERNOULLI_F1 = 203.9  # Hz, E = 200 GPa (test_cantilever.py's reference)
@@ -38,38 +38,14 @@ def write_step(folder, name, size, unit_entity):
     return step
 
 
-def scene(step, length_unit, extra="", clamp=None, modes=""):
+def scene(step, length_unit, entries=None):
+    """bar.prm on `step`, its lengths in the file's unit (mm or m), then `entries`."""
     size = 0.2 if length_unit == 1 else 200.0
-    clamp = clamp if clamp is not None else f"set Clamp boxes = 0, 0, 0, 0, {size / 20}, {size / 20}"
-    return f"""
-subsection Scene
-  set Name = bar
-end
-subsection Geometry
-  set Source = {step}
-  set Length unit = {length_unit}
-  {clamp}
-end
-subsection Meshing
-  set Coarse size = {size / 80}
-end
-subsection Material
-  set Young's modulus = 2e11
-  set Poisson's ratio = 0.3
-  set Density = {DENSITY}
-end
-subsection Modes
-  set Cut-off rule = none
-  {modes}
-end
-subsection Contact
-  set Patch radius = {size / 250}
-  set Global candidate stride = 0
-  set Validation samples = 0
-  set Validation points = {size}, {size / 40}, {size / 40}
-end
-{extra}
-"""
+    return test_prm("bar.prm", entries={
+        "Geometry/Source": step, "Geometry/Length unit": length_unit,
+        "Geometry/Clamp boxes": f"0, 0, 0, 0, {size / 20}, {size / 20}", "Meshing/Coarse size": size / 80,
+        "Contact/Patch radius": size / 250, "Contact/Validation points": f"{size}, {size / 40}, {size / 40}",
+        **(entries or {})})
 
 
 def run(folder, name, text, *options):
@@ -103,25 +79,25 @@ for step, unit, label in ((step_mm, 0.001, "mm"), (step_m, 1, "m")):
           f"{label} file: the clamp box at the face's exact coordinates caught the face x = 0 (1e-4 m^2)")
 
 # A Length unit that contradicts the file's header is refused, both named.
-code, out, _ = run(work, "contradicting", scene(step_m, 0.001).replace("Clamp boxes = 0, 0, 0, 0, 0.01, 0.01",
-                                                                       "Clamp boxes = 0, 0, 0, 0, 10, 10"), "--validate")
+code, out, _ = run(work, "contradicting", scene(step_m, 0.001, {"Geometry/Clamp boxes": "0, 0, 0, 0, 10, 10"}),
+                   "--validate")
 check(code != 0 and "declares its length unit as metre" in out and "'Geometry/Length unit' = 0.001" in out,
       "Length unit 0.001 on a metre STEP refused naming both: " + out.strip().splitlines()[-2])
 
 # The default patch radius (2) on a part in metres: a 2 m patch on a 0.2 m bar is warned about.
-code, out, _ = run(work, "big_patch", scene(step_m, 1).replace(f"Patch radius = {0.2 / 250}", "Patch radius = 2"),
+code, out, _ = run(work, "big_patch", scene(step_m, 1, {"Contact/Patch radius": 2}),
                    "--validate")
 check(code == 0 and "Warning: 'Contact/Patch radius' = 2 geometry units (2 m) exceeds a tenth of the part's largest "
       "extent" in out, "a patch radius over a tenth of the largest extent is warned about")
 # A run with it: its patches cover the whole bar, far over the documented 64 display vertices.
-code, out, _ = run(work, "big_patch_run", scene(step_m, 1, modes="set Maximum number of modes = 4").replace(
-    f"Patch radius = {0.2 / 250}", "Patch radius = 2"), "--quiet")
+code, out, _ = run(work, "big_patch_run", scene(step_m, 1, {"Modes/Maximum number of modes": 4,
+                                                        "Contact/Patch radius": 2}), "--quiet")
 held = number_after("Warning: a contact patch holds", out)
 check(code == 0 and held > 64 and "(more than 64)" in out,
       f"a patch over 64 display vertices is warned about in a run (it holds {held:.0f})")
 
 # A clamp box that catches nothing is refused, naming it and the nearest face.
-code, out, _ = run(work, "empty_box", scene(step_m, 1, clamp="set Clamp boxes = 0.1, 0, 0, 0.1, 0.01, 0.01"),
+code, out, _ = run(work, "empty_box", scene(step_m, 1, {"Geometry/Clamp boxes": "0.1, 0, 0, 0.1, 0.01, 0.01"}),
                    "--validate")
 check(code != 0 and "'Geometry/Clamp boxes' entry 1" in out and "catches no boundary face" in out
       and "the nearest is face" in out, "empty clamp box refused naming it and the nearest face")
@@ -130,32 +106,29 @@ check(code != 0 and "'Geometry/Clamp boxes' entry 1" in out and "catches no boun
 # from every face, is refused naming the nearest face.
 def voi(name, lower, upper):
     """A VOI with the default fine size (1.5), larger than the coarse size 0.0025: it must follow it."""
-    return f"""subsection Scenario 1
-  set Name = {name}
-  set Box lower corner = {lower}
-  set Box upper corner = {upper}
-  set Transition = 0.01
-end"""
+    return {"Scenario 1/Name": name, "Scenario 1/Box lower corner": lower, "Scenario 1/Box upper corner": upper,
+            "Scenario 1/Transition": 0.01}
 
 
-code, out, _ = run(work, "voi_end", scene(step_m, 1, extra=voi("tip", "0.19, -0.001, -0.001", "0.21, 0.011, 0.011")),
+code, out, _ = run(work, "voi_end", scene(step_m, 1, voi("tip", "0.19, -0.001, -0.001", "0.21, 0.011, 0.011")),
                    "--validate")
 check(code == 0 and "VOI 'tip'" in out and "meets 5 CAD surfaces" in out,
       "a VOI at the free end meets the end face and the 4 side faces (with the default fine size)")
 code, out, _ = run(work, "voi_buried",
-                   scene(step_m, 1, extra=voi("buried", "0.05, 0.004, 0.004", "0.06, 0.006, 0.006")), "--validate")
+                   scene(step_m, 1, voi("buried", "0.05, 0.004, 0.004", "0.06, 0.006, 0.006")), "--validate")
 check(code != 0 and "VOI 'buried'" in out and "the nearest is face" in out,
       "a VOI that meets no boundary face refused by --validate naming the nearest face")
 
 # A group name that is not a physical surface is refused by --validate.
-code, out, _ = run(work, "no_group", scene(step_m, 1, clamp="set Clamp groups = ss"), "--validate")
+code, out, _ = run(work, "no_group", scene(step_m, 1, {"Geometry/Clamp boxes": "", "Geometry/Clamp groups": "ss"}),
+                   "--validate")
 check(code != 0 and "Group 'ss'" in out and "is not a physical surface" in out,
       "unknown clamp group refused by --validate")
 
 # Full runs, 4 modes (fewer than the default minimum of 10): the same frequencies in both units.
 first = {}
 for step, unit, label in ((step_mm, 0.001, "mm"), (step_m, 1, "m")):
-    code, out, out_dir = run(work, "run_" + label, scene(step, unit, modes="set Maximum number of modes = 4"),
+    code, out, out_dir = run(work, "run_" + label, scene(step, unit, {"Modes/Maximum number of modes": 4}),
                              "--quiet")
     check(code == 0, f"{label} file: a run with 4 modes and the default minimum succeeds" +
           ("" if code == 0 else ": " + out[-500:]))
@@ -174,7 +147,8 @@ if len(first) == 2:
 # A .msh input (the metre run's own mesh): its box, mass and clamp group from the mesh itself.
 msh = os.path.join(work, "run_m", "mesh_global.msh")
 if os.path.exists(msh):
-    code, out, _ = run(work, "msh", scene(msh, 1, clamp="set Clamp groups = clamp"), "--validate")
+    code, out, _ = run(work, "msh", scene(msh, 1, {"Geometry/Clamp boxes": "", "Geometry/Clamp groups": "clamp"}),
+                       "--validate")
     check(code == 0 and "extent 0.2 x 0.01 x 0.01 m" in out and "Group 'clamp' (a physical surface): 1 surface, area 0.0001 m^2" in out
           and abs(number_after("mass", out) - DENSITY * VOLUME) < 1e-6,
           "a .msh input: bounding box, mass and the clamp group's area from the mesh")

@@ -19,7 +19,7 @@
 //
 //   test_serve_soak [SECONDS (120)] [BASIS.mrt (a synthetic lattice)]
 // ctest runs 120 s (realtime.test_serve_soak, label soak); the hour is `test_serve_soak 3600`, or
-// ctest -L soak-hour when configured with -DMODALRT_SOAK_HOUR=ON. Built with a sanitizer
+// realtime.test_serve_soak_hour (label long, outside scripts/test: ctest -L long). Built with a sanitizer
 // (scripts/test-kernel-checks) it runs 10 s and asserts no timing or memory figure.
 #include "test_support.h"
 
