@@ -119,95 +119,110 @@ namespace modal_haptics
     }
   } // namespace
 
+  namespace
+  {
+    // 'Modes': how many modes, the cut-off, the shift and the eigensolver (m: the defaults).
+    void declare_eigensolver_entries(ParameterHandler &prm, const ModeParameters &m)
+    {
+      prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
+                        "The eigensolve computes at most this many lowest modes (r, >= 1); with a cut-off rule it "
+                        "stops once the rule's count is decided (the minimum and one converged mode above the "
+                        "cut-off): the block Krylov method as its Ritz pairs converge, ARPACK (PARPACK) and LOBPCG "
+                        "after a first run for the minimum and a margin (half the minimum, at least 4), then runs "
+                        "that double the count found, each in the complement of the modes found before. Units: none.");
+      prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
+                        "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
+                          ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");
+      prm.declare_entry("Cut-off rule", cut_off_rule_name(m.cut_off_rule), Patterns::Selection("none|display|haptic"),
+                        "Which modes are dropped: 'display' drops modes above half the display rate (the "
+                        "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
+                        "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
+      prm.declare_entry("Display rate", text(m.display_rate), Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
+      prm.declare_entry("Haptic rate", text(m.haptic_rate), Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
+      prm.declare_entry("Shift", text(m.shift), Patterns::Double(),
+                        "Shift of the shift-invert transformation, as a frequency; must lie below the first "
+                        "frequency, and below zero for a free-floating part (no clamp groups), where a "
+                        "magnitude of about a tenth of the first elastic frequency is best: the static solves "
+                        "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
+                        "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
+      prm.declare_entry("Tolerance", text(m.tolerance), Patterns::Double(1e-16, 1e-2),
+                        "ARPACK's relative tolerance on the Ritz values. Units: none.");
+      prm.declare_entry("Eigensolver", eigensolver_name(m.eigensolver), Patterns::Selection("auto|block-krylov|arpack|lobpcg-amg"),
+                        "'block-krylov': a block Krylov method on the shift-invert operator (a sparse direct "
+                        "factorization of K - shift M; blocks of 'Block size' right-hand sides per solve, thick "
+                        "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
+                        "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
+                        "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
+                        "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
+                        "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
+                        "factor fits in 'Factor memory limit', else MUMPS on this one process, its factor in memory or "
+                        "on disk ('Factor storage'), else lobpcg-amg (also where MUMPS cannot serve: 'Factor storage = "
+                        "memory', a part with free rigid-body motions). Under mpirun MUMPS factorizes: "
+                        "'block-krylov' and 'arpack' (PARPACK) over it, 'auto' the block Krylov method when MUMPS's "
+                        "analysis says its factor fits, in memory or on disk, else lobpcg-amg. All converge to the same modes. Units: none.");
+      prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
+                        "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
+                        "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
+                        "error is about its square: 1e-6 gave frequencies equal to the direct path's to 5e-11; "
+                        "below about 1e-8 rounding stalls LOBPCG. Units: none.");
+      prm.declare_entry("LOBPCG modes per run", text(m.lobpcg_modes_per_run), Patterns::Integer(0),
+                        "lobpcg-amg: the most modes one LOBPCG run seeks; more modes are found by further runs, "
+                        "each in the M-orthogonal complement of the modes found before (smaller blocks, so less "
+                        "memory, but more iterations: 1.2x the time for two runs of 25 on a P2 plate). 0: all at "
+                        "once when that run fits half the memory available (per process), else as many as fit. "
+                        "Units: none.");
+    }
+
+    // 'Modes': the direct factorization, its memory and where its factor is kept.
+    void declare_factorization_entries(ParameterHandler &prm, const ModeParameters &m)
+    {
+      prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
+                        "The largest direct factor (as CHOLMOD's analysis predicts it) that a serial run computes in "
+                        "memory: a larger one goes to MUMPS on this process ('Factor storage = auto'), or to "
+                        "lobpcg-amg ('Eigensolver = auto' where MUMPS cannot take it). Under mpirun the limit of a node's processes "
+                        "together, each held to its share against MUMPS's prediction of its in-core data (the "
+                        "symmetric mode; the LU always factorizes). The same limit decides whether the distributed "
+                        "path's MUMPS factor stays in memory ('Factor storage = auto') and whether the block Krylov "
+                        "method keeps M V beside its bases V and OP V (else recomputed: a third less memory). 0: "
+                        "half the memory available when the space is solved. Units: GB (1e9 bytes).");
+      prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
+                        "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
+      prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
+                        Patterns::Selection("cholmod|umfpack"),
+                        "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
+                        "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
+      prm.declare_entry("Distributed factorization",
+                        m.distributed_factorization == DistributedFactorizationKind::mumps_lu ? "mumps-lu" : "mumps-cholesky",
+                        Patterns::Selection("mumps-cholesky|mumps-lu"),
+                        "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
+                        "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
+                        "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
+      prm.declare_entry("Factor storage", factor_storage_name(m.factor_storage), Patterns::Selection("auto|memory|disk"),
+                        "Where MUMPS keeps its factor (under mpirun, with --distributed, or on a serial run that hands a "
+                        "space to MUMPS). "
+                        "'memory': in core. 'disk': out of core, in 'Factor directory' (MUMPS writes the factor "
+                        "once and reads it back at every block solve; its in-core data shrinks to the fronts being "
+                        "worked on, so parts whose factor exceeds the memory still take the direct path). 'auto': "
+                        "in memory when MUMPS's analysis predicts in-core data within 'Factor memory limit', else "
+                        "on disk; with 'Eigensolver = auto', lobpcg-amg only when even the out-of-core data "
+                        "would not fit. A serial run keeps CHOLMOD's factor in memory and hands a space to MUMPS on its "
+                        "one process with 'disk', or with 'auto' when CHOLMOD's factor would exceed 'Factor memory "
+                        "limit' (not a part with free rigid-body motions, which MUMPS's path does not take). 'memory' "
+                        "keeps a serial run on CHOLMOD. Units: none.");
+      prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
+                        "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
+                        "each process's in its own subdirectory, removed when the space is done (a killed run's by "
+                        "the next run on the host). Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
+                        "Units: none (a path).");
+    }
+  } // namespace
+
   void ModeParameters::declare_parameters(ParameterHandler &prm)
   {
     const ModeParameters m;
     prm.enter_subsection("Modes");
-    prm.declare_entry("Maximum number of modes", text(m.maximum_count), Patterns::Integer(1),
-                      "The eigensolve computes at most this many lowest modes (r, >= 1); with a cut-off rule it "
-                      "stops once the rule's count is decided (the minimum and one converged mode above the "
-                      "cut-off): the block Krylov method as its Ritz pairs converge, ARPACK (PARPACK) and LOBPCG "
-                      "after a first run for the minimum and a margin (half the minimum, at least 4), then runs "
-                      "that double the count found, each in the complement of the modes found before. Units: none.");
-    prm.declare_entry("Minimum number of modes", text(m.minimum_count), Patterns::Integer(0),
-                      "The cut-off never leaves fewer modes than this. The default (" + text(m.minimum_count) +
-                        ") is lowered to 'Maximum number of modes' when that is smaller. Units: none.");
-    prm.declare_entry("Cut-off rule", cut_off_rule_name(m.cut_off_rule), Patterns::Selection("none|display|haptic"),
-                      "Which modes are dropped: 'display' drops modes above half the display rate (the "
-                      "original method: no temporal aliasing on screen), 'haptic' above half the haptic "
-                      "rate (the haptic loop's Nyquist frequency), 'none' keeps all. Units: none.");
-    prm.declare_entry("Display rate", text(m.display_rate), Patterns::Double(1e-3), "Display frame rate. Units: Hz.");
-    prm.declare_entry("Haptic rate", text(m.haptic_rate), Patterns::Double(1e-3), "Haptic loop rate. Units: Hz.");
-    prm.declare_entry("Shift", text(m.shift), Patterns::Double(),
-                      "Shift of the shift-invert transformation, as a frequency; must lie below the first "
-                      "frequency, and below zero for a free-floating part (no clamp groups), where a "
-                      "magnitude of about a tenth of the first elastic frequency is best: the static solves "
-                      "refine with the shifted factorization and gain a factor (shift / f1)^2 per step. "
-                      "Negative values mean -(2 pi |shift|)^2. Units: Hz.");
-    prm.declare_entry("Tolerance", text(m.tolerance), Patterns::Double(1e-16, 1e-2),
-                      "ARPACK's relative tolerance on the Ritz values. Units: none.");
-    prm.declare_entry("Eigensolver", eigensolver_name(m.eigensolver), Patterns::Selection("auto|block-krylov|arpack|lobpcg-amg"),
-                      "'block-krylov': a block Krylov method on the shift-invert operator (a sparse direct "
-                      "factorization of K - shift M; blocks of 'Block size' right-hand sides per solve, thick "
-                      "restarts). 'arpack': ARPACK's dsaupd on the same operator, one vector per solve. "
-                      "'lobpcg-amg': LOBPCG (Trilinos Anasazi) preconditioned by smoothed-aggregation AMG "
-                      "(Trilinos ML, the rigid-body motions as its near-null space), static solves by AMG-"
-                      "preconditioned block CG (Trilinos Belos) deflated by the modes: no factorization, memory about linear in the DoFs, for parts whose "
-                      "factor does not fit (serial and under mpirun). 'auto': block-krylov when CHOLMOD's analysis says its "
-                      "factor fits in 'Factor memory limit', else MUMPS on this one process, its factor in memory or "
-                      "on disk ('Factor storage'), else lobpcg-amg (also where MUMPS cannot serve: 'Factor storage = "
-                      "memory', a part with free rigid-body motions). Under mpirun MUMPS factorizes: "
-                      "'block-krylov' and 'arpack' (PARPACK) over it, 'auto' the block Krylov method when MUMPS's "
-                      "analysis says its factor fits, in memory or on disk, else lobpcg-amg. All converge to the same modes. Units: none.");
-    prm.declare_entry("LOBPCG tolerance", text(m.lobpcg_tolerance), Patterns::Double(1e-14, 1e-2),
-                      "lobpcg-amg: converged when every wanted pair's ||(K - shift M) x - theta M x|| / "
-                      "(theta ||M x||) is below this (theta: the pair's eigenvalue of K - shift M). The eigenvalues' relative "
-                      "error is about its square: 1e-6 gave frequencies equal to the direct path's to 5e-11; "
-                      "below about 1e-8 rounding stalls LOBPCG. Units: none.");
-    prm.declare_entry("LOBPCG modes per run", text(m.lobpcg_modes_per_run), Patterns::Integer(0),
-                      "lobpcg-amg: the most modes one LOBPCG run seeks; more modes are found by further runs, "
-                      "each in the M-orthogonal complement of the modes found before (smaller blocks, so less "
-                      "memory, but more iterations: 1.2x the time for two runs of 25 on a P2 plate). 0: all at "
-                      "once when that run fits half the memory available (per process), else as many as fit. "
-                      "Units: none.");
-    prm.declare_entry("Factor memory limit", text(m.factor_memory_limit), Patterns::Double(0.),
-                      "The largest direct factor (as CHOLMOD's analysis predicts it) that a serial run computes in "
-                      "memory: a larger one goes to MUMPS on this process ('Factor storage = auto'), or to "
-                      "lobpcg-amg ('Eigensolver = auto' where MUMPS cannot take it). Under mpirun the limit of a node's processes "
-                      "together, each held to its share against MUMPS's prediction of its in-core data (the "
-                      "symmetric mode; the LU always factorizes). The same limit decides whether the distributed "
-                      "path's MUMPS factor stays in memory ('Factor storage = auto') and whether the block Krylov "
-                      "method keeps M V beside its bases V and OP V (else recomputed: a third less memory). 0: "
-                      "half the memory available when the space is solved. Units: GB (1e9 bytes).");
-    prm.declare_entry("Block size", text(m.block_size), Patterns::Integer(1, 64),
-                      "Right-hand sides per solve of the block Krylov eigensolver. Units: none.");
-    prm.declare_entry("Operator", m.factorization_kind == FactorizationKind::umfpack ? "umfpack" : "cholmod",
-                      Patterns::Selection("cholmod|umfpack"),
-                      "Factorization behind the shift-invert operator: 'cholmod' (SuiteSparse supernodal "
-                      "Cholesky, METIS ordering) or 'umfpack' (deal.II's LU, slow, a peer only). Units: none.");
-    prm.declare_entry("Distributed factorization",
-                      m.distributed_factorization == DistributedFactorizationKind::mumps_lu ? "mumps-lu" : "mumps-cholesky",
-                      Patterns::Selection("mumps-cholesky|mumps-lu"),
-                      "Under mpirun (the distributed path), the factorization of K - shift M: 'mumps-cholesky' "
-                      "(MUMPS in its symmetric mode, L D L^T, through its C interface with METIS's node ordering: about "
-                      "half the factor and the flops of an LU) or 'mumps-lu' (MUMPS's LU through Trilinos Amesos, a peer). Units: none.");
-    prm.declare_entry("Factor storage", factor_storage_name(m.factor_storage), Patterns::Selection("auto|memory|disk"),
-                      "Where MUMPS keeps its factor (under mpirun, with --distributed, or on a serial run that hands a "
-                      "space to MUMPS). "
-                      "'memory': in core. 'disk': out of core, in 'Factor directory' (MUMPS writes the factor "
-                      "once and reads it back at every block solve; its in-core data shrinks to the fronts being "
-                      "worked on, so parts whose factor exceeds the memory still take the direct path). 'auto': "
-                      "in memory when MUMPS's analysis predicts in-core data within 'Factor memory limit', else "
-                      "on disk; with 'Eigensolver = auto', lobpcg-amg only when even the out-of-core data "
-                      "would not fit. A serial run keeps CHOLMOD's factor in memory and hands a space to MUMPS on its "
-                      "one process with 'disk', or with 'auto' when CHOLMOD's factor would exceed 'Factor memory "
-                      "limit' (not a part with free rigid-body motions, which MUMPS's path does not take). 'memory' "
-                      "keeps a serial run on CHOLMOD. Units: none.");
-    prm.declare_entry("Factor directory", m.factor_directory, Patterns::Anything(),
-                      "Factor storage = disk (or auto, out of core): the directory of MUMPS's factor files, "
-                      "each process's in its own subdirectory, removed when the space is done (a killed run's by "
-                      "the next run on the host). Empty: $MUMPS_OOC_TMPDIR, else $TMPDIR, else /tmp. "
-                      "Units: none (a path).");
+    declare_eigensolver_entries(prm, m);
+    declare_factorization_entries(prm, m);
     prm.leave_subsection();
   }
 
@@ -274,110 +289,125 @@ namespace modal_haptics
     prm.leave_subsection();
   }
 
+  namespace
+  {
+    // 'Contact': the patch, the candidates, the cross compliance, the far field and the validation (c: the defaults).
+    void declare_contact_entries(ParameterHandler &prm, const ContactParameters &c)
+    {
+      prm.declare_entry("Patch radius", text(c.patch_radius), Patterns::Double(0.),
+                        "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
+                        "load)." + geometry_units);
+      prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
+                        "Static-correction candidates (corrected contacts) of the global space: every n-th display "
+                        "vertex outside every VOI (1: all of them, the default); 0 = none. A HIP at a vertex "
+                        "that is not a candidate feels the modes alone. Units: none.");
+      prm.declare_entry("Global candidates in VOIs", text(c.global_candidates_in_vois), Patterns::Bool(),
+                        "The global space corrects every display vertex inside every VOI too (true, the default): "
+                        "the kernel switches to the global space when HIPs touch two regions no scenario holds "
+                        "together, and a contact there then stays exact instead of falling to the modes alone. "
+                        "A validation point inside a VOI is then solved afresh in the global space too. Costs "
+                        "static-correction time and .mrt size (docs/accuracy.md). Units: none.");
+      prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
+                        "At most this many candidates per space (thinned evenly); the default takes every "
+                        "display vertex of the space's region. Units: none.");
+      prm.declare_entry("Cross compliance", text(c.cross_compliance), Patterns::Bool(),
+                        "Store the residual compliance between pairs of candidates of a space closer than "
+                        "'Cross compliance radius' (two hands on one rib). Units: none.");
+      prm.declare_entry("Cross compliance radius", text(c.cross_compliance_radius), Patterns::Double(0.),
+                        "Two candidates closer than this, or sharing a display triangle (radius 0, the default: "
+                        "what a sliding contact blends), get their residual cross compliance stored: two HIPs "
+                        "that close feel the full-FE answer; farther apart, the modes and the far field couple them "
+                        "('Far field rank'; docs/accuracy.md measures what that leaves out; each millimetre costs "
+                        "static-correction time and .mrt size)." + geometry_units);
+      prm.declare_entry("Far field rank", text(c.far_field_rank), Patterns::Integer(0, 1000),
+                        "Two candidates farther apart than the cross compliance radius are coupled by the "
+                        "modes plus a rank-k approximation of the residual compliance between every pair of "
+                        "candidates of the space (a Nystrom factor from 2 k solves; the .mrt's FAR_COMPLIANCE, "
+                        "3 k numbers per candidate); its error against exact solves, by distance, is in "
+                        "report.json (spaces[].far_field). 0 = none: the modes alone couple such pairs. Needs "
+                        "'Cross compliance'. Units: none.");
+      prm.declare_entry("Validation pairs", text(c.validation_pairs), Patterns::Integer(0),
+                        "Pairs of neighbouring candidates per space (closer than the cross compliance radius, "
+                        "picked at random with a fixed seed) pressed together and validated against one full "
+                        "static FE solve; with a far field ('Far field rank'), as many pairs farther apart too "
+                        "(report.json: two_contact_checks, 'far'). Units: none.");
+      prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
+                        "Candidates per space validated against full static FE, in x, y and z. Units: none.");
+      prm.declare_entry("Validation points", "", Patterns::Anything(),
+                        "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
+                        "of each becomes a static-correction candidate." + geometry_units);
+      prm.declare_entry("Exact pair points", "", Patterns::Anything(),
+                        "Anticipated two-contact presses, 'x,y,z : x,y,z; ...' (two hands, or two fingers, farther "
+                        "apart than 'Cross compliance radius'): in every space, the residual cross compliance "
+                        "between each candidate within 'Exact pair reach' of the first point (and the one nearest "
+                        "to it, with the candidates sharing a display triangle with that one) and each such "
+                        "candidate of the second is stored, so that two HIPs there (snapped or sliding) feel the "
+                        "full-FE answer instead of the far field's; the nearest pair is validated against one full "
+                        "static solve (report.json: two_contact_checks, 'named'). Needs 'Cross compliance'."
+                        + geometry_units);
+      prm.declare_entry("Exact pair reach", text(c.exact_pair_reach), Patterns::Double(0.),
+                        "The distance from each of 'Exact pair points' within which candidates are coupled exactly "
+                        "to those around the other point: a HIP's contact load spreads over its triangle's corners "
+                        "(sliding) and lands near, not at, the point. 0 (the default): twice 'Patch radius', so that "
+                        "it follows the model's units with the patch." + geometry_units);
+    }
+
+    // 'Contact': the correction field's tolerance and the validity analysis.
+    void declare_validity_entries(ParameterHandler &prm, const ContactParameters &c)
+    {
+      prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
+                        "The display correction field of a contact is kept where it exceeds this fraction of "
+                        "its maximum (it is local); the validation reports the error this truncation leaves. "
+                        "Units: none.");
+      prm.declare_entry("Force limit", text(c.force_limit), Patterns::Double(0.),
+                        "The largest contact force the validity analysis ramps each validation point's patch "
+                        "load up to (the default is the kernel's default device force limit, device.max_force). "
+                        "Units: N.");
+      prm.declare_entry("Validity analysis", text(c.validity_analysis), Patterns::Bool(),
+                        "At each validation point, a geometrically nonlinear full-FE solve (total Lagrangian, "
+                        "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
+                        "the force-displacement curve and the forces up to which the linear felt compliance "
+                        "stays within 1, 5 and 10 %, and the second-order estimate there against it. Off by "
+                        "default: each point costs nonlinear solves (5 tangent assemblies of up to 164k DoFs "
+                        "on the default scene, about 22 CG iterations with K's factorization; its time in "
+                        "docs/performance.md). Units: none.");
+      prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
+                        Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
+                        "Hyperelastic law of the validity analysis, with the part's Young's modulus and "
+                        "Poisson's ratio: compressible neo-Hookean, or St. Venant-Kirchhoff (which softens "
+                        "without bound in compression). Units: none.");
+      prm.declare_entry("Validity direction", "normal", Patterns::Anything(),
+                        "The direction the validity analysis presses along: 'normal' (into the part, along "
+                        "the display surface's normal at the contact) or a vector 'x, y, z' (normalized). "
+                        "Units: none.");
+      prm.declare_entry("Validity load steps", text(c.validity_load_steps), Patterns::Integer(1, 1000),
+                        "The validity analysis' first load increment is 'Force limit' divided by this; an "
+                        "increment is halved where Newton fails and grows where it converges fast. The "
+                        "validity forces are interpolated linearly between levels (on the default scene 5 "
+                        "levels give rib_b's 1 % force within 0.2 % of 10 levels'). Units: none.");
+      prm.declare_entry("Validity estimate", text(c.validity_estimate), Patterns::Bool(),
+                        "At every corrected contact (every display vertex with a felt stiffness), the validity "
+                        "forces [N] from the second-order term of the felt force-displacement curve, the cubic "
+                        "term of the stored energy ('Validity material') evaluated on the contact's linear "
+                        "response projected on the space's modes (docs/accuracy.md): the validity map of the "
+                        ".mrt, .h5 and validity.vtu. Its cost is a cubic tensor per space, then little per "
+                        "contact (docs/performance.md), serial and under MPI; a space with free rigid motions "
+                        "gets none. Units: none.");
+      prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
+                        Patterns::Selection("preconditioned CG|factorization"),
+                        "How the validity analysis solves each Newton step's tangent system: 'preconditioned "
+                        "CG' (conjugate gradients preconditioned by the space's factorization of K, the tangent "
+                        "factorized only where CG stalls) or 'factorization' (every tangent factorized). "
+                        "Units: none.");
+    }
+  } // namespace
+
   void ContactParameters::declare_parameters(ParameterHandler &prm)
   {
     const ContactParameters c;
     prm.enter_subsection("Contact");
-    prm.declare_entry("Patch radius", text(c.patch_radius), Patterns::Double(0.),
-                      "Radius rho of the contact patch over which a HIP's force is spread (0: single-vertex "
-                      "load)." + geometry_units);
-    prm.declare_entry("Global candidate stride", text(c.global_candidate_stride), Patterns::Integer(0),
-                      "Static-correction candidates (corrected contacts) of the global space: every n-th display "
-                      "vertex outside every VOI (1: all of them, the default); 0 = none. A HIP at a vertex "
-                      "that is not a candidate feels the modes alone. Units: none.");
-    prm.declare_entry("Global candidates in VOIs", text(c.global_candidates_in_vois), Patterns::Bool(),
-                      "The global space corrects every display vertex inside every VOI too (true, the default): "
-                      "the kernel switches to the global space when HIPs touch two regions no scenario holds "
-                      "together, and a contact there then stays exact instead of falling to the modes alone. "
-                      "A validation point inside a VOI is then solved afresh in the global space too. Costs "
-                      "static-correction time and .mrt size (docs/accuracy.md). Units: none.");
-    prm.declare_entry("Maximum candidates", text(c.maximum_candidates), Patterns::Integer(1),
-                      "At most this many candidates per space (thinned evenly); the default takes every "
-                      "display vertex of the space's region. Units: none.");
-    prm.declare_entry("Cross compliance", text(c.cross_compliance), Patterns::Bool(),
-                      "Store the residual compliance between pairs of candidates of a space closer than "
-                      "'Cross compliance radius' (two hands on one rib). Units: none.");
-    prm.declare_entry("Cross compliance radius", text(c.cross_compliance_radius), Patterns::Double(0.),
-                      "Two candidates closer than this, or sharing a display triangle (radius 0, the default: "
-                      "what a sliding contact blends), get their residual cross compliance stored: two HIPs "
-                      "that close feel the full-FE answer; farther apart, the modes and the far field couple them "
-                      "('Far field rank'; docs/accuracy.md measures what that leaves out; each millimetre costs "
-                      "static-correction time and .mrt size)." + geometry_units);
-    prm.declare_entry("Far field rank", text(c.far_field_rank), Patterns::Integer(0, 1000),
-                      "Two candidates farther apart than the cross compliance radius are coupled by the "
-                      "modes plus a rank-k approximation of the residual compliance between every pair of "
-                      "candidates of the space (a Nystrom factor from 2 k solves; the .mrt's FAR_COMPLIANCE, "
-                      "3 k numbers per candidate); its error against exact solves, by distance, is in "
-                      "report.json (spaces[].far_field). 0 = none: the modes alone couple such pairs. Needs "
-                      "'Cross compliance'. Units: none.");
-    prm.declare_entry("Validation pairs", text(c.validation_pairs), Patterns::Integer(0),
-                      "Pairs of neighbouring candidates per space (closer than the cross compliance radius, "
-                      "picked at random with a fixed seed) pressed together and validated against one full "
-                      "static FE solve; with a far field ('Far field rank'), as many pairs farther apart too "
-                      "(report.json: two_contact_checks, 'far'). Units: none.");
-    prm.declare_entry("Validation samples", text(c.validation_samples), Patterns::Integer(0),
-                      "Candidates per space validated against full static FE, in x, y and z. Units: none.");
-    prm.declare_entry("Validation points", "", Patterns::Anything(),
-                      "Contact points validated in every space, 'x,y,z; x,y,z; ...': the nearest display vertex "
-                      "of each becomes a static-correction candidate." + geometry_units);
-    prm.declare_entry("Exact pair points", "", Patterns::Anything(),
-                      "Anticipated two-contact presses, 'x,y,z : x,y,z; ...' (two hands, or two fingers, farther "
-                      "apart than 'Cross compliance radius'): in every space, the residual cross compliance "
-                      "between each candidate within 'Exact pair reach' of the first point (and the one nearest "
-                      "to it, with the candidates sharing a display triangle with that one) and each such "
-                      "candidate of the second is stored, so that two HIPs there (snapped or sliding) feel the "
-                      "full-FE answer instead of the far field's; the nearest pair is validated against one full "
-                      "static solve (report.json: two_contact_checks, 'named'). Needs 'Cross compliance'."
-                      + geometry_units);
-    prm.declare_entry("Exact pair reach", text(c.exact_pair_reach), Patterns::Double(0.),
-                      "The distance from each of 'Exact pair points' within which candidates are coupled exactly "
-                      "to those around the other point: a HIP's contact load spreads over its triangle's corners "
-                      "(sliding) and lands near, not at, the point. 0 (the default): twice 'Patch radius', so that "
-                      "it follows the model's units with the patch." + geometry_units);
-    prm.declare_entry("Correction field tolerance", text(c.correction_field_tolerance, Notation::exponent), Patterns::Double(0., 1.),
-                      "The display correction field of a contact is kept where it exceeds this fraction of "
-                      "its maximum (it is local); the validation reports the error this truncation leaves. "
-                      "Units: none.");
-    prm.declare_entry("Force limit", text(c.force_limit), Patterns::Double(0.),
-                      "The largest contact force the validity analysis ramps each validation point's patch "
-                      "load up to (the default is the kernel's default device force limit, device.max_force). "
-                      "Units: N.");
-    prm.declare_entry("Validity analysis", text(c.validity_analysis), Patterns::Bool(),
-                      "At each validation point, a geometrically nonlinear full-FE solve (total Lagrangian, "
-                      "Newton) of its patch load up to 'Force limit', in the space whose region holds it: "
-                      "the force-displacement curve and the forces up to which the linear felt compliance "
-                      "stays within 1, 5 and 10 %, and the second-order estimate there against it. Off by "
-                      "default: each point costs nonlinear solves (5 tangent assemblies of up to 164k DoFs "
-                      "on the default scene, about 22 CG iterations with K's factorization; its time in "
-                      "docs/performance.md). Units: none.");
-    prm.declare_entry("Validity material", c.validity_neo_hookean ? "neo-Hookean" : "St. Venant-Kirchhoff",
-                      Patterns::Selection("neo-Hookean|St. Venant-Kirchhoff"),
-                      "Hyperelastic law of the validity analysis, with the part's Young's modulus and "
-                      "Poisson's ratio: compressible neo-Hookean, or St. Venant-Kirchhoff (which softens "
-                      "without bound in compression). Units: none.");
-    prm.declare_entry("Validity direction", "normal", Patterns::Anything(),
-                      "The direction the validity analysis presses along: 'normal' (into the part, along "
-                      "the display surface's normal at the contact) or a vector 'x, y, z' (normalized). "
-                      "Units: none.");
-    prm.declare_entry("Validity load steps", text(c.validity_load_steps), Patterns::Integer(1, 1000),
-                      "The validity analysis' first load increment is 'Force limit' divided by this; an "
-                      "increment is halved where Newton fails and grows where it converges fast. The "
-                      "validity forces are interpolated linearly between levels (on the default scene 5 "
-                      "levels give rib_b's 1 % force within 0.2 % of 10 levels'). Units: none.");
-    prm.declare_entry("Validity estimate", text(c.validity_estimate), Patterns::Bool(),
-                      "At every corrected contact (every display vertex with a felt stiffness), the validity "
-                      "forces [N] from the second-order term of the felt force-displacement curve, the cubic "
-                      "term of the stored energy ('Validity material') evaluated on the contact's linear "
-                      "response projected on the space's modes (docs/accuracy.md): the validity map of the "
-                      ".mrt, .h5 and validity.vtu. Its cost is a cubic tensor per space, then little per "
-                      "contact (docs/performance.md), serial and under MPI; a space with free rigid motions "
-                      "gets none. Units: none.");
-    prm.declare_entry("Validity tangent solver", c.validity_cg ? "preconditioned CG" : "factorization",
-                      Patterns::Selection("preconditioned CG|factorization"),
-                      "How the validity analysis solves each Newton step's tangent system: 'preconditioned "
-                      "CG' (conjugate gradients preconditioned by the space's factorization of K, the tangent "
-                      "factorized only where CG stalls) or 'factorization' (every tangent factorized). "
-                      "Units: none.");
+    declare_contact_entries(prm, c);
+    declare_validity_entries(prm, c);
     prm.leave_subsection();
   }
 

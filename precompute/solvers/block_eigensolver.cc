@@ -174,18 +174,7 @@ namespace modal_haptics
         // two threads read faster than one); the solves set their own.
         dealii::Timer     timer;
         std::vector<double> seed(std::size_t(n) * block);
-        std::mt19937_64 random(20261122 + operators.process());
-        std::uniform_real_distribution<double> uniform(-1., 1.);
-        for (double &x : seed)
-          x = uniform(random);
-        orientation.assign(seed.begin(), seed.begin() + n);
-        // Start from OP applied to a random block: it lies in the range of OP (zero on clamped rows).
-        {
-          std::vector<double> Mseed(seed.size());
-          multiply_by_mass(seed.data(), Mseed.data(), block);
-          solve_images(Mseed.data(), seed.data(), block);
-        }
-        int size = append_block(seed.data(), block, 0);
+        int                 size = start_from_random_block(seed);
 
         EigenSolution solution;
         std::vector<double> theta, Z;
@@ -254,6 +243,22 @@ namespace modal_haptics
       }
 
     private:
+      // The basis' first block: OP applied to a random block, which lies in the range of OP (zero on
+      // clamped rows); 'seed' holds a block. The random block's first column also fixes the modes'
+      // signs (orientation). Returns the basis' size.
+      int start_from_random_block(std::vector<double> &seed)
+      {
+        std::mt19937_64 random(20261122 + operators.process());
+        std::uniform_real_distribution<double> uniform(-1., 1.);
+        for (double &x : seed)
+          x = uniform(random);
+        orientation.assign(seed.begin(), seed.begin() + n);
+        std::vector<double> Mseed(seed.size());
+        multiply_by_mass(seed.data(), Mseed.data(), block);
+        solve_images(Mseed.data(), seed.data(), block);
+        return append_block(seed.data(), block, 0);
+      }
+
       // What was found when the iteration gives up: the converged count and their frequencies, so
       // that the user can ask for fewer modes or a looser tolerance instead of losing the run silently.
       std::string not_converged_message(const int converged, const double shift, const std::vector<double> &theta) const

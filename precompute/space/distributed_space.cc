@@ -3,6 +3,7 @@
 #include "solvers/amg_eigensolver.h"
 #include "solvers/mumps_inverse.h"
 
+#include "space/distributed_block_operators.h"
 #include "space/phased_space.h"
 
 #include <deal.II/base/exceptions.h>
@@ -46,51 +47,6 @@ namespace modal_haptics
   {
     constexpr double two_pi = 2. * M_PI;
     using DistributedVector = TrilinosWrappers::MPI::Vector;
-
-    // The block Krylov eigensolver's operators (eigensolver.h) on this process's rows: Epetra's
-    // product with M (it imports the ghost entries), MUMPS's solves a block at a time (its factor
-    // read once per block, where PARPACK's reverse communication hands out one vector per solve),
-    // the inner products summed by MPI.
-    class DistributedBlockOperators : public BlockEigenOperators
-    {
-    public:
-      DistributedBlockOperators(const TrilinosWrappers::SparseMatrix &M, const DistributedInverse &inverse,
-                                const DistributedVector &layout, const MPI_Comm comm)
-        : M(M.trilinos_matrix())
-        , inverse(inverse)
-        , layout(layout)
-        , comm(comm)
-      {
-        AssertThrow(local_rows() > 0, ExcMessage("The block eigensolver needs unknowns on every process; process " +
-                                                 std::to_string(process()) + " has none (fewer processes?)."));
-      }
-      std::size_t  local_rows() const override { return layout.locally_owned_size(); }
-      std::size_t  global_rows() const override { return layout.size(); }
-      unsigned int process() const override { return Utilities::MPI::this_mpi_process(comm); }
-
-      void multiply_by_mass(const double *src, double *dst, const int count) override
-      {
-        // Views on the column-major blocks: nothing is copied.
-        const int                rows = int(local_rows());
-        const Epetra_MultiVector X(View, M.OperatorDomainMap(), const_cast<double *>(src), rows, count);
-        Epetra_MultiVector       Y(View, M.OperatorRangeMap(), dst, rows, count);
-        AssertThrow(M.Multiply(false, X, Y) == 0, ExcMessage("Epetra's product with M failed."));
-      }
-
-      void solve(double *columns, const int count) override { inverse.solve_block(columns, count); }
-
-      void sum_over_processes(double *values, const std::size_t count) const override
-      {
-        const int ierr = MPI_Allreduce(MPI_IN_PLACE, values, int(count), MPI_DOUBLE, MPI_SUM, comm);
-        AssertThrowMPI(ierr);
-      }
-
-    private:
-      const Epetra_CrsMatrix   &M;
-      const DistributedInverse &inverse;
-      const DistributedVector  &layout;
-      const MPI_Comm            comm;
-    };
 
     // The distributed backend of the space phases (space/phase_*.h): a fully distributed mesh,
     // Trilinos matrices, MUMPS for the static solves and the shift-invert operator, the block
@@ -790,38 +746,6 @@ namespace modal_haptics
     }
 
   } // namespace
-
-  void gather_rows_on_root(ModalSpaceResult &space, const MPI_Comm comm)
-  {
-    if (!space.owned_rows)
-      return;
-    const auto vertices    = dealii::Utilities::MPI::gather(comm, space.owned_rows->vertices);
-    const auto coordinates = dealii::Utilities::MPI::gather(comm, space.mesh_vertices);
-    const auto modes       = dealii::Utilities::MPI::gather(comm, space.modes_at_vertices);
-    const auto tets        = dealii::Utilities::MPI::gather(comm, space.owned_rows->tets);
-    const auto tet_rows    = dealii::Utilities::MPI::gather(comm, space.mesh_tets);
-    space.owned_rows.reset();
-    if (dealii::Utilities::MPI::this_mpi_process(comm) != 0)
-      return;
-    const std::size_t r = space.eigenvalues.size(), nv = space.n_vertices;
-    space.mesh_vertices.assign(3 * nv, 0.);
-    space.modes_at_vertices.assign(r * nv * 3, 0.);
-    space.mesh_tets.assign(4 * std::size_t(space.n_cells), 0);
-    for (std::size_t p = 0; p < vertices.size(); ++p)
-      {
-        const std::size_t owned = vertices[p].size();
-        for (std::size_t k = 0; k < owned; ++k)
-          for (unsigned int c = 0; c < 3; ++c)
-            {
-              const std::size_t v = vertices[p][k];
-              space.mesh_vertices[3 * v + c] = coordinates[p][3 * k + c];
-              for (std::size_t i = 0; i < r; ++i)
-                space.modes_at_vertices[(i * nv + v) * 3 + c] = modes[p][(i * owned + k) * 3 + c];
-            }
-        for (std::size_t k = 0; k < tets[p].size(); ++k)
-          std::copy_n(&tet_rows[p][4 * k], 4, &space.mesh_tets[4 * std::size_t(tets[p][k])]);
-      }
-  }
 
   ModalSpaceResult compute_modal_space_distributed(const SceneParameters &scene,
                                                    const ContactSurface  &display,

@@ -444,14 +444,7 @@ namespace modal_haptics
       common.point      = point;
       common.n_dofs     = space.n_dofs;
       common.candidates = space.candidates.size();
-      common.seconds["meshing"] = results.meshes.scenarios[studied].statistics.seconds +
-                                  results.meshes.display_surface.statistics.seconds;
-      common.seconds["total"] = common.seconds["meshing"];
-      for (const auto phase : {"assembly", "eigensolve", "static_correction", "validation"})
-        {
-          common.seconds[phase] = space.timings_s.count(phase) ? space.timings_s.at(phase) : 0.;
-          common.seconds["total"] += common.seconds[phase];
-        }
+      common.seconds = phase_seconds(results, studied);
       common.correction_ms_per_candidate = 1e3 * space.correction_seconds_per_candidate;
       compare_frequencies(space, reference, common);
       for (std::size_t k = 0; k < contacts.size(); ++k)
@@ -513,6 +506,22 @@ namespace modal_haptics
       for (const auto &entry : fs::directory_iterator(scene.output_directory))
         if (entry.path().extension() == ".h5" || entry.path().extension() == ".vtu" || entry.path().extension() == ".mrt")
           fs::remove(entry.path());
+    }
+
+    // The seconds of the studied space's meshing and phases, and their total.
+    static std::map<std::string, double> phase_seconds(const PrecomputeResults &results, const unsigned int studied)
+    {
+      const auto                   &space = results.spaces.at(studied);
+      std::map<std::string, double> seconds;
+      seconds["meshing"] = results.meshes.scenarios[studied].statistics.seconds +
+                           results.meshes.display_surface.statistics.seconds;
+      seconds["total"] = seconds["meshing"];
+      for (const auto phase : {"assembly", "eigensolve", "static_correction", "validation"})
+        {
+          seconds[phase] = space.timings_s.count(phase) ? space.timings_s.at(phase) : 0.;
+          seconds["total"] += seconds[phase];
+        }
+      return seconds;
     }
 
     void compare_frequencies(const ModalSpaceResult &space, const ReferenceSolution &reference, StudyRow &row) const
