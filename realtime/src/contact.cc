@@ -292,7 +292,7 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
     {
       double s[9], sv[9];
       if (contacts_[active_[a]].proxy.active)
-        proxy_coupling_block(contacts_[active_[a]], s, sv); // from its triangle's pair blocks
+        proxy_coupling_block(contacts_[active_[a]].proxy, s, sv); // from its triangle's pair blocks
       else
         {
           std::fill_n(s, 9, 0.0), std::fill_n(sv, 9, 0.0);

@@ -160,7 +160,11 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
       contacts_[h].proxy.grams = proxy_grams_.data() + std::size_t(h) * proxy_slot_pairs;
     }
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
-    make_stored_rows();
+    stored_proxy_rows_.make(basis, integrators_,
+                            def.proxy_row_memory == MODALRT_PROXY_ROWS_IN_TICKS ? 0
+                            : std::size_t(def.proxy_row_memory == 0 ? proxy_default_row_memory_mib
+                                                                    : def.proxy_row_memory)
+                                << 20);
   observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;

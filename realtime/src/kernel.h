@@ -8,6 +8,7 @@
 #include "haptic_mapping.h"
 #include "modal_integrator.h"
 #include "passivity_controller.h"
+#include "proxy_rows.h"
 #include "proxy_state.h"
 #include "snapshot.h"
 
@@ -155,23 +156,13 @@ private:
   void  slide_proxies(std::uint32_t count) noexcept;
   void  slide_proxy(Contact &contact, const modalrt::BodyInput &in, const double others_u[3],
                     const double others_v[3]) noexcept;
-  void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
   void  hold_in_friction_cone(Contact &contact, double F[3]) noexcept;
-  bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
-  bool  creased(Contact &contact, int corner, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
-  int   acquire_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *keep) noexcept;
-  std::uint32_t add_row_entries(modalrt::ProxyRow &row, std::uint32_t budget) const noexcept;
-  std::uint8_t  corner_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;
-  void  make_lookahead(Contact &contact) noexcept;
-  std::uint32_t add_gram_modes(modalrt::ProxyState &proxy, std::uint32_t i, std::uint32_t j,
-                               std::uint32_t budget) const noexcept;
-  void  pack_triangle(Contact &contact) noexcept;
-  void  make_stored_rows();
-  const double *stored_row(std::uint32_t space, std::uint32_t vertex) const noexcept;
-  std::ptrdiff_t stored_pair(const modalrt::ProxyRow &a, const modalrt::ProxyRow &b) const noexcept;
-  void  prepare_proxy(Contact &contact) noexcept;
-  void  proxy_coupling_block(const Contact &contact, double S[9], double Sv[9]) const noexcept;
+  // What the proxy's rows (proxy_rows.h) and walk (proxy_walk.h) read of the kernel.
+  modalrt::ProxyRowView row_view() const noexcept
+  {
+    return {basis, space_, q_.data(), state_stamp_, integrators_[space_], stored_proxy_rows_};
+  }
   void  compose_proxy(Contact &contact, bool reload) noexcept;
   void  proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
   void  write_proxy_output(const Contact &contact, modalrt_hip_output &out) const noexcept;
@@ -210,8 +201,7 @@ private:
   modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
   modalrt::Vector<double>            proxy_rows_;    // hip_capacity x proxy_row_slots x 3 x max_modes
   modalrt::Vector<modalrt::ProxyGram> proxy_grams_;  // hip_capacity x proxy_slot_pairs
-  modalrt::Vector<modalrt::StoredRows>  stored_rows_;  // per space (sliding contacts only)
-  modalrt::Vector<modalrt::StoredGrams> stored_grams_; // per space (sliding contacts only)
+  modalrt::StoredProxyRows           stored_proxy_rows_; // sliding contacts only
   modalrt::Vector<double>            observed_positions_; // 3 hip_capacity: the HIPs at the last observed tick [m] world
   std::uint32_t                  observed_count_ = 0; // HIPs observed at the last tick (0: not primed)
   bool                           proxy_region_changed_ = false; // a proxy's nearest vertex changed region
