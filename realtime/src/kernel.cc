@@ -646,6 +646,17 @@ int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count)
   return MODALRT_OK;
 }
 
+int modalrt_kernel::set_frame(const modalrt_frame_state &state) noexcept
+{
+  if (set_frame_state(frame_, state, def, basis.centre_of_mass()))
+    return MODALRT_OK;
+  ++stats.rejected_frames;
+  stats.last_reject_reasons = MODALRT_REJECT_FRAME;
+  return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_set_frame: the frame is not finite, its quaternion is not "
+                                     "near unit length, or it is beyond workspace_radius, max_input_velocity or "
+                                     "max_frame_acceleration: refused, the old frame kept");
+}
+
 void modalrt_kernel::reset() noexcept
 {
   for (std::uint32_t h = 0; h < def.hip_capacity; ++h)

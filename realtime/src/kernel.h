@@ -7,6 +7,7 @@
 #include "fail_safe_plane.h"
 #include "haptic_mapping.h"
 #include "modal_integrator.h"
+#include "moving_frame.h"
 #include "passivity_controller.h"
 #include "proxy_rows.h"
 #include "proxy_state.h"
@@ -20,26 +21,6 @@
 namespace modalrt
 {
   constexpr std::uint32_t max_hip_capacity = 16;
-
-  // Pose and motion of the body frame, as the tick uses it.
-  struct Frame
-  {
-    double position[3]    = {0.0, 0.0, 0.0};
-    double orientation[4] = {1.0, 0.0, 0.0, 0.0};
-    double rotation[9]    = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // row-major, body to world
-    double linear_velocity[3]  = {0.0, 0.0, 0.0};
-    double angular_velocity[3] = {0.0, 0.0, 0.0};
-    double body_acceleration[6] = {0, 0, 0, 0, 0, 0}; // centre-of-mass acceleration and angular
-                                                       // acceleration in body coordinates: the
-                                                       // column vector that PARTICIPATION multiplies
-    bool moving = false; // any non-zero velocity or acceleration
-  };
-
-  // A HIP's input in body coordinates.
-  struct BodyInput
-  {
-    double x[3], v[3], force[3];
-  };
 
   // One HIP's contact. B (3 x r, row-major, in the kernel's row buffer) maps the modal state to the
   // felt displacement u_c of the active vertex: the candidate's B_v, or sum_j w_j Phi_j over the patch.
@@ -115,7 +96,10 @@ private:
 
   // Tick phases, in order.
   std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
-  void          to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
+  void to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept
+  {
+    modalrt::to_body(frame_, inputs, count, body_inputs_.data());
+  }
   void          apply_release_rules(std::uint32_t count, bool impedance) noexcept;
   bool          detect_contacts(std::uint32_t count) noexcept;
   void          apply_switch_rule() noexcept;
@@ -171,7 +155,7 @@ private:
   int   load_vertex_row(std::uint32_t vertex, double *B) const noexcept;
 
   // Modal state.
-  void frame_modal_force(double *f) const noexcept;
+  void frame_modal_force(double *f) const noexcept { modalrt::frame_modal_force(frame_, basis.spaces[space_], f); }
   void add_contact_forces(double *f) const noexcept;
   void change_space(std::uint32_t space) noexcept;
   bool solve_coupling(std::uint32_t n) noexcept;
