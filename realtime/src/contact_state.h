@@ -36,10 +36,4 @@ namespace modalrt
                                       // force_rate_limit per tick (-1: not set since the contact began)
     double validity_unclamped = -1.0; // [N] |F| before validity_clamp this tick (-1: the clamp did not act)
   };
-
-  struct SnapCandidate
-  {
-    std::uint32_t vertex;
-    double        rest_distance_squared;
-  };
 } // namespace modalrt

@@ -150,7 +150,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   for (modalrt::Vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
-  snap_candidates_.resize(def.snap_candidate_budget);
+  snap_search_.setup(def.snap_candidate_budget);
   // A sliding contact's row slots and their pair blocks (proxy_state.h): the corners of its
   // triangle and the rows prepared ahead of it.
   proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_row_slots * 3 * R : 0, 0.0);

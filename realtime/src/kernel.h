@@ -12,6 +12,7 @@
 #include "proxy_rows.h"
 #include "contact_state.h"
 #include "proxy_state.h"
+#include "snap_search.h"
 #include "snapshot.h"
 
 #include <modalrt/modalrt.h>
@@ -96,8 +97,6 @@ private:
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
   void end_contact(std::uint32_t hip) noexcept;
   void build_row(Contact &contact) noexcept;
-  bool find_snap_vertex(const double x[3], std::uint32_t &vertex, double gap[3], double &signed_distance) noexcept;
-  void vertex_displacement(std::uint32_t vertex, double u[3]) const noexcept;
   void felt_displacement(const Contact &contact, const double *q, double u[3]) const noexcept;
   void refresh_contact_set() noexcept;
   void refresh_coupling_matrices() noexcept;
@@ -150,7 +149,7 @@ private:
   modalrt::Vector<double>            coupling_;      // (3 hip_capacity)^2: B_a G B_b^T + C_ab
   modalrt::Vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
   modalrt::Vector<double>            system_, rhs_;  // the coupling solve
-  modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
+  modalrt::SnapSearch                snap_search_;
   modalrt::Vector<double>            proxy_rows_;    // hip_capacity x proxy_row_slots x 3 x max_modes
   modalrt::Vector<modalrt::ProxyGram> proxy_grams_;  // hip_capacity x proxy_slot_pairs
   modalrt::StoredProxyRows           stored_proxy_rows_; // sliding contacts only
