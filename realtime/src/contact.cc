@@ -3,6 +3,7 @@
 // The switch of modal space is in kernel.cc (over space_switch.h).
 #include "kernel.h"
 
+#include "coupling.h"
 #include "dense.h"
 #include "error.h"
 #include "vector3.h"
@@ -118,7 +119,7 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
   build_row(c);
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
     begin_proxy(hip, offset != nullptr);
-  set_contact_stiffness(c);
+  set_contact_stiffness(mapping_, def.coupling_stiffness, c);
   contacts_changed_ = true;
   contact_started_  = true;
   ramping_[hip]     = 1; // the force starts at force_rate_limit from the one last commanded (no step)

@@ -27,7 +27,7 @@ namespace modalrt
                                                  // admittance output are anchored there, so a
                                                  // contact starts without a lateral jerk
     double        stiffness[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; // [N/m] body, row-major: the coupling spring
-                                                              // (hand_rendering.cc, set_contact_stiffness)
+                                                              // (coupling.h, set_contact_stiffness)
     double       *B          = nullptr;
     ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
     // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).

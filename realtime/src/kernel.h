@@ -60,8 +60,6 @@ private:
                           bool impedance) noexcept;
   int  tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   void render_at_hand(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs) noexcept;
-  void limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_output &out) noexcept;
-  void set_contact_stiffness(Contact &contact) const noexcept;
 
   // Tick phases, in order.
   std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
