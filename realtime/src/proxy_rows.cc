@@ -427,25 +427,3 @@ void modalrt::prepare_proxy(ProxyState &proxy, const ProxyRowView &view) noexcep
             }
     }
 }
-
-// B G B^T = sum_k w_k^2 M_kk + sum_(k<l) w_k w_l (M_kl + M_kl^T), the same for H; 72 multiply-adds
-// over the packed upper triangles whatever the number of modes.
-void modalrt::proxy_coupling_block(const ProxyState &proxy, double S[9], double Sv[9]) noexcept
-{
-  const double     *w     = proxy.weights;
-  const double      ww[6] = {w[0] * w[0], w[1] * w[1], w[2] * w[2], w[0] * w[1], w[0] * w[2], w[1] * w[2]};
-  const double(&P)[6][12] = proxy.packed;
-  double sum[12];
-#pragma omp simd
-  for (int e = 0; e < 12; ++e)
-    sum[e] = ww[0] * P[0][e] + ww[1] * P[1][e] + ww[2] * P[2][e] + ww[3] * P[3][e] + ww[4] * P[4][e] + ww[5] * P[5][e];
-  for (int half = 0; half < 2; ++half)
-    {
-      const double *t   = sum + 6 * half;
-      double       *out = half == 0 ? S : Sv;
-      out[0] = t[0], out[1] = t[1], out[2] = t[2];
-      out[3] = t[1], out[4] = t[3], out[5] = t[4];
-      out[6] = t[2], out[7] = t[4], out[8] = t[5];
-    }
-}
-

@@ -20,12 +20,9 @@
 
 using namespace modalrt;
 
-const DeformedTriangle &modalrt::deformed_triangle(const modalrt_basis &basis, ProxyState &proxy,
-                                                   std::uint64_t state) noexcept
+void modalrt::deform_triangle(const modalrt_basis &basis, ProxyState &proxy, std::uint64_t state) noexcept
 {
   DeformedTriangle &t = proxy.deformed;
-  if (t.triangle == proxy.triangle && t.state == state)
-    return t;
   const std::uint32_t *corners = &basis.triangles[3 * std::size_t(proxy.triangle)];
   for (int k = 0; k < 3; ++k)
     for (int d = 0; d < 3; ++d)
@@ -33,35 +30,24 @@ const DeformedTriangle &modalrt::deformed_triangle(const modalrt_basis &basis, P
   t.system   = triangle_system(t.Y);
   t.triangle = proxy.triangle;
   t.state    = state;
-  return t;
 }
 
-namespace
+// The outward unit normal of display triangle `triangle` at rest: its edges' cross product, on the
+// side of its first corner's vertex normal (the display surface's winding need not be outward). A
+// degenerate triangle gives that vertex normal.
+void modalrt::face_normal(const modalrt_basis &basis, std::uint32_t triangle, double n[3]) noexcept
 {
-  // The outward unit normal of display triangle `triangle` at rest: its edges' cross product, on the
-  // side of its first corner's vertex normal (the display surface's winding need not be outward). A
-  // degenerate triangle gives that vertex normal.
-  void face_normal(const modalrt_basis &basis, std::uint32_t triangle, double n[3]) noexcept
-  {
-    const std::uint32_t *corners = &basis.triangles[3 * std::size_t(triangle)];
-    const double        *a = &basis.vertices[3 * std::size_t(corners[0])], *b = &basis.vertices[3 * std::size_t(corners[1])],
-                 *e = &basis.vertices[3 * std::size_t(corners[2])], *outward = &basis.normals[3 * std::size_t(corners[0])];
-    double e1[3], e2[3];
-    for (int d = 0; d < 3; ++d)
-      e1[d] = b[d] - a[d], e2[d] = e[d] - a[d];
-    double       face[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-    const double length  = norm3(face);
-    const double sign    = dot3(face, outward) < 0.0 ? -1.0 : 1.0;
-    for (int d = 0; d < 3; ++d)
-      n[d] = length > 0.0 ? sign * face[d] / length : outward[d];
-  }
-} // namespace
-
-const double *modalrt::proxy_face_normal(const modalrt_basis &basis, ProxyState &proxy) noexcept
-{
-  if (proxy.face_triangle != proxy.triangle)
-    face_normal(basis, proxy.triangle, proxy.face), proxy.face_triangle = proxy.triangle;
-  return proxy.face;
+  const std::uint32_t *corners = &basis.triangles[3 * std::size_t(triangle)];
+  const double        *a = &basis.vertices[3 * std::size_t(corners[0])], *b = &basis.vertices[3 * std::size_t(corners[1])],
+               *e = &basis.vertices[3 * std::size_t(corners[2])], *outward = &basis.normals[3 * std::size_t(corners[0])];
+  double e1[3], e2[3];
+  for (int d = 0; d < 3; ++d)
+    e1[d] = b[d] - a[d], e2[d] = e[d] - a[d];
+  double       face[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const double length  = norm3(face);
+  const double sign    = dot3(face, outward) < 0.0 ? -1.0 : 1.0;
+  for (int d = 0; d < 3; ++d)
+    n[d] = length > 0.0 ? sign * face[d] / length : outward[d];
 }
 
 namespace
