@@ -3,13 +3,13 @@
 // with a message naming the file and the section.
 #include "basis_loader.h"
 
+#include "byte_source.h"
 #include "error.h"
 
 #include <mrt/crc32.h>
 #include <mrt/format.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -22,83 +22,6 @@ namespace modalrt
   {
     using mrt::crc32;
     using mrt::crc32_update;
-
-    // ---------------------------------------------------------------------------------------------
-    // Where the bytes come from
-    // ---------------------------------------------------------------------------------------------
-    class ByteSource
-    {
-    public:
-      virtual ~ByteSource()                                                  = default;
-      virtual std::uint64_t size() const                                     = 0;
-      virtual bool          read(std::uint64_t offset, void *out, std::size_t n) = 0;
-    };
-
-    class FileSource final : public ByteSource
-    {
-    public:
-      explicit FileSource(const std::string &path)
-        : file_(std::fopen(path.c_str(), "rb"))
-      {
-        if (!file_)
-          fail(MODALRT_ERROR_IO, cat("cannot open basis file '", path, "': ", std::strerror(errno)));
-        if (!seek(0, SEEK_END))
-          fail(MODALRT_ERROR_IO, cat("cannot seek in basis file '", path, "'"));
-        size_ = tell();
-      }
-      ~FileSource() override { std::fclose(file_); }
-      FileSource(const FileSource &)            = delete;
-      FileSource &operator=(const FileSource &) = delete;
-
-      std::uint64_t size() const override { return size_; }
-      bool          read(std::uint64_t offset, void *out, std::size_t n) override
-      {
-        return seek(offset, SEEK_SET) && std::fread(out, 1, n, file_) == n;
-      }
-
-    private:
-      // 64-bit offsets: a basis with r = 1000 on a fine display surface exceeds 2 GB.
-      bool seek(std::uint64_t offset, int whence)
-      {
-#if defined(_WIN32)
-        return _fseeki64(file_, static_cast<long long>(offset), whence) == 0;
-#else
-        return fseeko(file_, static_cast<off_t>(offset), whence) == 0;
-#endif
-      }
-      std::uint64_t tell()
-      {
-#if defined(_WIN32)
-        return static_cast<std::uint64_t>(_ftelli64(file_));
-#else
-        return static_cast<std::uint64_t>(ftello(file_));
-#endif
-      }
-
-      std::FILE    *file_;
-      std::uint64_t size_ = 0;
-    };
-
-    class MemorySource final : public ByteSource
-    {
-    public:
-      MemorySource(const void *bytes, std::size_t size)
-        : bytes_(static_cast<const unsigned char *>(bytes))
-        , size_(size)
-      {}
-      std::uint64_t size() const override { return size_; }
-      bool          read(std::uint64_t offset, void *out, std::size_t n) override
-      {
-        if (offset > size_ || n > size_ - offset)
-          return false;
-        std::memcpy(out, bytes_ + offset, n);
-        return true;
-      }
-
-    private:
-      const unsigned char *bytes_;
-      std::size_t          size_;
-    };
 
     // The format is little-endian; the kernel runs on little-endian machines (x86-64, aarch64).
     bool host_is_little_endian()

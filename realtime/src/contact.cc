@@ -1,8 +1,9 @@
-// Contacts of the haptic loop: the snap search on the deformed surface, the release rules, the row
-// B of each active vertex and the residual compliances between contacts. The switch of modal space
-// is in space_switch.cc.
+// Contacts of the haptic loop: the release rules, contact detection (over the snap search,
+// snap_search.h), the row B of each active vertex and the residual compliances between contacts.
+// The switch of modal space is in kernel.cc (over space_switch.h).
 #include "kernel.h"
 
+#include "coupling.h"
 #include "dense.h"
 #include "error.h"
 #include "vector3.h"
@@ -67,7 +68,8 @@ bool modalrt_kernel::detect_contacts(std::uint32_t count) noexcept
         continue;
       std::uint32_t vertex;
       double        gap[3], signed_distance;
-      const bool    found = find_snap_vertex(body_inputs_[h].x, vertex, gap, signed_distance);
+      const bool    found = snap_search_.find(basis, space_, q_.data(), def.snap_distance, body_inputs_[h].x, vertex,
+                                                gap, signed_distance);
       if (!c.armed)
         {
           // After a release the HIP must leave the surface before it may snap again, unless it presses
@@ -117,7 +119,7 @@ void modalrt_kernel::begin_contact(std::uint32_t hip, std::uint32_t vertex, cons
   build_row(c);
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
     begin_proxy(hip, offset != nullptr);
-  set_contact_stiffness(c);
+  set_contact_stiffness(mapping_, def.coupling_stiffness, c);
   contacts_changed_ = true;
   contact_started_  = true;
   ramping_[hip]     = 1; // the force starts at force_rate_limit from the one last commanded (no step)
@@ -162,78 +164,6 @@ int modalrt_kernel::load_vertex_row(std::uint32_t vertex, double *B) const noexc
   else
     patch_row(basis, space, vertex, 0, r, B);
   return candidate;
-}
-
-// The closest vertex of the deformed surface. The grid gives the vertices whose rest position is
-// within snap_distance plus a bound on every displacement; the snap_candidate_budget nearest of
-// them at rest are evaluated deformed (bounded work per tick).
-bool modalrt_kernel::find_snap_vertex(const double x[3], std::uint32_t &vertex, double gap[3],
-                                      double &signed_distance) noexcept
-{
-  const ModalSpace   &space = basis.spaces[space_];
-  const std::uint32_t r     = space.mode_count;
-  double              q_norm = 0.0;
-  for (std::uint32_t i = 0; i < r; ++i)
-    q_norm += q_[i] * q_[i];
-  q_norm                 = std::sqrt(q_norm);
-  const double radius    = def.snap_distance + space.max_vertex_mode_norm * q_norm;
-  const double radius2   = radius * radius;
-  const std::uint32_t budget = def.snap_candidate_budget;
-  std::uint32_t       found  = 0;
-  vertex                     = MODALRT_NONE;
-
-  basis.grid.for_each_near(x, radius, [&](std::uint32_t v) {
-    const double *p  = &basis.vertices[3 * std::size_t(v)];
-    const double  d2 = (x[0] - p[0]) * (x[0] - p[0]) + (x[1] - p[1]) * (x[1] - p[1]) + (x[2] - p[2]) * (x[2] - p[2]);
-    if (d2 > radius2)
-      return;
-    if (found < budget)
-      {
-        snap_candidates_[found++] = {v, d2};
-        return;
-      }
-    std::uint32_t farthest = 0;
-    for (std::uint32_t k = 1; k < budget; ++k)
-      if (snap_candidates_[k].rest_distance_squared > snap_candidates_[farthest].rest_distance_squared)
-        farthest = k;
-    if (d2 < snap_candidates_[farthest].rest_distance_squared)
-      snap_candidates_[farthest] = {v, d2};
-  });
-
-  double best = HUGE_VAL, best_position[3] = {0, 0, 0};
-  for (std::uint32_t k = 0; k < found; ++k)
-    {
-      const std::uint32_t v = snap_candidates_[k].vertex;
-      double              p[3], u[3] = {0.0, 0.0, 0.0};
-      if (q_norm > 0.0)
-        vertex_displacement(v, u);
-      for (int d = 0; d < 3; ++d)
-        p[d] = basis.vertices[3 * std::size_t(v) + d] + u[d];
-      const double d2 = (x[0] - p[0]) * (x[0] - p[0]) + (x[1] - p[1]) * (x[1] - p[1]) + (x[2] - p[2]) * (x[2] - p[2]);
-      if (d2 < best || (d2 == best && v < vertex))
-        {
-          best   = d2;
-          vertex = v;
-          std::copy_n(p, 3, best_position);
-        }
-    }
-  if (found == 0 || best > def.snap_distance * def.snap_distance)
-    return false;
-  for (int d = 0; d < 3; ++d)
-    gap[d] = x[d] - best_position[d];
-  signed_distance = dot3(gap, &basis.normals[3 * std::size_t(vertex)]);
-  return true;
-}
-
-// u = Phi_v q in the active space.
-void modalrt_kernel::vertex_displacement(std::uint32_t v, double u[3]) const noexcept
-{
-  const ModalSpace   &space = basis.spaces[space_];
-  const std::uint32_t r     = space.mode_count;
-  const std::size_t   first = std::size_t(v) * 3 * r;
-  for (int c = 0; c < 3; ++c)
-    u[c] = basis.float64_modes() ? dot(&space.display_modes_f64[first + c * r], q_.data(), r)
-                                 : dot(&space.display_modes_f32[first + c * r], q_.data(), r);
 }
 
 void modalrt_kernel::felt_displacement(const Contact &c, const double *q, double u[3]) const noexcept
@@ -292,7 +222,7 @@ void modalrt_kernel::refresh_coupling_matrices() noexcept
     {
       double s[9], sv[9];
       if (contacts_[active_[a]].proxy.active)
-        proxy_coupling_block(contacts_[active_[a]], s, sv); // from its triangle's pair blocks
+        proxy_coupling_block(contacts_[active_[a]].proxy, s, sv); // from its triangle's pair blocks
       else
         {
           std::fill_n(s, 9, 0.0), std::fill_n(sv, 9, 0.0);

@@ -12,6 +12,16 @@
 #include <cstdint>
 #include <utility>
 
+// A function the compiler must keep as one out-of-line copy (the same instructions, so the same
+// order of a vectorized reduction's partial sums, wherever it is called).
+#if defined(__GNUC__)
+#define MODALRT_NOINLINE __attribute__((noinline))
+#elif defined(_MSC_VER)
+#define MODALRT_NOINLINE __declspec(noinline)
+#else
+#define MODALRT_NOINLINE
+#endif
+
 namespace modalrt
 {
   template <typename A, typename B>

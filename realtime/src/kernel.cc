@@ -1,9 +1,11 @@
-// The haptic loop: creation, the tick and its admittance and impedance steps, the outputs and the
-// publication of display snapshots. Contacts live in contact.cc, the moving frame in moving_frame.cc;
-// modalrt.h states the rules as the user sees them.
+// The haptic loop: creation, the tick and its admittance and impedance steps, the outputs, the
+// switch of modal space (over space_switch.h) and the publication of display snapshots. Contacts
+// live in contact.cc, the moving frame in moving_frame.h; modalrt.h states the rules as the user
+// sees them.
 #include "kernel.h"
 
 #include "dense.h"
+#include "space_switch.h"
 #include "error.h"
 #include "vector3.h"
 
@@ -148,7 +150,7 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
   for (modalrt::Vector<double> *m : {&compliance_, &coupling_, &coupling_velocity_, &system_})
     m->assign(9 * std::size_t(H) * H, 0.0);
   rhs_.assign(3 * std::size_t(H), 0.0);
-  snap_candidates_.resize(def.snap_candidate_budget);
+  snap_search_.setup(def.snap_candidate_budget);
   // A sliding contact's row slots and their pair blocks (proxy_state.h): the corners of its
   // triangle and the rows prepared ahead of it.
   proxy_rows_.assign(def.contact_mode == MODALRT_CONTACT_PROXY ? std::size_t(H) * proxy_row_slots * 3 * R : 0, 0.0);
@@ -160,7 +162,11 @@ modalrt_kernel::modalrt_kernel(const modalrt_basis &basis_, const modalrt_kernel
       contacts_[h].proxy.grams = proxy_grams_.data() + std::size_t(h) * proxy_slot_pairs;
     }
   if (def.contact_mode == MODALRT_CONTACT_PROXY)
-    make_stored_rows();
+    stored_proxy_rows_.make(basis, integrators_,
+                            def.proxy_row_memory == MODALRT_PROXY_ROWS_IN_TICKS ? 0
+                            : std::size_t(def.proxy_row_memory == 0 ? proxy_default_row_memory_mib
+                                                                    : def.proxy_row_memory)
+                                << 20);
   observed_positions_.assign(3 * std::size_t(H), 0.0);
   snapshots.allocate(R, H);
   space_              = def.initial_space;
@@ -606,6 +612,58 @@ void modalrt_kernel::add_contact_forces(double *f) const noexcept
 }
 
 // =================================================================================================
+// Switch of modal space (space_switch.h)
+// =================================================================================================
+
+// At a contact start (or when a sliding proxy's nearest vertex enters another region) the active
+// space becomes the one whose VOI holds every active vertex, else the global space.
+void modalrt_kernel::apply_switch_rule() noexcept
+{
+  if (!contact_started_ && !proxy_region_changed_)
+    return;
+  contact_started_      = false;
+  proxy_region_changed_ = false;
+  if (def.switch_rule != MODALRT_SWITCH_AT_CONTACT_START)
+    return;
+  const std::uint32_t desired = space_holding_contacts(basis, contacts_.data(), std::uint32_t(contacts_.size()));
+  if (desired == MODALRT_NONE || desired == space_)
+    return;
+  change_space(desired);
+  for (std::uint32_t &f : flags_)
+    f |= MODALRT_HIP_SPACE_SWITCHED;
+}
+
+// Changes the active space, carrying the state with TRANSFER (or restarting at rest), and records
+// how far the active vertices jumped.
+void modalrt_kernel::change_space(std::uint32_t target) noexcept
+{
+  double before[3 * max_hip_capacity];
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    if (contacts_[h].in_contact)
+      felt_displacement(contacts_[h], q_.data(), before + 3 * h);
+  carry_modal_state(basis, space_, target, def.carry_state_on_switch != 0, q_.data(), v_.data(), q_.size(),
+                    transfer_scratch_.data(), f_.data());
+  ++state_stamp_;
+
+  space_             = target;
+  stats.active_space = target;
+  ++stats.switch_count;
+  for (std::uint32_t h = 0; h < def.hip_capacity; ++h)
+    {
+      Contact &c = contacts_[h];
+      if (!c.in_contact)
+        continue;
+      build_row(c);
+      ramping_[h] = 1; // the force follows the new space at force_rate_limit (no step)
+      double after[3];
+      felt_displacement(c, q_.data(), after);
+      const double jump[3] = {after[0] - before[3 * h], after[1] - before[3 * h + 1], after[2] - before[3 * h + 2]};
+      stats.max_switch_jump = std::max(stats.max_switch_jump, norm3(jump));
+    }
+  contacts_changed_ = true;
+}
+
+// =================================================================================================
 // Calls of the tick thread outside the tick
 // =================================================================================================
 
@@ -639,6 +697,27 @@ int modalrt_kernel::settle(const modalrt_hip_input *inputs, std::uint32_t count)
     }
   ++state_stamp_;
   update_corrections();
+  return MODALRT_OK;
+}
+
+int modalrt_kernel::set_frame(const modalrt_frame_state &state) noexcept
+{
+  if (set_frame_state(frame_, state, def, basis.centre_of_mass()))
+    return MODALRT_OK;
+  ++stats.rejected_frames;
+  stats.last_reject_reasons = MODALRT_REJECT_FRAME;
+  return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_set_frame: the frame is not finite, its quaternion is not "
+                                     "near unit length, or it is beyond workspace_radius, max_input_velocity or "
+                                     "max_frame_acceleration: refused, the old frame kept");
+}
+
+int modalrt_kernel::switch_space(std::uint32_t space) noexcept
+{
+  if (space >= basis.space_count())
+    return failed(MODALRT_ERROR_INVALID_ARGUMENT, "modalrt_kernel_switch_space: space out of range");
+  if (space != space_)
+    change_space(space);
+  refresh_contact_set();
   return MODALRT_OK;
 }
 

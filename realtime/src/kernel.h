@@ -7,8 +7,12 @@
 #include "fail_safe_plane.h"
 #include "haptic_mapping.h"
 #include "modal_integrator.h"
+#include "moving_frame.h"
 #include "passivity_controller.h"
+#include "proxy_rows.h"
+#include "contact_state.h"
 #include "proxy_state.h"
+#include "snap_search.h"
 #include "snapshot.h"
 
 #include <modalrt/modalrt.h>
@@ -19,59 +23,6 @@
 namespace modalrt
 {
   constexpr std::uint32_t max_hip_capacity = 16;
-
-  // Pose and motion of the body frame, as the tick uses it.
-  struct Frame
-  {
-    double position[3]    = {0.0, 0.0, 0.0};
-    double orientation[4] = {1.0, 0.0, 0.0, 0.0};
-    double rotation[9]    = {1, 0, 0, 0, 1, 0, 0, 0, 1}; // row-major, body to world
-    double linear_velocity[3]  = {0.0, 0.0, 0.0};
-    double angular_velocity[3] = {0.0, 0.0, 0.0};
-    double body_acceleration[6] = {0, 0, 0, 0, 0, 0}; // centre-of-mass acceleration and angular
-                                                       // acceleration in body coordinates: the
-                                                       // column vector that PARTICIPATION multiplies
-    bool moving = false; // any non-zero velocity or acceleration
-  };
-
-  // A HIP's input in body coordinates.
-  struct BodyInput
-  {
-    double x[3], v[3], force[3];
-  };
-
-  // One HIP's contact. B (3 x r, row-major, in the kernel's row buffer) maps the modal state to the
-  // felt displacement u_c of the active vertex: the candidate's B_v, or sum_j w_j Phi_j over the patch.
-  struct Contact
-  {
-    bool          in_contact = false;
-    bool          armed      = true; // may snap (re-armed after having left the surface)
-    std::uint32_t vertex     = MODALRT_NONE;
-    int           candidate  = -1; // index among the active space's candidates, -1 if none
-    double        rest[3]    = {0.0, 0.0, 0.0};
-    double        normal[3]  = {0.0, 0.0, 0.0};
-    double        force[3]   = {0.0, 0.0, 0.0}; // on the part during the last tick [N] body
-    double        correction[3] = {0.0, 0.0, 0.0}; // sum_b C_ab F_b of the last tick [m] body
-    double        anchor[3]  = {0.0, 0.0, 0.0}; // tangential offset of the HIP from the vertex at
-                                                 // contact start [m] body: the coupling and the
-                                                 // admittance output are anchored there, so a
-                                                 // contact starts without a lateral jerk
-    double        stiffness[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; // [N/m] body, row-major: the coupling spring
-                                                              // (hand_rendering.cc, set_contact_stiffness)
-    double       *B          = nullptr;
-    ProxyState    proxy; // a sliding contact's proxy (proxy_contact.cc)
-    // The validity map where the contact is (MODALRT_HIP_BEYOND_VALIDITY, validity_clamp).
-    double validity_force     = 0.0;  // [N] at def.validity_level, this tick's (0: no value here)
-    double validity_limit     = -1.0; // [N] validity_clamp's limit, following validity_force at most
-                                      // force_rate_limit per tick (-1: not set since the contact began)
-    double validity_unclamped = -1.0; // [N] |F| before validity_clamp this tick (-1: the clamp did not act)
-  };
-
-  struct SnapCandidate
-  {
-    std::uint32_t vertex;
-    double        rest_distance_squared;
-  };
 } // namespace modalrt
 
 struct modalrt_kernel : modalrt::HookAllocated
@@ -109,12 +60,13 @@ private:
                           bool impedance) noexcept;
   int  tick_missing_in_part_units(std::uint32_t count, modalrt_hip_output *outputs) noexcept;
   void render_at_hand(const modalrt_hip_input *inputs, std::uint32_t count, modalrt_hip_output *outputs) noexcept;
-  void limit_to_stable_stiffness(std::uint32_t hip, modalrt_hip_output &out) noexcept;
-  void set_contact_stiffness(Contact &contact) const noexcept;
 
   // Tick phases, in order.
   std::uint32_t validate(const modalrt_hip_input *inputs, std::uint32_t count, bool impedance) const noexcept;
-  void          to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept;
+  void to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept
+  {
+    modalrt::to_body(frame_, inputs, count, body_inputs_.data());
+  }
   void          apply_release_rules(std::uint32_t count, bool impedance) noexcept;
   bool          detect_contacts(std::uint32_t count) noexcept;
   void          apply_switch_rule() noexcept;
@@ -143,8 +95,6 @@ private:
   void begin_contact(std::uint32_t hip, std::uint32_t vertex, const double *offset) noexcept;
   void end_contact(std::uint32_t hip) noexcept;
   void build_row(Contact &contact) noexcept;
-  bool find_snap_vertex(const double x[3], std::uint32_t &vertex, double gap[3], double &signed_distance) noexcept;
-  void vertex_displacement(std::uint32_t vertex, double u[3]) const noexcept;
   void felt_displacement(const Contact &contact, const double *q, double u[3]) const noexcept;
   void refresh_contact_set() noexcept;
   void refresh_coupling_matrices() noexcept;
@@ -155,23 +105,13 @@ private:
   void  slide_proxies(std::uint32_t count) noexcept;
   void  slide_proxy(Contact &contact, const modalrt::BodyInput &in, const double others_u[3],
                     const double others_v[3]) noexcept;
-  void  face_normal(const Contact &contact, double n[3]) const noexcept; // of the proxy's triangle, outward
   void  hold_in_friction_cone(Contact &contact, double F[3]) noexcept;
-  bool  walk_proxy(Contact &contact, const double step[3]) noexcept;
-  bool  creased(Contact &contact, int corner, const double step[3]) noexcept;
   void  proxy_point(const Contact &contact, double point[3], double normal[3]) const noexcept;
-  int   acquire_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *keep) noexcept;
-  std::uint32_t add_row_entries(modalrt::ProxyRow &row, std::uint32_t budget) const noexcept;
-  std::uint8_t  corner_row(Contact &contact, std::uint32_t vertex, const std::uint32_t *corners) noexcept;
-  void  make_lookahead(Contact &contact) noexcept;
-  std::uint32_t add_gram_modes(modalrt::ProxyState &proxy, std::uint32_t i, std::uint32_t j,
-                               std::uint32_t budget) const noexcept;
-  void  pack_triangle(Contact &contact) noexcept;
-  void  make_stored_rows();
-  const double *stored_row(std::uint32_t space, std::uint32_t vertex) const noexcept;
-  std::ptrdiff_t stored_pair(const modalrt::ProxyRow &a, const modalrt::ProxyRow &b) const noexcept;
-  void  prepare_proxy(Contact &contact) noexcept;
-  void  proxy_coupling_block(const Contact &contact, double S[9], double Sv[9]) const noexcept;
+  // What the proxy's rows (proxy_rows.h) and walk (proxy_walk.h) read of the kernel.
+  modalrt::ProxyRowView row_view() const noexcept
+  {
+    return {basis, space_, q_.data(), state_stamp_, integrators_[space_], stored_proxy_rows_};
+  }
   void  compose_proxy(Contact &contact, bool reload) noexcept;
   void  proxy_pair_compliance(const Contact &a, const Contact &b, double C[9]) const noexcept;
   void  write_proxy_output(const Contact &contact, modalrt_hip_output &out) const noexcept;
@@ -180,7 +120,7 @@ private:
   int   load_vertex_row(std::uint32_t vertex, double *B) const noexcept;
 
   // Modal state.
-  void frame_modal_force(double *f) const noexcept;
+  void frame_modal_force(double *f) const noexcept { modalrt::frame_modal_force(frame_, basis.spaces[space_], f); }
   void add_contact_forces(double *f) const noexcept;
   void change_space(std::uint32_t space) noexcept;
   bool solve_coupling(std::uint32_t n) noexcept;
@@ -207,11 +147,10 @@ private:
   modalrt::Vector<double>            coupling_;      // (3 hip_capacity)^2: B_a G B_b^T + C_ab
   modalrt::Vector<double>            coupling_velocity_; // (3 hip_capacity)^2: B_a H B_b^T
   modalrt::Vector<double>            system_, rhs_;  // the coupling solve
-  modalrt::Vector<modalrt::SnapCandidate> snap_candidates_; // snap_candidate_budget
+  modalrt::SnapSearch                snap_search_;
   modalrt::Vector<double>            proxy_rows_;    // hip_capacity x proxy_row_slots x 3 x max_modes
   modalrt::Vector<modalrt::ProxyGram> proxy_grams_;  // hip_capacity x proxy_slot_pairs
-  modalrt::Vector<modalrt::StoredRows>  stored_rows_;  // per space (sliding contacts only)
-  modalrt::Vector<modalrt::StoredGrams> stored_grams_; // per space (sliding contacts only)
+  modalrt::StoredProxyRows           stored_proxy_rows_; // sliding contacts only
   modalrt::Vector<double>            observed_positions_; // 3 hip_capacity: the HIPs at the last observed tick [m] world
   std::uint32_t                  observed_count_ = 0; // HIPs observed at the last tick (0: not primed)
   bool                           proxy_region_changed_ = false; // a proxy's nearest vertex changed region

@@ -1,8 +1,6 @@
-// The moving frame: the part's body frame carried in the world. Inputs come in world coordinates and
-// are taken into the body frame; the frame's acceleration drives the modes through PARTICIPATION.
-#include "kernel.h"
+// The moving frame (moving_frame.h).
+#include "moving_frame.h"
 
-#include "error.h"
 #include "vector3.h"
 
 #include <algorithm>
@@ -10,12 +8,11 @@
 
 using namespace modalrt;
 
-void modalrt_kernel::to_body(const modalrt_hip_input *inputs, std::uint32_t count) noexcept
+void modalrt::to_body(const Frame &fr, const modalrt_hip_input *inputs, std::uint32_t count, BodyInput *body) noexcept
 {
-  const Frame &fr = frame_;
   for (std::uint32_t h = 0; h < count; ++h)
     {
-      BodyInput &b = body_inputs_[h];
+      BodyInput &b = body[h];
       double     r[3], w_cross_r[3], relative_velocity[3];
       for (int d = 0; d < 3; ++d)
         r[d] = inputs[h].position[d] - fr.position[d];
@@ -29,23 +26,23 @@ void modalrt_kernel::to_body(const modalrt_hip_input *inputs, std::uint32_t coun
     }
 }
 
-// f = -Gamma a: the frame's acceleration seen by the modes (d'Alembert load M R a projected).
-void modalrt_kernel::frame_modal_force(double *f) const noexcept
+// The d'Alembert load M R a projected on the modes.
+void modalrt::frame_modal_force(const Frame &frame, const ModalSpace &space, double *f) noexcept
 {
-  const ModalSpace   &space = basis.spaces[space_];
-  const std::uint32_t r     = space.mode_count;
-  if (space.participation.empty() || !frame_.moving)
+  const std::uint32_t r = space.mode_count;
+  if (space.participation.empty() || !frame.moving)
     {
       std::fill_n(f, r, 0.0);
       return;
     }
-  const double *a = frame_.body_acceleration, *G = space.participation.data();
+  const double *a = frame.body_acceleration, *G = space.participation.data();
   for (std::uint32_t i = 0; i < r; ++i)
     f[i] = -(G[6 * i] * a[0] + G[6 * i + 1] * a[1] + G[6 * i + 2] * a[2] + G[6 * i + 3] * a[3] +
              G[6 * i + 4] * a[4] + G[6 * i + 5] * a[5]);
 }
 
-int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
+bool modalrt::set_frame_state(Frame &fr, const modalrt_frame_state &s, const modalrt_kernel_def &def,
+                              const double centre_of_mass[3]) noexcept
 {
   const double qn = std::sqrt(s.orientation[0] * s.orientation[0] + s.orientation[1] * s.orientation[1] +
                               s.orientation[2] * s.orientation[2] + s.orientation[3] * s.orientation[3]);
@@ -54,14 +51,7 @@ int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
   if (!finite || qn < 0.5 || qn > 2.0 || norm3(s.position) > def.workspace_radius ||
       norm3(s.linear_velocity) > def.max_input_velocity || norm3(s.linear_acceleration) > def.max_frame_acceleration ||
       norm3(s.angular_acceleration) > def.max_frame_acceleration)
-    {
-      ++stats.rejected_frames;
-      stats.last_reject_reasons = MODALRT_REJECT_FRAME;
-      return failed(MODALRT_ERROR_VALUE, "modalrt_kernel_set_frame: the frame is not finite, its quaternion is not "
-                                         "near unit length, or it is beyond workspace_radius, max_input_velocity or "
-                                         "max_frame_acceleration: refused, the old frame kept");
-    }
-  Frame &fr = frame_;
+    return false;
   for (int k = 0; k < 4; ++k)
     fr.orientation[k] = s.orientation[k] / qn;
   rotation_from_quaternion(fr.orientation, fr.rotation);
@@ -71,7 +61,7 @@ int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
 
   // Acceleration of the centre of mass: a + alpha x c + omega x (omega x c), c = R c_body.
   double c[3], alpha_c[3], omega_c[3], centripetal[3], a_com[3];
-  rotate(fr.rotation, basis.centre_of_mass(), c);
+  rotate(fr.rotation, centre_of_mass, c);
   cross3(s.angular_acceleration, c, alpha_c);
   cross3(s.angular_velocity, c, omega_c);
   cross3(s.angular_velocity, omega_c, centripetal);
@@ -82,5 +72,5 @@ int modalrt_kernel::set_frame(const modalrt_frame_state &s) noexcept
   fr.moving = false;
   for (double x : fr.body_acceleration)
     fr.moving = fr.moving || x != 0.0;
-  return MODALRT_OK;
+  return true;
 }

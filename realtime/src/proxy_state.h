@@ -2,8 +2,12 @@
 // (a triangle and barycentric weights) and the contact rows of the vertices around it: the
 // triangle's corners, and the vertices the proxy may enter within two edge crossings, prepared
 // ahead a bounded amount per tick, so that a slide within a triangle costs a blend and a crossing
-// finds the new corner's row ready. The kernel's functions that move it are in proxy_contact.cc.
+// finds the new corner's row ready. Its rows are made in proxy_rows.h, its walk in proxy_walk.h, and
+// the kernel's functions that move it are in proxy_contact.cc.
 #pragma once
+
+#include "allocator.h"
+#include "triangle_geometry.h"
 
 #include <modalrt/modalrt.h>
 
@@ -148,12 +152,6 @@ namespace modalrt
     const double *residual(std::ptrdiff_t e, bool forward) const { return gram(e) + (forward ? 18 : 27); }
   };
 
-  // A triangle's edges e1 = Y1 - Y0, e2 = Y2 - Y0 and their normal equations (the proxy's walk).
-  struct TriangleSystem
-  {
-    double e1[3], e2[3], a11, a12, a22, det, inverse_det;
-  };
-
   // The proxy's triangle as deformed at a modal state (ProxyState::deformed).
   struct DeformedTriangle
   {
@@ -234,8 +232,4 @@ namespace modalrt
   // candidates was coupled exactly (own or stored blocks): the full-FE residual of the loads.
   bool blended_residual(const ModalSpace &space, const LoadCorner *a, int na, const LoadCorner *b, int nb, bool same,
                         double C[9]);
-
-  // Barycentric weights of the point of triangle (a, b, c) closest to x (Ericson, Real-Time
-  // Collision Detection, 5.1.5): >= 0, sum 1; exactly a corner's when x is at that corner.
-  void closest_point_weights(const double x[3], const double a[3], const double b[3], const double c[3], double w[3]);
 } // namespace modalrt
