@@ -1,53 +1,47 @@
 // modal-mesh: a developer tool that meshes the built-in ribbed panel with the two scenarios of
 // parameters/ribbed_panel.prm and prints the statistics.
-//   modal-mesh <output folder> [coarse size [fine size]]      (sizes in mm)
+//   modal-mesh FOLDER [COARSE_MM (6) [FINE_MM (1.5)]]      (sizes in mm; modal-mesh --help)
 #include "scene_mesher.h"
 
-#include <cstdlib>
+#include <mrt/command_line.h>
+
 #include <iostream>
-#include <stdexcept>
 #include <string>
 
 namespace
 {
-  const char *const usage = " <output folder> [coarse size [fine size]]   (sizes in mm; defaults 6 and 1.5)\n"
-                            "Meshes the built-in ribbed panel with the scenarios rib_a and rib_b of "
-                            "parameters/ribbed_panel.prm into the folder and prints the statistics.\n";
-
-  // A size argument [mm]: a positive number, the whole argument, or an error that names it.
-  double size_argument(const char *text, const std::string &name)
+  // What the command line asks for: the folder and the two sizes [mm].
+  struct Arguments
   {
-    char        *end  = nullptr;
-    const double size = std::strtod(text, &end);
-    if (end == text || *end != '\0' || !(size > 0.))
-      throw std::invalid_argument(name + " is '" + text + "': expected a positive number of mm.");
-    return size;
+    std::string folder;
+    double      coarse = 6.0, fine = 1.5; // [mm]
+  };
+
+  mrt::cli::OptionTable option_table(Arguments &a)
+  {
+    mrt::cli::OptionTable t("modal-mesh", "Meshes the built-in ribbed panel with the scenarios rib_a and rib_b of "
+                                          "parameters/ribbed_panel.prm into the folder and prints the statistics.");
+    t.positional("FOLDER", "the output folder", [&a](const std::string &v) { a.folder = v; }).required();
+    t.positional("COARSE_MM", "the coarse mesh size [mm]", {1e-3, 1e4, "mm"}, [&a](double v) { a.coarse = v; })
+      .shown_default("6");
+    t.positional("FINE_MM", "the VOIs' fine mesh size [mm]", {1e-3, 1e4, "mm"}, [&a](double v) { a.fine = v; })
+      .shown_default("1.5");
+    return t;
   }
 } // namespace
 
 int main(int argc, char **argv)
 {
   using namespace modal_haptics::meshing;
-  const std::string first = argc > 1 ? argv[1] : "";
-  if (first == "--help" || first == "-h")
-    {
-      std::cout << "usage: " << argv[0] << usage;
-      return 0;
-    }
-  if (argc < 2 || argc > 4 || first.empty() || first[0] == '-')
-    {
-      if (!first.empty() && first[0] == '-')
-        std::cerr << "modal-mesh: unknown option '" << first << "'\n";
-      std::cerr << "usage: " << argv[0] << usage;
-      return 2;
-    }
+  Arguments arguments;
+  if (const int status = mrt::cli::parse_command_line(option_table(arguments), argc - 1, argv + 1); status >= 0)
+    return status;
   try
     {
       MeshingSettings settings;
-      settings.geometry = "builtin:ribbed_panel";
-      if (argc > 2)
-        settings.coarse_size = size_argument(argv[2], "the coarse size (second argument)");
-      const double fine = argc > 3 ? size_argument(argv[3], "the fine size (third argument)") : 1.5;
+      settings.geometry    = "builtin:ribbed_panel";
+      settings.coarse_size = arguments.coarse;
+      const double fine    = arguments.fine;
 
       VolumeOfInterest rib_a, rib_b;
       rib_a.name      = "rib_a"; // the tallest rib's middle
@@ -62,7 +56,7 @@ int main(int argc, char **argv)
           voi->transition = 15.;
         }
 
-      const SceneMeshes meshes = mesh_scene(settings, {rib_a, rib_b}, argv[1], true);
+      const SceneMeshes meshes = mesh_scene(settings, {rib_a, rib_b}, arguments.folder, true);
       for (const auto &scenario : meshes.scenarios)
         std::cout << scenario.name << ": " << scenario.msh_file << ", " << scenario.statistics.n_nodes << " nodes, "
                   << scenario.statistics.n_tets << " tets, min quality " << scenario.statistics.min_quality << ", "

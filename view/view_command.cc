@@ -6,9 +6,9 @@
 #include "mouse_device.h"
 #include "run_view.h"
 
-#include <cmath>
+#include <mrt/command_line.h>
+
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 
 namespace modalrt_view
@@ -29,140 +29,75 @@ namespace modalrt_view
       bool          validity_clamp   = false; // --validity-clamp (impedance: --contact proxy)
       bool          noise            = false; // --noise given (an option of --compare)
       std::string   profile;                  // --device NAME: the device profile whose spec and scale the kernel renders
-      bool          help       = false;
     };
 
-    struct UsageError
-    {
-      std::string message;
-    };
+    using mrt::cli::UsageError;
 
-    double number(const std::string &option, const char *text, double low, double high)
+    const char *const summary = "The run loop played by the browser's mouse (admittance, or a sliding proxy "
+                                "contact), with the live view of the deforming part (view/README.md).";
+
+    const char *const notes =
+      "Prints the page's address with this run's secret token, http://ADDRESS:PORT/?token=HEX: open\n"
+      "that address. /ws and /api/* refuse a request without the token (401) or from another origin\n"
+      "or Host (403), on loopback and on --address alike; there is no way to turn the token off.\n"
+      "A client that is no browser passes it as ?token=HEX or the header X-Modal-RT-Token: HEX\n"
+      "(view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n"
+      "--device PROFILE: the kernel renders that device's spec and haptic scale (realtime/README.md,\n"
+      "\"What the hand feels\"): an impedance profile needs --contact proxy (the mouse drags a\n"
+      "sliding contact, impedance), the admittance profile the default snap contact.\n";
+
+    void add_server_options(mrt::cli::OptionTable &t, Options &o)
     {
-      char        *end   = nullptr;
-      const double value = std::strtod(text, &end);
-      if (end == text || *end != '\0' || !std::isfinite(value) || value < low || value > high)
-        {
-          char range[96];
-          std::snprintf(range, sizeof range, "' is not a number in [%g, %g]", low, high);
-          throw UsageError{option + ": '" + text + range};
-        }
-      return value;
+      t.text("--basis", "FILE.mrt", "the basis file (.mrt)", [&o](const std::string &v) { o.basis = v; }).required();
+      t.number("--port", "P", "the page's TCP port; 0: any free port", {0, 65535, "", true},
+               [&o](double v) { o.server.port = unsigned(v); })
+        .shown_default("8080");
+      t.text("--address", "A", "the address the page is served on", [&o](const std::string &v) { o.server.address = v; })
+        .shown_default("127.0.0.1");
+      t.number("--frame-rate", "HZ", "frames pushed to each browser per second [Hz]", {1, 240, "Hz"},
+               [&o](double v) { o.frame_rate = v; })
+        .shown_default("60");
+      t.number("--duration", "S", "how long to run [s]; 0: until Ctrl-C", {0, 1e7, "s"},
+               [&o](double v) { o.duration = v; })
+        .shown_default("0");
+      t.text("--compare", "B.mrt", "the Stiffness tab also shows where design B's felt stiffness differs, in %",
+             [&o](const std::string &v) { o.server.compare_basis = v; });
+      t.number("--noise", "PCT", "--compare's noise floor [%]: a smaller relative difference is none", {0, 1e6, "%"},
+               [&o](double v) {
+                 o.server.noise_percent = v;
+                 o.noise                = true;
+               })
+        .shown_default("1");
     }
 
-    Options parse(int argc, char **argv)
+    mrt::cli::OptionTable option_table(Options &o)
     {
-      Options o;
-      for (int i = 0; i < argc; ++i)
-        {
-          const std::string option = argv[i];
-          if (option == "--help")
-            {
-              o.help = true;
-              return o;
-            }
-          if (option == "--validity-clamp")
-            {
-              o.validity_clamp = true;
-              continue;
-            }
-          if (option != "--basis" && option != "--port" && option != "--address" && option != "--rate" &&
-              option != "--frame-rate" && option != "--duration" && option != "--contact" && option != "--friction" &&
-              option != "--validity-level" && option != "--compare" && option != "--noise" && option != "--device")
-            throw UsageError{"unknown option '" + option + "'"};
-          if (i + 1 >= argc)
-            throw UsageError{option + " needs a value"};
-          const char *value = argv[++i];
-          if (option == "--device")
-            {
-              modalrt_device_def spec;
-              if (modalrt_device_profile_find(value, &spec) != MODALRT_OK)
-                throw UsageError{"--device '" + std::string(value) + "' is not a device profile (" +
-                                 "touch, omni, desktop, falcon, omega.x, sigma.7, lambda.7, admittance)"};
-              o.profile = value;
-            }
-          else if (option == "--basis")
-            o.basis = value;
-          else if (option == "--port")
-            o.server.port = unsigned(number(option, value, 0, 65535));
-          else if (option == "--address")
-            o.server.address = value;
-          else if (option == "--compare")
-            o.server.compare_basis = value;
-          else if (option == "--noise")
-            {
-              o.server.noise_percent = number(option, value, 0, 1e6);
-              o.noise                = true;
-            }
-          else if (option == "--rate")
-            o.rate = number(option, value, 100, 20000);
-          else if (option == "--frame-rate")
-            o.frame_rate = number(option, value, 1, 240);
-          else if (option == "--contact")
-            {
-              if (std::string(value) != "snap" && std::string(value) != "proxy")
-                throw UsageError{option + " '" + value + "' is not snap or proxy"};
-              o.proxy = std::string(value) == "proxy";
-            }
-          else if (option == "--validity-level")
-            {
-              const std::string text = value;
-              if (text != "1" && text != "5" && text != "10")
-                throw UsageError{option + " '" + text + "' is not 1, 5 or 10 (percent)"};
-              o.validity_level = std::uint32_t(std::stoul(text));
-            }
-          else if (option == "--friction")
-            {
-              std::string error;
-              if (!modalrt_tool::parse_friction(value, o.static_friction, o.dynamic_friction, error))
-                throw UsageError{option + " " + error};
-            }
-          else
-            o.duration = number(option, value, 0, 1e7);
-        }
-      if (o.basis.empty())
-        throw UsageError{"--basis FILE is required"};
-      if (o.noise && o.server.compare_basis.empty())
-        throw UsageError{"--noise is an option of --compare B.mrt"};
-      return o;
+      mrt::cli::OptionTable t("modal-rt view", summary);
+      add_server_options(t, o);
+      modalrt_tool::add_rate_option(t, o.rate);
+      modalrt_tool::add_contact_options(t, o.proxy, o.static_friction, o.dynamic_friction);
+      modalrt_tool::add_validity_options(t, o.validity_level, o.validity_clamp);
+      t.text("--device", "PROFILE", "the device profile whose spec and haptic scale the kernel renders",
+             [&o](const std::string &v) {
+               modalrt_device_def spec;
+               if (modalrt_device_profile_find(v.c_str(), &spec) != MODALRT_OK)
+                 throw UsageError("--device '" + v + "' is not a device profile (touch, omni, desktop, falcon, "
+                                  "omega.x, sigma.7, lambda.7, admittance)");
+               o.profile = v;
+             });
+      t.notes(notes);
+      return t;
     }
   } // namespace
 
-  std::string view_usage()
-  {
-    return "       modal-rt view --basis FILE [--port P (8080; 0: any)] [--address A (127.0.0.1)] [--rate HZ (1000)]\n"
-           "                     [--frame-rate HZ (60)] [--duration S (0: until Ctrl-C)] [--contact snap|proxy (snap)]\n"
-           "                     [--friction MU_S,MU_D (0.3,0.2)] [--validity-level 1|5|10 (5)] [--validity-clamp]\n"
-           "                     [--compare B.mrt [--noise PCT (1)]] [--device PROFILE] [--help]\n"
-           "         Prints the page's address with this run's secret token, http://ADDRESS:PORT/?token=HEX: open\n"
-           "         that address. /ws and /api/* refuse a request without the token (401) or from another origin\n"
-           "         or Host (403), on loopback and on --address alike; there is no way to turn the token off.\n"
-           "         A client that is no browser passes it as ?token=HEX or the header X-Modal-RT-Token: HEX\n"
-           "         (view/README.md, \"Access\"). The --view P of run and serve prints and checks the same.\n"
-           "         --compare B.mrt: the Stiffness tab also shows where design B's felt-stiffness map differs\n"
-           "         from this basis's, in % (modal-rt info --compare's numbers).\n"
-           "         --device PROFILE: the kernel renders that device's spec and haptic scale (realtime/README.md,\n"
-           "         \"What the hand feels\"): an impedance profile needs --contact proxy (the mouse drags a\n"
-           "         sliding contact, impedance), the admittance profile the default snap contact.\n";
-  }
-
   int view_command(int argc, char **argv)
   {
-    Options options;
-    try
-      {
-        options = parse(argc, argv);
-      }
-    catch (const UsageError &e)
-      {
-        std::fprintf(stderr, "modal-rt view: %s\nusage:\n%s", e.message.c_str(), view_usage().c_str());
-        return 2;
-      }
-    if (options.help)
-      {
-        std::printf("usage:\n%s", view_usage().c_str());
-        return 0;
-      }
+    Options                     options;
+    const mrt::cli::OptionTable table = option_table(options);
+    if (const int status = mrt::cli::parse_command_line(table, argc, argv); status >= 0)
+      return status;
+    if (options.noise && options.server.compare_basis.empty())
+      return mrt::cli::report_usage_error(table, "--noise is an option of --compare B.mrt");
     MouseDevice                 *mouse = nullptr; // made by the loop once the basis is loaded
     modalrt_tool::DeviceSession session;
     session.basis        = options.basis;
@@ -190,7 +125,7 @@ namespace modalrt_view
   modalrt_tool::ToolExtensions view_extensions()
   {
     modalrt_tool::ToolExtensions extensions;
-    extensions.commands.push_back({"view", view_usage(), view_command});
+    extensions.commands.push_back({"view", summary, view_command});
     extensions.watch = start_watch_view;
     return extensions;
   }

@@ -7,8 +7,7 @@
 namespace modalrt_view
 {
   // Exit status: 0 success (or --help), 1 bad basis or server failure, 2 bad command line.
-  int         view_command(int argc, char **argv);
-  std::string view_usage();
+  int view_command(int argc, char **argv);
 
   // The command `view` and the --view P of run and serve.
   modalrt_tool::ToolExtensions view_extensions();

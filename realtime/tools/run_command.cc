@@ -10,6 +10,7 @@
 #include "udp_device.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/command_line.h>
 
 #include <algorithm>
 #include <arpa/inet.h>
@@ -45,7 +46,6 @@ namespace modalrt_tool
       double      ramp          = modalrt_kernel_default_def().fail_safe_ramp; // [s]
       bool        quiet         = false;
       bool        plot          = true;  // force_displacement.png (needs /usr/bin/python3 and matplotlib)
-      bool        help          = false;
       UdpSettings udp;                   // serve only
       bool        proxy         = false; // serve: --contact proxy, an app's session (run: the session's `proxy` row)
       double      static_friction  = modalrt_kernel_default_def().static_friction;  // serve: --friction
@@ -64,215 +64,155 @@ namespace modalrt_tool
       std::uint32_t blind_seed  = 0;
     };
 
-    // A bad command line: one message naming the option and the value.
-    struct UsageError
-    {
-      std::string message;
-    };
-
-    double number_option(const std::string &option, const char *text, double low, double high, const char *unit)
-    {
-      char        *end   = nullptr;
-      const double value = std::strtod(text, &end);
-      if (end == text || *end != '\0' || !std::isfinite(value))
-        throw UsageError{option + ": '" + text + "' is not a number"};
-      if (value < low || value > high)
-        {
-          char range[128];
-          std::snprintf(range, sizeof range, " is out of range [%g, %g] %s", low, high, unit);
-          throw UsageError{option + " " + text + range};
-        }
-      return value;
-    }
-
-    std::uint32_t integer_option(const std::string &option, const char *text, double low, double high)
-    {
-      const double value = number_option(option, text, low, high, "");
-      if (value != std::floor(value))
-        throw UsageError{option + ": '" + text + "' is not an integer"};
-      return std::uint32_t(value);
-    }
+    using mrt::cli::OptionTable;
+    using mrt::cli::UsageError;
 
     // A value that is one of two words: true for the first; otherwise a usage error naming both.
-    bool first_of_two(const std::string &option, const char *value, const char *first, const char *second)
+    bool first_of_two(const std::string &option, const std::string &value, const char *first, const char *second)
     {
-      const std::string text = value;
-      if (text != first && text != second)
-        throw UsageError{option + " '" + text + "' is not " + first + " or " + second};
-      return text == first;
+      if (value != first && value != second)
+        throw UsageError(option + " '" + value + "' is not " + first + " or " + second);
+      return value == first;
     }
 
-    // Every option of `run` and `serve` in one table: its name, the commands that take it, its value
-    // (null for a flag), its default as the usage prints it, and what it sets. A new option is one
-    // row here.
-    enum : unsigned
+    void add_file_options(OptionTable &t, RunOptions &o)
     {
-      for_run   = 1u,
-      for_serve = 2u,
-      for_both  = 3u
-    };
-    struct OptionSpec
-    {
-      const char *name;
-      unsigned    commands;
-      const char *value;        // "HZ", "FILE.mrt", ...; nullptr: a flag without a value
-      const char *shown_default; // nullptr: none printed; "!": required
-      void (*apply)(RunOptions &o, const std::string &option, const char *value);
-    };
+      t.text("--basis", "FILE.mrt", "the basis file (.mrt)", [&o](const std::string &v) { o.basis = v; }).required();
+      if (!o.serve)
+        t.text("--session", "SESSION.csv", "the scripted session: targets, forces, designs (realtime/README.md)",
+               [&o](const std::string &v) { o.session = v; })
+          .required();
+      t.text("--output-dir", "DIR", "where trace.csv, presses.csv, slides.csv, frames/, stats.json and the plots go",
+             [&o](const std::string &v) { o.output_dir = v; })
+        .required();
+    }
 
-    const OptionSpec option_table[] = {
-      {"--basis", for_both, "FILE.mrt", "!", [](RunOptions &o, const std::string &, const char *v) { o.basis = v; }},
-      {"--session", for_run, "SESSION.csv", "!",
-       [](RunOptions &o, const std::string &, const char *v) { o.session = v; }},
-      {"--output-dir", for_both, "DIR", "!", [](RunOptions &o, const std::string &, const char *v) { o.output_dir = v; }},
-      {"--bind", for_serve, "ADDRESS", "127.0.0.1",
-       [](RunOptions &o, const std::string &n, const char *v) {
+    // serve's UDP device (udp_device.h) and its contacts; run's come from the session's `proxy` row.
+    void add_serve_options(OptionTable &t, RunOptions &o)
+    {
+      t.text("--bind", "ADDRESS", "the IPv4 address the UDP socket binds", [&o](const std::string &v) {
          in_addr address{};
-         if (inet_pton(AF_INET, v, &address) != 1)
-           throw UsageError{n + ": '" + v + "' is not an IPv4 address"};
+         if (inet_pton(AF_INET, v.c_str(), &address) != 1)
+           throw UsageError("--bind '" + v + "' is not an IPv4 address");
          o.udp.bind_address = v;
-       }},
-      {"--port", for_serve, "N", "47000",
-       [](RunOptions &o, const std::string &n, const char *v) { o.udp.port = std::uint16_t(integer_option(n, v, 1, 65535)); }},
-      {"--hips", for_serve, "N", "1",
-       [](RunOptions &o, const std::string &n, const char *v) { o.udp.hips = integer_option(n, v, 1, udp::max_hips); }},
-      {"--peer-timeout", for_serve, "S", "1",
-       [](RunOptions &o, const std::string &n, const char *v) { o.udp.peer_timeout = number_option(n, v, 1e-3, 3600, "s"); }},
-      {"--token", for_serve, "HEX", nullptr, // the device's secret (realtime/README.md); default: 128 random bits
-       [](RunOptions &o, const std::string &n, const char *v) {
-         if (!udp::parse_token(v, o.udp.token))
-           throw UsageError{n + " is not " + std::to_string(2 * udp::token_size) + " hexadecimal digits"};
-         o.udp.token_given = true;
-       }},
-      {"--token-file", for_serve, "PATH", "$XDG_RUNTIME_DIR/modal-rt/serve-PORT.token",
-       [](RunOptions &o, const std::string &, const char *v) { o.udp.token_file = v; }},
-      {"--contact", for_serve, "snap|proxy", "snap", // run: the session's `proxy` row
-       [](RunOptions &o, const std::string &n, const char *v) { o.proxy = !first_of_two(n, v, "snap", "proxy"); }},
-      {"--friction", for_serve, "MU_S,MU_D", "0.3,0.2",
-       [](RunOptions &o, const std::string &n, const char *v) {
-         std::string error;
-         if (!parse_friction(v, o.static_friction, o.dynamic_friction, error))
-           throw UsageError{n + " " + error};
-       }},
-      {"--rate", for_both, "HZ", "1000",
-       [](RunOptions &o, const std::string &n, const char *v) { o.rate = number_option(n, v, min_rate, max_rate, "Hz"); }},
-      {"--duration", for_both, "S", nullptr,
-       [](RunOptions &o, const std::string &n, const char *v) { o.duration = number_option(n, v, 1e-3, 1e6, "s"); }},
-      {"--mode", for_both, "impedance|admittance", "impedance",
-       [](RunOptions &o, const std::string &n, const char *v) { o.impedance = first_of_two(n, v, "impedance", "admittance"); }},
-      {"--device", for_run, "hand|probe|PROFILE", "hand", // PROFILE: the simulated hand on that device
-       [](RunOptions &o, const std::string &n, const char *v) {
-         modalrt_device_def spec;
-         if (modalrt_device_profile_find(v, &spec) == MODALRT_OK)
-           {
-             o.device  = DeviceKind::hand;
-             o.profile = v;
-             return;
-           }
-         o.device = first_of_two(n, v, "hand", "probe") ? DeviceKind::hand : DeviceKind::probe;
-       }},
-      {"--profile", for_both, "touch|omni|desktop|falcon|omega.x|sigma.7|lambda.7|admittance", nullptr,
-       [](RunOptions &o, const std::string &, const char *v) { o.profile = v; }},
-      {"--haptic-scale", for_both, "S", nullptr,
-       [](RunOptions &o, const std::string &n, const char *v) { o.haptic_scale = number_option(n, v, 1e-9, 1e3, ""); }},
-      {"--hold", for_both, "S", "0.5",
-       [](RunOptions &o, const std::string &n, const char *v) { o.hold = number_option(n, v, 0.0, 10.0, "s"); }},
-      {"--ramp", for_both, "S", "0.05",
-       [](RunOptions &o, const std::string &n, const char *v) { o.ramp = number_option(n, v, 1e-6, 10.0, "s"); }},
-      {"--frame-rate", for_both, "HZ", "run 10, serve 0",
-       [](RunOptions &o, const std::string &n, const char *v) { o.frame_rate = number_option(n, v, 0.0, display_rate, "Hz"); }},
-      {"--trace-rate", for_both, "HZ", "100",
-       [](RunOptions &o, const std::string &n, const char *v) { o.trace_rate = number_option(n, v, 1e-3, max_rate, "Hz"); }},
-      {"--snap-distance", for_both, "M", nullptr,
-       [](RunOptions &o, const std::string &n, const char *v) { o.snap_distance = number_option(n, v, 1e-6, 1.0, "m"); }},
-      {"--spin-us", for_both, "US", "100",
-       [](RunOptions &o, const std::string &n, const char *v) { o.spin_us = number_option(n, v, 0.0, 1e6, "us"); }},
-      {"--validity-level", for_both, "1|5|10", "5", // the validity map's departure level (modalrt_kernel_def)
-       [](RunOptions &o, const std::string &n, const char *v) {
-         const std::string text = v;
-         if (text != "1" && text != "5" && text != "10")
-           throw UsageError{n + " '" + text + "' is not 1, 5 or 10 (percent)"};
-         o.validity_level = std::uint32_t(std::stoul(text));
-       }},
-      {"--design-b", for_both, "FILE.mrt", nullptr, // a second design: the session's `design` rows, serve's flag
-       [](RunOptions &o, const std::string &, const char *v) { o.design_b = v; }},
-      {"--fade", for_both, "S", "0.25",
-       [](RunOptions &o, const std::string &n, const char *v) { o.fade = number_option(n, v, 1e-3, 10.0, "s"); }},
-      {"--blind", for_run, "SEED", nullptr, // the trials' order drawn from SEED; blind.csv logs the answers
-       [](RunOptions &o, const std::string &n, const char *v) {
-         o.blind      = true;
-         o.blind_seed = integer_option(n, v, 0, 4294967295.0);
-       }},
-      {"--validity-clamp", for_both, nullptr, nullptr,
-       [](RunOptions &o, const std::string &, const char *) { o.validity_clamp = true; }},
-      {"--view", for_both, "PORT", nullptr, // the browser view on loopback port PORT (0: any free port), view/README.md
-       [](RunOptions &o, const std::string &n, const char *v) { o.view_port = int(integer_option(n, v, 0, 65535)); }},
-      {"--no-plot", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.plot = false; }},
-      {"--quiet", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.quiet = true; }},
-      {"--help", for_both, nullptr, nullptr, [](RunOptions &o, const std::string &, const char *) { o.help = true; }},
-    };
-
-    std::string usage_text(bool serve)
-    {
-      const unsigned command = serve ? for_serve : for_run;
-      std::string    text    = serve ? "modal-rt serve" : "modal-rt run", line = text;
-      for (const OptionSpec &spec : option_table)
-        {
-          if (!(spec.commands & command))
-            continue;
-          std::string item = spec.name;
-          if (spec.value)
-            item += std::string(" ") + spec.value;
-          const bool required = spec.shown_default && std::string(spec.shown_default) == "!";
-          if (spec.shown_default && !required)
-            item += std::string(" (") + spec.shown_default + ")";
-          if (!required)
-            item = "[" + item + "]";
-          if (line.size() + 1 + item.size() > 100)
-            {
-              text += "\n";
-              line = std::string(20, ' ');
-              text += line;
-            }
-          text += " " + item;
-          line += " " + item;
-        }
-      return "       " + text + "\n";
+       }).shown_default("127.0.0.1");
+      t.number("--port", "N", "the UDP port the device sends to", {1, 65535, "", true},
+               [&o](double v) { o.udp.port = std::uint16_t(v); })
+        .shown_default("47000");
+      t.number("--hips", "N", "how many HIPs the device moves", {1, double(udp::max_hips), "", true},
+               [&o](double v) { o.udp.hips = std::uint32_t(v); })
+        .shown_default("1");
+      t.number("--peer-timeout", "S", "silence after which the device counts as gone [s]", {1e-3, 3600, "s"},
+               [&o](double v) { o.udp.peer_timeout = v; })
+        .shown_default("1");
+      t.text("--token", "HEX",
+             "the device's secret, " + std::to_string(2 * udp::token_size) + " hexadecimal digits (default: random)",
+             [&o](const std::string &v) {
+               if (!udp::parse_token(v.c_str(), o.udp.token))
+                 throw UsageError("--token is not " + std::to_string(2 * udp::token_size) + " hexadecimal digits");
+               o.udp.token_given = true;
+             });
+      t.text("--token-file", "PATH", "where the token is written for the device to read",
+             [&o](const std::string &v) { o.udp.token_file = v; })
+        .shown_default("$XDG_RUNTIME_DIR/modal-rt/serve-PORT.token");
+      add_contact_options(t, o.proxy, o.static_friction, o.dynamic_friction);
     }
 
-    RunOptions parse_options(int argc, char **argv, bool serve)
+    // The device, its rate and the kernel's fail-safe.
+    void add_device_options(OptionTable &t, RunOptions &o)
     {
-      RunOptions o;
-      o.serve      = serve;
-      o.frame_rate = serve ? 0.0 : 10.0; // serve runs for minutes by default: no frames unless asked
-      for (int k = 0; k < argc; ++k)
-        {
-          const std::string option = argv[k];
-          const OptionSpec *spec   = nullptr;
-          for (const OptionSpec &candidate : option_table)
-            if (option == candidate.name && (candidate.commands & (serve ? for_serve : for_run)))
-              spec = &candidate;
-          if (!spec)
-            throw UsageError{option.rfind("--", 0) == 0 ? "unknown option '" + option + "'"
-                                                         : "unexpected argument '" + option + "'"};
-          if (spec->value && k + 1 >= argc)
-            throw UsageError{option + " needs a value"};
-          spec->apply(o, option, spec->value ? argv[++k] : nullptr);
-          if (o.help)
-            return o;
-        }
-      if (o.basis.empty())
-        throw UsageError{"missing --basis"};
-      if (o.session.empty() && !serve)
-        throw UsageError{"missing --session"};
-      if (o.output_dir.empty())
-        throw UsageError{"missing --output-dir"};
+      add_rate_option(t, o.rate);
+      t.number("--duration", "S", o.serve ? "how long to serve [s]" : "how long to run [s] (default: the session's end)",
+               {1e-3, 1e6, "s"}, [&o](double v) { o.duration = v; })
+        .shown_default(o.serve ? "600" : "");
+      t.text("--mode", "impedance|admittance", "what the device sends: a position (impedance) or a force",
+             [&o](const std::string &v) { o.impedance = first_of_two("--mode", v, "impedance", "admittance"); })
+        .shown_default("impedance");
+      if (!o.serve)
+        t.text("--device", "hand|probe|PROFILE", "the simulated device: a hand, a rigid probe, or a hand on a profile",
+               [&o](const std::string &v) {
+                 modalrt_device_def spec;
+                 if (modalrt_device_profile_find(v.c_str(), &spec) == MODALRT_OK)
+                   {
+                     o.device  = DeviceKind::hand;
+                     o.profile = v;
+                     return;
+                   }
+                 o.device = first_of_two("--device", v, "hand", "probe") ? DeviceKind::hand : DeviceKind::probe;
+               })
+          .shown_default("hand");
+      t.text("--profile", "PROFILE",
+             "the device profile the kernel renders: touch, omni, desktop, falcon, omega.x, sigma.7, lambda.7, admittance",
+             [&o](const std::string &v) { o.profile = v; });
+      t.number("--haptic-scale", "S", "the part's stiffness over the hand's (default: from the profile and the scene)",
+               {1e-9, 1e3}, [&o](double v) { o.haptic_scale = v; });
+      t.number("--hold", "S", "fail-safe: how long the last safe force is held without good input [s]", {0.0, 10.0, "s"},
+               [&o](double v) { o.hold = v; })
+        .shown_default("0.5");
+      t.number("--ramp", "S", "fail-safe: then how long the force takes to ramp to zero [s]", {1e-6, 10.0, "s"},
+               [&o](double v) { o.ramp = v; })
+        .shown_default("0.05");
+      t.number("--snap-distance", "M", "how far a HIP finds its vertex [m] (default: the longest display edge)",
+               {1e-6, 1.0, "m"}, [&o](double v) { o.snap_distance = v; });
+      t.number("--spin-us", "US", "busy wait before each tick's deadline [us]", {0.0, 1e6, "us"},
+               [&o](double v) { o.spin_us = v; })
+        .shown_default("100");
+      add_validity_options(t, o.validity_level, o.validity_clamp);
+    }
+
+    // The second design, the files and the view.
+    void add_output_options(OptionTable &t, RunOptions &o)
+    {
+      t.text("--design-b", "FILE.mrt", "a second design felt in turn (the session's `design` rows; serve: the flag)",
+             [&o](const std::string &v) { o.design_b = v; });
+      t.number("--fade", "S", "the crossfade from one design to the other [s]", {1e-3, 10.0, "s"},
+               [&o](double v) { o.fade = v; })
+        .shown_default("0.25");
+      if (!o.serve)
+        t.number("--blind", "SEED", "the trials in an order drawn from SEED; blind.csv logs the answers",
+                 {0, 4294967295.0, "", true}, [&o](double v) {
+                   o.blind      = true;
+                   o.blind_seed = std::uint32_t(v);
+                 });
+      t.number("--frame-rate", "HZ", "frames/*.vtu per second of simulated time [Hz]; 0: none", {0.0, display_rate, "Hz"},
+               [&o](double v) { o.frame_rate = v; })
+        .shown_default(o.serve ? "0" : "10");
+      t.number("--trace-rate", "HZ", "trace.csv rows per second of simulated time [Hz]", {1e-3, max_rate, "Hz"},
+               [&o](double v) { o.trace_rate = v; })
+        .shown_default("100");
+      t.number("--view", "PORT", "the browser view, watch-only, on loopback port PORT (0: any free port)",
+               {0, 65535, "", true}, [&o](double v) { o.view_port = int(v); });
+      t.flag("--no-plot", "no force_displacement.png (it needs python3 and matplotlib)", [&o] { o.plot = false; });
+      t.flag("--quiet", "no summary at the end", [&o] { o.quiet = true; });
+    }
+
+    const char *summary(bool serve)
+    {
+      return serve ? "The run loop for a device that talks UDP: it sends the HIPs' motion, the kernel sends back the "
+                     "forces (realtime/README.md, udp_device.cc)."
+                   : "A scripted session through the kernel in real time: the session's targets and forces, the "
+                     "files of --output-dir (realtime/README.md).";
+    }
+
+    // Every option of `run` (o.serve false) or `serve`, writing into `o`. A new option is one row.
+    OptionTable option_table(RunOptions &o)
+    {
+      OptionTable t(o.serve ? "modal-rt serve" : "modal-rt run", summary(o.serve));
+      add_file_options(t, o);
+      if (o.serve)
+        add_serve_options(t, o);
+      add_device_options(t, o);
+      add_output_options(t, o);
+      return t;
+    }
+
+    // The checks between options, after the table took them.
+    void check_options(const RunOptions &o)
+    {
       if (o.blind && o.design_b.empty())
-        throw UsageError{"--blind needs --design-b (the second design of the trials)"};
+        throw UsageError("--blind needs --design-b (the second design of the trials)");
       if (!o.design_b.empty() && o.view_port >= 0)
-        throw UsageError{"--view shows one design: it cannot be given with --design-b"};
-      o.udp.rate = o.rate;
-      return o;
+        throw UsageError("--view shows one design: it cannot be given with --design-b");
     }
 
     // Longest edge of the display triangles [m]: a HIP anywhere on the surface is that close to a
@@ -324,7 +264,7 @@ namespace modalrt_tool
       def.snap_distance = o.snap_distance > 0.0 ? o.snap_distance : std::max(def.snap_distance, longest_display_edge(basis));
       std::string error;
       if (!o.profile.empty() && !apply_device_profile(o.profile, o.haptic_scale, o.impedance, basis, def, error))
-        throw UsageError{"--device/--profile " + o.profile + ": " + error};
+        throw UsageError("--device/--profile " + o.profile + ": " + error);
       return def;
     }
 
@@ -461,7 +401,7 @@ namespace modalrt_tool
         }
       catch (const UsageError &e)
         {
-          fail(e.message);
+          fail(e.what());
           return false;
         }
     }
@@ -727,29 +667,59 @@ namespace modalrt_tool
     return error.empty();
   }
 
-  std::string run_usage() { return usage_text(false); }
-  std::string serve_usage() { return usage_text(true); }
+  void add_rate_option(mrt::cli::OptionTable &t, double &rate)
+  {
+    t.number("--rate", "HZ", "the haptic loop's rate [Hz]", {min_rate, max_rate, "Hz"}, [&rate](double v) { rate = v; })
+      .shown_default("1000");
+  }
+
+  void add_contact_options(mrt::cli::OptionTable &t, bool &proxy, double &static_friction, double &dynamic_friction)
+  {
+    t.text("--contact", "snap|proxy", "snap: a HIP takes the closest vertex; proxy: a sliding contact with friction",
+           [&proxy](const std::string &v) { proxy = !first_of_two("--contact", v, "snap", "proxy"); })
+      .shown_default("snap");
+    t.text("--friction", "MU_S,MU_D", "the sliding contact's static and dynamic friction coefficients",
+           [&static_friction, &dynamic_friction](const std::string &v) {
+             std::string error;
+             if (!parse_friction(v, static_friction, dynamic_friction, error))
+               throw UsageError("--friction " + error);
+           })
+      .shown_default("0.3,0.2");
+  }
+
+  void add_validity_options(mrt::cli::OptionTable &t, std::uint32_t &level, bool &clamp)
+  {
+    t.text("--validity-level", "1|5|10", "the validity map's level [%] past which a contact is flagged",
+           [&level](const std::string &v) {
+             if (v != "1" && v != "5" && v != "10")
+               throw UsageError("--validity-level '" + v + "' is not 1, 5 or 10 (percent)");
+             level = std::uint32_t(std::stoul(v));
+           })
+      .shown_default("5");
+    t.flag("--validity-clamp", "the rendered force held at the validity force", [&clamp] { clamp = true; });
+  }
+
+  std::string run_summary(bool serve) { return summary(serve); }
 
   int run_command(int argc, char **argv, bool serve, WatchStarter watch)
   {
     RunOptions o;
+    o.serve      = serve;
+    o.frame_rate = serve ? 0.0 : 10.0; // serve runs for minutes by default: no frames unless asked
+    const OptionTable table = option_table(o);
+    if (const int status = mrt::cli::parse_command_line(table, argc, argv); status >= 0)
+      return status;
     try
       {
-        o = parse_options(argc, argv, serve);
+        check_options(o);
       }
     catch (const UsageError &e)
       {
-        std::fprintf(stderr, "modal-rt %s: %s\nusage:\n%s", serve ? "serve" : "run", e.message.c_str(),
-                     usage_text(serve).c_str());
-        return 2;
+        return mrt::cli::report_usage_error(table, e.what());
       }
-    if (o.help)
-      {
-        std::printf("usage:\n%s", usage_text(serve).c_str());
-        return 0;
-      }
-    o.watch   = watch;
-    o.command = serve ? "serve" : "run";
+    o.udp.rate = o.rate;
+    o.watch    = watch;
+    o.command  = serve ? "serve" : "run";
     return execute(o);
   }
 

@@ -7,6 +7,7 @@
 #include "run_loop.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/command_line.h>
 
 #include <functional>
 #include <memory>
@@ -42,11 +43,18 @@ namespace modalrt_tool
   // built without the view). Exit status: 0 done (end of session or Ctrl-C, or --help), 1 bad
   // basis/session file, device or output, 2 bad command line.
   int         run_command(int argc, char **argv, bool serve, WatchStarter watch);
-  std::string run_usage();   // the usage lines, from the option table
+  // The one line of `modal-rt --help` on run (serve false) or serve; COMMAND --help prints the table.
+  std::string run_summary(bool serve);
   // "MU_S,MU_D" of --friction (serve, view): 0 <= MU_D <= MU_S <= 10; false and a message otherwise.
   bool        parse_friction(const std::string &text, double &static_friction, double &dynamic_friction,
                              std::string &error);
-  std::string serve_usage();
+
+  // The options run, serve and an app's command (view) share, each declared once: --rate;
+  // --contact and --friction; --validity-level and --validity-clamp.
+  void add_rate_option(mrt::cli::OptionTable &table, double &rate);
+  void add_contact_options(mrt::cli::OptionTable &table, bool &proxy, double &static_friction,
+                           double &dynamic_friction);
+  void add_validity_options(mrt::cli::OptionTable &table, std::uint32_t &level, bool &clamp);
 
   // A session an app plays with a device of its own: the run loop of `run` (the kernel defined for
   // that device and rate, the fail-safe defaults, the automatic snap distance), without a session

@@ -19,6 +19,8 @@
 //   modal-rt serve --basis FILE --output-dir DIR ...
 //                                  the same loop for a device that talks UDP (udp_device.cc)
 //   and the commands of the app's extensions (the view: modal-rt view, view/README.md).
+// Each command declares its options in one table (mrt/command_line.h); `modal-rt COMMAND --help`
+// prints its usage and every option's help, `modal-rt --help` one line per command.
 //
 // Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.
 #include "design_comparison.h"
@@ -27,6 +29,7 @@
 #include "vertex_info.h"
 
 #include <modalrt/modalrt.h>
+#include <mrt/command_line.h>
 
 #include <cmath>
 #include <cstdio>
@@ -40,23 +43,6 @@ namespace
   using modalrt_tool::ToolExtensions;
 
   const double two_pi = 6.283185307179586476925;
-
-  // The usage of every command: on stderr with exit status 2 after a bad command line, on stdout
-  // with 0 for --help.
-  int usage(const ToolExtensions &extensions, bool help = false)
-  {
-    std::string text = "usage: modal-rt info --basis FILE [--candidates | --vertex N | --near X,Y,Z]\n"
-                       "       modal-rt info --basis A.mrt --compare B.mrt [--largest N (10)] [--noise PCT (1)]\n"
-                       "       modal-rt verify --basis FILE [--quiet]\n" +
-                       modalrt_tool::run_usage() + modalrt_tool::serve_usage();
-    for (const modalrt_tool::Command &command : extensions.commands)
-      text += command.usage;
-    if (extensions.commands.empty())
-      text += "       modal-rt view: not in this build (view/README.md)\n";
-    text += "       modal-rt COMMAND --help\n";
-    std::fputs(text.c_str(), help ? stdout : stderr);
-    return help ? 0 : 2;
-  }
 
   struct Basis
   {
@@ -197,33 +183,32 @@ namespace
     return pass ? 0 : 1;
   }
 
-  // What info and verify were asked: --basis FILE [--quiet] [--candidates] [--vertex N | --near X,Y,Z]
-  // [--compare B [--largest N] [--noise PCT]].
+  // What info and verify were asked.
   struct BasisOptions
   {
-    const char *path  = nullptr;
-    bool        quiet = false;
+    std::string path;
+    bool        quiet      = false;
     bool        candidates = false; // info: also list every space's candidate vertices
-    const char *vertex = nullptr; // --vertex's value as given
-    bool        near   = false;
+    std::string vertex;             // --vertex's value as given (checked once the basis is loaded)
+    bool        near     = false;
     double      point[3] = {0, 0, 0}; // [m] --near
-    const char *compare = nullptr; // --compare: design B's basis
+    std::string compare;              // --compare: design B's basis
     bool        comparison_option = false; // --largest or --noise given
     modalrt_tool::DesignComparisonOptions comparison;
   };
 
   // --vertex: a display vertex index, checked against the basis. Exit status 2 with a message
   // naming the option and the value when it is not one.
-  bool parse_vertex(const char *text, const modalrt_basis *basis, uint32_t &vertex)
+  bool parse_vertex(const std::string &text, const modalrt_basis *basis, uint32_t &vertex)
   {
     modalrt_basis_info info;
     modalrt_basis_get_info(basis, &info);
     char                    *end   = nullptr;
-    const unsigned long long value = std::strtoull(text, &end, 10);
-    if (*text < '0' || *text > '9' || *end != '\0' || value >= info.display_vertex_count)
+    const unsigned long long value = std::strtoull(text.c_str(), &end, 10);
+    if (text.empty() || text[0] < '0' || text[0] > '9' || *end != '\0' || value >= info.display_vertex_count)
       {
-        std::fprintf(stderr, "modal-rt info: --vertex '%s': not a display vertex (the basis has %u, 0 .. %u)\n", text,
-                     info.display_vertex_count, info.display_vertex_count - 1);
+        std::fprintf(stderr, "modal-rt info: --vertex '%s': not a display vertex (the basis has %u, 0 .. %u)\n",
+                     text.c_str(), info.display_vertex_count, info.display_vertex_count - 1);
         return false;
       }
     vertex = uint32_t(value);
@@ -231,111 +216,77 @@ namespace
   }
 
   // --near X,Y,Z: three finite numbers [m] separated by commas.
-  bool parse_point(const char *text, double point[3])
+  void parse_point(const std::string &text, double point[3])
   {
-    const char *p = text;
+    const char *p = text.c_str();
     for (int c = 0; c < 3; ++c)
       {
         char *end = nullptr;
         point[c]  = std::strtod(p, &end);
         if (end == p || !std::isfinite(point[c]) || *end != (c < 2 ? ',' : '\0'))
-          {
-            std::fprintf(stderr, "modal-rt info: --near '%s': expected X,Y,Z in metres (three finite numbers)\n",
-                         text);
-            return false;
-          }
+          throw mrt::cli::UsageError("--near '" + text + "': expected X,Y,Z in metres (three finite numbers)");
         p = end + 1;
       }
-    return true;
   }
 
-  // --largest N: a count, 0 or more.
-  bool parse_largest(const char *text, std::size_t &largest)
+  const char *const basis_help = "the basis file (.mrt)";
+
+  mrt::cli::OptionTable info_table(BasisOptions &o)
   {
-    char                    *end   = nullptr;
-    const unsigned long long value = std::strtoull(text, &end, 10);
-    if (*text < '0' || *text > '9' || *end != '\0' || value > 1000000)
-      {
-        std::fprintf(stderr, "modal-rt info: --largest '%s': expected how many differences to list (0 .. 1000000)\n",
-                     text);
-        return false;
-      }
-    largest = std::size_t(value);
-    return true;
+    mrt::cli::OptionTable t("modal-rt info", "A basis file's header, spaces, modes, frequencies, candidate counts, "
+                                             "felt-stiffness and validity maps and sections; one display vertex; "
+                                             "or where a second design's felt stiffness differs.");
+    t.text("--basis", "FILE.mrt", basis_help, [&o](const std::string &v) { o.path = v; }).required();
+    t.flag("--candidates", "also list every space's candidate vertices, last", [&o] { o.candidates = true; });
+    t.text("--vertex", "N", "one display vertex by index: position, normal, region, candidacy, felt stiffness",
+           [&o](const std::string &v) { o.vertex = v; });
+    t.text("--near", "X,Y,Z", "the same for the display vertex closest to a point [m]", [&o](const std::string &v) {
+      parse_point(v, o.point);
+      o.near = true;
+    });
+    t.text("--compare", "B.mrt", "where design B's felt-stiffness map differs from this basis's, at its vertices",
+           [&o](const std::string &v) { o.compare = v; });
+    t.number("--largest", "N", "how many of the largest differences --compare lists", {0, 1000000, "", true},
+             [&o](double v) {
+               o.comparison.largest = std::size_t(v);
+               o.comparison_option  = true;
+             })
+      .shown_default("10");
+    t.number("--noise", "PCT", "--compare's noise floor [%]: a smaller relative difference is none", {0, 1e6, "%"},
+             [&o](double v) {
+               o.comparison.noise_percent = v;
+               o.comparison_option        = true;
+             })
+      .shown_default("1");
+    t.notes("--candidates, --vertex, --near and --compare exclude each other; --largest and --noise go with "
+            "--compare\n(design_comparison.cc, mrt/map_comparison.h).");
+    return t;
   }
 
-  // --noise PCT: a finite relative difference >= 0 [%].
-  bool parse_noise(const char *text, double &percent)
+  mrt::cli::OptionTable verify_table(BasisOptions &o)
   {
-    char *end = nullptr;
-    percent   = std::strtod(text, &end);
-    if (end == text || *end != '\0' || !std::isfinite(percent) || percent < 0.0)
-      {
-        std::fprintf(stderr, "modal-rt info: --noise '%s': expected the noise floor in %% (a finite number >= 0)\n",
-                     text);
-        return false;
-      }
-    return true;
+    mrt::cli::OptionTable t("modal-rt verify",
+                            "Replays the stored full-FE validation cases through the kernel and prints the max "
+                            "relative error; exit status 1 above the tolerance (1e-8 with float64 display modes, "
+                            "1e-5 with float32).");
+    t.text("--basis", "FILE.mrt", basis_help, [&o](const std::string &v) { o.path = v; }).required();
+    t.flag("--quiet", "only the closing line (PASS or FAIL), no table of cases", [&o] { o.quiet = true; });
+    return t;
   }
 
-  // The combinations parse_basis_options refuses; a message and false for the first one found.
-  bool consistent(const BasisOptions &o)
+  // The combinations info refuses; the first one found, "" when they go together.
+  std::string conflict(const BasisOptions &o)
   {
-    const char *conflict = nullptr;
-    if (o.vertex && o.near)
-      conflict = "--vertex and --near pick the same thing: give one";
-    else if (o.candidates && (o.vertex || o.near))
-      conflict = "--candidates lists the whole basis, --vertex one vertex: give one";
-    else if (o.compare && (o.candidates || o.vertex || o.near))
-      conflict = "--compare prints the comparison alone: without --candidates, --vertex or --near";
-    else if (o.comparison_option && !o.compare)
-      conflict = "--largest and --noise are options of --compare B.mrt";
-    if (conflict)
-      std::fprintf(stderr, "modal-rt info: %s\n", conflict);
-    return conflict == nullptr;
-  }
-
-  // Returns -1 when the options are good, else the exit status (usage or --help).
-  int parse_basis_options(int argc, char **argv, const ToolExtensions &extensions, BasisOptions &o)
-  {
-    for (int k = 0; k < argc; ++k)
-      {
-        if (std::strcmp(argv[k], "--basis") == 0 && k + 1 < argc)
-          o.path = argv[++k];
-        else if (std::strcmp(argv[k], "--quiet") == 0)
-          o.quiet = true;
-        else if (std::strcmp(argv[k], "--candidates") == 0)
-          o.candidates = true;
-        else if (std::strcmp(argv[k], "--vertex") == 0 && k + 1 < argc)
-          o.vertex = argv[++k];
-        else if (std::strcmp(argv[k], "--near") == 0 && k + 1 < argc)
-          {
-            if (!parse_point(argv[++k], o.point))
-              return 2;
-            o.near = true;
-          }
-        else if (std::strcmp(argv[k], "--compare") == 0 && k + 1 < argc)
-          o.compare = argv[++k];
-        else if (std::strcmp(argv[k], "--largest") == 0 && k + 1 < argc)
-          {
-            if (!parse_largest(argv[++k], o.comparison.largest))
-              return 2;
-            o.comparison_option = true;
-          }
-        else if (std::strcmp(argv[k], "--noise") == 0 && k + 1 < argc)
-          {
-            if (!parse_noise(argv[++k], o.comparison.noise_percent))
-              return 2;
-            o.comparison_option = true;
-          }
-        else if (std::strcmp(argv[k], "--help") == 0)
-          return usage(extensions, true);
-        else
-          return usage(extensions);
-      }
-    if (!consistent(o))
-      return 2;
-    return o.path ? -1 : usage(extensions);
+    const bool vertex = !o.vertex.empty(), compare = !o.compare.empty();
+    if (vertex && o.near)
+      return "--vertex and --near pick the same thing: give one";
+    if (o.candidates && (vertex || o.near))
+      return "--candidates lists the whole basis, --vertex one vertex: give one";
+    if (compare && (o.candidates || vertex || o.near))
+      return "--compare prints the comparison alone: without --candidates, --vertex or --near";
+    if (o.comparison_option && !compare)
+      return "--largest and --noise are options of --compare B.mrt";
+    return "";
   }
 
   // info --vertex N / --near X,Y,Z: one display vertex.
@@ -356,37 +307,57 @@ namespace
   }
 
   // info or verify.
-  int basis_command(const std::string &command, int argc, char **argv, const ToolExtensions &extensions)
+  int basis_command(const std::string &command, int argc, char **argv)
   {
-    BasisOptions o;
-    const int    status = parse_basis_options(argc, argv, extensions, o);
-    if (status >= 0)
+    BasisOptions                o;
+    const mrt::cli::OptionTable table = command == "info" ? info_table(o) : verify_table(o);
+    if (const int status = mrt::cli::parse_command_line(table, argc, argv); status >= 0)
       return status;
-    if (command != "info" && (o.vertex || o.near || o.candidates || o.compare || o.comparison_option))
-      return usage(extensions);
+    if (const std::string problem = conflict(o); !problem.empty())
+      return mrt::cli::report_usage_error(table, problem);
     Basis basis;
-    if (modalrt_basis_load(o.path, &basis.handle) != MODALRT_OK)
+    if (modalrt_basis_load(o.path.c_str(), &basis.handle) != MODALRT_OK)
       {
-        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", o.path, modalrt_last_error_message());
+        std::fprintf(stderr, "modal-rt: bad basis file '%s': %s\n", o.path.c_str(), modalrt_last_error_message());
         return 1;
       }
-    if (o.vertex || o.near)
+    if (!o.vertex.empty() || o.near)
       return vertex_info(basis.handle, o);
-    if (o.compare)
-      return modalrt_tool::compare_designs(basis.handle, o.path, o.compare, o.comparison);
-    return command == "info" ? info(basis.handle, o.candidates) : verify(basis.handle, o.path, o.quiet);
+    if (!o.compare.empty())
+      return modalrt_tool::compare_designs(basis.handle, o.path.c_str(), o.compare.c_str(), o.comparison);
+    return command == "info" ? info(basis.handle, o.candidates) : verify(basis.handle, o.path.c_str(), o.quiet);
+  }
+
+  // modal-rt --help: every command with its one line.
+  int overview(const ToolExtensions &extensions, bool help)
+  {
+    BasisOptions unused;
+    std::vector<std::pair<std::string, std::string>> commands = {
+      {"info", info_table(unused).summary()},   {"verify", verify_table(unused).summary()},
+      {"run", modalrt_tool::run_summary(false)}, {"serve", modalrt_tool::run_summary(true)}};
+    for (const modalrt_tool::Command &command : extensions.commands)
+      commands.emplace_back(command.name, command.summary);
+    if (extensions.commands.empty())
+      commands.emplace_back("view", "not in this build (view/README.md)");
+    std::string text = "usage: modal-rt COMMAND [OPTIONS]\n\ncommands:\n";
+    for (const auto &[name, summary] : commands)
+      text += "  " + name + std::string(8 - name.size(), ' ') + summary.substr(0, summary.find(". ")) + "\n";
+    text += "\nmodal-rt COMMAND --help: that command's usage and what each option does.\n"
+            "Exit status: 0 success (or --help), 1 bad basis or failed check, 2 bad command line.\n";
+    std::fputs(text.c_str(), help ? stdout : stderr);
+    return help ? 0 : 2;
   }
 } // namespace
 
 int modalrt_tool::tool_main(int argc, char **argv, const ToolExtensions &extensions)
 {
   if (argc < 2)
-    return usage(extensions);
+    return overview(extensions, false);
   const std::string command = argv[1];
   if (command == "--help" || command == "-h" || command == "help")
-    return usage(extensions, true);
+    return overview(extensions, true);
   if (command == "info" || command == "verify")
-    return basis_command(command, argc - 2, argv + 2, extensions);
+    return basis_command(command, argc - 2, argv + 2);
   if (command == "run" || command == "serve")
     return run_command(argc - 2, argv + 2, command == "serve", extensions.watch);
   for (const Command &extension : extensions.commands)
@@ -397,5 +368,6 @@ int modalrt_tool::tool_main(int argc, char **argv, const ToolExtensions &extensi
       std::fprintf(stderr, "modal-rt view: %s\n", built_without_view);
       return 1;
     }
-  return usage(extensions);
+  std::fprintf(stderr, "modal-rt: unknown command '%s'\n", command.c_str());
+  return overview(extensions, false);
 }

@@ -15,8 +15,9 @@ namespace modalrt_tool
   struct Command
   {
     std::string name;
-    std::string usage; // its lines of `modal-rt --help`, each starting "       modal-rt NAME"
-    // The arguments after the name (argv[0] the first); the exit status. Handles its own --help.
+    std::string summary; // what it does, in a sentence: its line of `modal-rt --help`
+    // The arguments after the name (argv[0] the first); the exit status. Handles its own --help
+    // (mrt/command_line.h: its option table).
     std::function<int(int argc, char **argv)> run;
   };
 

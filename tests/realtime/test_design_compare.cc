@@ -216,7 +216,7 @@ namespace
     ENSURE(run("info --basis compare_a.mrt --largest 3", out) == 2 && contains(out, "options of --compare"));
     ENSURE(run("info --basis compare_a.mrt --compare compare_a.mrt --vertex 3", out) == 2);
     ENSURE(run("verify --basis compare_a.mrt --compare compare_a.mrt", out) == 2);
-    ENSURE(run("--help", out) == 0 && contains(out, "--compare B.mrt"));
+    ENSURE(run("info --help", out) == 0 && contains(out, "--compare B.mrt"));
     for (const char *path : {"compare_no_map.mrt", "compare_corrupt.mrt", "compare_a.mrt", "compare_a_linear.mrt",
                              "compare_b.mrt"})
       std::remove(path);

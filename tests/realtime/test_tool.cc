@@ -283,10 +283,46 @@ namespace
     ENSURE(run("info --basis tool_validity.mrt --vertex 3", out) == 0 && contains(out, "validity map: none in its region's space 0"));
     std::remove("tool_validity.mrt");
   }
+
+  // Every command's --help lists every option of its table with a line of help; an unknown option
+  // and a bad number are refused with exit status 2, the option and the value named.
+  void command_lines()
+  {
+    const struct
+    {
+      const char                         *command;
+      std::initializer_list<const char *> options;
+      const char                         *number_option;
+    } commands[] = {
+      {"info", {"--basis", "--candidates", "--vertex", "--near", "--compare", "--largest", "--noise"}, "--largest"},
+      {"verify", {"--basis", "--quiet"}, nullptr},
+      {"run", {"--basis", "--session", "--output-dir", "--rate", "--duration", "--mode", "--device", "--profile",
+               "--haptic-scale", "--hold", "--ramp", "--snap-distance", "--spin-us", "--validity-level",
+               "--validity-clamp", "--design-b", "--fade", "--blind", "--frame-rate", "--trace-rate", "--view",
+               "--no-plot", "--quiet"}, "--rate"},
+      {"serve", {"--basis", "--output-dir", "--bind", "--port", "--hips", "--peer-timeout", "--token", "--token-file",
+                 "--contact", "--friction", "--rate", "--duration", "--mode", "--profile", "--hold", "--ramp",
+                 "--validity-level", "--validity-clamp", "--design-b", "--fade", "--frame-rate", "--view"}, "--port"},
+    };
+    std::string out;
+    for (const auto &c : commands)
+      {
+        ENSURE(run(std::string(c.command) + " --help", out) == 0 && contains(out, "usage: modal-rt " + std::string(c.command)));
+        for (const char *option : c.options)
+          ENSURE(contains(out, std::string("\n  ") + option + " "));
+        ENSURE(run(std::string(c.command) + " --basis x.mrt --frobnicate", out) == 2 &&
+               contains(out, "unknown option '--frobnicate'"));
+        if (c.number_option)
+          ENSURE(run(std::string(c.command) + " --basis x.mrt " + c.number_option + " 1x", out) == 2 &&
+                 contains(out, std::string(c.number_option) + " '1x' is not a number"));
+      }
+    ENSURE(run("--help", out) == 0 && contains(out, "info") && contains(out, "serve") && contains(out, "view"));
+  }
 } // namespace
 
 int main()
 {
+  command_lines();
   consistent_bases();
   far_field_info();
   inconsistent_basis();
