@@ -69,6 +69,37 @@ namespace modalrt_view
       return s.str();
     }
 
+    // Space s's display modes (r per vertex), read from the file at the offset its section table
+    // gives (docs/basis-format.md: entry (v, c, i) at (3 v + c) r + i), as float64.
+    std::vector<double> read_display_modes(const modalrt_basis *basis, const modalrt_basis_info &info,
+                                           const std::string &path, std::ifstream &in, std::uint32_t s,
+                                           std::uint32_t r)
+    {
+      modalrt_section_info section{};
+      bool                 found = false;
+      for (std::uint32_t k = 0; k < info.section_count && !found; ++k)
+        if (modalrt_basis_get_section(basis, k, &section) == MODALRT_OK &&
+            std::strcmp(section.name, "DISPLAY_MODES") == 0 && section.space == s)
+          found = true;
+      if (!found || section.count != 3 * std::uint64_t(info.display_vertex_count) * r)
+        throw std::runtime_error(path + ": no DISPLAY_MODES section of the expected size for space " +
+                                 std::to_string(s));
+      std::vector<double> modes(section.count);
+      in.seekg(std::streamoff(section.offset));
+      if (info.mode_scalar_bytes == 8)
+        in.read(reinterpret_cast<char *>(modes.data()), std::streamsize(section.bytes));
+      else
+        {
+          std::vector<float> m32(section.count);
+          in.read(reinterpret_cast<char *>(m32.data()), std::streamsize(section.bytes));
+          for (std::size_t i = 0; i < m32.size(); ++i)
+            modes[i] = m32[i];
+        }
+      if (!in)
+        throw std::runtime_error(path + ": cannot read the display modes of space " + std::to_string(s));
+      return modes;
+    }
+
     // The display basis in the view's binary layout (view/README.md, "Basis"): rest vertices,
     // triangles, normals and regions, then per space its display modes as float32, per vertex and
     // mode one (x, y, z) triple (the layout of the shader's texture), plus, when the file stores
@@ -99,38 +130,15 @@ namespace modalrt_view
       append(bytes, f.data(), f.size());
       append(bytes, modalrt_basis_display_regions(basis), nv);
 
-      // The display modes are read from the file at the offsets its section table gives
-      // (docs/basis-format.md: entry (v, c, i) at (3 v + c) r + i).
       std::ifstream in(path, std::ios::binary);
       if (!in)
         throw std::runtime_error(path + ": cannot be opened to read its display modes");
       for (std::uint32_t s = 0; s < info.space_count; ++s)
         {
-          modalrt_section_info section{};
-          bool                 found = false;
-          for (std::uint32_t k = 0; k < info.section_count && !found; ++k)
-            if (modalrt_basis_get_section(basis, k, &section) == MODALRT_OK &&
-                std::strcmp(section.name, "DISPLAY_MODES") == 0 && section.space == s)
-              found = true;
           modalrt_space_info space{};
           modalrt_basis_get_space_info(basis, s, &space);
-          const std::uint32_t r = space.mode_count;
-          if (!found || section.count != 3 * std::uint64_t(nv) * r)
-            throw std::runtime_error(path + ": no DISPLAY_MODES section of the expected size for space " +
-                                     std::to_string(s));
-          std::vector<double> modes(section.count);
-          in.seekg(std::streamoff(section.offset));
-          if (info.mode_scalar_bytes == 8)
-            in.read(reinterpret_cast<char *>(modes.data()), std::streamsize(section.bytes));
-          else
-            {
-              std::vector<float> m32(section.count);
-              in.read(reinterpret_cast<char *>(m32.data()), std::streamsize(section.bytes));
-              for (std::size_t i = 0; i < m32.size(); ++i)
-                modes[i] = m32[i];
-            }
-          if (!in)
-            throw std::runtime_error(path + ": cannot read the display modes of space " + std::to_string(s));
+          const std::uint32_t       r     = space.mode_count;
+          const std::vector<double> modes = read_display_modes(basis, info, path, in, s, r);
           append_u32(bytes, r);
           append_u32(bytes, 0);
           // Shader layout: texel (v r + i) holds (Phi_x, Phi_y, Phi_z) of mode i at vertex v.

@@ -245,8 +245,7 @@ void modalrt_kernel::slide_proxies(std::uint32_t count) noexcept
 // step that takes an excess e off F_t is K^-1 A e (in the face's plane).
 void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in, const double others_u[3], const double others_v[3]) noexcept
 {
-  // The corners' displacements as the last tick's outputs left them (write_outputs), unless the
-  // state moved since (a settle, a switch, a new contact).
+  // The corners' displacements as write_outputs left them, unless the state moved since.
   ProxyState         &proxy = c.proxy;
   const std::uint32_t r     = mode_count();
   for (int k = 0; k < 3; ++k)
@@ -265,8 +264,7 @@ void modalrt_kernel::slide_proxy(Contact &c, const BodyInput &in, const double o
                                   proxy.weights[2] * proxy.corner(2).u[d]);
       relative_velocity[d] = in.v[d] - free_v[d] - others_v[d];
     }
-  // A and A^-1 at the proxy's weights (the walk's few micrometres a tick leave them as they are); a
-  // singular A (not met with a passive coupling) leaves the explicit force, as solve_coupling does.
+  // A and A^-1 at the proxy's weights (kept over the walk's micrometres); a singular A leaves the explicit force.
   double S[9], Sv[9], C[9], A[9], A_inverse[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   proxy_coupling_block(proxy, S, Sv);
   proxy_pair_compliance(c, c, C);
