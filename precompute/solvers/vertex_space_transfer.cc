@@ -73,37 +73,46 @@ namespace modal_haptics
     std::vector<bool> held(n_vertex, false); // the space's DoF at this vertex DoF is constrained
     DynamicSparsityPattern pattern(dof_handler.n_dofs(), vertex_dofs.n_dofs(), owned);
     std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell()), vertex_dof_indices(vertex_fe.n_dofs_per_cell());
-    // Both handlers walk the same cells in the same order.
-    auto vertex_cell = vertex_dofs.begin_active();
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      {
-        const auto this_vertex_cell = vertex_cell++;
-        if (!cell->is_locally_owned())
-          continue;
-        cell->get_dof_indices(dofs);
-        this_vertex_cell->get_dof_indices(vertex_dof_indices);
-        for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
-          {
-            const types::global_dof_index g = vertex_dof_indices[j];
-            const unsigned int c = vertex_fe.system_to_component_index(j).first;
-            if (!vertex_owned.is_element(g))
-              continue;
-            const std::size_t k = vertex_owned.index_within_set(g);
-            const Point<3>    x = mapping.transform_unit_to_real_cell(cell, vertex_fe.get_unit_support_points()[j]);
-            for (unsigned int m = 0; m < 6; ++m)
-              transfer.near_null_space[m * n_vertex + k] = rigid_body_motion(m, x)[c];
-          }
-        for (unsigned int i = 0; i < dofs.size(); ++i)
-          if (owned.is_element(dofs[i]))
-            for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
-              if (weights(i, j) != 0.)
-                {
-                  pattern.add(dofs[i], vertex_dof_indices[j]);
-                  if (weights(i, j) == 1. && constraints.is_constrained(dofs[i]) &&
-                      vertex_owned.is_element(vertex_dof_indices[j]))
-                    held[vertex_owned.index_within_set(vertex_dof_indices[j])] = true;
-                }
-      }
+    // visit(cell) on each locally owned cell, with dofs and vertex_dof_indices filled for it: both
+    // handlers walk the same cells in the same order.
+    const auto for_each_owned_cell = [&](const auto &visit) {
+      auto vertex_cell = vertex_dofs.begin_active();
+      for (const auto &cell : dof_handler.active_cell_iterators())
+        {
+          const auto this_vertex_cell = vertex_cell++;
+          if (!cell->is_locally_owned())
+            continue;
+          cell->get_dof_indices(dofs);
+          this_vertex_cell->get_dof_indices(vertex_dof_indices);
+          visit(cell);
+        }
+    };
+    // couple(i, j) for each owned DoF i of the cell and each vertex DoF j its interpolation weighs.
+    const auto for_each_coupling = [&](const auto &couple) {
+      for (unsigned int i = 0; i < dofs.size(); ++i)
+        if (owned.is_element(dofs[i]))
+          for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
+            if (weights(i, j) != 0.)
+              couple(i, j);
+    };
+    for_each_owned_cell([&](const auto &cell) {
+      for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
+        {
+          const types::global_dof_index g = vertex_dof_indices[j];
+          const unsigned int c = vertex_fe.system_to_component_index(j).first;
+          if (!vertex_owned.is_element(g))
+            continue;
+          const std::size_t k = vertex_owned.index_within_set(g);
+          const Point<3>    x = mapping.transform_unit_to_real_cell(cell, vertex_fe.get_unit_support_points()[j]);
+          for (unsigned int m = 0; m < 6; ++m)
+            transfer.near_null_space[m * n_vertex + k] = rigid_body_motion(m, x)[c];
+        }
+      for_each_coupling([&](const unsigned int i, const unsigned int j) {
+        pattern.add(dofs[i], vertex_dof_indices[j]);
+        if (weights(i, j) == 1. && constraints.is_constrained(dofs[i]) && vertex_owned.is_element(vertex_dof_indices[j]))
+          held[vertex_owned.index_within_set(vertex_dof_indices[j])] = true;
+      });
+    });
     for (std::size_t k = 0; k < n_vertex; ++k)
       if (held[k])
         for (unsigned int m = 0; m < 6; ++m)
@@ -113,20 +122,9 @@ namespace modal_haptics
     transfer.prolongation = std::make_shared<TrilinosWrappers::SparseMatrix>();
     TrilinosWrappers::SparseMatrix &P = *transfer.prolongation;
     P.reinit(owned, vertex_owned, pattern, comm);
-    vertex_cell = vertex_dofs.begin_active();
-    for (const auto &cell : dof_handler.active_cell_iterators())
-      {
-        const auto this_vertex_cell = vertex_cell++;
-        if (!cell->is_locally_owned())
-          continue;
-        cell->get_dof_indices(dofs);
-        this_vertex_cell->get_dof_indices(vertex_dof_indices);
-        for (unsigned int i = 0; i < dofs.size(); ++i)
-          if (owned.is_element(dofs[i]))
-            for (unsigned int j = 0; j < vertex_dof_indices.size(); ++j)
-              if (weights(i, j) != 0.)
-                P.set(dofs[i], vertex_dof_indices[j], weights(i, j));
-      }
+    for_each_owned_cell([&](const auto &) {
+      for_each_coupling([&](const unsigned int i, const unsigned int j) { P.set(dofs[i], vertex_dof_indices[j], weights(i, j)); });
+    });
     P.compress(VectorOperation::insert);
     return transfer;
   }
